@@ -1,0 +1,451 @@
+//! Scene and program feature analysis (DESIGN.md §6).
+//!
+//! A pipeline is compiled for exactly the features its scene and programs use. Scenes
+//! report theirs per acceleration structure ([`SceneFeatures`]); program groups report
+//! theirs ([`ProgramFeatures`]); [`resolve`] combines both with the pipeline options,
+//! replacing every `Auto` and checking explicit settings against what the programs need.
+
+use crate::accel::{AccelBuildOptions, BuildInput, CurveType};
+use crate::error::{Error, Result};
+use crate::flags::{ExceptionFlags, PrimitiveTypeFlags};
+use crate::frontend::{CompiledModule, DeviceFunction};
+use crate::program::{
+    BuiltinIntersector, PipelineCompileOptions, PipelineLinkOptions, ProgramGroupDesc, ProgramKind,
+    Setting, TraversableGraph,
+};
+
+/// Kinds of motion in a scene.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub struct MotionKinds {
+    /// Geometry with per-key vertices, AABBs, spheres or curves.
+    pub geometry: bool,
+    /// Matrix motion transforms.
+    pub matrix: bool,
+    /// SRT motion transforms.
+    pub srt: bool,
+}
+
+impl MotionKinds {
+    /// Whether any motion is present.
+    pub fn any(&self) -> bool {
+        self.geometry || self.matrix || self.srt
+    }
+
+    /// The union.
+    pub fn union(self, o: MotionKinds) -> MotionKinds {
+        MotionKinds { geometry: self.geometry || o.geometry, matrix: self.matrix || o.matrix, srt: self.srt || o.srt }
+    }
+}
+
+/// What a traversable (and everything below it) contains.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct SceneFeatures {
+    /// Primitive types present.
+    pub primitive_types: PrimitiveTypeFlags,
+    /// Motion present.
+    pub motion: MotionKinds,
+    /// The graph shape.
+    pub graph: TraversableGraph,
+    /// Levels of instances and transforms above the geometry (0 for a lone GAS).
+    pub depth: u32,
+    /// Whether triangles carry opacity micromaps.
+    pub opacity_micromaps: bool,
+    /// Static transforms present.
+    pub static_transforms: bool,
+}
+
+impl Default for SceneFeatures {
+    fn default() -> Self {
+        SceneFeatures {
+            primitive_types: PrimitiveTypeFlags::NONE,
+            motion: MotionKinds::default(),
+            graph: TraversableGraph::SingleGas,
+            depth: 0,
+            opacity_micromaps: false,
+            static_transforms: false,
+        }
+    }
+}
+
+impl SceneFeatures {
+    /// The features of a geometry acceleration structure built from `inputs`.
+    pub fn of_geometry(options: &AccelBuildOptions, inputs: &[BuildInput]) -> SceneFeatures {
+        let mut f = SceneFeatures::default();
+        for input in inputs {
+            f.primitive_types |= match input {
+                BuildInput::Triangles(t) => {
+                    f.opacity_micromaps |= t.opacity_micromap.is_some();
+                    PrimitiveTypeFlags::TRIANGLE
+                }
+                BuildInput::CustomPrimitives(_) => PrimitiveTypeFlags::CUSTOM,
+                BuildInput::Spheres(_) => PrimitiveTypeFlags::SPHERE,
+                BuildInput::Curves(c) => curve_flag(c.curve_type),
+                BuildInput::Instances(_) => PrimitiveTypeFlags::NONE,
+            };
+        }
+        f.motion.geometry = options.motion.is_some_and(|m| m.num_keys >= 2);
+        f
+    }
+
+    /// The features of an instance structure or transform over children with `children`
+    /// features. `motion` adds the kind of a motion transform.
+    pub fn of_parent(children: &[SceneFeatures], motion: MotionKinds, is_static_transform: bool) -> SceneFeatures {
+        let mut f = SceneFeatures { depth: 1, ..SceneFeatures::default() };
+        let mut all_gas = true;
+        for c in children {
+            f.primitive_types |= c.primitive_types;
+            f.motion = f.motion.union(c.motion);
+            f.opacity_micromaps |= c.opacity_micromaps;
+            f.static_transforms |= c.static_transforms;
+            f.depth = f.depth.max(c.depth + 1);
+            all_gas &= c.depth == 0;
+        }
+        f.motion = f.motion.union(motion);
+        f.static_transforms |= is_static_transform;
+        let is_transform = motion.any() || is_static_transform;
+        f.graph = if all_gas && !is_transform { TraversableGraph::SingleLevelInstancing } else { TraversableGraph::Any };
+        f
+    }
+
+    /// The union of two scenes (a pipeline serves every structure alive at its creation).
+    pub fn union(self, o: SceneFeatures) -> SceneFeatures {
+        SceneFeatures {
+            primitive_types: self.primitive_types | o.primitive_types,
+            motion: self.motion.union(o.motion),
+            graph: self.graph.max(o.graph),
+            depth: self.depth.max(o.depth),
+            opacity_micromaps: self.opacity_micromaps || o.opacity_micromaps,
+            static_transforms: self.static_transforms || o.static_transforms,
+        }
+    }
+}
+
+/// The primitive-type flag of a curve type.
+pub fn curve_flag(t: CurveType) -> PrimitiveTypeFlags {
+    match t {
+        CurveType::RoundLinear => PrimitiveTypeFlags::ROUND_LINEAR,
+        CurveType::RoundQuadraticBSpline => PrimitiveTypeFlags::ROUND_QUADRATIC_BSPLINE,
+        CurveType::RoundCubicBSpline => PrimitiveTypeFlags::ROUND_CUBIC_BSPLINE,
+        CurveType::RoundCatmullRom => PrimitiveTypeFlags::ROUND_CATMULLROM,
+    }
+}
+
+/// What a pipeline's program groups use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct ProgramFeatures {
+    /// Some hit group has an any-hit program.
+    pub any_hit: bool,
+    /// Some hit group has an intersection program.
+    pub intersection: bool,
+    /// Some hit group has a closest-hit program.
+    pub closest_hit: bool,
+    /// Some miss group has a program.
+    pub miss: bool,
+    /// Some group has a direct callable.
+    pub direct_callables: bool,
+    /// Some group has a continuation callable.
+    pub continuation_callables: bool,
+    /// Some group is an exception program.
+    pub exception_program: bool,
+    /// Some program calls `rt_throw_exception`.
+    pub throws: bool,
+    /// Some program reads `rt_ray_time`.
+    pub reads_time: bool,
+    /// Some program traces rays (raygen always may).
+    pub traces_from_hits: bool,
+    /// Built-in intersectors the hit groups name.
+    pub builtin_types: PrimitiveTypeFlags,
+    /// Payload registers the programs touch.
+    pub payload_values_used: u32,
+    /// Attribute registers the programs touch.
+    pub attribute_values_used: u32,
+}
+
+impl ProgramFeatures {
+    /// Collects the features of `groups`; `module_of` finds the compiled module of a program.
+    pub fn of_groups<'a>(
+        groups: &[&ProgramGroupDesc],
+        module_of: impl Fn(&crate::program::ProgramRef) -> Option<&'a CompiledModule>,
+    ) -> ProgramFeatures {
+        let mut f = ProgramFeatures::default();
+        for g in groups {
+            if let ProgramGroupDesc::HitGroup { builtin, intersection: None, .. } = g {
+                f.builtin_types |= match builtin {
+                    BuiltinIntersector::Triangle => PrimitiveTypeFlags::TRIANGLE,
+                    BuiltinIntersector::Sphere => PrimitiveTypeFlags::SPHERE,
+                    BuiltinIntersector::Curve(t) => curve_flag(*t),
+                };
+            }
+            for (kind, program) in g.programs() {
+                match kind {
+                    ProgramKind::AnyHit => f.any_hit = true,
+                    ProgramKind::Intersection => f.intersection = true,
+                    ProgramKind::ClosestHit => f.closest_hit = true,
+                    ProgramKind::Miss => f.miss = true,
+                    ProgramKind::DirectCallable => f.direct_callables = true,
+                    ProgramKind::ContinuationCallable => f.continuation_callables = true,
+                    ProgramKind::Exception => f.exception_program = true,
+                    ProgramKind::Raygen => {}
+                }
+                let Some(module) = module_of(program) else { continue };
+                f.payload_values_used = f.payload_values_used.max(module.payload_values_used);
+                f.attribute_values_used = f.attribute_values_used.max(module.attribute_values_used);
+                if let Some(p) = module.program(&program.entry) {
+                    f.throws |= p.calls(DeviceFunction::ThrowException);
+                    f.reads_time |= p.calls(DeviceFunction::RayTime);
+                    f.traces_from_hits |= kind != ProgramKind::Raygen
+                        && (p.calls(DeviceFunction::Trace) || p.calls(DeviceFunction::ContinuationCall));
+                }
+            }
+        }
+        f
+    }
+}
+
+/// The features a pipeline is compiled with: `pipeline.features()` (DESIGN.md §6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct FeatureSet {
+    /// Primitive types intersected; others are skipped (with an exception under `DEBUG`).
+    pub primitive_types: PrimitiveTypeFlags,
+    /// Motion interpolation compiled in; without it `rt_ray_time` is 0 and keys 0 are used.
+    pub motion: bool,
+    /// Which kinds of motion the code handles.
+    pub motion_kinds: MotionKinds,
+    /// Graph shape handled: without instancing no transform code is compiled.
+    pub traversable_graph: TraversableGraph,
+    /// Any-hit calls compiled in.
+    pub any_hit: bool,
+    /// Intersection program calls compiled in.
+    pub intersection: bool,
+    /// Direct callables compiled in.
+    pub direct_callables: bool,
+    /// Continuation callables compiled in.
+    pub continuation_callables: bool,
+    /// Exception checks compiled in.
+    pub exceptions: ExceptionFlags,
+    /// Opacity micromap lookups compiled in.
+    pub opacity_micromaps: bool,
+    /// The pipeline's `max_trace_depth`.
+    pub max_trace_depth: u32,
+    /// Payload registers.
+    pub num_payload_values: u32,
+    /// Attribute registers.
+    pub num_attribute_values: u32,
+}
+
+impl FeatureSet {
+    /// Every feature (what an unspecialised pipeline compiles).
+    pub fn everything(max_trace_depth: u32) -> FeatureSet {
+        FeatureSet {
+            primitive_types: PrimitiveTypeFlags::ALL,
+            motion: true,
+            motion_kinds: MotionKinds { geometry: true, matrix: true, srt: true },
+            traversable_graph: TraversableGraph::Any,
+            any_hit: true,
+            intersection: true,
+            direct_callables: true,
+            continuation_callables: true,
+            exceptions: ExceptionFlags::ALL,
+            opacity_micromaps: true,
+            max_trace_depth,
+            num_payload_values: 32,
+            num_attribute_values: 8,
+        }
+    }
+
+    /// Whether instances or transforms are traversed.
+    pub fn instancing(&self) -> bool {
+        self.traversable_graph != TraversableGraph::SingleGas
+    }
+
+    /// The features as short names, for reports (`triangles spheres motion any-hit ...`).
+    pub fn names(&self) -> Vec<String> {
+        let mut v: Vec<String> = Vec::new();
+        for (flag, name) in [
+            (PrimitiveTypeFlags::TRIANGLE, "triangles"),
+            (PrimitiveTypeFlags::CUSTOM, "custom"),
+            (PrimitiveTypeFlags::SPHERE, "spheres"),
+            (PrimitiveTypeFlags::ROUND_LINEAR, "linear-curves"),
+            (PrimitiveTypeFlags::ROUND_QUADRATIC_BSPLINE, "quadratic-curves"),
+            (PrimitiveTypeFlags::ROUND_CUBIC_BSPLINE, "cubic-curves"),
+            (PrimitiveTypeFlags::ROUND_CATMULLROM, "catmull-rom-curves"),
+        ] {
+            if self.primitive_types.contains(flag) {
+                v.push(name.into());
+            }
+        }
+        if self.motion {
+            v.push("motion".into());
+        }
+        v.push(
+            match self.traversable_graph {
+                TraversableGraph::SingleGas => "single-gas",
+                TraversableGraph::SingleLevelInstancing => "single-level-instancing",
+                TraversableGraph::Any => "any-graph",
+            }
+            .into(),
+        );
+        for (on, name) in [
+            (self.any_hit, "any-hit"),
+            (self.intersection, "intersection"),
+            (self.direct_callables, "direct-callables"),
+            (self.continuation_callables, "continuation-callables"),
+            (self.opacity_micromaps, "opacity-micromaps"),
+        ] {
+            if on {
+                v.push(name.into());
+            }
+        }
+        if !self.exceptions.is_empty() {
+            v.push(format!("exceptions{:?}", self.exceptions).replace("ExceptionFlags", ""));
+        }
+        v
+    }
+}
+
+/// Resolves a pipeline's features from its options, the scene alive at its creation
+/// (`None` when no acceleration structure exists) and its programs.
+pub fn resolve(
+    options: &PipelineCompileOptions,
+    link: &PipelineLinkOptions,
+    scene: Option<SceneFeatures>,
+    programs: &ProgramFeatures,
+    max_trace_depth_limit: u32,
+) -> Result<FeatureSet> {
+    if link.max_trace_depth > max_trace_depth_limit {
+        return Err(Error::limit(format!(
+            "link_options.max_trace_depth is {}; this device allows at most {max_trace_depth_limit}",
+            link.max_trace_depth
+        )));
+    }
+    let scene_types = scene.map(|s| s.primitive_types).unwrap_or(PrimitiveTypeFlags::NONE);
+    let mut auto_types = scene_types | programs.builtin_types;
+    if programs.intersection {
+        auto_types |= PrimitiveTypeFlags::CUSTOM;
+    }
+    if auto_types.is_empty() {
+        // OptiX's default (0): triangles and custom primitives.
+        auto_types = PrimitiveTypeFlags::TRIANGLE | PrimitiveTypeFlags::CUSTOM;
+    }
+    let primitive_types = options.primitive_types.or(auto_types);
+    let missing = PrimitiveTypeFlags(programs.builtin_types.0 & !primitive_types.0 & !PrimitiveTypeFlags::TRIANGLE.0);
+    if !missing.is_empty() {
+        return Err(Error::invalid(format!(
+            "pipeline_options.primitive_types is {primitive_types:?}, but a hit group uses the built-in intersector of {missing:?}; add it to primitive_types or leave it Auto"
+        )));
+    }
+    let scene_motion = scene.map(|s| s.motion).unwrap_or_default();
+    let motion = options.uses_motion_blur.or(scene_motion.any());
+    let graph = options.traversable_graph.or(scene.map(|s| s.graph).unwrap_or(TraversableGraph::Any));
+    let max_payload = 32;
+    let num_payload_values = options.num_payload_values.or(programs.payload_values_used);
+    if num_payload_values > max_payload {
+        return Err(Error::limit(format!(
+            "pipeline_options.num_payload_values is {num_payload_values}; at most {max_payload} payload registers exist"
+        )));
+    }
+    if num_payload_values < programs.payload_values_used && programs.payload_values_used < max_payload {
+        return Err(Error::invalid(format!(
+            "pipeline_options.num_payload_values is {num_payload_values}, but the programs use payload register {}; raise it to at least {} or leave it Auto",
+            programs.payload_values_used - 1,
+            programs.payload_values_used
+        )));
+    }
+    let num_attribute_values = options.num_attribute_values.or(programs.attribute_values_used).max(2);
+    if num_attribute_values > 8 {
+        return Err(Error::limit(format!(
+            "pipeline_options.num_attribute_values is {num_attribute_values}; at most 8 attribute registers exist"
+        )));
+    }
+    let auto_exceptions = if programs.exception_program {
+        ExceptionFlags::STACK_OVERFLOW | ExceptionFlags::TRACE_DEPTH | ExceptionFlags::USER
+    } else if programs.throws {
+        ExceptionFlags::USER
+    } else {
+        ExceptionFlags::NONE
+    };
+    let exceptions = options.exception_flags.or(auto_exceptions);
+    if exceptions.unknown_bits() != 0 {
+        return Err(Error::invalid(format!("pipeline_options.exception_flags has unknown bits {:#x}", exceptions.unknown_bits())));
+    }
+    let opacity_micromaps = options
+        .allow_opacity_micromaps
+        .or(scene.is_some_and(|s| s.opacity_micromaps));
+    let motion_kinds = if motion {
+        match options.uses_motion_blur {
+            Setting::Value(true) if !scene_motion.any() => MotionKinds { geometry: true, matrix: true, srt: true },
+            _ => scene_motion,
+        }
+    } else {
+        MotionKinds::default()
+    };
+    Ok(FeatureSet {
+        primitive_types,
+        motion,
+        motion_kinds,
+        traversable_graph: graph,
+        any_hit: programs.any_hit,
+        intersection: programs.intersection && primitive_types.contains(PrimitiveTypeFlags::CUSTOM),
+        direct_callables: programs.direct_callables,
+        continuation_callables: programs.continuation_callables,
+        exceptions,
+        opacity_micromaps,
+        max_trace_depth: link.max_trace_depth,
+        num_payload_values,
+        num_attribute_values,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn auto_follows_scene_and_programs() {
+        let scene = SceneFeatures { primitive_types: PrimitiveTypeFlags::TRIANGLE, ..Default::default() };
+        let programs = ProgramFeatures { closest_hit: true, payload_values_used: 3, ..Default::default() };
+        let f = resolve(&PipelineCompileOptions::default(), &PipelineLinkOptions::default(), Some(scene), &programs, 31)
+            .unwrap();
+        assert_eq!(f.primitive_types, PrimitiveTypeFlags::TRIANGLE);
+        assert!(!f.motion && !f.any_hit && !f.intersection && !f.instancing());
+        assert_eq!(f.num_payload_values, 3);
+        assert_eq!(f.num_attribute_values, 2);
+        assert_eq!(f.exceptions, ExceptionFlags::NONE);
+        assert_eq!(f.names(), vec!["triangles", "single-gas"]);
+    }
+
+    #[test]
+    fn explicit_settings_are_checked() {
+        let programs = ProgramFeatures {
+            builtin_types: PrimitiveTypeFlags::SPHERE,
+            payload_values_used: 5,
+            ..Default::default()
+        };
+        let opts = PipelineCompileOptions {
+            primitive_types: Setting::Value(PrimitiveTypeFlags::TRIANGLE),
+            ..Default::default()
+        };
+        let e = resolve(&opts, &PipelineLinkOptions::default(), None, &programs, 31).unwrap_err();
+        assert!(e.message().contains("built-in intersector"), "{e}");
+        let opts = PipelineCompileOptions { num_payload_values: Setting::Value(2), ..Default::default() };
+        let e = resolve(&opts, &PipelineLinkOptions::default(), None, &programs, 31).unwrap_err();
+        assert!(e.message().contains("payload register 4"), "{e}");
+        let link = PipelineLinkOptions { max_trace_depth: 40, ..Default::default() };
+        let e = resolve(&PipelineCompileOptions::default(), &link, None, &programs, 31).unwrap_err();
+        assert!(e.message().contains("max_trace_depth is 40"), "{e}");
+    }
+
+    #[test]
+    fn instance_graphs() {
+        let gas = SceneFeatures { primitive_types: PrimitiveTypeFlags::SPHERE, ..Default::default() };
+        let ias = SceneFeatures::of_parent(&[gas], MotionKinds::default(), false);
+        assert_eq!(ias.graph, TraversableGraph::SingleLevelInstancing);
+        assert_eq!(ias.depth, 1);
+        let srt = SceneFeatures::of_parent(&[gas], MotionKinds { srt: true, ..Default::default() }, false);
+        assert_eq!(srt.graph, TraversableGraph::Any);
+        let top = SceneFeatures::of_parent(&[ias, srt], MotionKinds::default(), false);
+        assert_eq!(top.graph, TraversableGraph::Any);
+        assert_eq!(top.depth, 2);
+        assert!(top.motion.srt);
+    }
+}

@@ -1,0 +1,9 @@
+//! optik-cpu: the CPU backend.
+//!
+//! Module layout (the same names in every backend, DESIGN.md §1):
+//! - `accel`: acceleration structures built with obvhs;
+//! - `traverse`: our own robust traversal and intersection;
+//! - `program`: WGSL programs JIT-compiled with Cranelift;
+//! - `pipeline`, `sbt`, `launch`: the OptiX objects and the launch loop on rayon threads.
+
+pub mod program;

@@ -1,0 +1,168 @@
+//! The contract between JIT-compiled programs and the CPU runtime.
+//!
+//! A compiled program is called with a [`ProgramCall`]: the resources it may touch and a
+//! `&mut dyn DeviceCalls` that answers every device-API function (DESIGN.md §3) for the
+//! current ray, hit and launch index. The JIT lowers each prelude stub (`rt_*`) to a call
+//! of the matching [`DeviceCalls`] method (through `extern "C"` trampolines); the runtime
+//! (`launch` and `traverse`) implements the trait. Tests implement it too, which is how the
+//! JIT is tested without traversal and traversal without the JIT.
+//!
+//! Terminators: `rt_ignore_intersection`, `rt_terminate_ray` and `rt_throw_exception` end
+//! the calling program. The JIT emits the call and then returns from the whole program
+//! (helpers are inlined, so this is a jump to the program's exit). The runtime records what
+//! happened in its own state during the call.
+//!
+//! Private globals (`var<private>`) are per program invocation: zero-initialised (or set
+//! to their initialiser) at each program entry, as in a Vulkan ray tracing stage.
+
+/// Answers the device-API calls of one program invocation.
+///
+/// Vectors are arrays in component order. Matrices are 3×4 row-major `[f32; 12]`
+/// (object-to-world maps object space to world space); WGSL's `mat4x3<f32>` has these as
+/// columns: column `j` is `(m[j], m[4 + j], m[8 + j])`.
+pub trait DeviceCalls {
+    /// `rt_launch_index()`.
+    fn launch_index(&self) -> [u32; 3];
+    /// `rt_launch_dimensions()`.
+    fn launch_dimensions(&self) -> [u32; 3];
+    /// `rt_trace(...)`: traces and updates `payload` (copy-in/copy-out; its length is the
+    /// pipeline's payload register count, at least 1).
+    #[allow(clippy::too_many_arguments)]
+    fn trace(
+        &mut self,
+        handle: [u32; 2],
+        origin: [f32; 3],
+        direction: [f32; 3],
+        tmin: f32,
+        tmax: f32,
+        time: f32,
+        mask: u32,
+        flags: u32,
+        sbt_offset: u32,
+        sbt_stride: u32,
+        miss_index: u32,
+        payload: &mut [u32],
+    );
+    /// `rt_get_payload(i)` (in callables: the call's argument registers).
+    fn get_payload(&self, i: u32) -> u32;
+    /// `rt_set_payload(i, v)`.
+    fn set_payload(&mut self, i: u32, v: u32);
+    /// `rt_get_attribute(i)`.
+    fn get_attribute(&self, i: u32) -> u32;
+    /// `rt_report_intersection(t, hit_kind, attributes)`.
+    fn report_intersection(&mut self, t: f32, hit_kind: u32, attributes: &[u32; 8]) -> bool;
+    /// `rt_ignore_intersection()`; the program ends after it.
+    fn ignore_intersection(&mut self);
+    /// `rt_terminate_ray()`; the program ends after it.
+    fn terminate_ray(&mut self);
+    /// `rt_world_ray_origin()`.
+    fn world_ray_origin(&self) -> [f32; 3];
+    /// `rt_world_ray_direction()`.
+    fn world_ray_direction(&self) -> [f32; 3];
+    /// `rt_object_ray_origin()`.
+    fn object_ray_origin(&self) -> [f32; 3];
+    /// `rt_object_ray_direction()`.
+    fn object_ray_direction(&self) -> [f32; 3];
+    /// `rt_ray_tmin()`.
+    fn ray_tmin(&self) -> f32;
+    /// `rt_ray_tmax()`.
+    fn ray_tmax(&self) -> f32;
+    /// `rt_ray_time()`.
+    fn ray_time(&self) -> f32;
+    /// `rt_ray_flags()`.
+    fn ray_flags(&self) -> u32;
+    /// `rt_ray_mask()`.
+    fn ray_mask(&self) -> u32;
+    /// `rt_primitive_index()`.
+    fn primitive_index(&self) -> u32;
+    /// `rt_sbt_gas_index()`.
+    fn sbt_gas_index(&self) -> u32;
+    /// `rt_instance_id()`.
+    fn instance_id(&self) -> u32;
+    /// `rt_instance_index()`.
+    fn instance_index(&self) -> u32;
+    /// `rt_hit_kind()`.
+    fn hit_kind(&self) -> u32;
+    /// `rt_is_front_face_hit()`.
+    fn is_front_face_hit(&self) -> bool;
+    /// `rt_triangle_barycentrics()`.
+    fn triangle_barycentrics(&self) -> [f32; 2];
+    /// `rt_triangle_vertices()`.
+    fn triangle_vertices(&self) -> [[f32; 3]; 3];
+    /// `rt_sphere()`: centre and radius.
+    fn sphere(&self) -> [f32; 4];
+    /// `rt_curve_parameter()`.
+    fn curve_parameter(&self) -> f32;
+    /// `rt_object_to_world()`.
+    fn object_to_world(&self) -> [f32; 12];
+    /// `rt_world_to_object()`.
+    fn world_to_object(&self) -> [f32; 12];
+    /// `rt_sbt_data_u32(i)`: word `i` of the current SBT record's data (after the header).
+    fn sbt_data_u32(&self, i: u32) -> u32;
+    /// `rt_sbt_data_f32(i)`.
+    fn sbt_data_f32(&self, i: u32) -> f32 {
+        f32::from_bits(self.sbt_data_u32(i))
+    }
+    /// `rt_direct_call(index, &args)`.
+    fn direct_call(&mut self, index: u32, args: &mut [u32]);
+    /// `rt_continuation_call(index, &args)`.
+    fn continuation_call(&mut self, index: u32, args: &mut [u32]);
+    /// `rt_throw_exception(code)`; the program ends after it.
+    fn throw_exception(&mut self, code: u32);
+    /// `rt_exception_code()`.
+    fn exception_code(&self) -> i32;
+    /// `rt_remaining_trace_depth()`.
+    fn remaining_trace_depth(&self) -> u32;
+}
+
+/// A storage buffer (or the params uniform) bound for a program call.
+#[derive(Clone, Copy, Debug)]
+pub struct BoundBuffer {
+    /// First byte.
+    pub ptr: *mut u8,
+    /// Bytes bound.
+    pub len: usize,
+}
+
+/// Texel formats the JIT's sampler understands (mirrors `optik_api::TextureFormat`).
+pub use optik_api::TextureFormat;
+
+/// A texture bound for a program call: texels row by row.
+#[derive(Clone, Copy, Debug)]
+pub struct BoundTexture {
+    /// First texel.
+    pub ptr: *const u8,
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// Texel format.
+    pub format: TextureFormat,
+}
+
+/// One `@group(0)` binding's resource for a program call.
+#[derive(Clone, Copy, Debug)]
+pub enum BoundResource {
+    /// Nothing bound (a binding the program does not use).
+    None,
+    /// A buffer (binding 0: the params bytes).
+    Buffer(BoundBuffer),
+    /// A texture.
+    Texture(BoundTexture),
+    /// A sampler.
+    Sampler(optik_api::SamplerDesc),
+}
+
+/// Resources indexed by binding number: `resources[b]` is `@group(0) @binding(b)`.
+/// The runtime keeps the memory alive and unaliased by Rust references for the launch.
+pub struct Bindings<'a> {
+    /// By binding number.
+    pub resources: &'a [BoundResource],
+}
+
+// Programs run on many threads at once, reading and writing user buffers through raw
+// pointers exactly as GPU programs do; the runtime guarantees the memory outlives the launch.
+unsafe impl Send for BoundBuffer {}
+unsafe impl Sync for BoundBuffer {}
+unsafe impl Send for BoundTexture {}
+unsafe impl Sync for BoundTexture {}

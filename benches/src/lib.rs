@@ -1,0 +1,1 @@
+//! optik-benches: criterion benches and the benchmark report. Not implemented yet.

@@ -1,0 +1,1 @@
+//! optik-conformance: the conformance suite (issue 4). Not implemented yet.
