@@ -1,2 +1,120 @@
-//! optik: an OptiX-7-style ray tracing API for Rust (facade; being written, issue 2).
+//! optik: an OptiX-7-style ray tracing API for Rust.
+//!
+//! One host API ([`Device`] and the types of [`optik_api`]) and one program language (WGSL
+//! with an OptiX-style device API) on three backends: CPU (`optik-cpu`), wgpu compute
+//! (`optik-wgpu`) and Vulkan ray tracing (`optik-vulkan`). This facade re-exports the API
+//! and opens devices: a named backend, or the best one available (Vulkan ray tracing where
+//! present, else wgpu, else CPU).
+
 pub use optik_api::*;
+
+/// Which backend [`open`] should use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BackendChoice {
+    /// The first available of Vulkan ray tracing, wgpu, CPU.
+    Auto,
+    /// Exactly this backend, or an error saying why it cannot run.
+    Named(BackendKind),
+}
+
+impl BackendChoice {
+    /// Parses `auto`, `cpu`, `wgpu` or `vulkan`.
+    pub fn parse(s: &str) -> Option<BackendChoice> {
+        if s == "auto" {
+            return Some(BackendChoice::Auto);
+        }
+        BackendKind::from_name(s).map(BackendChoice::Named)
+    }
+}
+
+/// Whether a backend can run here, and on what.
+#[derive(Clone, Debug)]
+pub struct BackendStatus {
+    /// The backend.
+    pub kind: BackendKind,
+    /// `Ok(description of the device)` or `Err(why it cannot run)`.
+    pub availability: std::result::Result<String, String>,
+}
+
+/// Opens a device of the named backend; the error says why the backend cannot run here.
+pub fn open_backend(kind: BackendKind) -> Result<Box<dyn Device>> {
+    match kind {
+        BackendKind::Cpu => open_cpu(),
+        BackendKind::Wgpu => open_wgpu(),
+        BackendKind::Vulkan => open_vulkan(),
+    }
+}
+
+/// Opens a device: a named backend, or the first that works of Vulkan, wgpu and CPU.
+pub fn open(choice: BackendChoice) -> Result<Box<dyn Device>> {
+    match choice {
+        BackendChoice::Named(kind) => open_backend(kind),
+        BackendChoice::Auto => {
+            let mut reasons = Vec::new();
+            for kind in [BackendKind::Vulkan, BackendKind::Wgpu, BackendKind::Cpu] {
+                match open_backend(kind) {
+                    Ok(d) => return Ok(d),
+                    Err(e) => reasons.push(format!("{kind}: {}", e.message())),
+                }
+            }
+            Err(Error::unsupported(format!("no backend can run here ({})", reasons.join("; "))))
+        }
+    }
+}
+
+/// Tries every backend and reports which can run here.
+pub fn backend_statuses() -> Vec<BackendStatus> {
+    BackendKind::ALL
+        .into_iter()
+        .map(|kind| BackendStatus {
+            kind,
+            availability: open_backend(kind)
+                .map(|d| d.properties().device_name.clone())
+                .map_err(|e| e.message().to_string()),
+        })
+        .collect()
+}
+
+#[cfg(not(all(feature = "cpu", feature = "wgpu", feature = "vulkan")))]
+fn not_built(kind: BackendKind) -> Error {
+    Error::unsupported(format!(
+        "the {kind} backend was not compiled into this build (enable the `{kind}` feature of the optik crate)"
+    ))
+}
+
+#[cfg(feature = "cpu")]
+fn open_cpu() -> Result<Box<dyn Device>> {
+    optik_cpu::open()
+}
+#[cfg(not(feature = "cpu"))]
+fn open_cpu() -> Result<Box<dyn Device>> {
+    Err(not_built(BackendKind::Cpu))
+}
+
+#[cfg(feature = "wgpu")]
+fn open_wgpu() -> Result<Box<dyn Device>> {
+    optik_wgpu::open()
+}
+#[cfg(not(feature = "wgpu"))]
+fn open_wgpu() -> Result<Box<dyn Device>> {
+    Err(not_built(BackendKind::Wgpu))
+}
+
+#[cfg(feature = "vulkan")]
+fn open_vulkan() -> Result<Box<dyn Device>> {
+    optik_vulkan::open()
+}
+#[cfg(not(feature = "vulkan"))]
+fn open_vulkan() -> Result<Box<dyn Device>> {
+    Err(not_built(BackendKind::Vulkan))
+}
+
+/// The backend crates, for backend-specific settings (thread counts, adapter probes).
+pub mod backends {
+    #[cfg(feature = "cpu")]
+    pub use optik_cpu as cpu;
+    #[cfg(feature = "vulkan")]
+    pub use optik_vulkan as vulkan;
+    #[cfg(feature = "wgpu")]
+    pub use optik_wgpu as wgpu;
+}

@@ -7,3 +7,8 @@
 //! - `pipeline`, `sbt`, `launch`: the OptiX objects and the launch loop on rayon threads.
 
 pub mod program;
+
+/// Opens a device of this backend.
+pub fn open() -> optik_api::Result<Box<dyn optik_api::Device>> {
+    Err(optik_api::Error::unsupported("the cpu backend is not implemented yet"))
+}
