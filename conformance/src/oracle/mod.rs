@@ -1,0 +1,3 @@
+//! The oracle: an independent brute-force `f64` tracer (no BVH) with exact orientation tests.
+
+pub mod exact;
