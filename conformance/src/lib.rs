@@ -8,7 +8,10 @@
 //! - [`compare`]: OpenImageIO `idiff`'s semantics plus the NaN/Inf gate;
 //! - [`runner`], [`report`], [`cli`]: running cases on backends, tables, JSON, HTML, `bless`.
 
+pub mod case;
 pub mod compare;
 pub mod exrio;
 pub mod image;
 pub mod oracle;
+pub mod scene;
+pub mod tolerance;
