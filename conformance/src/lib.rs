@@ -9,9 +9,16 @@
 //! - [`runner`], [`report`], [`cli`]: running cases on backends, tables, JSON, HTML, `bless`.
 
 pub mod case;
+pub mod catalog;
+pub mod cli;
 pub mod compare;
+pub mod device_run;
 pub mod exrio;
 pub mod image;
+pub mod judge;
+pub mod kit;
 pub mod oracle;
+pub mod report;
+pub mod runner;
 pub mod scene;
 pub mod tolerance;

@@ -15,7 +15,9 @@ use super::prepared::{GasData, PNode, Prims, node_of};
 use crate::case::{Case, SbtEntry};
 use optik::semantics::{exception, facing, motion, opacity, ray as ray_policy, sbt_index};
 use optik::{ExceptionFlags, GeometryFlags, InstanceFlags, ProgramKind, RayFlags};
+use std::cell::RefCell;
 use std::collections::HashMap;
+use std::rc::Rc;
 
 /// The order candidates are visited in (real traversal order is unspecified, so a case's
 /// expectation must not depend on it: the catalog tests both).
@@ -182,14 +184,30 @@ pub struct Engine<'c> {
     case: &'c Case,
     nodes: Vec<PNode>,
     models: &'c Models,
+    cache: RefCell<HashMap<Vec<u32>, Rc<TraceGeometry>>>,
     /// Settings.
     pub settings: Settings,
+}
+
+/// A cluster of ambiguous triangles and the sets of them that may be hit.
+struct Cluster {
+    members: Vec<usize>,
+    outcomes: Vec<Vec<bool>>,
+    reason: &'static str,
+}
+
+/// Everything a ray meets, before ambiguity is settled.
+struct TraceGeometry {
+    contacts: Vec<Contact>,
+    clusters: Vec<Cluster>,
 }
 
 /// A contact of the current trace, before ambiguity is settled.
 #[derive(Clone, Debug)]
 struct Contact {
-    space: usize,
+    /// The object space (the bits of world-to-object): contacts with identical transforms
+    /// share rounding, so one ambiguity cluster may span instances (CTS closedFan2).
+    space: [u64; 12],
     path: Path,
     obj: ObjRay,
     prim: u32,
@@ -220,12 +238,7 @@ struct Path {
 impl<'c> Engine<'c> {
     /// An engine for `case` with these settings.
     pub fn new(case: &'c Case, nodes: Vec<PNode>, settings: Settings) -> Self {
-        Engine {
-            case,
-            nodes,
-            models: &case.models,
-            settings,
-        }
+        Engine { case, nodes, models: &case.models, cache: RefCell::new(HashMap::new()), settings }
     }
 
     fn model(&self, name: &str) -> Result<&super::model::ProgramFn, Unwind> {
@@ -296,13 +309,9 @@ impl<'c> Engine<'c> {
         wd: V3,
         ray: &RayView,
         out: &mut Vec<Contact>,
-        space: &mut usize,
     ) {
         match &self.nodes[node] {
-            PNode::Gas(g) => {
-                *space += 1;
-                self.walk_gas(g, path, wo, wd, ray, out, *space);
-            }
+            PNode::Gas(g) => self.walk_gas(g, path, wo, wd, ray, out),
             PNode::Ias(instances) => {
                 for (i, inst) in instances.iter().enumerate() {
                     let (Some(child), Some(w2o)) = (inst.child, inst.w2o) else {
@@ -323,7 +332,7 @@ impl<'c> Engine<'c> {
                         o2w: m_mul(&path.o2w, &inst.o2w),
                         instanced: true,
                     };
-                    self.walk(child, &p, wo, wd, ray, out, space);
+                    self.walk(child, &p, wo, wd, ray, out);
                 }
             }
             PNode::Transform(kind, child) => {
@@ -347,7 +356,7 @@ impl<'c> Engine<'c> {
                     instanced: true,
                     ..path.clone()
                 };
-                self.walk(*child, &p, wo, wd, ray, out, space);
+                self.walk(*child, &p, wo, wd, ray, out);
             }
         }
     }
@@ -361,7 +370,6 @@ impl<'c> Engine<'c> {
         wd: V3,
         ray: &RayView,
         out: &mut Vec<Contact>,
-        space: usize,
     ) {
         let key = match &g.motion {
             Some(m) => match motion::resolve_key(m, ray.time) {
@@ -373,11 +381,13 @@ impl<'c> Engine<'c> {
         let o = m_point(&path.w2o, wo);
         let d = m_vector(&path.w2o, wd);
         let mut extra = 0.0;
+        // Transforms add a few unit roundoffs of the magnitudes they combine (pbrt-v4's γ(3)
+        // bounds): a quarter of the triangle band (4 roundoffs) covers them.
         if path.instanced {
-            extra += max_abs(o) + m_norm(&path.w2o) * max_abs(wo) + m_translation_norm(&path.w2o);
+            extra += 0.25 * (max_abs(o) + m_norm(&path.w2o) * max_abs(wo) + m_translation_norm(&path.w2o));
         }
         if g.motion.is_some() {
-            extra += g.magnitude;
+            extra += 0.25 * g.magnitude;
         }
         let obj = ObjRay { o, d, extra };
         let rnd = &self.settings.rounding;
@@ -400,7 +410,7 @@ impl<'c> Engine<'c> {
                     .copied()
                     .unwrap_or(GeometryFlags::NONE);
                 let make = |geo: Geo| Contact {
-                    space,
+                    space: path.w2o.map(f64::to_bits),
                     path: path.clone(),
                     obj,
                     prim: i as u32 + input.prim_index_offset,
@@ -498,24 +508,8 @@ impl<'c> Engine<'c> {
             time: if self.settings.motion { ray.time } else { 0.0 },
             ..ray
         };
-        let wo = from_f32(ray.origin);
-        let wd = from_f32(ray.direction);
-        let mut contacts = Vec::new();
-        if let Some(node) = node_of(handle, self.nodes.len()) {
-            let root = Path {
-                inst_id: 0,
-                inst_index: 0,
-                sbt_offset: 0,
-                inst_flags: InstanceFlags::NONE,
-                flip: false,
-                w2o: IDENTITY,
-                o2w: IDENTITY,
-                instanced: false,
-            };
-            let mut space = 0;
-            self.walk(node, &root, wo, wd, &ray, &mut contacts, &mut space);
-        }
-        let candidates = self.settle(st.chooser, contacts);
+        let geometry = self.geometry_of(handle, &ray);
+        let candidates = self.settle(st.chooser, &geometry);
         let mut tr = Traversal {
             ray,
             payload: payload.to_vec(),
@@ -536,47 +530,79 @@ impl<'c> Engine<'c> {
 
     /// Settles the ambiguities of this run: which ambiguous triangles of each contact
     /// cluster are hit, which round silhouettes, which boxes' intersection programs run.
-    fn settle(&self, chooser: &mut Chooser, contacts: Vec<Contact>) -> Vec<Contact> {
-        let mut keep = vec![true; contacts.len()];
+    /// The geometry of a trace: its contacts and the admissible outcomes of each cluster of
+    /// ambiguous triangles. The same ray meets the same geometry in every run of its launch
+    /// index, so this is computed once per ray and kept.
+    fn geometry_of(&self, handle: [u32; 2], ray: &RayView) -> Rc<TraceGeometry> {
+        let key: Vec<u32> = [handle[0], handle[1]]
+            .into_iter()
+            .chain(ray.origin.map(f32::to_bits))
+            .chain(ray.direction.map(f32::to_bits))
+            .chain([ray.tmin.to_bits(), ray.tmax.to_bits(), ray.time.to_bits(), ray.mask])
+            .collect();
+        if let Some(g) = self.cache.borrow().get(&key) {
+            return g.clone();
+        }
+        let mut contacts = Vec::new();
+        if let Some(node) = node_of(handle, self.nodes.len()) {
+            let root = Path {
+                inst_id: 0,
+                inst_index: 0,
+                sbt_offset: 0,
+                inst_flags: InstanceFlags::NONE,
+                flip: false,
+                w2o: IDENTITY,
+                o2w: IDENTITY,
+                instanced: false,
+            };
+            self.walk(node, &root, from_f32(ray.origin), from_f32(ray.direction), ray, &mut contacts);
+        }
         // Clusters: ambiguous triangles of one object space whose t bands overlap.
         let mut amb: Vec<usize> = (0..contacts.len())
             .filter(|&i| matches!(&contacts[i].geo, Geo::Tri(c, _) if c.status == geometry::Status::Ambiguous))
             .collect();
         amb.sort_by(|&a, &b| {
             let (ta, tb) = (tri_of(&contacts[a]).t, tri_of(&contacts[b]).t);
-            (contacts[a].space, ta)
-                .partial_cmp(&(contacts[b].space, tb))
-                .unwrap_or(std::cmp::Ordering::Equal)
+            contacts[a].space.cmp(&contacts[b].space).then(ta.total_cmp(&tb))
         });
-        let mut clusters: Vec<Vec<usize>> = Vec::new();
+        let mut groups: Vec<Vec<usize>> = Vec::new();
         for i in amb {
             let c = tri_of(&contacts[i]);
-            let joins = clusters.last().is_some_and(|cl| {
-                let j = *cl.last().unwrap_or(&i);
+            let joins = groups.last().and_then(|g| g.last()).is_some_and(|&j| {
                 let p = tri_of(&contacts[j]);
                 contacts[j].space == contacts[i].space && c.t - p.t <= 4.0 * (c.dt + p.dt) + 1e-300
             });
-            if joins {
-                if let Some(cl) = clusters.last_mut() {
-                    cl.push(i);
-                }
-            } else {
-                clusters.push(vec![i]);
+            match groups.last_mut() {
+                Some(g) if joins => g.push(i),
+                _ => groups.push(vec![i]),
             }
         }
-        for cl in clusters {
-            let members: Vec<&TriContact> = cl.iter().map(|&i| tri_of(&contacts[i])).collect();
-            let outcomes = geometry::cluster_outcomes(&members, contacts[cl[0]].obj.d);
-            let vertexish = members
-                .iter()
-                .any(|m| m.edges.iter().filter(|e| e.near).count() >= 2);
-            let pick = if outcomes.is_empty() {
-                vec![false; cl.len()]
+        let clusters = groups
+            .into_iter()
+            .map(|members| {
+                let tris: Vec<&TriContact> = members.iter().map(|&i| tri_of(&contacts[i])).collect();
+                let outcomes = geometry::cluster_outcomes(&tris, contacts[members[0]].obj.d);
+                let vertex = tris.iter().any(|m| m.edges.iter().filter(|e| e.near).count() >= 2);
+                Cluster { members, outcomes, reason: if vertex { "vertex" } else { "edge" } }
+            })
+            .collect();
+        let g = Rc::new(TraceGeometry { contacts, clusters });
+        self.cache.borrow_mut().insert(key, g.clone());
+        g
+    }
+
+    /// Settles the ambiguities of this run: which ambiguous triangles of each contact
+    /// cluster are hit, which round silhouettes, which boxes' intersection programs run.
+    fn settle(&self, chooser: &mut Chooser, g: &TraceGeometry) -> Vec<Contact> {
+        let contacts = &g.contacts;
+        let mut keep = vec![true; contacts.len()];
+        for cl in &g.clusters {
+            let pick = if cl.outcomes.is_empty() {
+                vec![false; cl.members.len()]
             } else {
-                outcomes[chooser.choose(outcomes.len(), if vertexish { "vertex" } else { "edge" })]
-                    .clone()
+                cl.outcomes[chooser.choose(cl.outcomes.len(), cl.reason)].clone()
             };
-            for (k, &i) in cl.iter().enumerate() {
+            for (k, &i) in cl.members.iter().enumerate() {
                 keep[i] = pick[k];
             }
         }
@@ -588,10 +614,10 @@ impl<'c> Engine<'c> {
             }
         }
         let mut out: Vec<Contact> = contacts
-            .into_iter()
+            .iter()
             .zip(keep)
             .filter(|(_, k)| *k)
-            .map(|(c, _)| c)
+            .map(|(c, _)| c.clone())
             .collect();
         let key = |c: &Contact| match &c.geo {
             Geo::Tri(t, _) => t.t,
