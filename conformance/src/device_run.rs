@@ -6,6 +6,7 @@ use crate::case::{Case, ParamWord, SbtEntry};
 use crate::scene::{GeomInput, Gas, Node, SbtOffsets, TransformKind, encode_vertex};
 use optik::{
     AccelBuildOptions, BufferView, BuildFlags, BuildInput, BuildOperation, CurveArray, CustomPrimitiveArray, Device,
+    OpacityMicromapArrayDesc, OpacityMicromapDesc, TriangleOpacityMicromap,
     Error, IndexFormat, Instance, InstanceArray, LaunchSize, ModuleCompileOptions, ProgramGroupDesc, ProgramRef,
     ProgramSource, Resource, SbtIndexOffsets, SbtRecord, SbtRegion, ShaderBindingTable, SphereArray, TransformDesc,
     TraversableHandle, TriangleArray, TriangleIndices,
@@ -20,6 +21,7 @@ struct Owned<'d> {
     modules: Vec<optik::Module>,
     groups: Vec<optik::ProgramGroup>,
     pipelines: Vec<optik::Pipeline>,
+    micromaps: Vec<optik::MicromapArray>,
 }
 
 impl Drop for Owned<'_> {
@@ -35,6 +37,9 @@ impl Drop for Owned<'_> {
         }
         for a in self.accels.drain(..).rev() {
             let _ = self.device.destroy_accel(a);
+        }
+        for m in self.micromaps.drain(..) {
+            let _ = self.device.destroy_micromap_array(m);
         }
         for b in self.buffers.drain(..) {
             let _ = self.device.destroy_buffer(b);
@@ -118,6 +123,28 @@ fn build_input(input: &GeomInput, owned: &mut Owned<'_>) -> Result<BuildInput, E
                 Some(m) => Some(BufferView::new(owned.buffer(&f32_bytes(m.iter().copied()))?)),
                 None => None,
             };
+            let opacity_micromap = match &t.omm {
+                Some(omm) => {
+                    let desc = OpacityMicromapArrayDesc {
+                        micromaps: (0..omm.states.len())
+                            .map(|k| OpacityMicromapDesc { byte_offset: k as u32, subdivision_level: 0, format: omm.format })
+                            .collect(),
+                        data: omm.states.clone(),
+                    };
+                    let array = owned.device.create_opacity_micromap_array(&desc)?;
+                    owned.micromaps.push(array);
+                    let indices: Vec<u8> = omm.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+                    let buffer = owned.buffer(&indices)?;
+                    Some(TriangleOpacityMicromap {
+                        array,
+                        index_buffer: Some(BufferView::new(buffer)),
+                        index_size_in_bytes: 4,
+                        index_stride: 0,
+                        base_index: 0,
+                    })
+                }
+                None => None,
+            };
             BuildInput::Triangles(TriangleArray {
                 vertex_buffers,
                 num_vertices: t.keys.first().map_or(0, |k| k.len() as u32),
@@ -128,7 +155,7 @@ fn build_input(input: &GeomInput, owned: &mut Owned<'_>) -> Result<BuildInput, E
                 sbt_index_offsets: sbt_offsets(&t.sbt_offsets, owned)?,
                 primitive_index_offset: t.prim_index_offset,
                 pre_transform,
-                opacity_micromap: None,
+                opacity_micromap,
             })
         }
         GeomInput::Aabbs(a) => {
@@ -277,8 +304,15 @@ fn build_scene(device: &dyn Device, case: &Case, owned: &mut Owned<'_>) -> Resul
 
 /// The record buffer of every launch, as words, after running `case` on `device`.
 pub fn run_case(device: &dyn Device, case: &Case) -> Result<Vec<Vec<u32>>, Error> {
-    let mut owned =
-        Owned { device, buffers: vec![], accels: vec![], modules: vec![], groups: vec![], pipelines: vec![] };
+    let mut owned = Owned {
+        device,
+        buffers: vec![],
+        accels: vec![],
+        modules: vec![],
+        groups: vec![],
+        pipelines: vec![],
+        micromaps: vec![],
+    };
     let handles = build_scene(device, case, &mut owned)?;
     let p = &case.pipeline;
     let source = ProgramSource::new(format!("{}.wgsl", case.name), p.wgsl.clone());

@@ -50,7 +50,9 @@ pub mod rec {
     pub const STRIDE: usize = 32;
 }
 
-/// Any-hit actions, in word 1 of a hit record's data.
+/// Any-hit actions, in word 1 of a hit record's data. Hit record data: word 0 is the record's
+/// index (recorded as `sbt_index`), 1 the action, 2 and 3 its bounds (f32), 4 the number of
+/// reports of `intersection__fixed` and 5.. their t values (f32).
 pub mod action {
     /// Accept.
     pub const ACCEPT: u32 = 0;
@@ -210,13 +212,13 @@ fn intersection__sphere() {
 fn intersection__fixed() {
     out[slot(18u)] = out[slot(18u)] + 1u;
     out[slot(16u)] = out[slot(16u)] | 2u;
-    let n = rt_sbt_data_u32(2u);
+    let n = rt_sbt_data_u32(4u);
     for (var k = 0u; k < n; k++) {
         var attrs: RtAttributes;
         for (var i = 0u; i < 8u; i++) {
             attrs[i] = 1u + ray_id() + i;
         }
-        let accepted = rt_report_intersection(rt_sbt_data_f32(3u + k), k, attrs);
+        let accepted = rt_report_intersection(rt_sbt_data_f32(5u + k), k, attrs);
         out[slot(19u)] = out[slot(19u)] | (select(0u, 1u, accepted) << k) | (1u << (k + 8u));
     }
 }
@@ -240,7 +242,7 @@ pub mod prog {
     pub const AH: &str = "anyhit__std";
     /// Analytic sphere intersection (`prims` binding 3: centre and radius).
     pub const IS_SPHERE: &str = "intersection__sphere";
-    /// Reports the t values listed in the hit record's data.
+    /// Reports the t values listed in the hit record's data (count in word 4, values from 5).
     pub const IS_FIXED: &str = "intersection__fixed";
 }
 
@@ -344,11 +346,11 @@ pub fn std_models() -> Models {
         let c = ctx.read(2, s + rec::IS_COUNT);
         ctx.write(2, s + rec::IS_COUNT, c + 1);
         or_word(ctx, rec::PROGRAMS, 2);
-        let n = ctx.sbt_data_u32(2);
+        let n = ctx.sbt_data_u32(4);
         for k in 0..n {
             let id = ctx.linear_index();
             let attrs: [u32; 8] = std::array::from_fn(|i| 1 + id + i as u32);
-            let t = ctx.sbt_data_f32(3 + k);
+            let t = ctx.sbt_data_f32(5 + k);
             let accepted = ctx.report_intersection(t, k, attrs)?;
             or_word(ctx, rec::AUX, ((accepted as u32) << k) | (1 << (k + 8)));
         }

@@ -5,7 +5,7 @@ use crate::case::Case;
 use crate::exrio;
 use crate::image::RecordImage;
 use crate::judge;
-use crate::oracle::{self, Expectation, exec::Order};
+use crate::oracle::{self, Expectation};
 use optik::{BackendKind, Device, ErrorKind};
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
@@ -119,7 +119,7 @@ impl Devices {
 
 /// The oracle's expectation of a case (launch by launch).
 pub fn expectations(case: &Case) -> Result<Vec<Expectation>, String> {
-    catch_unwind(AssertUnwindSafe(|| oracle::expect(case, Order::Ascending)))
+    catch_unwind(AssertUnwindSafe(|| oracle::expect(case)))
         .unwrap_or_else(|_| Err("the oracle panicked on this case".into()))
 }
 

@@ -151,6 +151,20 @@ pub struct Triangles {
     pub prim_index_offset: u32,
     /// 3×4 transform applied to the vertices at build time.
     pub pre_transform: Option<Matrix3x4>,
+    /// Opacity micromaps (subdivision level 0: one state per micromap).
+    pub omm: Option<Omm>,
+}
+
+/// Opacity micromaps of a triangle input at subdivision level 0.
+#[derive(Clone, Debug)]
+pub struct Omm {
+    /// Two- or four-state micromaps.
+    pub format: optik::OpacityMicromapFormat,
+    /// The state of each micromap (0 transparent, 1 opaque, 2 unknown-transparent, 3
+    /// unknown-opaque).
+    pub states: Vec<u8>,
+    /// Per triangle: a micromap index, or a special index −1..−4.
+    pub indices: Vec<i32>,
 }
 
 impl Triangles {
@@ -165,6 +179,7 @@ impl Triangles {
             sbt_offsets: None,
             prim_index_offset: 0,
             pre_transform: None,
+            omm: None,
         }
     }
 

@@ -306,7 +306,7 @@ fn signed_zero_directions() -> Case {
     }
     let groups = vec![hit_group(Some(prog::CH), None, None), hit_group(Some(prog::CH_ATTRS), None, Some(prog::IS_FIXED))];
     let t_report = 0.5f32.to_bits();
-    let records = vec![SbtEntry::new(0, vec![0, action::ACCEPT]), SbtEntry::new(1, vec![1, action::ACCEPT, 1, t_report])];
+    let records = vec![SbtEntry::new(0, vec![0, action::ACCEPT]), SbtEntry::new(1, vec![1, action::ACCEPT, 0, 0, 1, t_report])];
     let n = rays.len();
     let box_rays: Vec<Ray> = rays.iter().map(|r| Ray { sbt_offset: 1, ..*r }).collect();
     StdCase::new(
@@ -456,7 +456,7 @@ fn tmax_zero_and_infinite() -> Case {
     let records = vec![
         SbtEntry::new(0, vec![0, action::ACCEPT]),
         // The intersection program reports t = 0 and t = 2.
-        SbtEntry::new(1, vec![1, action::ACCEPT, 2, 0.0f32.to_bits(), 2.0f32.to_bits()]),
+        SbtEntry::new(1, vec![1, action::ACCEPT, 0, 0, 2, 0.0f32.to_bits(), 2.0f32.to_bits()]),
     ];
     let box_rays: Vec<Ray> = rays.iter().map(|r| Ray { sbt_offset: 1, ..*r }).collect();
     StdCase::new(
@@ -783,7 +783,7 @@ fn near_box_faces() -> Case {
     let groups = vec![hit_group(None, Some(prog::AH), Some(prog::IS_FIXED))];
     // The intersection program reports t = 0.25; the any-hit program ignores it, so every
     // box crossed runs both programs once.
-    let records = vec![SbtEntry::new(0, vec![0, action::IGNORE, 1, 0.25f32.to_bits()])];
+    let records = vec![SbtEntry::new(0, vec![0, action::IGNORE, 0, 0, 1, 0.25f32.to_bits()])];
     StdCase::new(
         Group::Numerics,
         "near_box_faces",

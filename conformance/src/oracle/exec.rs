@@ -120,6 +120,8 @@ pub struct HitInfo {
     pub geom_flags: GeometryFlags,
     /// The instance flags on the path (nearest instance).
     pub inst_flags: InstanceFlags,
+    /// The opacity micromap state at the hit (level 0: the triangle's).
+    pub micromap: Option<opacity::MicromapState>,
 }
 
 /// The ray programs see.
@@ -213,6 +215,7 @@ struct Contact {
     prim: u32,
     gas_index: u32,
     geom_flags: GeometryFlags,
+    micromap: Option<opacity::MicromapState>,
     geo: Geo,
 }
 
@@ -384,7 +387,13 @@ impl<'c> Engine<'c> {
         // Transforms add a few unit roundoffs of the magnitudes they combine (pbrt-v4's γ(3)
         // bounds): a quarter of the triangle band (4 roundoffs) covers them.
         if path.instanced {
-            extra += 0.25 * (max_abs(o) + m_norm(&path.w2o) * max_abs(wo) + m_translation_norm(&path.w2o));
+            // Per object coordinate j, the terms Σ_k |W_jk · o_k| + |t_j| the transform sums.
+            let terms = (0..3)
+                .map(|r| {
+                    (0..3).map(|c| (path.w2o[r * 4 + c] * wo[c]).abs()).sum::<f64>() + path.w2o[r * 4 + 3].abs()
+                })
+                .fold(0.0, f64::max);
+            extra += 0.25 * terms;
         }
         if g.motion.is_some() {
             extra += 0.25 * g.magnitude;
@@ -416,10 +425,11 @@ impl<'c> Engine<'c> {
                     prim: i as u32 + input.prim_index_offset,
                     gas_index: sbt_index::sbt_gas_index(input.first_record, record),
                     geom_flags,
+                    micromap: None,
                     geo,
                 };
                 match &input.prims {
-                    Prims::Triangles { keys, tris } => {
+                    Prims::Triangles { keys, tris, omm } => {
                         let Some(tri) = tris[i] else { continue };
                         let (ka, kb) = at(keys.len());
                         let v: [V3; 3] = std::array::from_fn(|j| {
@@ -427,7 +437,9 @@ impl<'c> Engine<'c> {
                             [lerp(a[0], b[0]), lerp(a[1], b[1]), lerp(a[2], b[2])]
                         });
                         if let Some(c) = geometry::triangle(v, &obj, rnd) {
-                            out.push(make(Geo::Tri(c, v)));
+                            let mut contact = make(Geo::Tri(c, v));
+                            contact.micromap = omm.as_ref().and_then(|m| m.get(i).copied());
+                            out.push(contact);
                         }
                     }
                     Prims::Aabbs(keys) => {
@@ -691,6 +703,7 @@ impl<'c> Engine<'c> {
             record,
             geom_flags: c.geom_flags,
             inst_flags: c.path.inst_flags,
+            micromap: c.micromap,
         }
     }
 
@@ -813,7 +826,7 @@ impl<'c> Engine<'c> {
         group: usize,
     ) -> Result<bool, Unwind> {
         let flags = RayFlags(tr.ray.flags);
-        let fate = opacity::resolve(info.geom_flags, info.inst_flags, flags, None);
+        let fate = opacity::resolve(info.geom_flags, info.inst_flags, flags, info.micromap);
         if fate == opacity::CandidateFate::Culled {
             return Ok(false);
         }

@@ -528,7 +528,9 @@ mod tests {
             &Rounding::F32,
         )
         .unwrap();
-        assert!(on_face.ambiguous);
+        assert!(!on_face.ambiguous, "a ray on a face meets the closed box");
+        let beside = aabb(b, &ray([1.0 + 1e-9, 0.5, -1.0], [0.0, 0.0, 1.0]), 0.0, 10.0, &Rounding::F32).unwrap();
+        assert!(beside.ambiguous);
         assert!(
             aabb(
                 b,

@@ -4,6 +4,7 @@
 
 use super::math::*;
 use crate::scene::{GeomInput, Node, NodeId, Scene, TransformKind, stored_vertices};
+use optik::semantics::opacity::MicromapState;
 use optik::{GeometryFlags, InstanceFlags, MotionOptions};
 
 /// The high word of every oracle handle (the low word is node id + 1); 0:0 is null.
@@ -32,6 +33,8 @@ pub enum Prims {
         keys: Vec<Vec<V3>>,
         /// Vertex indices per triangle (`None` when an index is out of range).
         tris: Vec<Option<[usize; 3]>>,
+        /// Opacity micromap state per triangle, when the input has micromaps.
+        omm: Option<Vec<MicromapState>>,
     },
     /// Boxes per motion key.
     Aabbs(Vec<Vec<[f64; 6]>>),
@@ -170,7 +173,19 @@ pub fn prepare(scene: &Scene) -> Vec<PNode> {
                                         }
                                     }
                                 }
-                                Prims::Triangles { keys, tris }
+                                let omm = t.omm.as_ref().map(|o| {
+                                    o.indices
+                                        .iter()
+                                        .map(|i| match *i {
+                                            -1 => MicromapState::Transparent,
+                                            -2 => MicromapState::Opaque,
+                                            -3 => MicromapState::UnknownTransparent,
+                                            -4 => MicromapState::UnknownOpaque,
+                                            i => MicromapState::from_code(o.states.get(i as usize).copied().unwrap_or(0) as u32),
+                                        })
+                                        .collect()
+                                });
+                                Prims::Triangles { keys, tris, omm }
                             }
                             GeomInput::Aabbs(a) => Prims::Aabbs(
                                 a.keys
