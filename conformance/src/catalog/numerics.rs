@@ -232,8 +232,12 @@ fn secondary(name: &str, offset: bool, scale: f64, at: [f64; 3]) -> Case {
         scene,
         Some(root),
     )
+    .hits(
+        vec![hit_group(Some(prog::CH), None, None)],
+        vec![SbtEntry::new(0, vec![0, action::ACCEPT]), SbtEntry::new(0, vec![1, action::ACCEPT])],
+    )
     .launch(32, rays)
-    .record(vec![ch::hit(), ch::prim(), ch::gas_index()]);
+    .record(vec![ch::hit(), ch::prim(), ch::gas_index(), ch::sbt_index()]);
     if offset {
         case.raygen = prog::RAYGEN_OFFSET;
         case.extra = normals;

@@ -19,6 +19,10 @@ use std::cell::RefCell;
 use std::collections::HashMap;
 use std::rc::Rc;
 
+/// The code the model unwinds with when a case relies on undefined behaviour (never a real
+/// exception code: user codes are non-negative, built-in ones small negatives).
+const UNDEFINED: i32 = i32::MIN;
+
 /// The order candidates are visited in (real traversal order is unspecified, so a case's
 /// expectation must not depend on it: the catalog tests both).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -246,7 +250,7 @@ impl<'c> Engine<'c> {
 
     fn model(&self, name: &str) -> Result<&super::model::ProgramFn, Unwind> {
         // A missing model is a defect of the case, caught by the catalog's own tests.
-        self.models.get(name).ok_or(Unwind::Throw(i32::MIN))
+        self.models.get(name).ok_or(Unwind::Throw(UNDEFINED))
     }
 
     /// Runs the raygen model for one launch index, then the exception model if it threw.
@@ -264,9 +268,10 @@ impl<'c> Engine<'c> {
         ));
         match result {
             Ok(()) | Err(Unwind::Ignore) | Err(Unwind::Terminate) => Ok(()),
-            Err(Unwind::Throw(i32::MIN)) => {
-                Err("a program model is missing (see the catalog tests)".into())
-            }
+            Err(Unwind::Throw(UNDEFINED)) => Err(
+                "the case relies on undefined behaviour: a program without a model, or a hit or miss SBT index beyond the table without debug exceptions"
+                    .into(),
+            ),
             Err(Unwind::Throw(code)) => {
                 if let Some(ex) = self.case.pipeline.exception.clone() {
                     let f = self
@@ -728,7 +733,8 @@ impl<'c> Engine<'c> {
                 if self.exception_enabled(exception::INVALID_HIT_SBT) {
                     return Err(Unwind::Throw(exception::INVALID_HIT_SBT));
                 }
-                continue;
+                // Undefined without debug exceptions: a case must not rely on it.
+                return Err(Unwind::Throw(UNDEFINED));
             };
             let group = self
                 .case
@@ -904,7 +910,7 @@ impl<'c> Engine<'c> {
             if self.exception_enabled(exception::INVALID_MISS_SBT) {
                 return Err(Unwind::Throw(exception::INVALID_MISS_SBT));
             }
-            return Ok(());
+            return Err(Unwind::Throw(UNDEFINED));
         };
         let Some(Some(ms)) = self.case.pipeline.miss.get(entry.group).cloned() else {
             return Ok(());
