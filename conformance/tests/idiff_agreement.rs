@@ -299,3 +299,158 @@ fn comparator_agrees_with_idiff_on_crafted_pairs() {
     std::fs::remove_dir_all(&dir).ok();
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
+
+/// idiff's thresholds for one tolerance class: the same acceptance as [`Tolerance::check`].
+fn options_for(t: optik_conformance::tolerance::Tolerance) -> IdiffOptions {
+    use optik_conformance::tolerance::{EPS, Tolerance};
+    match t {
+        Tolerance::Exact => IdiffOptions::EXACT,
+        Tolerance::F6 => IdiffOptions::absolute(4.0 / 1_048_576.0),
+        Tolerance::M3 => IdiffOptions::absolute(1e-3),
+        Tolerance::Abs(x) => IdiffOptions::absolute(x),
+        Tolerance::U16 { scale } => IdiffOptions {
+            fail: 16.0 * EPS * scale,
+            fail_relative: 16.0 * EPS,
+            warn: 16.0 * EPS * scale,
+            warn_relative: 16.0 * EPS,
+            ..IdiffOptions::IDIFF_DEFAULT
+        },
+    }
+}
+
+/// The channels of `image` named in `names`.
+fn subset(image: &RecordImage, names: &[String]) -> RecordImage {
+    RecordImage {
+        width: image.width,
+        height: image.height,
+        channels: image.channels.iter().filter(|c| names.contains(&c.name)).cloned().collect(),
+    }
+}
+
+/// Hit records of real cases, perturbed at unambiguous records (a float within and beyond its
+/// tolerance, an integer off by one), judged by our per-channel tolerance classes and by idiff
+/// run per tolerance group (`U16` as `-fail 16ε·s -failrelative 16ε`): the verdicts agree.
+/// Integer channels holding values of 2^24 or more are left out: OpenImageIO reads `UINT` as
+/// normalised float and cannot tell such neighbours apart.
+#[test]
+fn case_records_agree_with_idiff() {
+    use optik_conformance::case::Judgement;
+    use optik_conformance::{catalog, judge, runner};
+    let names = [
+        "tri.t_plane",
+        "tri.barycentrics",
+        "tri.formats_indices",
+        "builtin.ray_state_per_stage",
+        "builtin.transforms",
+        "aabb.attributes_max",
+        "sbt.hit_index_grid",
+        "numerics.huge_sphere_near",
+        "numerics.shared_edge_far",
+        "prim.spheres",
+    ];
+    let dir: PathBuf = std::env::temp_dir().join(format!("optik-idiff-cases-{}", std::process::id()));
+    let mut problems = Vec::new();
+    let (mut compared, mut failing, mut backend_outputs) = (0, 0, 0);
+    let devices = runner::Devices::open(&optik::BackendKind::ALL);
+    for case in catalog::all().into_iter().filter(|c| names.contains(&c.name.as_str())) {
+        let Judgement::PerRecord = case.record.judgement else { continue };
+        let expected = runner::expectations(&case).unwrap_or_else(|e| panic!("{}: {e}", case.name));
+        let e = &expected[0];
+        let reference = judge::canonical_image(&case, e);
+        let clear: Vec<usize> = (0..e.admissible.len()).filter(|i| e.admissible[*i].len() == 1).collect();
+        // Tolerance groups, as idiff applies one threshold set per file.
+        let mut groups: Vec<(optik_conformance::tolerance::Tolerance, Vec<String>)> = Vec::new();
+        for c in &case.record.channels {
+            let large = reference.channel(&c.name).is_some_and(|ch| ch.kind == ChannelKind::Uint && ch.values.iter().any(|v| *v >= 1 << 24));
+            if large {
+                continue;
+            }
+            match groups.iter_mut().find(|(t, _)| *t == c.tolerance) {
+                Some((_, v)) => v.push(c.name.clone()),
+                None => groups.push((c.tolerance, vec![c.name.clone()])),
+            }
+        }
+        // Outputs to compare: the reference perturbed, and every available backend's output
+        // (its ambiguous records copied into the reference, where any admissible answer is right).
+        let mut outputs: Vec<(String, RecordImage, RecordImage)> = Vec::new();
+        for (kind, device) in devices.iter() {
+            let Ok(device) = device else { continue };
+            let r = runner::run_on(&case, &Ok(expected.clone()), kind, device, None);
+            if let Some(o) = r.launches.first().and_then(|l| l.output.clone()) {
+                let mut masked = reference.clone();
+                for (mc, oc) in masked.channels.iter_mut().zip(&o.channels) {
+                    for i in 0..mc.values.len() {
+                        if e.admissible[i].len() > 1 {
+                            mc.values[i] = oc.values[i];
+                        }
+                    }
+                }
+                outputs.push((kind.name().to_string(), o, masked));
+                backend_outputs += 1;
+            }
+        }
+        for (tol, channels) in &groups {
+            for (source, out, masked) in &outputs {
+                let ours = channels.iter().all(|name| {
+                    let spec = case.record.channels.iter().find(|c| &c.name == name).expect("channel");
+                    let (o, r) = (out.channel(name).expect("o"), masked.channel(name).expect("r"));
+                    (0..o.values.len()).all(|i| spec.tolerance.check(spec.kind, r.values[i], o.values[i]).0)
+                });
+                let (fo, fr) = (dir.join("out.exr"), dir.join("ref.exr"));
+                exrio::write(&fo, &subset(out, channels)).unwrap();
+                exrio::write(&fr, &subset(masked, channels)).unwrap();
+                let theirs = idiff_verdict(&fo, &fr, &options_for(*tol)).passes();
+                compared += 1;
+                if ours != theirs {
+                    problems.push(format!("{} on {source} {channels:?} ({}): ours {ours}, idiff {theirs}", case.name, tol.name()));
+                }
+            }
+            for scenario in ["equal", "within", "beyond", "off_by_one"] {
+                let mut out = reference.clone();
+                let Some(&pixel) = clear.get(clear.len() / 3 + scenario.len()) else { continue };
+                let Some(ch) = out.channels.iter_mut().find(|c| channels.contains(&c.name)) else { continue };
+                let applies = match (scenario, ch.kind) {
+                    ("equal", _) => true,
+                    ("within" | "beyond", ChannelKind::Float) => {
+                        let a = f32::from_bits(ch.values[pixel]) as f64;
+                        let b = tol.bound(a, a);
+                        if b == 0.0 && scenario == "within" {
+                            false
+                        } else {
+                            let delta = if scenario == "within" { 0.5 * b } else { 3.0 * b.max(1e-30) + (a.abs() * 1e-6) };
+                            ch.values[pixel] = ((a + delta) as f32).to_bits();
+                            true
+                        }
+                    }
+                    ("off_by_one", ChannelKind::Uint) => {
+                        ch.values[pixel] = ch.values[pixel].wrapping_add(1);
+                        true
+                    }
+                    _ => false,
+                };
+                if !applies {
+                    continue;
+                }
+                let ours = channels.iter().all(|name| {
+                    let spec = case.record.channels.iter().find(|c| &c.name == name).expect("channel");
+                    let (o, r) = (out.channel(name).expect("o"), reference.channel(name).expect("r"));
+                    (0..o.values.len()).all(|i| spec.tolerance.check(spec.kind, r.values[i], o.values[i]).0)
+                });
+                let (fo, fr) = (dir.join("out.exr"), dir.join("ref.exr"));
+                exrio::write(&fo, &subset(&out, channels)).unwrap();
+                exrio::write(&fr, &subset(&reference, channels)).unwrap();
+                let theirs = idiff_verdict(&fo, &fr, &options_for(*tol)).passes();
+                compared += 1;
+                failing += usize::from(!ours);
+                if ours != theirs {
+                    problems.push(format!("{} {scenario} {channels:?} ({}): ours {ours}, idiff {theirs}", case.name, tol.name()));
+                }
+            }
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+    eprintln!("{compared} comparisons, {failing} of them failing ones, {backend_outputs} backend outputs");
+    assert!(compared >= 30, "only {compared} comparisons ran");
+    assert!(failing >= 10 && compared - failing >= 10, "{failing} failing of {compared}: both verdicts must be exercised");
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
