@@ -223,6 +223,19 @@ fn judge_image(case: &Case, e: &Expectation, out: &RecordImage, reference: Optio
             c.values[i] = adm.get(spec.word).copied().unwrap_or(0);
         }
     }
+    for (i, state) in pixel_state.iter_mut().enumerate() {
+        let worst = closest
+            .channels
+            .iter()
+            .zip(&out.channels)
+            .map(|(e, g)| (f32::from_bits(e.values[i]) as f64 - f32::from_bits(g.values[i]) as f64).abs())
+            .fold(0.0, f64::max);
+        if worst > o.fail {
+            *state = 3;
+        } else if worst > 0.0 && *state == 0 {
+            *state = 2;
+        }
+    }
     let c = compare::compare(out, &closest, o);
     let mut v = LaunchVerdict { pass: c.verdict.passes(), detail: c.summary(), max_error: c.max_error / o.fail.max(1e-30), pixel_state };
     if v.pass {

@@ -54,7 +54,7 @@ pub fn table(results: &[CaseResult], backends: &[BackendKind]) -> String {
                     Status::Pass => format!("pass {}", ratio_text(r.max_error)),
                     Status::Fail => {
                         failures.push(format!("{name} on {}: {}", b.name(), r.detail));
-                        format!("FAIL {}", ratio_text(r.max_error))
+                        format!("FAIL {}", ratio_text(r.max_error.filter(|e| *e > 0.0)))
                     }
                     Status::Skip => {
                         *skip_reasons.entry((*b, r.detail.clone())).or_default() += 1;
@@ -211,11 +211,11 @@ fn preview_rgb(img: &RecordImage) -> Vec<[u8; 3]> {
         .collect()
 }
 
-/// Writes a PNG thumbnail of `img`: upscaled (nearest) to at least 96 pixels, at most 256.
+/// Writes a PNG thumbnail of `img`: upscaled (nearest, whole factors) towards 160 pixels, at most 256.
 pub fn write_png(path: &Path, img: &RecordImage) -> Result<(), String> {
     let rgb = preview_rgb(img);
     let (w, h) = (img.width.max(1), img.height.max(1));
-    let scale = (96.0 / w.max(h) as f64).clamp(1.0, 16.0).floor() as usize;
+    let scale = (160.0 / w.max(h) as f64).clamp(1.0, 16.0).floor() as usize;
     let (mut tw, mut th) = (w * scale, h * scale);
     let shrink = (tw.max(th) as f64 / 256.0).max(1.0);
     tw = ((tw as f64 / shrink) as usize).max(1);
@@ -305,7 +305,7 @@ pub fn write_out_dir(dir: &Path, results: &[CaseResult], backends: &[BackendKind
                 "<span class=\"{}\">{}</span> {}<br>",
                 r.status.name(),
                 if r.status == Status::Fail { "FAIL" } else { r.status.name() },
-                ratio_text(r.max_error)
+                ratio_text(r.max_error.filter(|e| *e > 0.0 || r.status == Status::Pass))
             );
             for (k, l) in r.launches.iter().enumerate() {
                 if let Some(o) = &l.output {
