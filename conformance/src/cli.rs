@@ -60,7 +60,10 @@ pub fn parse_backends(s: &str) -> Result<Vec<BackendKind>, String> {
         return Ok(BackendKind::ALL.to_vec());
     }
     s.split(',')
-        .map(|n| BackendKind::from_name(n.trim()).ok_or_else(|| format!("unknown backend `{n}`: expected cpu, wgpu, vulkan or all")))
+        .map(|n| {
+            BackendKind::from_name(n.trim())
+                .ok_or_else(|| format!("unknown backend `{n}`: expected cpu, wgpu, vulkan or all"))
+        })
         .collect()
 }
 
@@ -68,7 +71,11 @@ pub fn parse_backends(s: &str) -> Result<Vec<BackendKind>, String> {
 pub fn selected(args: &ConformanceArgs) -> Vec<Case> {
     catalog::all()
         .into_iter()
-        .filter(|c| args.filter.as_deref().is_none_or(|f| runner::filter_matches(f, &c.name)))
+        .filter(|c| {
+            args.filter
+                .as_deref()
+                .is_none_or(|f| runner::filter_matches(f, &c.name))
+        })
         .collect()
 }
 
@@ -95,7 +102,10 @@ pub fn run(args: &ConformanceArgs) -> i32 {
         if args.rules {
             print!("{}", report::rules_text(&cases));
         } else if args.json {
-            println!("{}", serde_json::to_string_pretty(&report::list_json(&cases)).unwrap_or_default());
+            println!(
+                "{}",
+                serde_json::to_string_pretty(&report::list_json(&cases)).unwrap_or_default()
+            );
         } else {
             print!("{}", report::list_text(&cases));
         }
@@ -105,7 +115,10 @@ pub fn run(args: &ConformanceArgs) -> i32 {
         eprintln!("optik conformance: no case matches the filter");
         return 2;
     }
-    let references = args.references.clone().unwrap_or_else(runner::default_references_dir);
+    let references = args
+        .references
+        .clone()
+        .unwrap_or_else(runner::default_references_dir);
     let devices = Devices::open(&backends);
     let quiet = args.json;
     let results = runner::run_all(&cases, &devices, Some(&references), |r| {
@@ -114,7 +127,10 @@ pub fn run(args: &ConformanceArgs) -> i32 {
         }
     });
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report::json(&results)).unwrap_or_default());
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report::json(&results)).unwrap_or_default()
+        );
     } else {
         print!("{}", report::table(&results, &backends));
     }
@@ -143,11 +159,16 @@ pub fn bless(args: &ConformanceArgs) -> i32 {
             return 2;
         }
     };
-    let dir = args.references.clone().unwrap_or_else(runner::default_references_dir);
+    let dir = args
+        .references
+        .clone()
+        .unwrap_or_else(runner::default_references_dir);
     let devices = Devices::open(&backends);
     let available = devices.available();
     if available.is_empty() {
-        eprintln!("optik conformance bless: no backend can run here, so nothing can agree with the oracle; nothing written");
+        eprintln!(
+            "optik conformance bless: no backend can run here, so nothing can agree with the oracle; nothing written"
+        );
         for (k, d) in devices.iter() {
             if let Err(reason) = d {
                 eprintln!("  {k}: {reason}");
@@ -159,7 +180,11 @@ pub fn bless(args: &ConformanceArgs) -> i32 {
     for case in selected(args) {
         let expected = runner::expectations(&case);
         let Ok(es) = &expected else {
-            eprintln!("{}: not blessed: the oracle cannot evaluate it: {}", case.name, expected.err().unwrap_or_default());
+            eprintln!(
+                "{}: not blessed: the oracle cannot evaluate it: {}",
+                case.name,
+                expected.err().unwrap_or_default()
+            );
             failures += 1;
             continue;
         };
@@ -172,15 +197,24 @@ pub fn bless(args: &ConformanceArgs) -> i32 {
             match r.status {
                 Status::Pass => {
                     if case.backend_specific.iter().any(|(k, _)| *k == kind) {
-                        own.push((kind, r.launches.iter().filter_map(|l| l.output.clone()).collect()));
+                        own.push((
+                            kind,
+                            r.launches.iter().filter_map(|l| l.output.clone()).collect(),
+                        ));
                     }
                 }
                 Status::Skip => {
-                    eprintln!("{}: not blessed: {kind} skipped it ({})", case.name, r.detail);
+                    eprintln!(
+                        "{}: not blessed: {kind} skipped it ({})",
+                        case.name, r.detail
+                    );
                     agree = false;
                 }
                 Status::Fail => {
-                    eprintln!("{}: not blessed: {kind} disagrees with the oracle: {}", case.name, r.detail);
+                    eprintln!(
+                        "{}: not blessed: {kind} disagrees with the oracle: {}",
+                        case.name, r.detail
+                    );
                     agree = false;
                 }
             }
@@ -202,7 +236,10 @@ pub fn bless(args: &ConformanceArgs) -> i32 {
         }
         for (kind, images) in own {
             for (k, image) in images.into_iter().enumerate() {
-                written.push((dir.join(format!("{}.{}.exr", case.launch_stem(k), kind.name())), image));
+                written.push((
+                    dir.join(format!("{}.{}.exr", case.launch_stem(k), kind.name())),
+                    image,
+                ));
             }
         }
         for (path, image) in written {

@@ -206,7 +206,8 @@ fn value(kind: ChannelKind, bits: u32) -> f64 {
 }
 
 /// Whether one difference exceeds a threshold pair, as idiff decides it:
-/// `!(f <= abs) && !(rel <= relative)`.
+/// `!(f <= abs) && !(rel <= relative)` (written so, as in idiff, that a NaN difference exceeds).
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 fn exceeds(f: f64, rel: f64, abs: f64, relative: f64) -> bool {
     !(f <= abs) && !(rel <= relative)
 }

@@ -3,13 +3,14 @@
 //! back. Every object is destroyed afterwards, so one device serves the whole catalog.
 
 use crate::case::{Case, ParamWord, SbtEntry};
-use crate::scene::{GeomInput, Gas, Node, SbtOffsets, TransformKind, encode_vertex};
+use crate::scene::{Gas, GeomInput, Node, SbtOffsets, TransformKind, encode_vertex};
 use optik::{
-    AccelBuildOptions, BufferView, BuildFlags, BuildInput, BuildOperation, CurveArray, CustomPrimitiveArray, Device,
-    OpacityMicromapArrayDesc, OpacityMicromapDesc, TriangleOpacityMicromap,
-    Error, IndexFormat, Instance, InstanceArray, LaunchSize, ModuleCompileOptions, ProgramGroupDesc, ProgramRef,
-    ProgramSource, Resource, SbtIndexOffsets, SbtRecord, SbtRegion, ShaderBindingTable, SphereArray, TransformDesc,
-    TraversableHandle, TriangleArray, TriangleIndices,
+    AccelBuildOptions, BufferView, BuildFlags, BuildInput, BuildOperation, CurveArray,
+    CustomPrimitiveArray, Device, Error, IndexFormat, Instance, InstanceArray, LaunchSize,
+    ModuleCompileOptions, OpacityMicromapArrayDesc, OpacityMicromapDesc, ProgramGroupDesc,
+    ProgramRef, ProgramSource, Resource, SbtIndexOffsets, SbtRecord, SbtRegion, ShaderBindingTable,
+    SphereArray, TransformDesc, TraversableHandle, TriangleArray, TriangleIndices,
+    TriangleOpacityMicromap,
 };
 
 /// Objects created for one case, destroyed when dropped (errors on destruction are ignored:
@@ -70,14 +71,24 @@ fn f32_bytes(values: impl IntoIterator<Item = f32>) -> Vec<u8> {
 fn strided(elements: &[Vec<u8>], stride: u32) -> Vec<u8> {
     let size = elements.first().map_or(0, |e| e.len());
     let stride = if stride == 0 { size } else { stride as usize };
-    let mut out = vec![0u8; if elements.is_empty() { 0 } else { stride * (elements.len() - 1) + size }];
+    let mut out = vec![
+        0u8;
+        if elements.is_empty() {
+            0
+        } else {
+            stride * (elements.len() - 1) + size
+        }
+    ];
     for (i, e) in elements.iter().enumerate() {
         out[i * stride..i * stride + e.len()].copy_from_slice(e);
     }
     out
 }
 
-fn sbt_offsets(o: &Option<SbtOffsets>, owned: &mut Owned<'_>) -> Result<Option<SbtIndexOffsets>, Error> {
+fn sbt_offsets(
+    o: &Option<SbtOffsets>,
+    owned: &mut Owned<'_>,
+) -> Result<Option<SbtIndexOffsets>, Error> {
     let Some(o) = o else { return Ok(None) };
     let elements: Vec<Vec<u8>> = o
         .offsets
@@ -89,7 +100,11 @@ fn sbt_offsets(o: &Option<SbtOffsets>, owned: &mut Owned<'_>) -> Result<Option<S
         })
         .collect();
     let buffer = owned.buffer(&strided(&elements, o.stride))?;
-    Ok(Some(SbtIndexOffsets { buffer: BufferView::new(buffer), size_in_bytes: o.size_in_bytes, stride: o.stride }))
+    Ok(Some(SbtIndexOffsets {
+        buffer: BufferView::new(buffer),
+        size_in_bytes: o.size_in_bytes,
+        stride: o.stride,
+    }))
 }
 
 fn build_input(input: &GeomInput, owned: &mut Owned<'_>) -> Result<BuildInput, Error> {
@@ -97,16 +112,23 @@ fn build_input(input: &GeomInput, owned: &mut Owned<'_>) -> Result<BuildInput, E
         GeomInput::Triangles(t) => {
             let mut vertex_buffers = Vec::new();
             for key in &t.keys {
-                let elements: Vec<Vec<u8>> = key.iter().map(|v| encode_vertex(t.format, *v)).collect();
-                vertex_buffers.push(BufferView::new(owned.buffer(&strided(&elements, t.vertex_stride))?));
+                let elements: Vec<Vec<u8>> =
+                    key.iter().map(|v| encode_vertex(t.format, *v)).collect();
+                vertex_buffers.push(BufferView::new(
+                    owned.buffer(&strided(&elements, t.vertex_stride))?,
+                ));
             }
             let indices = match &t.indices {
                 Some((tris, format, stride)) => {
                     let elements: Vec<Vec<u8>> = tris
                         .iter()
                         .map(|tri| match format {
-                            IndexFormat::U16x3 => tri.iter().flat_map(|i| (*i as u16).to_le_bytes()).collect(),
-                            IndexFormat::U32x3 => tri.iter().flat_map(|i| i.to_le_bytes()).collect(),
+                            IndexFormat::U16x3 => {
+                                tri.iter().flat_map(|i| (*i as u16).to_le_bytes()).collect()
+                            }
+                            IndexFormat::U32x3 => {
+                                tri.iter().flat_map(|i| i.to_le_bytes()).collect()
+                            }
                         })
                         .collect();
                     let buffer = owned.buffer(&strided(&elements, *stride))?;
@@ -120,20 +142,27 @@ fn build_input(input: &GeomInput, owned: &mut Owned<'_>) -> Result<BuildInput, E
                 None => None,
             };
             let pre_transform = match &t.pre_transform {
-                Some(m) => Some(BufferView::new(owned.buffer(&f32_bytes(m.iter().copied()))?)),
+                Some(m) => Some(BufferView::new(
+                    owned.buffer(&f32_bytes(m.iter().copied()))?,
+                )),
                 None => None,
             };
             let opacity_micromap = match &t.omm {
                 Some(omm) => {
                     let desc = OpacityMicromapArrayDesc {
                         micromaps: (0..omm.states.len())
-                            .map(|k| OpacityMicromapDesc { byte_offset: k as u32, subdivision_level: 0, format: omm.format })
+                            .map(|k| OpacityMicromapDesc {
+                                byte_offset: k as u32,
+                                subdivision_level: 0,
+                                format: omm.format,
+                            })
                             .collect(),
                         data: omm.states.clone(),
                     };
                     let array = owned.device.create_opacity_micromap_array(&desc)?;
                     owned.micromaps.push(array);
-                    let indices: Vec<u8> = omm.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+                    let indices: Vec<u8> =
+                        omm.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
                     let buffer = owned.buffer(&indices)?;
                     Some(TriangleOpacityMicromap {
                         array,
@@ -161,7 +190,9 @@ fn build_input(input: &GeomInput, owned: &mut Owned<'_>) -> Result<BuildInput, E
         GeomInput::Aabbs(a) => {
             let mut aabb_buffers = Vec::new();
             for key in &a.keys {
-                aabb_buffers.push(BufferView::new(owned.buffer(&f32_bytes(key.iter().flatten().copied()))?));
+                aabb_buffers.push(BufferView::new(
+                    owned.buffer(&f32_bytes(key.iter().flatten().copied()))?,
+                ));
             }
             BuildInput::CustomPrimitives(CustomPrimitiveArray {
                 aabb_buffers,
@@ -175,11 +206,15 @@ fn build_input(input: &GeomInput, owned: &mut Owned<'_>) -> Result<BuildInput, E
         GeomInput::Spheres(s) => {
             let mut vertex_buffers = Vec::new();
             for key in &s.centres {
-                vertex_buffers.push(BufferView::new(owned.buffer(&f32_bytes(key.iter().flatten().copied()))?));
+                vertex_buffers.push(BufferView::new(
+                    owned.buffer(&f32_bytes(key.iter().flatten().copied()))?,
+                ));
             }
             let mut radius_buffers = Vec::new();
             for key in &s.radii {
-                radius_buffers.push(BufferView::new(owned.buffer(&f32_bytes(key.iter().copied()))?));
+                radius_buffers.push(BufferView::new(
+                    owned.buffer(&f32_bytes(key.iter().copied()))?,
+                ));
             }
             BuildInput::Spheres(SphereArray {
                 vertex_buffers,
@@ -196,11 +231,15 @@ fn build_input(input: &GeomInput, owned: &mut Owned<'_>) -> Result<BuildInput, E
         GeomInput::Curves(c) => {
             let mut vertex_buffers = Vec::new();
             for key in &c.points {
-                vertex_buffers.push(BufferView::new(owned.buffer(&f32_bytes(key.iter().flatten().copied()))?));
+                vertex_buffers.push(BufferView::new(
+                    owned.buffer(&f32_bytes(key.iter().flatten().copied()))?,
+                ));
             }
             let mut width_buffers = Vec::new();
             for key in &c.radii {
-                width_buffers.push(BufferView::new(owned.buffer(&f32_bytes(key.iter().copied()))?));
+                width_buffers.push(BufferView::new(
+                    owned.buffer(&f32_bytes(key.iter().copied()))?,
+                ));
             }
             let index_buffer = BufferView::new(owned.words(&c.segments)?);
             BuildInput::Curves(CurveArray {
@@ -222,15 +261,33 @@ fn build_input(input: &GeomInput, owned: &mut Owned<'_>) -> Result<BuildInput, E
 }
 
 fn build_gas(device: &dyn Device, gas: &Gas, owned: &mut Owned<'_>) -> Result<optik::Accel, Error> {
-    let inputs = gas.inputs.iter().map(|i| build_input(i, owned)).collect::<Result<Vec<_>, _>>()?;
-    let mut options = AccelBuildOptions { flags: gas.build_flags, operation: BuildOperation::Build, motion: gas.motion };
+    let inputs = gas
+        .inputs
+        .iter()
+        .map(|i| build_input(i, owned))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut options = AccelBuildOptions {
+        flags: gas.build_flags,
+        operation: BuildOperation::Build,
+        motion: gas.motion,
+    };
     let accel = match &gas.update_from {
         Some(first) => {
-            let first = first.iter().map(|i| build_input(i, owned)).collect::<Result<Vec<_>, _>>()?;
+            let first = first
+                .iter()
+                .map(|i| build_input(i, owned))
+                .collect::<Result<Vec<_>, _>>()?;
             options.flags |= BuildFlags::ALLOW_UPDATE;
             let accel = device.accel_build(&options, &first)?;
             owned.accels.push(accel);
-            device.accel_update(accel, &AccelBuildOptions { operation: BuildOperation::Update, ..options }, &inputs)?;
+            device.accel_update(
+                accel,
+                &AccelBuildOptions {
+                    operation: BuildOperation::Update,
+                    ..options
+                },
+                &inputs,
+            )?;
             accel
         }
         None => {
@@ -248,7 +305,11 @@ fn build_gas(device: &dyn Device, gas: &Gas, owned: &mut Owned<'_>) -> Result<op
 }
 
 /// Builds the scene; returns the traversable handle of every node.
-fn build_scene(device: &dyn Device, case: &Case, owned: &mut Owned<'_>) -> Result<Vec<TraversableHandle>, Error> {
+fn build_scene(
+    device: &dyn Device,
+    case: &Case,
+    owned: &mut Owned<'_>,
+) -> Result<Vec<TraversableHandle>, Error> {
     let mut handles: Vec<TraversableHandle> = Vec::new();
     for node in &case.scene.nodes {
         let accel = match node {
@@ -282,15 +343,22 @@ fn build_scene(device: &dyn Device, case: &Case, owned: &mut Owned<'_>) -> Resul
                         child,
                         object_to_world: *m,
                         world_to_object: optik::semantics::affine::inverse(m).ok_or_else(|| {
-                            Error::invalid(format!("case {}: a static transform has no inverse", case.name))
+                            Error::invalid(format!(
+                                "case {}: a static transform has no inverse",
+                                case.name
+                            ))
                         })?,
                     },
-                    TransformKind::MatrixMotion(motion, keys) => {
-                        TransformDesc::MatrixMotion { child, motion: *motion, keys: keys.clone() }
-                    }
-                    TransformKind::SrtMotion(motion, keys) => {
-                        TransformDesc::SrtMotion { child, motion: *motion, keys: keys.clone() }
-                    }
+                    TransformKind::MatrixMotion(motion, keys) => TransformDesc::MatrixMotion {
+                        child,
+                        motion: *motion,
+                        keys: keys.clone(),
+                    },
+                    TransformKind::SrtMotion(motion, keys) => TransformDesc::SrtMotion {
+                        child,
+                        motion: *motion,
+                        keys: keys.clone(),
+                    },
                 };
                 let accel = device.create_transform(&desc)?;
                 owned.accels.push(accel);
@@ -316,14 +384,21 @@ pub fn run_case(device: &dyn Device, case: &Case) -> Result<Vec<Vec<u32>>, Error
     let handles = build_scene(device, case, &mut owned)?;
     let p = &case.pipeline;
     let source = ProgramSource::new(format!("{}.wgsl", case.name), p.wgsl.clone());
-    let (module, _log) = device.create_module(&ModuleCompileOptions::default(), &p.compile, &source)?;
+    let (module, _log) =
+        device.create_module(&ModuleCompileOptions::default(), &p.compile, &source)?;
     owned.modules.push(module);
     let pref = |name: &Option<String>| name.as_ref().map(|n| ProgramRef::new(module, n.clone()));
 
     // Program groups, in one call: raygen, exception, miss, hit, callables.
-    let mut descs = vec![ProgramGroupDesc::Raygen(ProgramRef::new(module, p.raygen.clone()))];
+    let mut descs = vec![ProgramGroupDesc::Raygen(ProgramRef::new(
+        module,
+        p.raygen.clone(),
+    ))];
     if let Some(ex) = &p.exception {
-        descs.push(ProgramGroupDesc::Exception(ProgramRef::new(module, ex.clone())));
+        descs.push(ProgramGroupDesc::Exception(ProgramRef::new(
+            module,
+            ex.clone(),
+        )));
     }
     let miss_base = descs.len();
     descs.extend(p.miss.iter().map(|m| ProgramGroupDesc::Miss(pref(m))));
@@ -335,11 +410,10 @@ pub fn run_case(device: &dyn Device, case: &Case) -> Result<Vec<Vec<u32>>, Error
         builtin: h.builtin.unwrap_or(optik::BuiltinIntersector::Triangle),
     }));
     let call_base = descs.len();
-    descs.extend(
-        p.callables
-            .iter()
-            .map(|c| ProgramGroupDesc::Callables { direct: pref(&c.direct), continuation: pref(&c.continuation) }),
-    );
+    descs.extend(p.callables.iter().map(|c| ProgramGroupDesc::Callables {
+        direct: pref(&c.direct),
+        continuation: pref(&c.continuation),
+    }));
     let groups = device.create_program_groups(&descs)?;
     owned.groups.extend(groups.iter().copied());
     let pipeline = device.create_pipeline(&p.compile, &p.link, &groups)?;
@@ -359,14 +433,20 @@ pub fn run_case(device: &dyn Device, case: &Case) -> Result<Vec<Vec<u32>>, Error
     if p.exception.is_some() {
         bytes.extend(record(groups[1], &sbt.exception_data)?);
     }
-    let region = |entries: &[SbtEntry], base: usize, bytes: &mut Vec<u8>| -> Result<Option<(u64, u32)>, Error> {
+    let region = |entries: &[SbtEntry],
+                  base: usize,
+                  bytes: &mut Vec<u8>|
+     -> Result<Option<(u64, u32)>, Error> {
         if entries.is_empty() {
             return Ok(None);
         }
         let offset = bytes.len() as u64;
         for e in entries {
             let group = groups.get(base + e.group).copied().ok_or_else(|| {
-                Error::invalid(format!("case {}: an SBT record names group {} which does not exist", case.name, e.group))
+                Error::invalid(format!(
+                    "case {}: an SBT record names group {} which does not exist",
+                    case.name, e.group
+                ))
             })?;
             bytes.extend(record(group, &e.data)?);
         }
@@ -377,11 +457,22 @@ pub fn run_case(device: &dyn Device, case: &Case) -> Result<Vec<Vec<u32>>, Error
     let callables = region(&sbt.callables, call_base, &mut bytes)?;
     let sbt_buffer = owned.buffer(&bytes)?;
     let as_region = |r: Option<(u64, u32)>| {
-        r.map(|(offset, count)| SbtRegion { buffer: sbt_buffer, offset, stride: stride as u32, count })
+        r.map(|(offset, count)| SbtRegion {
+            buffer: sbt_buffer,
+            offset,
+            stride: stride as u32,
+            count,
+        })
     };
     let table = ShaderBindingTable {
-        raygen: SbtRecord { buffer: sbt_buffer, offset: 0 },
-        exception: p.exception.as_ref().map(|_| SbtRecord { buffer: sbt_buffer, offset: exception_offset as u64 }),
+        raygen: SbtRecord {
+            buffer: sbt_buffer,
+            offset: 0,
+        },
+        exception: p.exception.as_ref().map(|_| SbtRecord {
+            buffer: sbt_buffer,
+            offset: exception_offset as u64,
+        }),
         miss: as_region(miss),
         hitgroup: as_region(hit),
         callables: as_region(callables),
@@ -410,14 +501,28 @@ pub fn run_case(device: &dyn Device, case: &Case) -> Result<Vec<Vec<u32>>, Error
                 record_buffer = Some((buffer, b.words.len()));
             }
         }
-        let (buffer, len) = record_buffer
-            .ok_or_else(|| Error::invalid(format!("case {}: no record buffer at binding {}", case.name, case.record.binding)))?;
+        let (buffer, len) = record_buffer.ok_or_else(|| {
+            Error::invalid(format!(
+                "case {}: no record buffer at binding {}",
+                case.name, case.record.binding
+            ))
+        })?;
         let [w, h, d] = launch.dims;
-        device.launch(pipeline, bytemuck::cast_slice(&params), &resources, &table, LaunchSize::new(w, h, d))?;
+        device.launch(
+            pipeline,
+            bytemuck::cast_slice(&params),
+            &resources,
+            &table,
+            LaunchSize::new(w, h, d),
+        )?;
         device.synchronize()?;
         let mut out = vec![0u8; len * 4];
         device.read_buffer(buffer, 0, &mut out)?;
-        results.push(out.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect());
+        results.push(
+            out.chunks_exact(4)
+                .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                .collect(),
+        );
     }
     Ok(results)
 }

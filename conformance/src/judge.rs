@@ -23,7 +23,9 @@ pub fn image_from_words(case: &Case, width: usize, height: usize, words: &[u32])
             .map(|c| Channel {
                 name: c.name.clone(),
                 kind: c.kind,
-                values: (0..n).map(|i| words.get(i * stride + c.word).copied().unwrap_or(0)).collect(),
+                values: (0..n)
+                    .map(|i| words.get(i * stride + c.word).copied().unwrap_or(0))
+                    .collect(),
             })
             .collect(),
     }
@@ -42,7 +44,9 @@ pub fn canonical_image(case: &Case, e: &Expectation) -> RecordImage {
             .map(|c| Channel {
                 name: c.name.clone(),
                 kind: c.kind,
-                values: (0..n).map(|i| e.admissible[i][0].get(c.word).copied().unwrap_or(0)).collect(),
+                values: (0..n)
+                    .map(|i| e.admissible[i][0].get(c.word).copied().unwrap_or(0))
+                    .collect(),
             })
             .collect(),
     }
@@ -82,7 +86,13 @@ fn describe_pixel(case: &Case, out: &RecordImage, i: usize, expected: &[u32]) ->
                 ChannelKind::Uint => format!("{v}"),
                 ChannelKind::Float => format!("{:e}", f32::from_bits(v)),
             };
-            diffs.push(format!("{} {} (expected {}, {})", spec.name, fmt(got), fmt(want), spec.tolerance.name()));
+            diffs.push(format!(
+                "{} {} (expected {}, {})",
+                spec.name,
+                fmt(got),
+                fmt(want),
+                spec.tolerance.name()
+            ));
         }
     }
     format!("({x}, {y}): {}", diffs.join(", "))
@@ -90,12 +100,25 @@ fn describe_pixel(case: &Case, out: &RecordImage, i: usize, expected: &[u32]) ->
 
 /// Judges one launch's output image against the oracle's expectation and, if given, the
 /// reference image (checked only where the oracle is unambiguous).
-pub fn judge(case: &Case, e: &Expectation, out: &RecordImage, reference: Option<&RecordImage>) -> LaunchVerdict {
+pub fn judge(
+    case: &Case,
+    e: &Expectation,
+    out: &RecordImage,
+    reference: Option<&RecordImage>,
+) -> LaunchVerdict {
     let n = out.pixel_count();
-    let mut v = LaunchVerdict { pass: true, detail: String::new(), max_error: 0.0, pixel_state: vec![0; n] };
+    let mut v = LaunchVerdict {
+        pass: true,
+        detail: String::new(),
+        max_error: 0.0,
+        pixel_state: vec![0; n],
+    };
     if n != e.admissible.len() || out.width != e.width {
         v.pass = false;
-        v.detail = format!("output is {}×{}, the oracle expects {}×{}", out.width, out.height, e.width, e.height);
+        v.detail = format!(
+            "output is {}×{}, the oracle expects {}×{}",
+            out.width, out.height, e.width, e.height
+        );
         return v;
     }
     if let Err(g) = compare::nan_inf_gate(out) {
@@ -113,11 +136,19 @@ pub fn judge(case: &Case, e: &Expectation, out: &RecordImage, reference: Option<
         let mut best: Option<(usize, f64)> = None;
         for (k, adm) in e.admissible[i].iter().enumerate() {
             let mut worst: f64 = 0.0;
-            let ok = out.channels.iter().zip(&case.record.channels).all(|(c, spec)| {
-                let (ok, ratio) = spec.tolerance.check(spec.kind, adm.get(spec.word).copied().unwrap_or(0), c.values[i]);
-                worst = worst.max(ratio);
-                ok
-            });
+            let ok = out
+                .channels
+                .iter()
+                .zip(&case.record.channels)
+                .all(|(c, spec)| {
+                    let (ok, ratio) = spec.tolerance.check(
+                        spec.kind,
+                        adm.get(spec.word).copied().unwrap_or(0),
+                        c.values[i],
+                    );
+                    worst = worst.max(ratio);
+                    ok
+                });
             if ok && best.is_none_or(|(_, w)| worst < w) {
                 best = Some((k, worst));
             }
@@ -138,47 +169,75 @@ pub fn judge(case: &Case, e: &Expectation, out: &RecordImage, reference: Option<
                 v.pixel_state[i] = 3;
                 if failures.len() < 4 {
                     let amb = if e.admissible[i].len() > 1 {
-                        format!(" [ambiguous: {}; {} admissible]", e.reasons[i].join(", "), e.admissible[i].len())
+                        format!(
+                            " [ambiguous: {}; {} admissible]",
+                            e.reasons[i].join(", "),
+                            e.admissible[i].len()
+                        )
                     } else {
                         String::new()
                     };
-                    failures.push(format!("{}{amb}", describe_pixel(case, out, i, &e.admissible[i][0])));
+                    failures.push(format!(
+                        "{}{amb}",
+                        describe_pixel(case, out, i, &e.admissible[i][0])
+                    ));
                 }
             }
         }
     }
     if failed > 0 {
         v.pass = false;
-        v.detail = format!("{failed} of {n} records differ from the oracle: {}", failures.join("; "));
+        v.detail = format!(
+            "{failed} of {n} records differ from the oracle: {}",
+            failures.join("; ")
+        );
         return v;
     }
-    if let Some(r) = reference {
-        if let Some(problem) = against_reference(case, e, out, r) {
-            v.pass = false;
-            v.detail = problem;
-            return v;
-        }
+    if let Some(problem) = reference.and_then(|r| against_reference(case, e, out, r)) {
+        v.pass = false;
+        v.detail = problem;
+        return v;
     }
     let amb = e.ambiguous_count();
     v.detail = format!(
         "{n} records match{}",
-        if amb > 0 { format!(" ({amb} ambiguous)") } else { String::new() }
+        if amb > 0 {
+            format!(" ({amb} ambiguous)")
+        } else {
+            String::new()
+        }
     );
     v
 }
 
 /// Compares with the reference where the oracle admits one record; `Some(problem)` on a
 /// difference beyond tolerance (a stale reference or a changed oracle).
-fn against_reference(case: &Case, e: &Expectation, out: &RecordImage, r: &RecordImage) -> Option<String> {
+fn against_reference(
+    case: &Case,
+    e: &Expectation,
+    out: &RecordImage,
+    r: &RecordImage,
+) -> Option<String> {
     for spec in &case.record.channels {
         let (Some(oc), Some(rc)) = (out.channel(&spec.name), r.channel(&spec.name)) else {
-            return Some(format!("the reference lacks channel `{}`: re-bless it", spec.name));
+            return Some(format!(
+                "the reference lacks channel `{}`: re-bless it",
+                spec.name
+            ));
         };
         if rc.values.len() != oc.values.len() {
-            return Some(format!("the reference is {}×{}: re-bless it", r.width, r.height));
+            return Some(format!(
+                "the reference is {}×{}: re-bless it",
+                r.width, r.height
+            ));
         }
         for i in 0..oc.values.len() {
-            if e.admissible[i].len() == 1 && !spec.tolerance.check(spec.kind, rc.values[i], oc.values[i]).0 {
+            if e.admissible[i].len() == 1
+                && !spec
+                    .tolerance
+                    .check(spec.kind, rc.values[i], oc.values[i])
+                    .0
+            {
                 let (x, y) = out.position(i);
                 return Some(format!(
                     "matches the oracle but not the reference at ({x}, {y}) `{}`: the reference is stale, re-bless",
@@ -192,11 +251,17 @@ fn against_reference(case: &Case, e: &Expectation, out: &RecordImage, r: &Record
 
 /// Image judgement: per pixel, the admissible value closest to the output, then idiff's
 /// thresholds (after the NaN/Inf gate, already passed).
-fn judge_image(case: &Case, e: &Expectation, out: &RecordImage, reference: Option<&RecordImage>, o: &IdiffOptions) -> LaunchVerdict {
+fn judge_image(
+    case: &Case,
+    e: &Expectation,
+    out: &RecordImage,
+    reference: Option<&RecordImage>,
+    o: &IdiffOptions,
+) -> LaunchVerdict {
     let n = out.pixel_count();
     let mut closest = canonical_image(case, e);
     let mut pixel_state = vec![0u8; n];
-    for i in 0..n {
+    for (i, state) in pixel_state.iter_mut().enumerate() {
         if e.admissible[i].len() < 2 {
             continue;
         }
@@ -217,7 +282,7 @@ fn judge_image(case: &Case, e: &Expectation, out: &RecordImage, reference: Optio
             .min_by(|a, b| dist(a.1).total_cmp(&dist(b.1)))
             .expect("at least one admissible record");
         if k > 0 {
-            pixel_state[i] = 1;
+            *state = 1;
         }
         for (spec, c) in case.record.channels.iter().zip(closest.channels.iter_mut()) {
             c.values[i] = adm.get(spec.word).copied().unwrap_or(0);
@@ -228,7 +293,9 @@ fn judge_image(case: &Case, e: &Expectation, out: &RecordImage, reference: Optio
             .channels
             .iter()
             .zip(&out.channels)
-            .map(|(e, g)| (f32::from_bits(e.values[i]) as f64 - f32::from_bits(g.values[i]) as f64).abs())
+            .map(|(e, g)| {
+                (f32::from_bits(e.values[i]) as f64 - f32::from_bits(g.values[i]) as f64).abs()
+            })
             .fold(0.0, f64::max);
         if worst > o.fail {
             *state = 3;
@@ -237,14 +304,20 @@ fn judge_image(case: &Case, e: &Expectation, out: &RecordImage, reference: Optio
         }
     }
     let c = compare::compare(out, &closest, o);
-    let mut v = LaunchVerdict { pass: c.verdict.passes(), detail: c.summary(), max_error: c.max_error / o.fail.max(1e-30), pixel_state };
-    if v.pass {
-        if let Some(r) = reference {
-            let cr = compare::compare(out, r, o);
-            if !cr.verdict.passes() {
-                v.pass = false;
-                v.detail = format!("matches the oracle but not the reference ({}): re-bless", cr.summary());
-            }
+    let mut v = LaunchVerdict {
+        pass: c.verdict.passes(),
+        detail: c.summary(),
+        max_error: c.max_error / o.fail.max(1e-30),
+        pixel_state,
+    };
+    if let Some(r) = reference.filter(|_| v.pass) {
+        let cr = compare::compare(out, r, o);
+        if !cr.verdict.passes() {
+            v.pass = false;
+            v.detail = format!(
+                "matches the oracle but not the reference ({}): re-bless",
+                cr.summary()
+            );
         }
     }
     v
@@ -255,7 +328,11 @@ fn judge_image(case: &Case, e: &Expectation, out: &RecordImage, reference: Optio
 pub fn difference_image(v: &LaunchVerdict, width: usize, height: usize) -> RecordImage {
     let mut channels: Vec<Channel> = ["R", "G", "B", "A"]
         .iter()
-        .map(|n| Channel { name: n.to_string(), kind: ChannelKind::Float, values: vec![0; width * height] })
+        .map(|n| Channel {
+            name: n.to_string(),
+            kind: ChannelKind::Float,
+            values: vec![0; width * height],
+        })
         .collect();
     for (i, s) in v.pixel_state.iter().enumerate() {
         let rgb = match s {
@@ -269,5 +346,9 @@ pub fn difference_image(v: &LaunchVerdict, width: usize, height: usize) -> Recor
         }
         channels[3].values[i] = 1.0f32.to_bits();
     }
-    RecordImage { width, height, channels }
+    RecordImage {
+        width,
+        height,
+        channels,
+    }
 }

@@ -375,7 +375,20 @@ fn raygen_std(ctx: &mut Ctx<'_, '_>, offset: bool) -> Flow {
     let mut p = [0u32; 32];
     p[2] = w[14];
     let handle = [ctx.param(0), ctx.param(1)];
-    ctx.trace(handle, origin, [f(4), f(5), f(6)], f(3), f(7), f(8), w[9], w[10], w[11], w[12], w[13], &mut p)?;
+    ctx.trace(
+        handle,
+        origin,
+        [f(4), f(5), f(6)],
+        f(3),
+        f(7),
+        f(8),
+        w[9],
+        w[10],
+        w[11],
+        w[12],
+        w[13],
+        &mut p,
+    )?;
     or_word(ctx, rec::PROGRAMS, p[0] | 1);
     let s = slot(ctx, 0);
     ctx.write(2, s + rec::AH_COUNT, p[1]);
@@ -505,7 +518,12 @@ pub mod ch {
     use crate::tolerance::Tolerance;
 
     fn spec(name: &str, word: usize, kind: ChannelKind, tolerance: Tolerance) -> ChannelSpec {
-        ChannelSpec { name: name.into(), word, kind, tolerance }
+        ChannelSpec {
+            name: name.into(),
+            word,
+            kind,
+            tolerance,
+        }
     }
 
     /// `hit`, exact.
@@ -526,39 +544,84 @@ pub mod ch {
     }
     /// `inst_index`, exact.
     pub fn inst_index() -> ChannelSpec {
-        spec("inst_index", rec::INST_INDEX, ChannelKind::Uint, Tolerance::Exact)
+        spec(
+            "inst_index",
+            rec::INST_INDEX,
+            ChannelKind::Uint,
+            Tolerance::Exact,
+        )
     }
     /// `gas_index`, exact.
     pub fn gas_index() -> ChannelSpec {
-        spec("gas_index", rec::GAS_INDEX, ChannelKind::Uint, Tolerance::Exact)
+        spec(
+            "gas_index",
+            rec::GAS_INDEX,
+            ChannelKind::Uint,
+            Tolerance::Exact,
+        )
     }
     /// `hit_kind`, exact.
     pub fn hit_kind() -> ChannelSpec {
-        spec("hit_kind", rec::HIT_KIND, ChannelKind::Uint, Tolerance::Exact)
+        spec(
+            "hit_kind",
+            rec::HIT_KIND,
+            ChannelKind::Uint,
+            Tolerance::Exact,
+        )
     }
     /// `attr<i>` as a float with a tolerance (barycentrics).
     pub fn attr_f(i: usize, tolerance: Tolerance) -> ChannelSpec {
-        spec(&format!("attr{i}"), rec::ATTR0 + i, ChannelKind::Float, tolerance)
+        spec(
+            &format!("attr{i}"),
+            rec::ATTR0 + i,
+            ChannelKind::Float,
+            tolerance,
+        )
     }
     /// `attr<i>` as an integer, exact.
     pub fn attr_u(i: usize) -> ChannelSpec {
-        spec(&format!("attr{i}"), rec::ATTR0 + i, ChannelKind::Uint, Tolerance::Exact)
+        spec(
+            &format!("attr{i}"),
+            rec::ATTR0 + i,
+            ChannelKind::Uint,
+            Tolerance::Exact,
+        )
     }
     /// `sbt_index`, exact.
     pub fn sbt_index() -> ChannelSpec {
-        spec("sbt_index", rec::SBT_INDEX, ChannelKind::Uint, Tolerance::Exact)
+        spec(
+            "sbt_index",
+            rec::SBT_INDEX,
+            ChannelKind::Uint,
+            Tolerance::Exact,
+        )
     }
     /// `programs`, exact.
     pub fn programs() -> ChannelSpec {
-        spec("programs", rec::PROGRAMS, ChannelKind::Uint, Tolerance::Exact)
+        spec(
+            "programs",
+            rec::PROGRAMS,
+            ChannelKind::Uint,
+            Tolerance::Exact,
+        )
     }
     /// `ah_count`, exact.
     pub fn ah_count() -> ChannelSpec {
-        spec("ah_count", rec::AH_COUNT, ChannelKind::Uint, Tolerance::Exact)
+        spec(
+            "ah_count",
+            rec::AH_COUNT,
+            ChannelKind::Uint,
+            Tolerance::Exact,
+        )
     }
     /// `is_count`, exact.
     pub fn is_count() -> ChannelSpec {
-        spec("is_count", rec::IS_COUNT, ChannelKind::Uint, Tolerance::Exact)
+        spec(
+            "is_count",
+            rec::IS_COUNT,
+            ChannelKind::Uint,
+            Tolerance::Exact,
+        )
     }
     /// `aux`, exact.
     pub fn aux() -> ChannelSpec {
@@ -566,12 +629,21 @@ pub mod ch {
     }
     /// `payload<i>`, exact bits.
     pub fn payload(i: usize) -> ChannelSpec {
-        spec(&format!("payload{i}"), rec::PAYLOAD0 + i, ChannelKind::Uint, Tolerance::Exact)
+        spec(
+            &format!("payload{i}"),
+            rec::PAYLOAD0 + i,
+            ChannelKind::Uint,
+            Tolerance::Exact,
+        )
     }
 }
 
 /// A hit group of the standard kit.
-pub fn hit_group(closest_hit: Option<&str>, any_hit: Option<&str>, intersection: Option<&str>) -> HitGroupDesc {
+pub fn hit_group(
+    closest_hit: Option<&str>,
+    any_hit: Option<&str>,
+    intersection: Option<&str>,
+) -> HitGroupDesc {
     HitGroupDesc {
         closest_hit: closest_hit.map(String::from),
         any_hit: any_hit.map(String::from),
@@ -629,7 +701,14 @@ pub struct StdCase {
 impl StdCase {
     /// A case with one triangle hit group (`closesthit__record`, record data `[0, 0]`), one miss
     /// record and no rays yet.
-    pub fn new(group: Group, name: &str, summary: &str, guards: &[Rule], scene: Scene, root: Option<NodeId>) -> Self {
+    pub fn new(
+        group: Group,
+        name: &str,
+        summary: &str,
+        guards: &[Rule],
+        scene: Scene,
+        root: Option<NodeId>,
+    ) -> Self {
         StdCase {
             name: format!("{}.{name}", group.name()),
             group,
@@ -703,7 +782,11 @@ impl StdCase {
             models.extend(m);
         }
         let flat = |v: &[[f32; 4]]| -> Vec<u32> {
-            if v.is_empty() { vec![0; 4] } else { v.iter().flat_map(|p| p.map(f32::to_bits)).collect() }
+            if v.is_empty() {
+                vec![0; 4]
+            } else {
+                v.iter().flat_map(|p| p.map(f32::to_bits)).collect()
+            }
         };
         let (prims, extra) = (flat(&self.prims), flat(&self.extra));
         let launches = self
@@ -718,10 +801,22 @@ impl StdCase {
                     p
                 },
                 buffers: vec![
-                    BufferInit { binding: 1, words: rays.iter().flat_map(|r| r.words()).collect() },
-                    BufferInit { binding: 2, words: vec![0; rays.len().max(1) * rec::STRIDE] },
-                    BufferInit { binding: 3, words: prims.clone() },
-                    BufferInit { binding: 4, words: extra.clone() },
+                    BufferInit {
+                        binding: 1,
+                        words: rays.iter().flat_map(|r| r.words()).collect(),
+                    },
+                    BufferInit {
+                        binding: 2,
+                        words: vec![0; rays.len().max(1) * rec::STRIDE],
+                    },
+                    BufferInit {
+                        binding: 3,
+                        words: prims.clone(),
+                    },
+                    BufferInit {
+                        binding: 4,
+                        words: extra.clone(),
+                    },
                 ],
             })
             .collect();
@@ -749,11 +844,17 @@ impl StdCase {
                 link: self.link,
             },
             models,
-            sbt: SbtLayout { miss: self.miss_records, hit: self.hit_records, ..Default::default() },
+            sbt: SbtLayout {
+                miss: self.miss_records,
+                hit: self.hit_records,
+                ..Default::default()
+            },
             launches,
             record: RecordSpec {
                 binding: 2,
-                layout: RecordLayout::PerIndex { stride: rec::STRIDE },
+                layout: RecordLayout::PerIndex {
+                    stride: rec::STRIDE,
+                },
                 channels: self.channels,
                 judgement: self.judgement,
             },
@@ -775,15 +876,28 @@ pub fn geometry_channels(t: Tolerance, bary: Option<Tolerance>) -> Vec<ChannelSp
 
 /// A built-in sphere hit group of the standard kit.
 pub fn sphere_group() -> HitGroupDesc {
-    HitGroupDesc { builtin: Some(BuiltinIntersector::Sphere), ..hit_group(Some(prog::CH_PLAIN), None, None) }
+    HitGroupDesc {
+        builtin: Some(BuiltinIntersector::Sphere),
+        ..hit_group(Some(prog::CH_PLAIN), None, None)
+    }
 }
 
 /// A float channel over a custom word (for cases with their own programs).
 pub fn float_channel(name: &str, word: usize, tolerance: Tolerance) -> ChannelSpec {
-    ChannelSpec { name: name.into(), word, kind: ChannelKind::Float, tolerance }
+    ChannelSpec {
+        name: name.into(),
+        word,
+        kind: ChannelKind::Float,
+        tolerance,
+    }
 }
 
 /// An integer channel over a custom word, compared exactly.
 pub fn uint_channel(name: &str, word: usize) -> ChannelSpec {
-    ChannelSpec { name: name.into(), word, kind: ChannelKind::Uint, tolerance: Tolerance::Exact }
+    ChannelSpec {
+        name: name.into(),
+        word,
+        kind: ChannelKind::Uint,
+        tolerance: Tolerance::Exact,
+    }
 }

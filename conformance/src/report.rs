@@ -14,7 +14,7 @@ use std::path::Path;
 fn ratio_text(r: Option<f64>) -> String {
     match r {
         None => String::new(),
-        Some(r) if r == 0.0 => "exact".into(),
+        Some(0.0) => "exact".into(),
         Some(r) => format!("{r:.2}× tol"),
     }
 }
@@ -34,7 +34,9 @@ pub fn table(results: &[CaseResult], backends: &[BackendKind]) -> String {
     };
     for r in results {
         let i = order.iter().position(|n| *n == r.name).unwrap_or(0);
-        rows.entry((i, r.name.clone())).or_default().insert(r.backend, r);
+        rows.entry((i, r.name.clone()))
+            .or_default()
+            .insert(r.backend, r);
     }
     let name_w = order.iter().map(|n| n.len()).max().unwrap_or(4).max(4);
     let col_w = 18;
@@ -125,7 +127,10 @@ pub fn list_json(cases: &[Case]) -> serde_json::Value {
 /// `--list` as text: one line per case.
 pub fn list_text(cases: &[Case]) -> String {
     let w = cases.iter().map(|c| c.name.len()).max().unwrap_or(4);
-    cases.iter().map(|c| format!("{:w$}  {}\n", c.name, c.summary)).collect()
+    cases
+        .iter()
+        .map(|c| format!("{:w$}  {}\n", c.name, c.summary))
+        .collect()
 }
 
 /// The oracle's view of a case: per launch, the ambiguous records with their reasons and
@@ -136,15 +141,31 @@ pub fn explain(case: &Case) -> String {
         Err(e) => s.push_str(&format!("  the oracle cannot evaluate it: {e}\n")),
         Ok(es) => {
             for (k, e) in es.iter().enumerate() {
-                s.push_str(&format!("  launch {k}: {} records, {} ambiguous\n", e.admissible.len(), e.ambiguous_count()));
-                for (i, adm) in e.admissible.iter().enumerate().filter(|(_, a)| a.len() > 1).take(40) {
+                s.push_str(&format!(
+                    "  launch {k}: {} records, {} ambiguous\n",
+                    e.admissible.len(),
+                    e.ambiguous_count()
+                ));
+                for (i, adm) in e
+                    .admissible
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, a)| a.len() > 1)
+                    .take(40)
+                {
                     let fields = |r: &Vec<u32>| {
                         case.record
                             .channels
                             .iter()
                             .map(|c| match c.kind {
-                                ChannelKind::Uint => format!("{}={}", c.name, r.get(c.word).copied().unwrap_or(0)),
-                                ChannelKind::Float => format!("{}={:e}", c.name, f32::from_bits(r.get(c.word).copied().unwrap_or(0))),
+                                ChannelKind::Uint => {
+                                    format!("{}={}", c.name, r.get(c.word).copied().unwrap_or(0))
+                                }
+                                ChannelKind::Float => format!(
+                                    "{}={:e}",
+                                    c.name,
+                                    f32::from_bits(r.get(c.word).copied().unwrap_or(0))
+                                ),
                             })
                             .collect::<Vec<_>>()
                             .join(" ")
@@ -165,8 +186,20 @@ pub fn explain(case: &Case) -> String {
 pub fn rules_text(cases: &[Case]) -> String {
     let mut s = String::new();
     for rule in Rule::ALL {
-        let names: Vec<&str> = cases.iter().filter(|c| c.guards.contains(&rule)).map(|c| c.name.as_str()).collect();
-        s.push_str(&format!("{}\n    {}\n", rule.text(), if names.is_empty() { "(none)".into() } else { names.join(", ") }));
+        let names: Vec<&str> = cases
+            .iter()
+            .filter(|c| c.guards.contains(&rule))
+            .map(|c| c.name.as_str())
+            .collect();
+        s.push_str(&format!(
+            "{}\n    {}\n",
+            rule.text(),
+            if names.is_empty() {
+                "(none)".into()
+            } else {
+                names.join(", ")
+            }
+        ));
     }
     s
 }
@@ -178,14 +211,33 @@ fn preview_rgb(img: &RecordImage) -> Vec<[u8; 3]> {
     if let (Some(r), Some(g), Some(b)) = (img.channel("R"), img.channel("G"), img.channel("B")) {
         let q = |bits: u32| {
             let v = f32::from_bits(bits);
-            (if v.is_finite() { v.clamp(0.0, 1.0) } else { 1.0 } * 255.0 + 0.5) as u8
+            (if v.is_finite() {
+                v.clamp(0.0, 1.0)
+            } else {
+                1.0
+            } * 255.0
+                + 0.5) as u8
         };
-        return (0..n).map(|i| [q(r.values[i]), q(g.values[i]), q(b.values[i])]).collect();
+        return (0..n)
+            .map(|i| [q(r.values[i]), q(g.values[i]), q(b.values[i])])
+            .collect();
     }
-    let ints: Vec<_> = img.channels.iter().filter(|c| c.kind == ChannelKind::Uint).collect();
-    let floats: Vec<_> = img.channels.iter().filter(|c| c.kind == ChannelKind::Float).collect();
+    let ints: Vec<_> = img
+        .channels
+        .iter()
+        .filter(|c| c.kind == ChannelKind::Uint)
+        .collect();
+    let floats: Vec<_> = img
+        .channels
+        .iter()
+        .filter(|c| c.kind == ChannelKind::Float)
+        .collect();
     let range = |c: &crate::image::Channel| {
-        c.values.iter().map(|b| f32::from_bits(*b)).filter(|v| v.is_finite()).fold((f32::MAX, f32::MIN), |(lo, hi), v| (lo.min(v), hi.max(v)))
+        c.values
+            .iter()
+            .map(|b| f32::from_bits(*b))
+            .filter(|v| v.is_finite())
+            .fold((f32::MAX, f32::MIN), |(lo, hi), v| (lo.min(v), hi.max(v)))
     };
     let ranges: Vec<(f32, f32)> = floats.iter().map(|c| range(c)).collect();
     (0..n)
@@ -205,7 +257,15 @@ fn preview_rgb(img: &RecordImage) -> Vec<[u8; 3]> {
             if miss {
                 return [24, 24, 32];
             }
-            let base = if ints.is_empty() { [200u8, 200, 200] } else { [(h >> 8) as u8 | 0x40, (h >> 24) as u8 | 0x40, (h >> 40) as u8 | 0x40] };
+            let base = if ints.is_empty() {
+                [200u8, 200, 200]
+            } else {
+                [
+                    (h >> 8) as u8 | 0x40,
+                    (h >> 24) as u8 | 0x40,
+                    (h >> 40) as u8 | 0x40,
+                ]
+            };
             base.map(|c| (c as f32 * shade) as u8)
         })
         .collect()
@@ -228,22 +288,34 @@ pub fn write_png(path: &Path, img: &RecordImage) -> Result<(), String> {
             data.extend_from_slice(&rgb[sy * w + sx]);
         }
     }
-    let file = std::fs::File::create(path).map_err(|e| format!("cannot create {}: {e}", path.display()))?;
+    let file = std::fs::File::create(path)
+        .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
     let mut enc = png::Encoder::new(std::io::BufWriter::new(file), tw as u32, th as u32);
     enc.set_color(png::ColorType::Rgb);
     enc.set_depth(png::BitDepth::Eight);
-    let mut writer = enc.write_header().map_err(|e| format!("{}: {e}", path.display()))?;
-    writer.write_image_data(&data).map_err(|e| format!("{}: {e}", path.display()))
+    let mut writer = enc
+        .write_header()
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    writer
+        .write_image_data(&data)
+        .map_err(|e| format!("{}: {e}", path.display()))
 }
 
 fn escape(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }
 
 /// Writes `DIR/<case>/<backend>.exr`, `reference.exr`, `expected.exr`, `diff-<backend>.exr`
 /// (with `.launch<k>` before `.exr` for multi-launch cases), PNG thumbnails beside them, and
 /// `DIR/index.html`.
-pub fn write_out_dir(dir: &Path, results: &[CaseResult], backends: &[BackendKind]) -> Result<(), String> {
+pub fn write_out_dir(
+    dir: &Path,
+    results: &[CaseResult],
+    backends: &[BackendKind],
+) -> Result<(), String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let mut names: Vec<&str> = Vec::new();
     for r in results {
@@ -273,24 +345,37 @@ pub fn write_out_dir(dir: &Path, results: &[CaseResult], backends: &[BackendKind
     html.push_str("</tr>\n");
     for name in names {
         let case_dir = dir.join(name);
-        std::fs::create_dir_all(&case_dir).map_err(|e| format!("cannot create {}: {e}", case_dir.display()))?;
+        std::fs::create_dir_all(&case_dir)
+            .map_err(|e| format!("cannot create {}: {e}", case_dir.display()))?;
         let of_case: Vec<&CaseResult> = results.iter().filter(|r| r.name == name).collect();
-        let Some(first) = of_case.first() else { continue };
+        let Some(first) = of_case.first() else {
+            continue;
+        };
         let multi = first.launches.len() > 1;
-        let suffix = |k: usize| if multi { format!(".launch{k}") } else { String::new() };
+        let suffix = |k: usize| {
+            if multi {
+                format!(".launch{k}")
+            } else {
+                String::new()
+            }
+        };
         let mut expected_cell = String::new();
         let mut reference_cell = String::new();
         for (k, l) in first.launches.iter().enumerate() {
             let stem = format!("expected{}", suffix(k));
             exrio::write(&case_dir.join(format!("{stem}.exr")), &l.expected)?;
             write_png(&case_dir.join(format!("{stem}.png")), &l.expected)?;
-            expected_cell.push_str(&format!("<figure><img src=\"{name}/{stem}.png\"><figcaption>{}</figcaption></figure>", escape(&l.stem)));
+            expected_cell.push_str(&format!(
+                "<figure><img src=\"{name}/{stem}.png\"><figcaption>{}</figcaption></figure>",
+                escape(&l.stem)
+            ));
             match &l.reference {
                 Some(r) => {
                     let stem = format!("reference{}", suffix(k));
                     exrio::write(&case_dir.join(format!("{stem}.exr")), r)?;
                     write_png(&case_dir.join(format!("{stem}.png")), r)?;
-                    reference_cell.push_str(&format!("<figure><img src=\"{name}/{stem}.png\"></figure>"));
+                    reference_cell
+                        .push_str(&format!("<figure><img src=\"{name}/{stem}.png\"></figure>"));
                 }
                 None => reference_cell.push_str("<span class=\"skip\">none</span> "),
             }
@@ -304,7 +389,11 @@ pub fn write_out_dir(dir: &Path, results: &[CaseResult], backends: &[BackendKind
             let mut cell = format!(
                 "<span class=\"{}\">{}</span> {}<br>",
                 r.status.name(),
-                if r.status == Status::Fail { "FAIL" } else { r.status.name() },
+                if r.status == Status::Fail {
+                    "FAIL"
+                } else {
+                    r.status.name()
+                },
                 ratio_text(r.max_error.filter(|e| *e > 0.0 || r.status == Status::Pass))
             );
             for (k, l) in r.launches.iter().enumerate() {
@@ -321,11 +410,15 @@ pub fn write_out_dir(dir: &Path, results: &[CaseResult], backends: &[BackendKind
                     cell.push_str(&format!("<figure><img src=\"{name}/{stem}.png\"><figcaption>difference</figcaption></figure>"));
                 }
             }
-            cell.push_str(&format!("<div class=\"detail\">{}</div>", escape(&r.detail)));
+            cell.push_str(&format!(
+                "<div class=\"detail\">{}</div>",
+                escape(&r.detail)
+            ));
             html.push_str(&format!("<td>{cell}</td>"));
         }
         html.push_str("</tr>\n");
     }
     html.push_str("</table></body></html>\n");
-    std::fs::write(dir.join("index.html"), html).map_err(|e| format!("cannot write {}: {e}", dir.join("index.html").display()))
+    std::fs::write(dir.join("index.html"), html)
+        .map_err(|e| format!("cannot write {}: {e}", dir.join("index.html").display()))
 }

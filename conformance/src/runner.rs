@@ -75,20 +75,21 @@ pub fn default_references_dir() -> PathBuf {
 /// one and it exists, else the common one.
 pub fn reference_path(dir: &Path, case: &Case, k: usize, backend: Option<BackendKind>) -> PathBuf {
     let stem = case.launch_stem(k);
-    if let Some(b) = backend {
-        if case.backend_specific.iter().any(|(kind, _)| *kind == b) {
-            let own = dir.join(format!("{stem}.{}.exr", b.name()));
-            if own.exists() {
-                return own;
-            }
+    if let Some(b) = backend.filter(|b| case.backend_specific.iter().any(|(kind, _)| kind == b)) {
+        let own = dir.join(format!("{stem}.{}.exr", b.name()));
+        if own.exists() {
+            return own;
         }
     }
     dir.join(format!("{stem}.exr"))
 }
 
+/// A device, or why its backend cannot run here.
+type Opened = Result<Box<dyn Device>, String>;
+
 /// Devices opened at most once per backend.
 pub struct Devices {
-    opened: Vec<(BackendKind, Result<Box<dyn Device>, String>)>,
+    opened: Vec<(BackendKind, Opened)>,
 }
 
 impl Devices {
@@ -108,12 +109,18 @@ impl Devices {
 
     /// The backends, with their device or the reason they cannot run.
     pub fn iter(&self) -> impl Iterator<Item = (BackendKind, Result<&dyn Device, &str>)> {
-        self.opened.iter().map(|(k, r)| (*k, r.as_ref().map(|d| d.as_ref()).map_err(|e| e.as_str())))
+        self.opened
+            .iter()
+            .map(|(k, r)| (*k, r.as_ref().map(|d| d.as_ref()).map_err(|e| e.as_str())))
     }
 
     /// The backends that opened.
     pub fn available(&self) -> Vec<BackendKind> {
-        self.opened.iter().filter(|(_, r)| r.is_ok()).map(|(k, _)| *k).collect()
+        self.opened
+            .iter()
+            .filter(|(_, r)| r.is_ok())
+            .map(|(k, _)| *k)
+            .collect()
     }
 }
 
@@ -147,7 +154,9 @@ pub fn run_on(
             return result;
         }
     };
-    let outputs = catch_unwind(AssertUnwindSafe(|| crate::device_run::run_case(device, case)));
+    let outputs = catch_unwind(AssertUnwindSafe(|| {
+        crate::device_run::run_case(device, case)
+    }));
     let outputs = match outputs {
         Err(_) => {
             result.detail = "the backend panicked".into();
@@ -177,28 +186,48 @@ pub fn run_on(
         max_error = max_error.max(v.max_error);
         if !v.pass {
             pass = false;
-            details.push(if expected.len() > 1 { format!("launch {k}: {}", v.detail) } else { v.detail.clone() });
+            details.push(if expected.len() > 1 {
+                format!("launch {k}: {}", v.detail)
+            } else {
+                v.detail.clone()
+            });
         }
         result.launches.push(LaunchImages {
             stem: case.launch_stem(k),
             expected: judge::canonical_image(case, e),
-            diff: v.pixel_state.iter().any(|s| *s != 0).then(|| judge::difference_image(&v, e.width, e.height)),
+            diff: v
+                .pixel_state
+                .iter()
+                .any(|s| *s != 0)
+                .then(|| judge::difference_image(&v, e.width, e.height)),
             output: Some(output),
             reference,
         });
     }
     if outputs.len() != expected.len() {
         pass = false;
-        details.push(format!("{} launches ran, {} expected", outputs.len(), expected.len()));
+        details.push(format!(
+            "{} launches ran, {} expected",
+            outputs.len(),
+            expected.len()
+        ));
     }
     result.status = if pass { Status::Pass } else { Status::Fail };
     result.max_error = Some(max_error);
     result.detail = if pass {
-        let refs = result.launches.iter().filter(|l| l.reference.is_some()).count();
+        let refs = result
+            .launches
+            .iter()
+            .filter(|l| l.reference.is_some())
+            .count();
         format!(
             "{} launch(es) match the oracle{}",
             outputs.len(),
-            if refs == outputs.len() { " and the references" } else { "; no reference yet (bless)" }
+            if refs == outputs.len() {
+                " and the references"
+            } else {
+                "; no reference yet (bless)"
+            }
         )
     } else {
         details.join("; ")
@@ -207,7 +236,12 @@ pub fn run_on(
 }
 
 /// Runs every case on every backend of `devices`.
-pub fn run_all(cases: &[Case], devices: &Devices, references: Option<&Path>, mut progress: impl FnMut(&CaseResult)) -> Vec<CaseResult> {
+pub fn run_all(
+    cases: &[Case],
+    devices: &Devices,
+    references: Option<&Path>,
+    mut progress: impl FnMut(&CaseResult),
+) -> Vec<CaseResult> {
     let mut results = Vec::new();
     for case in cases {
         let expected = expectations(case);
@@ -230,7 +264,9 @@ pub fn run_all(cases: &[Case], devices: &Devices, references: Option<&Path>, mut
                                     stem: case.launch_stem(k),
                                     expected: judge::canonical_image(case, e),
                                     output: None,
-                                    reference: references.and_then(|dir| exrio::read(&reference_path(dir, case, k, None)).ok()),
+                                    reference: references.and_then(|dir| {
+                                        exrio::read(&reference_path(dir, case, k, None)).ok()
+                                    }),
                                     diff: None,
                                 })
                                 .collect()
@@ -249,12 +285,16 @@ pub fn run_all(cases: &[Case], devices: &Devices, references: Option<&Path>, mut
 /// wildcards or dots names a group (`sbt` is `sbt.*`); several patterns may be given,
 /// separated by commas.
 pub fn filter_matches(filter: &str, name: &str) -> bool {
-    filter.split(',').map(str::trim).filter(|p| !p.is_empty()).any(|p| {
-        if !p.contains(['*', '?', '.']) {
-            return glob(&format!("{p}.*"), name);
-        }
-        glob(p, name)
-    })
+    filter
+        .split(',')
+        .map(str::trim)
+        .filter(|p| !p.is_empty())
+        .any(|p| {
+            if !p.contains(['*', '?', '.']) {
+                return glob(&format!("{p}.*"), name);
+            }
+            glob(p, name)
+        })
 }
 
 fn glob(pattern: &str, name: &str) -> bool {

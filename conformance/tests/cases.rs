@@ -43,7 +43,11 @@ fn main() {
     let filtered_out = names.len() - selected;
     println!("\nrunning {selected} tests");
     let any_backend = names.iter().any(|n| matches(n) && !n.ends_with("::oracle"));
-    let devices = if any_backend { Devices::open(&backends) } else { Devices::open(&[]) };
+    let devices = if any_backend {
+        Devices::open(&backends)
+    } else {
+        Devices::open(&[])
+    };
     let references = runner::default_references_dir();
     let (mut passed, mut failed, mut ignored) = (0usize, 0usize, 0usize);
     let mut failures: Vec<(String, String)> = Vec::new();
@@ -51,18 +55,24 @@ fn main() {
     for case in &cases {
         let oracle_name = format!("{}::oracle", case.name);
         let wants_oracle = matches(&oracle_name);
-        let wants_backend = backends.iter().any(|b| matches(&format!("{}::{}", case.name, b.name())));
+        let wants_backend = backends
+            .iter()
+            .any(|b| matches(&format!("{}::{}", case.name, b.name())));
         if !wants_oracle && !wants_backend {
             continue;
         }
         // The structural and order-independence checks; their expectation serves the backends.
         let expected = runner::expectations(case);
-        let checked = catalog::check_structure(case).and_then(|_| catalog::check_expectation(case, &expected));
+        let checked = catalog::check_structure(case)
+            .and_then(|_| catalog::check_expectation(case, &expected));
         if wants_oracle {
             print!("test {oracle_name} ... ");
             match &checked {
                 Ok(stats) => {
-                    println!("ok ({} records, {} ambiguous)", stats.records, stats.ambiguous);
+                    println!(
+                        "ok ({} records, {} ambiguous)",
+                        stats.records, stats.ambiguous
+                    );
                     passed += 1;
                 }
                 Err(e) => {

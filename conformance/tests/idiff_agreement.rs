@@ -323,7 +323,12 @@ fn subset(image: &RecordImage, names: &[String]) -> RecordImage {
     RecordImage {
         width: image.width,
         height: image.height,
-        channels: image.channels.iter().filter(|c| names.contains(&c.name)).cloned().collect(),
+        channels: image
+            .channels
+            .iter()
+            .filter(|c| names.contains(&c.name))
+            .cloned()
+            .collect(),
     }
 }
 
@@ -348,20 +353,30 @@ fn case_records_agree_with_idiff() {
         "numerics.shared_edge_far",
         "prim.spheres",
     ];
-    let dir: PathBuf = std::env::temp_dir().join(format!("optik-idiff-cases-{}", std::process::id()));
+    let dir: PathBuf =
+        std::env::temp_dir().join(format!("optik-idiff-cases-{}", std::process::id()));
     let mut problems = Vec::new();
     let (mut compared, mut failing, mut backend_outputs) = (0, 0, 0);
     let devices = runner::Devices::open(&optik::BackendKind::ALL);
-    for case in catalog::all().into_iter().filter(|c| names.contains(&c.name.as_str())) {
-        let Judgement::PerRecord = case.record.judgement else { continue };
+    for case in catalog::all()
+        .into_iter()
+        .filter(|c| names.contains(&c.name.as_str()))
+    {
+        let Judgement::PerRecord = case.record.judgement else {
+            continue;
+        };
         let expected = runner::expectations(&case).unwrap_or_else(|e| panic!("{}: {e}", case.name));
         let e = &expected[0];
         let reference = judge::canonical_image(&case, e);
-        let clear: Vec<usize> = (0..e.admissible.len()).filter(|i| e.admissible[*i].len() == 1).collect();
+        let clear: Vec<usize> = (0..e.admissible.len())
+            .filter(|i| e.admissible[*i].len() == 1)
+            .collect();
         // Tolerance groups, as idiff applies one threshold set per file.
         let mut groups: Vec<(optik_conformance::tolerance::Tolerance, Vec<String>)> = Vec::new();
         for c in &case.record.channels {
-            let large = reference.channel(&c.name).is_some_and(|ch| ch.kind == ChannelKind::Uint && ch.values.iter().any(|v| *v >= 1 << 24));
+            let large = reference.channel(&c.name).is_some_and(|ch| {
+                ch.kind == ChannelKind::Uint && ch.values.iter().any(|v| *v >= 1 << 24)
+            });
             if large {
                 continue;
             }
@@ -392,9 +407,18 @@ fn case_records_agree_with_idiff() {
         for (tol, channels) in &groups {
             for (source, out, masked) in &outputs {
                 let ours = channels.iter().all(|name| {
-                    let spec = case.record.channels.iter().find(|c| &c.name == name).expect("channel");
-                    let (o, r) = (out.channel(name).expect("o"), masked.channel(name).expect("r"));
-                    (0..o.values.len()).all(|i| spec.tolerance.check(spec.kind, r.values[i], o.values[i]).0)
+                    let spec = case
+                        .record
+                        .channels
+                        .iter()
+                        .find(|c| &c.name == name)
+                        .expect("channel");
+                    let (o, r) = (
+                        out.channel(name).expect("o"),
+                        masked.channel(name).expect("r"),
+                    );
+                    (0..o.values.len())
+                        .all(|i| spec.tolerance.check(spec.kind, r.values[i], o.values[i]).0)
                 });
                 let (fo, fr) = (dir.join("out.exr"), dir.join("ref.exr"));
                 exrio::write(&fo, &subset(out, channels)).unwrap();
@@ -402,13 +426,21 @@ fn case_records_agree_with_idiff() {
                 let theirs = idiff_verdict(&fo, &fr, &options_for(*tol)).passes();
                 compared += 1;
                 if ours != theirs {
-                    problems.push(format!("{} on {source} {channels:?} ({}): ours {ours}, idiff {theirs}", case.name, tol.name()));
+                    problems.push(format!(
+                        "{} on {source} {channels:?} ({}): ours {ours}, idiff {theirs}",
+                        case.name,
+                        tol.name()
+                    ));
                 }
             }
             for scenario in ["equal", "within", "beyond", "off_by_one"] {
                 let mut out = reference.clone();
-                let Some(&pixel) = clear.get(clear.len() / 3 + scenario.len()) else { continue };
-                let Some(ch) = out.channels.iter_mut().find(|c| channels.contains(&c.name)) else { continue };
+                let Some(&pixel) = clear.get(clear.len() / 3 + scenario.len()) else {
+                    continue;
+                };
+                let Some(ch) = out.channels.iter_mut().find(|c| channels.contains(&c.name)) else {
+                    continue;
+                };
                 let applies = match (scenario, ch.kind) {
                     ("equal", _) => true,
                     ("within" | "beyond", ChannelKind::Float) => {
@@ -417,7 +449,11 @@ fn case_records_agree_with_idiff() {
                         if b == 0.0 && scenario == "within" {
                             false
                         } else {
-                            let delta = if scenario == "within" { 0.5 * b } else { 3.0 * b.max(1e-30) + (a.abs() * 1e-6) };
+                            let delta = if scenario == "within" {
+                                0.5 * b
+                            } else {
+                                3.0 * b.max(1e-30) + (a.abs() * 1e-6)
+                            };
                             ch.values[pixel] = ((a + delta) as f32).to_bits();
                             true
                         }
@@ -432,9 +468,18 @@ fn case_records_agree_with_idiff() {
                     continue;
                 }
                 let ours = channels.iter().all(|name| {
-                    let spec = case.record.channels.iter().find(|c| &c.name == name).expect("channel");
-                    let (o, r) = (out.channel(name).expect("o"), reference.channel(name).expect("r"));
-                    (0..o.values.len()).all(|i| spec.tolerance.check(spec.kind, r.values[i], o.values[i]).0)
+                    let spec = case
+                        .record
+                        .channels
+                        .iter()
+                        .find(|c| &c.name == name)
+                        .expect("channel");
+                    let (o, r) = (
+                        out.channel(name).expect("o"),
+                        reference.channel(name).expect("r"),
+                    );
+                    (0..o.values.len())
+                        .all(|i| spec.tolerance.check(spec.kind, r.values[i], o.values[i]).0)
                 });
                 let (fo, fr) = (dir.join("out.exr"), dir.join("ref.exr"));
                 exrio::write(&fo, &subset(&out, channels)).unwrap();
@@ -443,14 +488,23 @@ fn case_records_agree_with_idiff() {
                 compared += 1;
                 failing += usize::from(!ours);
                 if ours != theirs {
-                    problems.push(format!("{} {scenario} {channels:?} ({}): ours {ours}, idiff {theirs}", case.name, tol.name()));
+                    problems.push(format!(
+                        "{} {scenario} {channels:?} ({}): ours {ours}, idiff {theirs}",
+                        case.name,
+                        tol.name()
+                    ));
                 }
             }
         }
     }
     std::fs::remove_dir_all(&dir).ok();
-    eprintln!("{compared} comparisons, {failing} of them failing ones, {backend_outputs} backend outputs");
+    eprintln!(
+        "{compared} comparisons, {failing} of them failing ones, {backend_outputs} backend outputs"
+    );
     assert!(compared >= 30, "only {compared} comparisons ran");
-    assert!(failing >= 10 && compared - failing >= 10, "{failing} failing of {compared}: both verdicts must be exercised");
+    assert!(
+        failing >= 10 && compared - failing >= 10,
+        "{failing} failing of {compared}: both verdicts must be exercised"
+    );
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }

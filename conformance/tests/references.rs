@@ -21,10 +21,18 @@ fn oiio_nan_inf(path: &Path) -> (u64, u64) {
     let sum = |key: &str| -> u64 {
         text.lines()
             .filter_map(|l| l.split_once(key).map(|(_, rest)| rest))
-            .flat_map(|rest| rest.split_whitespace().filter_map(|w| w.parse::<u64>().ok()).collect::<Vec<_>>())
+            .flat_map(|rest| {
+                rest.split_whitespace()
+                    .filter_map(|w| w.parse::<u64>().ok())
+                    .collect::<Vec<_>>()
+            })
             .sum()
     };
-    assert!(text.contains("NanCount"), "oiiotool --stats printed no NanCount for {}:\n{text}", path.display());
+    assert!(
+        text.contains("NanCount"),
+        "oiiotool --stats printed no NanCount for {}:\n{text}",
+        path.display()
+    );
     (sum("NanCount:"), sum("InfCount:"))
 }
 
@@ -39,9 +47,16 @@ fn the_checker_rejects_nan_and_inf() {
             Channel {
                 name: "t".into(),
                 kind: ChannelKind::Float,
-                values: [1.0f32, f32::NAN, f32::INFINITY, f32::NAN].iter().map(|v| v.to_bits()).collect(),
+                values: [1.0f32, f32::NAN, f32::INFINITY, f32::NAN]
+                    .iter()
+                    .map(|v| v.to_bits())
+                    .collect(),
             },
-            Channel { name: "prim".into(), kind: ChannelKind::Uint, values: vec![1, 2, 3, 4] },
+            Channel {
+                name: "prim".into(),
+                kind: ChannelKind::Uint,
+                values: vec![1, 2, 3, 4],
+            },
         ],
     };
     exrio::write(&path, &image).unwrap();
@@ -54,10 +69,20 @@ fn the_checker_rejects_nan_and_inf() {
 fn references_are_finite_and_belong_to_cases() {
     let dir = runner::default_references_dir();
     let Ok(entries) = std::fs::read_dir(&dir) else {
-        eprintln!("no references folder at {} yet: nothing blessed", dir.display());
+        eprintln!(
+            "no references folder at {} yet: nothing blessed",
+            dir.display()
+        );
         return;
     };
-    let stems: Vec<String> = catalog::all().iter().flat_map(|c| (0..c.launches.len()).map(|k| c.launch_stem(k)).collect::<Vec<_>>()).collect();
+    let stems: Vec<String> = catalog::all()
+        .iter()
+        .flat_map(|c| {
+            (0..c.launches.len())
+                .map(|k| c.launch_stem(k))
+                .collect::<Vec<_>>()
+        })
+        .collect();
     let mut problems = Vec::new();
     let mut checked = 0;
     for entry in entries.flatten() {
@@ -65,10 +90,22 @@ fn references_are_finite_and_belong_to_cases() {
         if path.extension().and_then(|e| e.to_str()) != Some("exr") {
             continue;
         }
-        let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or_default().to_string();
-        let known = stems.iter().any(|s| name == *s || ["cpu", "wgpu", "vulkan"].iter().any(|b| name == format!("{s}.{b}")));
+        let name = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or_default()
+            .to_string();
+        let known = stems.iter().any(|s| {
+            name == *s
+                || ["cpu", "wgpu", "vulkan"]
+                    .iter()
+                    .any(|b| name == format!("{s}.{b}"))
+        });
         if !known {
-            problems.push(format!("{}: no case of the catalog has this reference", path.display()));
+            problems.push(format!(
+                "{}: no case of the catalog has this reference",
+                path.display()
+            ));
         }
         match exrio::read(&path) {
             Ok(image) => {
@@ -80,7 +117,10 @@ fn references_are_finite_and_belong_to_cases() {
         }
         let (nan, inf) = oiio_nan_inf(&path);
         if nan + inf > 0 {
-            problems.push(format!("{}: oiiotool counts {nan} NaN and {inf} Inf", path.display()));
+            problems.push(format!(
+                "{}: oiiotool counts {nan} NaN and {inf} Inf",
+                path.display()
+            ));
         }
         checked += 1;
     }

@@ -44,7 +44,11 @@ fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
 }
 
 fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 
 fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
@@ -63,7 +67,10 @@ fn woop(t: &Tri, o: [f32; 3], d: [f32; 3], tie_rule: bool) -> Option<Hit> {
     }
     let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
     let rel: Vec<[f32; 3]> = t.v.iter().map(|p| sub(*p, o)).collect();
-    let proj: Vec<(f32, f32)> = rel.iter().map(|p| (p[kx] - sx * p[kz], p[ky] - sy * p[kz])).collect();
+    let proj: Vec<(f32, f32)> = rel
+        .iter()
+        .map(|p| (p[kx] - sx * p[kz], p[ky] - sy * p[kz]))
+        .collect();
     let (a, b, c) = (proj[0], proj[1], proj[2]);
     let edge = |p: (f32, f32), q: (f32, f32)| -> f32 {
         let e = p.0 * q.1 - p.1 * q.0;
@@ -72,7 +79,11 @@ fn woop(t: &Tri, o: [f32; 3], d: [f32; 3], tie_rule: bool) -> Option<Hit> {
         }
         // The f64 fallback of the paper: exact for these f32 products; keep at least its sign.
         let e64 = p.0 as f64 * q.1 as f64 - p.1 as f64 * q.0 as f64;
-        if e64 == 0.0 { 0.0 } else { (e64 as f32).abs().max(f32::MIN_POSITIVE) * e64.signum() as f32 }
+        if e64 == 0.0 {
+            0.0
+        } else {
+            (e64 as f32).abs().max(f32::MIN_POSITIVE) * e64.signum() as f32
+        }
     };
     // U opposite vertex 0 (edge b→c), V opposite 1 (c→a), W opposite 2 (a→b).
     let (u, v, w) = (edge(c, b), edge(a, c), edge(b, a));
@@ -127,20 +138,36 @@ fn moller(t: &Tri, o: [f32; 3], d: [f32; 3]) -> Option<Hit> {
 /// The triangles of a GAS, if the stand-in can trace it (static float3 triangles, no
 /// pre-transform, no per-primitive SBT offsets, one record per input).
 fn triangles(case: &Case, node: usize) -> Option<Vec<(Tri, u32)>> {
-    let Node::Gas(g) = &case.scene.nodes[node] else { return None };
+    let Node::Gas(g) = &case.scene.nodes[node] else {
+        return None;
+    };
     if g.motion.is_some() {
         return None;
     }
     let mut out = Vec::new();
     for (input, gi) in g.inputs.iter().zip(0u32..) {
-        let GeomInput::Triangles(t) = input else { return None };
-        if t.format != VertexFormat::Float3 || t.pre_transform.is_some() || t.sbt_offsets.is_some() || t.keys.len() != 1 || t.omm.is_some() {
+        let GeomInput::Triangles(t) = input else {
+            return None;
+        };
+        if t.format != VertexFormat::Float3
+            || t.pre_transform.is_some()
+            || t.sbt_offsets.is_some()
+            || t.keys.len() != 1
+            || t.omm.is_some()
+        {
             return None;
         }
         for i in 0..t.num_triangles() {
             let idx = t.triangle(i);
             let v = idx.map(|k| t.keys[0][k]);
-            out.push((Tri { v, prim: i as u32 + t.prim_index_offset, flags: t.flags[0] }, gi));
+            out.push((
+                Tri {
+                    v,
+                    prim: i as u32 + t.prim_index_offset,
+                    flags: t.flags[0],
+                },
+                gi,
+            ));
         }
     }
     Some(out)
@@ -152,7 +179,11 @@ fn supported(case: &Case) -> bool {
     let p = &case.pipeline;
     p.raygen == prog::RAYGEN
         && p.miss.iter().all(|m| m.as_deref() == Some(prog::MS))
-        && p.hit.iter().all(|h| h.closest_hit.as_deref() == Some(prog::CH) && h.intersection.is_none() && h.any_hit.as_deref().is_none_or(|a| a == prog::AH))
+        && p.hit.iter().all(|h| {
+            h.closest_hit.as_deref() == Some(prog::CH)
+                && h.intersection.is_none()
+                && h.any_hit.as_deref().is_none_or(|a| a == prog::AH)
+        })
         && p.callables.is_empty()
         && p.exception.is_none()
         && (0..case.launches.len()).any(|k| launch_supported(case, k))
@@ -166,10 +197,23 @@ fn launch_supported(case: &Case, k: usize) -> bool {
 /// Runs one launch with the stand-in tracer; returns the record buffer.
 fn run_launch(case: &Case, k: usize, variant: Variant) -> Vec<u32> {
     let launch = &case.launches[k];
-    let ParamWord::HandleLo(Some(root)) = launch.params[0] else { unreachable!("checked by supported()") };
+    let ParamWord::HandleLo(Some(root)) = launch.params[0] else {
+        unreachable!("checked by supported()")
+    };
     let tris = triangles(case, root).expect("checked by supported()");
-    let rays = &launch.buffers.iter().find(|b| b.binding == 1).expect("rays").words;
-    let mut out = launch.buffers.iter().find(|b| b.binding == 2).expect("records").words.clone();
+    let rays = &launch
+        .buffers
+        .iter()
+        .find(|b| b.binding == 1)
+        .expect("rays")
+        .words;
+    let mut out = launch
+        .buffers
+        .iter()
+        .find(|b| b.binding == 2)
+        .expect("records")
+        .words
+        .clone();
     let n = match launch.params[2] {
         ParamWord::U32(n) => n as usize,
         _ => 0,
@@ -180,7 +224,10 @@ fn run_launch(case: &Case, k: usize, variant: Variant) -> Vec<u32> {
         let (o, d, tmin, tmax) = ([f(0), f(1), f(2)], [f(4), f(5), f(6)], f(3), f(7));
         let s = id * rec::STRIDE;
         let (mut p0, mut p1) = (0u32, 0u32);
-        let valid = o.iter().chain(d.iter()).all(|c| c.is_finite()) && tmin >= 0.0 && !tmax.is_nan() && tmin <= tmax;
+        let valid = o.iter().chain(d.iter()).all(|c| c.is_finite())
+            && tmin >= 0.0
+            && !tmax.is_nan()
+            && tmin <= tmax;
         if valid {
             let mut cands: Vec<(f32, f32, f32, usize)> = Vec::new();
             for (i, (t, _)) in tris.iter().enumerate() {
@@ -195,7 +242,11 @@ fn run_launch(case: &Case, k: usize, variant: Variant) -> Vec<u32> {
                     _ => woop(t, o, d, true),
                 };
                 if let Some((tt, u, v)) = hit {
-                    let inside = if variant == Variant::ClosedInterval { tt >= tmin && tt <= tmax } else { tt > tmin && tt < tmax };
+                    let inside = if variant == Variant::ClosedInterval {
+                        tt >= tmin && tt <= tmax
+                    } else {
+                        tt > tmin && tt < tmax
+                    };
                     if inside {
                         cands.push((tt, u, v, i));
                     }
@@ -262,14 +313,21 @@ fn run_launch(case: &Case, k: usize, variant: Variant) -> Vec<u32> {
 /// Runs every supported case with `variant`; returns (case name, pass, detail).
 fn run(variant: Variant, only: &[&str]) -> Vec<(String, bool, String)> {
     let mut results = Vec::new();
-    for case in optik_conformance::catalog::all().into_iter().filter(|c| supported(c)) {
+    for case in optik_conformance::catalog::all()
+        .into_iter()
+        .filter(supported)
+    {
         if !only.is_empty() && !only.contains(&case.name.as_str()) {
             continue;
         }
         let expected = runner::expectations(&case).unwrap_or_else(|e| panic!("{}: {e}", case.name));
         let mut pass = true;
         let mut detail = String::new();
-        for (k, e) in expected.iter().enumerate().filter(|(k, _)| launch_supported(&case, *k)) {
+        for (k, e) in expected
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| launch_supported(&case, *k))
+        {
             let words = run_launch(&case, k, variant);
             let image = judge::image_from_words(&case, e.width, e.height, &words);
             let v = judge::judge(&case, e, &image, None);
@@ -286,16 +344,37 @@ fn run(variant: Variant, only: &[&str]) -> Vec<(String, bool, String)> {
 #[test]
 fn a_correct_watertight_f32_intersector_passes_every_case_it_can_run() {
     let results = run(Variant::Watertight, &[]);
-    assert!(results.len() >= 15, "only {} cases ran: {:?}", results.len(), results.iter().map(|r| &r.0).collect::<Vec<_>>());
-    let failures: Vec<String> = results.iter().filter(|r| !r.1).map(|r| format!("{}: {}", r.0, r.2)).collect();
-    assert!(failures.is_empty(), "a correct intersector fails:\n{}", failures.join("\n"));
-    eprintln!("passed: {:?}", results.iter().map(|r| &r.0).collect::<Vec<_>>());
+    assert!(
+        results.len() >= 15,
+        "only {} cases ran: {:?}",
+        results.len(),
+        results.iter().map(|r| &r.0).collect::<Vec<_>>()
+    );
+    let failures: Vec<String> = results
+        .iter()
+        .filter(|r| !r.1)
+        .map(|r| format!("{}: {}", r.0, r.2))
+        .collect();
+    assert!(
+        failures.is_empty(),
+        "a correct intersector fails:\n{}",
+        failures.join("\n")
+    );
+    eprintln!(
+        "passed: {:?}",
+        results.iter().map(|r| &r.0).collect::<Vec<_>>()
+    );
 }
 
 /// Asserts every case of `names` fails with `variant`.
 fn assert_fail(variant: Variant, names: &[&str]) {
     let results = run(variant, names);
-    assert_eq!(results.len(), names.len(), "cases not runnable: {names:?} vs {:?}", results.iter().map(|r| &r.0).collect::<Vec<_>>());
+    assert_eq!(
+        results.len(),
+        names.len(),
+        "cases not runnable: {names:?} vs {:?}",
+        results.iter().map(|r| &r.0).collect::<Vec<_>>()
+    );
     for (name, pass, detail) in &results {
         assert!(!pass, "{name} does not catch {variant:?}");
         eprintln!("{name} catches {variant:?}: {detail}");
@@ -306,7 +385,11 @@ fn assert_fail(variant: Variant, names: &[&str]) {
 fn moller_trumbore_leaks_through_shared_edges_and_vertices() {
     assert_fail(
         Variant::MollerTrumbore,
-        &["tri.closed_fan", "numerics.shared_vertex_origin", "numerics.fan_high_valence"],
+        &[
+            "tri.closed_fan",
+            "numerics.shared_vertex_origin",
+            "numerics.fan_high_valence",
+        ],
     );
 }
 
@@ -314,21 +397,38 @@ fn moller_trumbore_leaks_through_shared_edges_and_vertices() {
 fn double_hits_on_exact_edges_break_the_closed_mesh_invariant() {
     assert_fail(
         Variant::WatertightDoubleHits,
-        &["tri.closed_fan", "numerics.axis_aligned_integer_mesh", "numerics.shared_vertex_origin"],
+        &[
+            "tri.closed_fan",
+            "numerics.axis_aligned_integer_mesh",
+            "numerics.shared_vertex_origin",
+        ],
     );
 }
 
 #[test]
 fn a_closed_t_interval_is_caught() {
-    assert_fail(Variant::ClosedInterval, &["tri.t_interval_bounds", "numerics.tmin_tmax_ulps"]);
+    assert_fail(
+        Variant::ClosedInterval,
+        &["tri.t_interval_bounds", "numerics.tmin_tmax_ulps"],
+    );
 }
 
 #[test]
 fn swapped_facing_is_caught() {
-    assert_fail(Variant::SwappedFacing, &["tri.t_plane", "tri.complex_mesh_hitrate", "tri.barycentrics"]);
+    assert_fail(
+        Variant::SwappedFacing,
+        &[
+            "tri.t_plane",
+            "tri.complex_mesh_hitrate",
+            "tri.barycentrics",
+        ],
+    );
 }
 
 #[test]
 fn hitting_degenerate_triangles_is_caught() {
-    assert_fail(Variant::NoDegenerateCheck, &["numerics.degenerate_neighbours"]);
+    assert_fail(
+        Variant::NoDegenerateCheck,
+        &["numerics.degenerate_neighbours"],
+    );
 }

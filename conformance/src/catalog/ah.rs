@@ -13,12 +13,25 @@ use optik::GeometryFlags;
 
 /// Every case of the `ah` group.
 pub fn ah_cases() -> Vec<Case> {
-    vec![control("ignore"), control("terminate"), terminate_from_is(), single_call(), order_independence()]
+    vec![
+        control("ignore"),
+        control("terminate"),
+        terminate_from_is(),
+        single_call(),
+        order_independence(),
+    ]
 }
 
 /// Every case of the `aabb` group.
 pub fn aabb_cases() -> Vec<Case> {
-    vec![hits_outside_bounds(), ray_inside(), false_positive_safe(), attributes_max(), report_return_value(), no_report()]
+    vec![
+        hits_outside_bounds(),
+        ray_inside(),
+        false_positive_safe(),
+        attributes_max(),
+        report_return_value(),
+        no_report(),
+    ]
 }
 
 /// Any-hit programs that set payload word 3 to 1, end with ignore or terminate (directly,
@@ -89,7 +102,11 @@ fn closesthit__word5() {
 fn control_models() -> Models {
     fn stop(ctx: &mut Ctx<'_, '_>, terminate: bool) -> Flow {
         ctx.set_payload(3, 1);
-        if terminate { ctx.terminate_ray() } else { ctx.ignore_intersection() }
+        if terminate {
+            ctx.terminate_ray()
+        } else {
+            ctx.ignore_intersection()
+        }
     }
     let mut m = Models::new();
     for name in ["ignore_direct", "ignore_helper", "ignore_dynamic"] {
@@ -120,17 +137,41 @@ fn control_models() -> Models {
 
 fn control(kind: &str) -> Case {
     // Three non-opaque quads stacked along the ray; the any-hit program of each variant.
-    let verts = [quad(0.0, 0.0, 1.0, 1.0, -1.0), quad(0.0, 0.0, 1.0, 1.0, -2.0), quad(0.0, 0.0, 1.0, 1.0, -3.0)].concat();
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(verts, GeometryFlags::NONE))]));
+    let verts = [
+        quad(0.0, 0.0, 1.0, 1.0, -1.0),
+        quad(0.0, 0.0, 1.0, 1.0, -2.0),
+        quad(0.0, 0.0, 1.0, 1.0, -3.0),
+    ]
+    .concat();
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
+        verts,
+        GeometryFlags::NONE,
+    ))]));
     let variants = ["direct", "helper", "dynamic"];
-    let groups: Vec<HitGroupDesc> =
-        variants.iter().map(|v| hit_group(Some("closesthit__word5"), Some(&format!("anyhit__{kind}_{v}")), None)).collect();
-    let records = (0..3).map(|k| SbtEntry::new(k, vec![k as u32, action::ACCEPT])).collect();
+    let groups: Vec<HitGroupDesc> = variants
+        .iter()
+        .map(|v| {
+            hit_group(
+                Some("closesthit__word5"),
+                Some(&format!("anyhit__{kind}_{v}")),
+                None,
+            )
+        })
+        .collect();
+    let records = (0..3)
+        .map(|k| SbtEntry::new(k, vec![k as u32, action::ACCEPT]))
+        .collect();
     let mut rays = Vec::new();
     for k in 0..3 {
-        rays.push(Ray { sbt_offset: k, ..Ray::new([0.75, 0.25, 0.0], [0.0, 0.0, -1.0]) });
+        rays.push(Ray {
+            sbt_offset: k,
+            ..Ray::new([0.75, 0.25, 0.0], [0.0, 0.0, -1.0])
+        });
         // Only the nearest quad in range, so order cannot matter for terminate either.
-        rays.push(Ray { sbt_offset: k, ..Ray::new([0.75, 0.25, 0.0], [0.0, 0.0, -1.0]).interval(0.0, 1.5) });
+        rays.push(Ray {
+            sbt_offset: k,
+            ..Ray::new([0.75, 0.25, 0.0], [0.0, 0.0, -1.0]).interval(0.0, 1.5)
+        });
     }
     let ignore = kind == "ignore";
     let mut case = StdCase::new(
@@ -153,20 +194,53 @@ fn control(kind: &str) -> Case {
     if !ignore {
         // With terminate, the nearest-first and farthest-first orders accept different quads
         // for the three-quad ray; record only what is order independent there.
-        case.channels = vec![ch::payload(3), ch::payload(4), ch::payload(5), ch::programs()];
+        case.channels = vec![
+            ch::payload(3),
+            ch::payload(4),
+            ch::payload(5),
+            ch::programs(),
+        ];
     }
     case.build()
 }
 
 fn terminate_from_is() -> Case {
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(vec![[0.0, 0.0, -2.0, 1.0, 1.0, -1.0]], GeometryFlags::NONE))]));
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(
+        vec![[0.0, 0.0, -2.0, 1.0, 1.0, -1.0]],
+        GeometryFlags::NONE,
+    ))]));
     let records = vec![
-        SbtEntry::new(0, vec![0, action::TERMINATE, 0, 0, 2, 1.5f32.to_bits(), 1.25f32.to_bits()]),
-        SbtEntry::new(0, vec![1, action::ACCEPT, 0, 0, 2, 1.5f32.to_bits(), 1.25f32.to_bits()]),
+        SbtEntry::new(
+            0,
+            vec![
+                0,
+                action::TERMINATE,
+                0,
+                0,
+                2,
+                1.5f32.to_bits(),
+                1.25f32.to_bits(),
+            ],
+        ),
+        SbtEntry::new(
+            0,
+            vec![
+                1,
+                action::ACCEPT,
+                0,
+                0,
+                2,
+                1.5f32.to_bits(),
+                1.25f32.to_bits(),
+            ],
+        ),
     ];
     let rays = vec![
         Ray::new([0.5, 0.5, 0.0], [0.0, 0.0, -1.0]),
-        Ray { sbt_offset: 1, ..Ray::new([0.5, 0.5, 0.0], [0.0, 0.0, -1.0]) },
+        Ray {
+            sbt_offset: 1,
+            ..Ray::new([0.5, 0.5, 0.0], [0.0, 0.0, -1.0])
+        },
     ];
     StdCase::new(
         Group::Ah,
@@ -198,8 +272,12 @@ fn single_call() -> Case {
         }
     }
     let mut scene = Scene::default();
-    let tris = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(verts, COUNTED))])));
-    let boxg = scene.add(Node::Gas(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(boxes, COUNTED))])));
+    let tris = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(verts, COUNTED),
+    )])));
+    let boxg = scene.add(Node::Gas(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(
+        boxes, COUNTED,
+    ))])));
     let mut rng = Rng::new(8);
     let rays: Vec<Ray> = (0..32)
         .map(|_| {
@@ -208,8 +286,17 @@ fn single_call() -> Case {
             Ray::new(v32(o), v32(d))
         })
         .collect();
-    let box_rays = rays.iter().map(|r| Ray { sbt_offset: 1, ..*r }).collect();
-    let groups = vec![hit_group(Some(prog::CH), Some(prog::AH), None), hit_group(Some(prog::CH_ATTRS), Some(prog::AH), Some(prog::IS_FIXED))];
+    let box_rays = rays
+        .iter()
+        .map(|r| Ray {
+            sbt_offset: 1,
+            ..*r
+        })
+        .collect();
+    let groups = vec![
+        hit_group(Some(prog::CH), Some(prog::AH), None),
+        hit_group(Some(prog::CH_ATTRS), Some(prog::AH), Some(prog::IS_FIXED)),
+    ];
     let records = vec![
         SbtEntry::new(0, vec![0, action::IGNORE]),
         SbtEntry::new(1, vec![1, action::IGNORE, 0, 0, 1, 2.5f32.to_bits()]),
@@ -242,9 +329,20 @@ fn anyhit__sum() {
 fn order_independence() -> Case {
     // Eight parallel non-opaque layers; the any-hit program sums (layer + 1) and counts, and
     // accepts only the farthest layer, so every order of visits reaches all eight.
-    let verts: Vec<[f32; 3]> = (0..8).flat_map(|k| quad(0.0, 0.0, 1.0, 1.0, -1.0 - 0.125 * k as f32)).collect();
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(verts, COUNTED))]));
-    let rays: Vec<Ray> = (0..16).map(|k| Ray::new([0.1 + 0.05 * k as f32, 0.7 - 0.03 * k as f32, 0.0], [0.01, -0.02, -1.0])).collect();
+    let verts: Vec<[f32; 3]> = (0..8)
+        .flat_map(|k| quad(0.0, 0.0, 1.0, 1.0, -1.0 - 0.125 * k as f32))
+        .collect();
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
+        verts, COUNTED,
+    ))]));
+    let rays: Vec<Ray> = (0..16)
+        .map(|k| {
+            Ray::new(
+                [0.1 + 0.05 * k as f32, 0.7 - 0.03 * k as f32, 0.0],
+                [0.01, -0.02, -1.0],
+            )
+        })
+        .collect();
     let mut m = Models::new();
     m.add("anyhit__sum", |ctx| {
         let c = ctx.get_payload(1);
@@ -284,12 +382,24 @@ fn hits_outside_bounds() -> Case {
     }
     let n = boxes.len();
     let mut scene = Scene::default();
-    let wall = scene.add(Node::Gas(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(boxes, GeometryFlags::DISABLE_ANYHIT))])));
-    let tri = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
-        quad(-0.75, -0.75, 0.75, 0.75, -2.0),
+    let wall = scene.add(Node::Gas(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(
+        boxes,
         GeometryFlags::DISABLE_ANYHIT,
     ))])));
-    let root = scene.add(Node::Ias(vec![InstanceDesc::of(wall), InstanceDesc { id: 1, sbt_offset: 1, ..InstanceDesc::of(tri) }]));
+    let tri = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(
+            quad(-0.75, -0.75, 0.75, 0.75, -2.0),
+            GeometryFlags::DISABLE_ANYHIT,
+        ),
+    )])));
+    let root = scene.add(Node::Ias(vec![
+        InstanceDesc::of(wall),
+        InstanceDesc {
+            id: 1,
+            sbt_offset: 1,
+            ..InstanceDesc::of(tri)
+        },
+    ]));
     let mut case = StdCase::new(
         Group::Aabb,
         "hits_outside_bounds",
@@ -317,11 +427,21 @@ fn intersection__tmin() {
 "#;
 
 fn ray_inside() -> Case {
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(vec![[-1.0, -1.0, -1.0, 1.0, 1.0, 1.0]], GeometryFlags::DISABLE_ANYHIT))]));
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(
+        vec![[-1.0, -1.0, -1.0, 1.0, 1.0, 1.0]],
+        GeometryFlags::DISABLE_ANYHIT,
+    ))]));
     let o = [0.25f32, -0.5, 0.125];
     let mut rays = Vec::new();
     for d in [[0.0f32, 0.0, -1.0], [1.0, 0.5, 0.25], [0.0, 2.0, 0.0]] {
-        for (tmin, tmax) in [(0.0f32, 0.0f32), (0.0, 0.5), (0.0, 1.0), (0.0, 100.0), (0.25, 0.25), (0.5, 4.0)] {
+        for (tmin, tmax) in [
+            (0.0f32, 0.0f32),
+            (0.0, 0.5),
+            (0.0, 1.0),
+            (0.0, 100.0),
+            (0.25, 0.25),
+            (0.5, 4.0),
+        ] {
             rays.push(Ray::new(o, d).interval(tmin, tmax));
         }
     }
@@ -353,11 +473,33 @@ fn ray_inside() -> Case {
 fn false_positive_safe() -> Case {
     // Spheres in boxes; rays through the boxes' corners that miss the spheres, and thin boxes.
     let spheres: Vec<[f32; 4]> = (0..8).map(|i| [i as f32 * 3.0, 0.0, -5.0, 1.0]).collect();
-    let boxes: Vec<[f32; 6]> = spheres.iter().map(|s| [s[0] - 1.0, s[1] - 1.0, s[2] - 1.0, s[0] + 1.0, s[1] + 1.0, s[2] + 1.0]).collect();
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(boxes, GeometryFlags::DISABLE_ANYHIT))]));
+    let boxes: Vec<[f32; 6]> = spheres
+        .iter()
+        .map(|s| {
+            [
+                s[0] - 1.0,
+                s[1] - 1.0,
+                s[2] - 1.0,
+                s[0] + 1.0,
+                s[1] + 1.0,
+                s[2] + 1.0,
+            ]
+        })
+        .collect();
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(
+        boxes,
+        GeometryFlags::DISABLE_ANYHIT,
+    ))]));
     let mut rays = Vec::new();
     for s in &spheres {
-        for (dx, dy) in [(0.9f32, 0.9f32), (-0.95, 0.8), (0.5, 0.5), (0.0, 0.99), (0.0, 1.01), (0.71, 0.69)] {
+        for (dx, dy) in [
+            (0.9f32, 0.9f32),
+            (-0.95, 0.8),
+            (0.5, 0.5),
+            (0.0, 0.99),
+            (0.0, 1.01),
+            (0.71, 0.69),
+        ] {
             rays.push(Ray::new([s[0] + dx, s[1] + dy, 0.0], [0.0, 0.0, -1.0]));
         }
     }
@@ -393,10 +535,17 @@ fn anyhit__attrs() {
 "#;
 
 fn attributes_max() -> Case {
-    let boxes: Vec<[f32; 6]> = (0..128).map(|i| [i as f32, 0.0, -1.0, i as f32 + 0.5, 1.0, 0.0]).collect();
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(boxes, GeometryFlags::NONE))]));
+    let boxes: Vec<[f32; 6]> = (0..128)
+        .map(|i| [i as f32, 0.0, -1.0, i as f32 + 0.5, 1.0, 0.0])
+        .collect();
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(
+        boxes,
+        GeometryFlags::NONE,
+    ))]));
     // Even rays hit a box, odd rays pass between boxes and miss.
-    let rays: Vec<Ray> = (0..256).map(|k| Ray::new([0.25 + 0.5 * k as f32, 0.5, 1.0], [0.0, 0.0, -1.0])).collect();
+    let rays: Vec<Ray> = (0..256)
+        .map(|k| Ray::new([0.25 + 0.5 * k as f32, 0.5, 1.0], [0.0, 0.0, -1.0]))
+        .collect();
     let mut m = Models::new();
     m.add("intersection__attrs", |ctx| {
         let id = ctx.linear_index();
@@ -432,8 +581,22 @@ fn attributes_max() -> Case {
 }
 
 fn report_return_value() -> Case {
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(vec![[0.0, 0.0, -1.0, 1.0, 1.0, 0.0]], GeometryFlags::NONE))]));
-    let records = vec![SbtEntry::new(0, vec![0, action::IGNORE_IN_RANGE, 0.6f32.to_bits(), 0.8f32.to_bits(), 2, 0.7f32.to_bits(), 0.2f32.to_bits()])];
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(
+        vec![[0.0, 0.0, -1.0, 1.0, 1.0, 0.0]],
+        GeometryFlags::NONE,
+    ))]));
+    let records = vec![SbtEntry::new(
+        0,
+        vec![
+            0,
+            action::IGNORE_IN_RANGE,
+            0.6f32.to_bits(),
+            0.8f32.to_bits(),
+            2,
+            0.7f32.to_bits(),
+            0.2f32.to_bits(),
+        ],
+    )];
     StdCase::new(
         Group::Aabb,
         "report_return_value",
@@ -450,7 +613,10 @@ fn report_return_value() -> Case {
 }
 
 fn no_report() -> Case {
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(vec![[0.0, 0.0, -1.0, 1.0, 1.0, 0.0]], GeometryFlags::NONE))]));
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(
+        vec![[0.0, 0.0, -1.0, 1.0, 1.0, 0.0]],
+        GeometryFlags::NONE,
+    ))]));
     StdCase::new(
         Group::Aabb,
         "no_report",

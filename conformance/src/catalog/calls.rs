@@ -16,7 +16,13 @@ pub fn payload_cases() -> Vec<Case> {
 
 /// Every case of the `call` group.
 pub fn call_cases() -> Vec<Case> {
-    vec![spill_across_calls(), direct_all_stages(), continuation_trace(), large_set(64), large_set(512)]
+    vec![
+        spill_across_calls(),
+        direct_all_stages(),
+        continuation_trace(),
+        large_set(64),
+        large_set(512),
+    ]
 }
 
 /// Every case of the `trace` group.
@@ -26,7 +32,10 @@ pub fn trace_cases() -> Vec<Case> {
 
 /// A scene of one non-opaque quad over [0, 1]² at z = -1 (hit from above at (x, y) ∈ [0, 1]²).
 fn one_quad() -> (Scene, usize) {
-    Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(quad(0.0, 0.0, 1.0, 1.0, -1.0), GeometryFlags::NONE))]))
+    Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
+        quad(0.0, 0.0, 1.0, 1.0, -1.0),
+        GeometryFlags::NONE,
+    ))]))
 }
 
 /// The shared header of the cases with their own raygen: parameters and buffers as in the
@@ -98,11 +107,22 @@ fn own_case(
                 p
             },
             buffers: vec![
-                BufferInit { binding: 1, words: rays.iter().flat_map(|r| r.words()).collect() },
-                BufferInit { binding: 2, words: vec![0; count * stride] },
+                BufferInit {
+                    binding: 1,
+                    words: rays.iter().flat_map(|r| r.words()).collect(),
+                },
+                BufferInit {
+                    binding: 2,
+                    words: vec![0; count * stride],
+                },
             ],
         }],
-        record: RecordSpec { binding: 2, layout: RecordLayout::PerIndex { stride }, channels, judgement: Judgement::PerRecord },
+        record: RecordSpec {
+            binding: 2,
+            layout: RecordLayout::PerIndex { stride },
+            channels,
+            judgement: Judgement::PerRecord,
+        },
         rounding: crate::oracle::geometry::Rounding::F32,
         backend_specific: vec![],
     }
@@ -117,7 +137,20 @@ fn ray_words(ctx: &mut Ctx<'_, '_>, id: u32) -> Vec<u32> {
 fn trace_words(ctx: &mut Ctx<'_, '_>, w: &[u32], payload: &mut [u32]) -> Flow {
     let f = |k: usize| f32::from_bits(w[k]);
     let handle = [ctx.param(0), ctx.param(1)];
-    ctx.trace(handle, [f(0), f(1), f(2)], [f(4), f(5), f(6)], f(3), f(7), f(8), w[9], w[10], w[11], w[12], w[13], payload)
+    ctx.trace(
+        handle,
+        [f(0), f(1), f(2)],
+        [f(4), f(5), f(6)],
+        f(3),
+        f(7),
+        f(8),
+        w[9],
+        w[10],
+        w[11],
+        w[12],
+        w[13],
+        payload,
+    )
 }
 
 const PAYLOAD_WGSL: &str = r#"
@@ -164,11 +197,16 @@ fn miss__xor() {
 }
 "#;
 
-const INIT: [u32; 8] = [0x7FC00001, 0x00000001, 0x80000000, 0xFFFFFFFF, 0x3F800000, 0x007FFFFF, 0xFF800000, 0x12345678];
+const INIT: [u32; 8] = [
+    0x7FC00001, 0x00000001, 0x80000000, 0xFFFFFFFF, 0x3F800000, 0x007FFFFF, 0xFF800000, 0x12345678,
+];
 
 fn copy_semantics(n: u32) -> Case {
     let (scene, root) = one_quad();
-    let wgsl = format!("{}const NUM_PAYLOAD: u32 = {n}u;\n{PAYLOAD_WGSL}", header(32));
+    let wgsl = format!(
+        "{}const NUM_PAYLOAD: u32 = {n}u;\n{PAYLOAD_WGSL}",
+        header(32)
+    );
     let mut m = Models::new();
     m.add("raygen__payload", move |ctx| {
         let id = ctx.linear_index();
@@ -201,26 +239,55 @@ fn copy_semantics(n: u32) -> Case {
     m.add("closesthit__xor", xor(1, 0x00FF_00FF));
     m.add("miss__xor", xor(2, 0xF000_000F));
     let rays = vec![
-        Ray { aux: 0, ..Ray::new([0.75, 0.25, 0.0], [0.0, 0.0, -1.0]) },
-        Ray { aux: 0xDEAD_0000, ..Ray::new([0.75, 0.25, 0.0], [0.0, 0.0, -1.0]) },
-        Ray { aux: 0, ..Ray::new([5.0, 0.25, 0.0], [0.0, 0.0, -1.0]) },
-        Ray { aux: 0x0000_BEEF, ..Ray::new([5.0, 0.25, 0.0], [0.0, 0.0, -1.0]) },
+        Ray {
+            aux: 0,
+            ..Ray::new([0.75, 0.25, 0.0], [0.0, 0.0, -1.0])
+        },
+        Ray {
+            aux: 0xDEAD_0000,
+            ..Ray::new([0.75, 0.25, 0.0], [0.0, 0.0, -1.0])
+        },
+        Ray {
+            aux: 0,
+            ..Ray::new([5.0, 0.25, 0.0], [0.0, 0.0, -1.0])
+        },
+        Ray {
+            aux: 0x0000_BEEF,
+            ..Ray::new([5.0, 0.25, 0.0], [0.0, 0.0, -1.0])
+        },
     ];
     let pipeline = PipelineDesc {
         wgsl,
         raygen: "raygen__payload".into(),
         miss: vec![Some("miss__xor".into())],
-        hit: vec![hit_group(Some("closesthit__xor"), Some("anyhit__xor"), None)],
+        hit: vec![hit_group(
+            Some("closesthit__xor"),
+            Some("anyhit__xor"),
+            None,
+        )],
         callables: vec![],
         exception: None,
-        compile: PipelineCompileOptions { num_payload_values: Setting::Value(n), ..Default::default() },
+        compile: PipelineCompileOptions {
+            num_payload_values: Setting::Value(n),
+            ..Default::default()
+        },
         link: PipelineLinkOptions::default(),
     };
-    let sbt = SbtLayout { miss: vec![SbtEntry::new(0, vec![0])], hit: vec![SbtEntry::new(0, vec![0])], ..Default::default() };
-    let channels = (0..n as usize).map(|k| uint_channel(&format!("payload{k}"), k)).collect();
+    let sbt = SbtLayout {
+        miss: vec![SbtEntry::new(0, vec![0])],
+        hit: vec![SbtEntry::new(0, vec![0])],
+        ..Default::default()
+    };
+    let channels = (0..n as usize)
+        .map(|k| uint_channel(&format!("payload{k}"), k))
+        .collect();
     own_case(
         Group::Payload,
-        if n == 1 { "copy_semantics_single" } else { "copy_semantics" },
+        if n == 1 {
+            "copy_semantics_single"
+        } else {
+            "copy_semantics"
+        },
         &format!(
             "{n} payload register(s) copied in and out of a trace, any-hit, closest-hit and miss each XOR their own words, NaN, -0, denormal and all-ones bit patterns survive bit for bit"
         ),
@@ -347,10 +414,12 @@ fn continuation_callable__double() {
 
 fn spill_across_calls() -> Case {
     let mut scene = Scene::default();
-    let root = scene.add(crate::scene::Node::Gas(Gas::new(vec![GeomInput::Aabbs(crate::scene::Aabbs::new(
-        vec![[0.0, 0.0, -2.0, 1.0, 1.0, 0.0]],
-        GeometryFlags::DISABLE_ANYHIT,
-    ))])));
+    let root = scene.add(crate::scene::Node::Gas(Gas::new(vec![GeomInput::Aabbs(
+        crate::scene::Aabbs::new(
+            vec![[0.0, 0.0, -2.0, 1.0, 1.0, 0.0]],
+            GeometryFlags::DISABLE_ANYHIT,
+        ),
+    )])));
     let mut m = Models::new();
     // The model of a correct backend: locals survive every call.
     m.add("raygen__spill", |ctx| {
@@ -398,14 +467,30 @@ fn spill_across_calls() -> Case {
         wgsl: format!("{}{SPILL_WGSL}", header(4)),
         raygen: "raygen__spill".into(),
         miss: vec![None],
-        hit: vec![hit_group(Some("closesthit__spill"), None, Some("intersection__spill"))],
+        hit: vec![hit_group(
+            Some("closesthit__spill"),
+            None,
+            Some("intersection__spill"),
+        )],
         callables: vec![
-            CallableDesc { direct: Some("direct_callable__double".into()), continuation: None },
-            CallableDesc { direct: None, continuation: Some("continuation_callable__double".into()) },
+            CallableDesc {
+                direct: Some("direct_callable__double".into()),
+                continuation: None,
+            },
+            CallableDesc {
+                direct: None,
+                continuation: Some("continuation_callable__double".into()),
+            },
         ],
         exception: None,
-        compile: PipelineCompileOptions { num_payload_values: Setting::Value(8), ..Default::default() },
-        link: PipelineLinkOptions { max_trace_depth: 1, ..Default::default() },
+        compile: PipelineCompileOptions {
+            num_payload_values: Setting::Value(8),
+            ..Default::default()
+        },
+        link: PipelineLinkOptions {
+            max_trace_depth: 1,
+            ..Default::default()
+        },
     };
     let sbt = SbtLayout {
         miss: vec![SbtEntry::new(0, vec![])],
@@ -413,7 +498,14 @@ fn spill_across_calls() -> Case {
         callables: vec![SbtEntry::new(0, vec![]), SbtEntry::new(1, vec![])],
         ..Default::default()
     };
-    let rays = (0..8).map(|k| Ray::new([0.5 + if k % 2 == 0 { 0.0 } else { 5.0 }, 0.5, 1.0], [0.0, 0.0, -1.0])).collect();
+    let rays = (0..8)
+        .map(|k| {
+            Ray::new(
+                [0.5 + if k % 2 == 0 { 0.0 } else { 5.0 }, 0.5, 1.0],
+                [0.0, 0.0, -1.0],
+            )
+        })
+        .collect();
     own_case(
         Group::Call,
         "spill_across_calls",
@@ -426,7 +518,11 @@ fn spill_across_calls() -> Case {
         sbt,
         rays,
         4,
-        vec![uint_channel("flags", 0), uint_channel("payload3", 1), uint_channel("is_flags", 2)],
+        vec![
+            uint_channel("flags", 0),
+            uint_channel("payload3", 1),
+            uint_channel("is_flags", 2),
+        ],
     )
 }
 
@@ -505,10 +601,9 @@ fn call_mix(ctx: &mut Ctx<'_, '_>, a: u32, b: u32) -> Result<u32, crate::oracle:
 
 fn direct_all_stages() -> Case {
     let mut scene = Scene::default();
-    let root = scene.add(crate::scene::Node::Gas(Gas::new(vec![GeomInput::Aabbs(crate::scene::Aabbs::new(
-        vec![[0.0, 0.0, -2.0, 1.0, 1.0, 0.0]],
-        GeometryFlags::NONE,
-    ))])));
+    let root = scene.add(crate::scene::Node::Gas(Gas::new(vec![GeomInput::Aabbs(
+        crate::scene::Aabbs::new(vec![[0.0, 0.0, -2.0, 1.0, 1.0, 0.0]], GeometryFlags::NONE),
+    )])));
     let mut m = Models::new();
     m.add("direct_callable__mix", |ctx| {
         let (a, b, d) = (ctx.get_payload(0), ctx.get_payload(1), ctx.sbt_data_u32(0));
@@ -547,8 +642,8 @@ fn direct_all_stages() -> Case {
         let w = ray_words(ctx, id);
         let mut p = [0u32; 8];
         trace_words(ctx, &w, &mut p)?;
-        for k in 0..3 {
-            ctx.write(2, s + 2 + k, p[k]);
+        for (k, v) in p.iter().take(3).enumerate() {
+            ctx.write(2, s + 2 + k, *v);
         }
         Ok(())
     });
@@ -581,14 +676,31 @@ fn direct_all_stages() -> Case {
         wgsl: format!("{}{DIRECT_WGSL}", header(8)),
         raygen: "raygen__calls".into(),
         miss: vec![Some("miss__calls".into())],
-        hit: vec![hit_group(Some("closesthit__calls"), Some("anyhit__calls"), Some("intersection__calls"))],
+        hit: vec![hit_group(
+            Some("closesthit__calls"),
+            Some("anyhit__calls"),
+            Some("intersection__calls"),
+        )],
         callables: vec![
-            CallableDesc { direct: Some("direct_callable__mix".into()), continuation: None },
-            CallableDesc { direct: Some("direct_callable__nest".into()), continuation: None },
+            CallableDesc {
+                direct: Some("direct_callable__mix".into()),
+                continuation: None,
+            },
+            CallableDesc {
+                direct: Some("direct_callable__nest".into()),
+                continuation: None,
+            },
         ],
         exception: None,
-        compile: PipelineCompileOptions { num_payload_values: Setting::Value(8), ..Default::default() },
-        link: PipelineLinkOptions { max_trace_depth: 1, max_direct_callable_depth: 6, ..Default::default() },
+        compile: PipelineCompileOptions {
+            num_payload_values: Setting::Value(8),
+            ..Default::default()
+        },
+        link: PipelineLinkOptions {
+            max_trace_depth: 1,
+            max_direct_callable_depth: 6,
+            ..Default::default()
+        },
     };
     let sbt = SbtLayout {
         miss: vec![SbtEntry::new(0, vec![])],
@@ -596,7 +708,14 @@ fn direct_all_stages() -> Case {
         callables: vec![SbtEntry::new(0, vec![7]), SbtEntry::new(1, vec![])],
         ..Default::default()
     };
-    let rays = (0..8).map(|k| Ray::new([0.5 + if k % 2 == 0 { 0.0 } else { 5.0 }, 0.5, 1.0], [0.0, 0.0, -1.0])).collect();
+    let rays = (0..8)
+        .map(|k| {
+            Ray::new(
+                [0.5 + if k % 2 == 0 { 0.0 } else { 5.0 }, 0.5, 1.0],
+                [0.0, 0.0, -1.0],
+            )
+        })
+        .collect();
     own_case(
         Group::Call,
         "direct_all_stages",
@@ -609,7 +728,13 @@ fn direct_all_stages() -> Case {
         sbt,
         rays,
         8,
-        ["rg_call", "rg_nest", "ch_call", "ms_call", "ah_call", "is_call"].iter().enumerate().map(|(k, n)| uint_channel(n, k)).collect(),
+        [
+            "rg_call", "rg_nest", "ch_call", "ms_call", "ah_call", "is_call",
+        ]
+        .iter()
+        .enumerate()
+        .map(|(k, n)| uint_channel(n, k))
+        .collect(),
     )
 }
 
@@ -659,7 +784,20 @@ fn continuation_trace() -> Case {
         let mut p = [0u32; 8];
         let o = [f32::from_bits(ctx.get_payload(0)), 0.5, 1.0];
         let handle = [ctx.param(0), ctx.param(1)];
-        ctx.trace(handle, o, [0.0, 0.0, -1.0], 0.0, 10.0, 0.0, 0xFF, 0, 0, 1, 0, &mut p)?;
+        ctx.trace(
+            handle,
+            o,
+            [0.0, 0.0, -1.0],
+            0.0,
+            10.0,
+            0.0,
+            0xFF,
+            0,
+            0,
+            1,
+            0,
+            &mut p,
+        )?;
         ctx.set_payload(1, p[0] + 1);
         let r = ctx.remaining_trace_depth();
         ctx.set_payload(2, r);
@@ -700,10 +838,20 @@ fn continuation_trace() -> Case {
         raygen: "raygen__cont".into(),
         miss: vec![Some("miss__cont".into())],
         hit: vec![hit_group(Some("closesthit__cont"), None, None)],
-        callables: vec![CallableDesc { direct: None, continuation: Some("continuation_callable__trace".into()) }],
+        callables: vec![CallableDesc {
+            direct: None,
+            continuation: Some("continuation_callable__trace".into()),
+        }],
         exception: None,
-        compile: PipelineCompileOptions { num_payload_values: Setting::Value(8), ..Default::default() },
-        link: PipelineLinkOptions { max_trace_depth: 3, max_continuation_callable_depth: 2, ..Default::default() },
+        compile: PipelineCompileOptions {
+            num_payload_values: Setting::Value(8),
+            ..Default::default()
+        },
+        link: PipelineLinkOptions {
+            max_trace_depth: 3,
+            max_continuation_callable_depth: 2,
+            ..Default::default()
+        },
     };
     let sbt = SbtLayout {
         miss: vec![SbtEntry::new(0, vec![])],
@@ -711,7 +859,14 @@ fn continuation_trace() -> Case {
         callables: vec![SbtEntry::new(0, vec![])],
         ..Default::default()
     };
-    let rays = (0..8).map(|k| Ray::new([if k % 2 == 0 { 0.25 } else { 5.25 }, 0.5, 1.0], [0.0, 0.0, -1.0])).collect();
+    let rays = (0..8)
+        .map(|k| {
+            Ray::new(
+                [if k % 2 == 0 { 0.25 } else { 5.25 }, 0.5, 1.0],
+                [0.0, 0.0, -1.0],
+            )
+        })
+        .collect();
     own_case(
         Group::Call,
         "continuation_trace",
@@ -724,7 +879,11 @@ fn continuation_trace() -> Case {
         sbt,
         rays,
         4,
-        ["rg_cc_result", "rg_cc_depth", "ray_p0", "ch_cc_result"].iter().enumerate().map(|(k, n)| uint_channel(n, k)).collect(),
+        ["rg_cc_result", "rg_cc_depth", "ray_p0", "ch_cc_result"]
+            .iter()
+            .enumerate()
+            .map(|(k, n)| uint_channel(n, k))
+            .collect(),
     )
 }
 
@@ -763,7 +922,8 @@ fn raygen__large() {
     });
     for k in 0..n {
         m.add(&format!("direct_callable__n{k}"), move |ctx| {
-            let v = (ctx.get_payload(2) * (ctx.get_payload(1) / 3) + ctx.get_payload(0)) % 199 + k * 1000;
+            let v = (ctx.get_payload(2) * (ctx.get_payload(1) / 3) + ctx.get_payload(0)) % 199
+                + k * 1000;
             ctx.set_payload(0, v);
             Ok(())
         });
@@ -774,16 +934,32 @@ fn raygen__large() {
         raygen: "raygen__large".into(),
         miss: vec![],
         hit: vec![],
-        callables: (0..n).map(|k| CallableDesc { direct: Some(format!("direct_callable__n{k}")), continuation: None }).collect(),
+        callables: (0..n)
+            .map(|k| CallableDesc {
+                direct: Some(format!("direct_callable__n{k}")),
+                continuation: None,
+            })
+            .collect(),
         exception: None,
-        compile: PipelineCompileOptions { num_payload_values: Setting::Value(3), ..Default::default() },
-        link: PipelineLinkOptions { max_trace_depth: 0, ..Default::default() },
+        compile: PipelineCompileOptions {
+            num_payload_values: Setting::Value(3),
+            ..Default::default()
+        },
+        link: PipelineLinkOptions {
+            max_trace_depth: 0,
+            ..Default::default()
+        },
     };
-    let sbt = SbtLayout { callables: (0..n as usize).map(|k| SbtEntry::new(k, vec![])).collect(), ..Default::default() };
+    let sbt = SbtLayout {
+        callables: (0..n as usize).map(|k| SbtEntry::new(k, vec![])).collect(),
+        ..Default::default()
+    };
     Case {
         name: format!("call.large_set_{n}"),
         group: Group::Call,
-        summary: format!("{n} distinct direct callables; launch index k calls callable k, which returns (W·(y/3) + x) % 199 + 1000k (CTS large_shader_set)"),
+        summary: format!(
+            "{n} distinct direct callables; launch index k calls callable k, which returns (W·(y/3) + x) % 199 + 1000k (CTS large_shader_set)"
+        ),
         guards: vec![],
         scene: Scene::default(),
         pipeline,
@@ -791,10 +967,29 @@ fn raygen__large() {
         sbt,
         launches: vec![Launch {
             dims: [w, h, 1],
-            params: vec![ParamWord::HandleLo(None), ParamWord::HandleHi(None), ParamWord::U32(n), ParamWord::U32(0)],
-            buffers: vec![BufferInit { binding: 1, words: vec![0; 16] }, BufferInit { binding: 2, words: vec![0; n as usize] }],
+            params: vec![
+                ParamWord::HandleLo(None),
+                ParamWord::HandleHi(None),
+                ParamWord::U32(n),
+                ParamWord::U32(0),
+            ],
+            buffers: vec![
+                BufferInit {
+                    binding: 1,
+                    words: vec![0; 16],
+                },
+                BufferInit {
+                    binding: 2,
+                    words: vec![0; n as usize],
+                },
+            ],
         }],
-        record: RecordSpec { binding: 2, layout: RecordLayout::PerIndex { stride: 1 }, channels: vec![uint_channel("value", 0)], judgement: Judgement::PerRecord },
+        record: RecordSpec {
+            binding: 2,
+            layout: RecordLayout::PerIndex { stride: 1 },
+            channels: vec![uint_channel("value", 0)],
+            judgement: Judgement::PerRecord,
+        },
         rounding: crate::oracle::geometry::Rounding::EXACT,
         backend_specific: vec![],
     }
@@ -859,7 +1054,20 @@ fn recursion_tree() -> Case {
         let mut p = [0u32; 8];
         let x = if hit { 0.25 } else { 5.0 };
         let handle = [ctx.param(0), ctx.param(1)];
-        ctx.trace(handle, [x, 0.5, 1.0], [0.0, 0.0, -1.0], 0.0, 10.0, 0.0, 0xFF, 0, 0, 1, 0, &mut p)?;
+        ctx.trace(
+            handle,
+            [x, 0.5, 1.0],
+            [0.0, 0.0, -1.0],
+            0.0,
+            10.0,
+            0.0,
+            0xFF,
+            0,
+            0,
+            1,
+            0,
+            &mut p,
+        )?;
         Ok([p[0], p[1]])
     }
     fn node(ctx: &mut Ctx<'_, '_>) -> Flow {
@@ -899,8 +1107,8 @@ fn recursion_tree() -> Case {
         let mut p = [0u32; 8];
         trace_words(ctx, &w, &mut p)?;
         let s = id as usize * 4;
-        for k in 0..3 {
-            ctx.write(2, s + k, p[k]);
+        for (k, v) in p.iter().take(3).enumerate() {
+            ctx.write(2, s + k, *v);
         }
         let r = ctx.remaining_trace_depth();
         ctx.write(2, s + 3, r);
@@ -913,10 +1121,20 @@ fn recursion_tree() -> Case {
         hit: vec![hit_group(Some("closesthit__tree"), None, None)],
         callables: vec![],
         exception: None,
-        compile: PipelineCompileOptions { num_payload_values: Setting::Value(3), ..Default::default() },
-        link: PipelineLinkOptions { max_trace_depth: depth, ..Default::default() },
+        compile: PipelineCompileOptions {
+            num_payload_values: Setting::Value(3),
+            ..Default::default()
+        },
+        link: PipelineLinkOptions {
+            max_trace_depth: depth,
+            ..Default::default()
+        },
     };
-    let sbt = SbtLayout { miss: vec![SbtEntry::new(0, vec![])], hit: vec![SbtEntry::new(0, vec![])], ..Default::default() };
+    let sbt = SbtLayout {
+        miss: vec![SbtEntry::new(0, vec![])],
+        hit: vec![SbtEntry::new(0, vec![])],
+        ..Default::default()
+    };
     own_case(
         Group::Trace,
         "recursion_tree",
@@ -929,9 +1147,15 @@ fn recursion_tree() -> Case {
         pipeline,
         m,
         sbt,
-        vec![Ray::new([0.25, 0.5, 1.0], [0.0, 0.0, -1.0]), Ray::new([5.0, 0.5, 1.0], [0.0, 0.0, -1.0])],
+        vec![
+            Ray::new([0.25, 0.5, 1.0], [0.0, 0.0, -1.0]),
+            Ray::new([5.0, 0.5, 1.0], [0.0, 0.0, -1.0]),
+        ],
         4,
-        ["ch_nodes", "ms_nodes", "min_remaining", "rg_remaining"].iter().enumerate().map(|(k, n)| uint_channel(n, k)).collect(),
+        ["ch_nodes", "ms_nodes", "min_remaining", "rg_remaining"]
+            .iter()
+            .enumerate()
+            .map(|(k, n)| uint_channel(n, k))
+            .collect(),
     )
 }
-

@@ -10,8 +10,8 @@ use crate::oracle::model::{Flow, Models};
 use crate::scene::{Aabbs, Curves, Gas, GeomInput, InstanceDesc, Node, Scene, Spheres, Triangles};
 use crate::tolerance::Tolerance;
 use optik::{
-    BuiltinIntersector, CurveEndcaps, CurveType, ExceptionFlags, GeometryFlags, MotionFlags, MotionOptions,
-    PipelineCompileOptions, PipelineLinkOptions, Setting,
+    BuiltinIntersector, CurveEndcaps, CurveType, ExceptionFlags, GeometryFlags, MotionFlags,
+    MotionOptions, PipelineCompileOptions, PipelineLinkOptions, Setting,
 };
 
 /// Every case of the `exc` group.
@@ -98,7 +98,16 @@ fn exc_models() -> Models {
     m.add("exception__record", record_code);
     m.add("closesthit__throw", |ctx| {
         let s = ctx.linear_index() as usize * 32;
-        let words = [(0, 1), (1, ctx.ray_tmax().to_bits()), (2, ctx.primitive_index()), (3, ctx.instance_id()), (4, ctx.instance_index()), (5, ctx.sbt_gas_index()), (6, ctx.hit_kind()), (15, ctx.sbt_data_u32(0))];
+        let words = [
+            (0, 1),
+            (1, ctx.ray_tmax().to_bits()),
+            (2, ctx.primitive_index()),
+            (3, ctx.instance_id()),
+            (4, ctx.instance_index()),
+            (5, ctx.sbt_gas_index()),
+            (6, ctx.hit_kind()),
+            (15, ctx.sbt_data_u32(0)),
+        ];
         for (k, v) in words {
             ctx.write(2, s + k, v);
         }
@@ -157,7 +166,20 @@ fn exc_models() -> Models {
         let mut p = [0u32; 32];
         p[2] = w[14];
         let handle = [ctx.param(0), ctx.param(1)];
-        ctx.trace(handle, [g(0), g(1), g(2)], [g(4), g(5), g(6)], g(3), g(7), g(8), w[9], w[10], w[11], w[12], w[13], &mut p)?;
+        ctx.trace(
+            handle,
+            [g(0), g(1), g(2)],
+            [g(4), g(5), g(6)],
+            g(3),
+            g(7),
+            g(8),
+            w[9],
+            w[10],
+            w[11],
+            w[12],
+            w[13],
+            &mut p,
+        )?;
         let s = id * 32;
         let programs = ctx.read(2, s + 16) | p[0] | 1;
         ctx.write(2, s + 16, programs);
@@ -172,19 +194,45 @@ fn exc_models() -> Models {
 
 fn codes() -> Case {
     let mut scene = Scene::default();
-    let tris = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(quad(0.0, 0.0, 1.0, 1.0, -1.0), GeometryFlags::NONE))])));
-    let boxes = scene.add(Node::Gas(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(vec![[2.0, 0.0, -2.0, 3.0, 1.0, -1.0]], GeometryFlags::NONE))])));
-    let root = scene.add(Node::Ias(vec![InstanceDesc::of(tris), InstanceDesc { sbt_offset: 1, ..InstanceDesc::of(boxes) }]));
+    let tris = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(quad(0.0, 0.0, 1.0, 1.0, -1.0), GeometryFlags::NONE),
+    )])));
+    let boxes = scene.add(Node::Gas(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(
+        vec![[2.0, 0.0, -2.0, 3.0, 1.0, -1.0]],
+        GeometryFlags::NONE,
+    ))])));
+    let root = scene.add(Node::Ias(vec![
+        InstanceDesc::of(tris),
+        InstanceDesc {
+            sbt_offset: 1,
+            ..InstanceDesc::of(boxes)
+        },
+    ]));
     let tri = Ray::new([0.75, 0.25, 0.0], [0.0, 0.0, -1.0]);
     let bx = Ray::new([2.5, 0.5, 0.0], [0.0, 0.0, -1.0]);
     let away = Ray::new([9.0, 0.5, 0.0], [0.0, 0.0, -1.0]);
-    let rays: Vec<Ray> = [(tri, 0), (tri, 1), (tri, 2), (away, 3), (tri, 4), (bx, 5), (tri, 6), (tri, 7), (tri, 8), (bx, 8)]
-        .iter()
-        .map(|(r, site)| Ray { aux: *site, ..*r })
-        .collect();
+    let rays: Vec<Ray> = [
+        (tri, 0),
+        (tri, 1),
+        (tri, 2),
+        (away, 3),
+        (tri, 4),
+        (bx, 5),
+        (tri, 6),
+        (tri, 7),
+        (tri, 8),
+        (bx, 8),
+    ]
+    .iter()
+    .map(|(r, site)| Ray { aux: *site, ..*r })
+    .collect();
     let groups = vec![
         hit_group(Some("closesthit__throw"), Some("anyhit__throw"), None),
-        hit_group(Some("closesthit__throw"), Some("anyhit__throw"), Some("intersection__throw")),
+        hit_group(
+            Some("closesthit__throw"),
+            Some("anyhit__throw"),
+            Some("intersection__throw"),
+        ),
     ];
     let mut case = StdCase::new(
         Group::Exc,
@@ -204,7 +252,10 @@ fn codes() -> Case {
         exception_flags: Setting::Value(ExceptionFlags::USER | ExceptionFlags::TRACE_DEPTH),
         ..Default::default()
     };
-    case.link = PipelineLinkOptions { max_trace_depth: 1, ..Default::default() };
+    case.link = PipelineLinkOptions {
+        max_trace_depth: 1,
+        ..Default::default()
+    };
     let mut case = case.build();
     case.pipeline.exception = Some("exception__record".into());
     case
@@ -216,10 +267,22 @@ fn invalid_ray_policy() -> Case {
     let good = Ray::new([0.5, 0.25, 5.0], [0.0, 0.0, -1.0]);
     let rays = vec![
         good,
-        Ray { origin: [nan, 0.25, 5.0], ..good },
-        Ray { origin: [0.5, -inf, 5.0], ..good },
-        Ray { dir: [0.0, nan, -1.0], ..good },
-        Ray { dir: [inf, 0.0, -1.0], ..good },
+        Ray {
+            origin: [nan, 0.25, 5.0],
+            ..good
+        },
+        Ray {
+            origin: [0.5, -inf, 5.0],
+            ..good
+        },
+        Ray {
+            dir: [0.0, nan, -1.0],
+            ..good
+        },
+        Ray {
+            dir: [inf, 0.0, -1.0],
+            ..good
+        },
         good.interval(-1.0, 10.0),
         good.interval(nan, 10.0),
         good.interval(0.0, nan),
@@ -239,7 +302,10 @@ fn invalid_ray_policy() -> Case {
     let mut m = Models::new();
     m.add("exception__record", record_code);
     case.more_wgsl = Some(("fn exception__record() {\n    out[slot(28u)] = bitcast<u32>(rt_exception_code());\n    out[slot(29u)] = 0xE0u;\n}\n".into(), m));
-    case.compile = PipelineCompileOptions { exception_flags: Setting::Value(ExceptionFlags::DEBUG), ..Default::default() };
+    case.compile = PipelineCompileOptions {
+        exception_flags: Setting::Value(ExceptionFlags::DEBUG),
+        ..Default::default()
+    };
     let mut case = case.build();
     case.pipeline.exception = Some("exception__record".into());
     case
@@ -254,11 +320,19 @@ fn camera(width: u32, height: u32, eye: [f64; 3], look: [f64; 3], fov_y: f64) ->
     };
     let up = [0.0, 0.0, 1.0];
     let r = {
-        let c = [f[1] * up[2] - f[2] * up[1], f[2] * up[0] - f[0] * up[2], f[0] * up[1] - f[1] * up[0]];
+        let c = [
+            f[1] * up[2] - f[2] * up[1],
+            f[2] * up[0] - f[0] * up[2],
+            f[0] * up[1] - f[1] * up[0],
+        ];
         let l = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
         [c[0] / l, c[1] / l, c[2] / l]
     };
-    let u = [r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0]];
+    let u = [
+        r[1] * f[2] - r[2] * f[1],
+        r[2] * f[0] - r[0] * f[2],
+        r[0] * f[1] - r[1] * f[0],
+    ];
     let h = (fov_y / 2.0).tan();
     let aspect = width as f64 / height as f64;
     let mut rays = Vec::new();
@@ -357,28 +431,56 @@ fn aov_models() -> Models {
         let v = ctx.triangle_vertices();
         let e1 = [v[1][0] - v[0][0], v[1][1] - v[0][1], v[1][2] - v[0][2]];
         let e2 = [v[2][0] - v[0][0], v[2][1] - v[0][1], v[2][2] - v[0][2]];
-        let n = norm([e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]]);
+        let n = norm([
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ]);
         let d = norm(ctx.object_ray_direction());
-        let c = [dot(n, d).abs(), ctx.triangle_barycentrics()[0], shade(ctx.primitive_index()), 1.0];
+        let c = [
+            dot(n, d).abs(),
+            ctx.triangle_barycentrics()[0],
+            shade(ctx.primitive_index()),
+            1.0,
+        ];
         write_rgba(ctx, c);
         Ok(())
     });
     m.add("closesthit__aov_sphere", |ctx| {
         let s = ctx.sphere();
-        let (o, d, t) = (ctx.object_ray_origin(), ctx.object_ray_direction(), ctx.ray_tmax());
+        let (o, d, t) = (
+            ctx.object_ray_origin(),
+            ctx.object_ray_direction(),
+            ctx.ray_tmax(),
+        );
         let p: [f32; 3] = std::array::from_fn(|k| o[k] + t * d[k]);
         let n: [f32; 3] = std::array::from_fn(|k| (p[k] - s[k]) / s[3]);
-        let c = [dot(n, norm(d)).abs(), 0.5 + 0.5 * n[2], shade(ctx.primitive_index()), 1.0];
+        let c = [
+            dot(n, norm(d)).abs(),
+            0.5 + 0.5 * n[2],
+            shade(ctx.primitive_index()),
+            1.0,
+        ];
         write_rgba(ctx, c);
         Ok(())
     });
     m.add("closesthit__aov_custom", |ctx| {
-        let c = [0.25 + f32::from_bits(ctx.get_attribute(1)), 0.5, shade(ctx.primitive_index()), 1.0];
+        let c = [
+            0.25 + f32::from_bits(ctx.get_attribute(1)),
+            0.5,
+            shade(ctx.primitive_index()),
+            1.0,
+        ];
         write_rgba(ctx, c);
         Ok(())
     });
     m.add("closesthit__aov_curve", |ctx| {
-        let c = [0.75, ctx.curve_parameter(), shade(ctx.primitive_index()), 1.0];
+        let c = [
+            0.75,
+            ctx.curve_parameter(),
+            shade(ctx.primitive_index()),
+            1.0,
+        ];
         write_rgba(ctx, c);
         Ok(())
     });
@@ -408,7 +510,11 @@ fn aov_models() -> Models {
 }
 
 fn rgba_channels() -> Vec<ChannelSpec> {
-    ["R", "G", "B", "A"].iter().enumerate().map(|(k, n)| float_channel(n, k, Tolerance::M3)).collect()
+    ["R", "G", "B", "A"]
+        .iter()
+        .enumerate()
+        .map(|(k, n)| float_channel(n, k, Tolerance::M3))
+        .collect()
 }
 
 fn debug_aov_per_primitive() -> Case {
@@ -416,10 +522,29 @@ fn debug_aov_per_primitive() -> Case {
     let f = GeometryFlags::DISABLE_ANYHIT;
     let mut scene = Scene::default();
     let mesh = icosphere(2);
-    let tri = scene.add(Node::Gas(Gas { build_flags: optik::BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS, ..mesh.gas(f) }));
-    let sphere_data: Vec<[f32; 4]> = vec![[-0.6, 0.0, 0.0, 0.5], [0.6, 0.2, 0.0, 0.4], [0.0, -0.5, 0.3, 0.35]];
+    let tri = scene.add(Node::Gas(Gas {
+        build_flags: optik::BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS,
+        ..mesh.gas(f)
+    }));
+    let sphere_data: Vec<[f32; 4]> = vec![
+        [-0.6, 0.0, 0.0, 0.5],
+        [0.6, 0.2, 0.0, 0.4],
+        [0.0, -0.5, 0.3, 0.35],
+    ];
     let custom = scene.add(Node::Gas(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(
-        sphere_data.iter().map(|s| [s[0] - s[3], s[1] - s[3], s[2] - s[3], s[0] + s[3], s[1] + s[3], s[2] + s[3]]).collect(),
+        sphere_data
+            .iter()
+            .map(|s| {
+                [
+                    s[0] - s[3],
+                    s[1] - s[3],
+                    s[2] - s[3],
+                    s[0] + s[3],
+                    s[1] + s[3],
+                    s[2] + s[3],
+                ]
+            })
+            .collect(),
         f,
     ))])));
     let builtin = scene.add(Node::Gas(Gas::new(vec![GeomInput::Spheres(Spheres {
@@ -431,7 +556,12 @@ fn debug_aov_per_primitive() -> Case {
         prim_index_offset: 0,
     })])));
     let curve = scene.add(Node::Gas(Gas::new(vec![GeomInput::Curves(Curves {
-        points: vec![vec![[-0.8, 0.0, -0.3], [-0.3, 0.4, 0.0], [0.2, -0.3, 0.2], [0.8, 0.2, 0.0]]],
+        points: vec![vec![
+            [-0.8, 0.0, -0.3],
+            [-0.3, 0.4, 0.0],
+            [0.2, -0.3, 0.2],
+            [0.8, 0.2, 0.0],
+        ]],
         radii: vec![vec![0.12; 4]],
         segments: vec![0, 1, 2],
         flag: f,
@@ -439,27 +569,54 @@ fn debug_aov_per_primitive() -> Case {
         prim_index_offset: 0,
     })])));
     let far_mesh = mesh.placed(1.0, [1.0e5, 1.0e5, 0.0]);
-    let far = scene.add(Node::Gas(Gas { build_flags: optik::BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS, ..far_mesh.gas(f) }));
+    let far = scene.add(Node::Gas(Gas {
+        build_flags: optik::BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS,
+        ..far_mesh.gas(f)
+    }));
     let mut moving = Triangles::mesh(mesh.vertices.clone(), mesh.triangles.clone(), f);
-    moving.keys.push(mesh.vertices.iter().map(|v| [v[0] + 0.4, v[1], v[2]]).collect());
+    moving.keys.push(
+        mesh.vertices
+            .iter()
+            .map(|v| [v[0] + 0.4, v[1], v[2]])
+            .collect(),
+    );
     let mblur = scene.add(Node::Gas(Gas {
         build_flags: optik::BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS,
-        motion: Some(MotionOptions { num_keys: 2, flags: MotionFlags::NONE, time_begin: 0.0, time_end: 1.0 }),
+        motion: Some(MotionOptions {
+            num_keys: 2,
+            flags: MotionFlags::NONE,
+            time_begin: 0.0,
+            time_end: 1.0,
+        }),
         ..Gas::new(vec![GeomInput::Triangles(moving)])
     }));
     let view = |at: [f64; 3], time: f32| -> Vec<Ray> {
-        camera(w, h, [at[0] + 0.3, at[1] - 3.0, at[2] + 0.6], at, 0.8).into_iter().map(|r| r.at_time(time)).collect()
+        camera(w, h, [at[0] + 0.3, at[1] - 3.0, at[2] + 0.6], at, 0.8)
+            .into_iter()
+            .map(|r| r.at_time(time))
+            .collect()
     };
     let mut curve_group = hit_group(Some("closesthit__aov_curve"), None, None);
     curve_group.builtin = Some(BuiltinIntersector::Curve(CurveType::RoundLinear));
     let groups = vec![
         hit_group(Some("closesthit__aov_tri"), None, None),
-        hit_group(Some("closesthit__aov_custom"), None, Some("intersection__aov_sphere")),
-        HitGroupDesc { closest_hit: Some("closesthit__aov_sphere".into()), ..sphere_group() },
+        hit_group(
+            Some("closesthit__aov_custom"),
+            None,
+            Some("intersection__aov_sphere"),
+        ),
+        HitGroupDesc {
+            closest_hit: Some("closesthit__aov_sphere".into()),
+            ..sphere_group()
+        },
         curve_group,
     ];
     let records = (0..4).map(|k| SbtEntry::new(k, vec![k as u32])).collect();
-    let offset = |rays: Vec<Ray>, o: u32| rays.into_iter().map(|r| Ray { sbt_offset: o, ..r }).collect::<Vec<_>>();
+    let offset = |rays: Vec<Ray>, o: u32| {
+        rays.into_iter()
+            .map(|r| Ray { sbt_offset: o, ..r })
+            .collect::<Vec<_>>()
+    };
     let mut case = StdCase::new(
         Group::Img,
         "debug_aov_per_primitive",
@@ -559,7 +716,12 @@ fn course_models() -> Models {
         let s = id * 32;
         if w[14] == 1 {
             let i = ctx.launch_index();
-            let c = [(i[0] % 256) as f32 / 255.0, (i[1] % 256) as f32 / 255.0, ((i[0] + i[1]) % 256) as f32 / 255.0, 1.0];
+            let c = [
+                (i[0] % 256) as f32 / 255.0,
+                (i[1] % 256) as f32 / 255.0,
+                ((i[0] + i[1]) % 256) as f32 / 255.0,
+                1.0,
+            ];
             for (k, v) in c.into_iter().enumerate() {
                 ctx.write(2, s + k, v.to_bits());
             }
@@ -569,7 +731,20 @@ fn course_models() -> Models {
         let mut p = [0u32; 8];
         p[2] = w[14];
         let handle = [ctx.param(0), ctx.param(1)];
-        ctx.trace(handle, [g(0), g(1), g(2)], [g(4), g(5), g(6)], g(3), g(7), g(8), w[9], w[10], 0, 2, 0, &mut p)?;
+        ctx.trace(
+            handle,
+            [g(0), g(1), g(2)],
+            [g(4), g(5), g(6)],
+            g(3),
+            g(7),
+            g(8),
+            w[9],
+            w[10],
+            0,
+            2,
+            0,
+            &mut p,
+        )?;
         for k in 0..3 {
             ctx.write(2, s + k, p[3 + k]);
         }
@@ -580,11 +755,19 @@ fn course_models() -> Models {
         let v = ctx.triangle_vertices();
         let e1 = [v[1][0] - v[0][0], v[1][1] - v[0][1], v[1][2] - v[0][2]];
         let e2 = [v[2][0] - v[0][0], v[2][1] - v[0][1], v[2][2] - v[0][2]];
-        let n = norm([e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]]);
+        let n = norm([
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ]);
         let d = norm(ctx.world_ray_direction());
         let mut shade = 0.2 + 0.8 * dot(n, d).abs();
         if ctx.get_payload(2) == 9 {
-            let (o, wd, t) = (ctx.world_ray_origin(), ctx.world_ray_direction(), ctx.ray_tmax());
+            let (o, wd, t) = (
+                ctx.world_ray_origin(),
+                ctx.world_ray_direction(),
+                ctx.ray_tmax(),
+            );
             let p: [f32; 3] = std::array::from_fn(|k| o[k] + t * wd[k]);
             let light = [-2.0f32, -3.0, 5.0];
             let l: [f32; 3] = std::array::from_fn(|k| light[k] - p[k]);
@@ -592,7 +775,20 @@ fn course_models() -> Models {
             let spawn = ctx.offset_ray(p, facing);
             let mut s = [0u32; 8];
             let handle = [ctx.param(0), ctx.param(1)];
-            ctx.trace(handle, spawn, l, 0.0, 1.0, 0.0, 0xFF, 1 | 4 | 8, 1, 2, 1, &mut s)?;
+            ctx.trace(
+                handle,
+                spawn,
+                l,
+                0.0,
+                1.0,
+                0.0,
+                0xFF,
+                1 | 4 | 8,
+                1,
+                2,
+                1,
+                &mut s,
+            )?;
             shade *= 0.3 + 0.7 * s[0] as f32;
         }
         for k in 0..3 {
@@ -621,10 +817,15 @@ fn course_scenes() -> Case {
     let floor = terrain(1, |_, _| 0.0).placed(8.0, [-4.0, -4.0, 0.0]);
     let cube_a = cube(-0.5, 0.5).placed(1.0, [-0.8, 0.0, 0.5]);
     let cube_b = cube(-0.5, 0.5).placed(0.8, [0.9, 0.5, 0.4]);
-    let rnd = |m: &crate::catalog::util::Mesh| Triangles::mesh(m.vertices.clone(), m.triangles.clone(), f);
+    let rnd = |m: &crate::catalog::util::Mesh| {
+        Triangles::mesh(m.vertices.clone(), m.triangles.clone(), f)
+    };
     let two_cubes = scene.add(Node::Gas(Gas {
         build_flags: optik::BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS,
-        ..Gas::new(vec![GeomInput::Triangles(rnd(&cube_a)), GeomInput::Triangles(rnd(&cube_b))])
+        ..Gas::new(vec![
+            GeomInput::Triangles(rnd(&cube_a)),
+            GeomInput::Triangles(rnd(&cube_b)),
+        ])
     }));
     let world = scene.add(Node::Gas(Gas {
         build_flags: optik::BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS,
@@ -636,12 +837,25 @@ fn course_scenes() -> Case {
         ])
     }));
     let eye = [1.5, -5.0, 3.0];
-    let rays = |aux: u32| camera(w, h, eye, [0.0, 0.0, 0.3], 0.7).into_iter().map(|r| Ray { aux, ..r }).collect::<Vec<_>>();
+    let rays = |aux: u32| {
+        camera(w, h, eye, [0.0, 0.0, 0.3], 0.7)
+            .into_iter()
+            .map(|r| Ray { aux, ..r })
+            .collect::<Vec<_>>()
+    };
     // Ray type 0 (radiance) records with colours, ray type 1 (shadow): SBT stride 2.
-    let colours: [[f32; 3]; 4] = [[0.9, 0.3, 0.2], [0.2, 0.7, 0.3], [0.7, 0.7, 0.7], [0.3, 0.4, 0.9]];
+    let colours: [[f32; 3]; 4] = [
+        [0.9, 0.3, 0.2],
+        [0.2, 0.7, 0.3],
+        [0.7, 0.7, 0.7],
+        [0.3, 0.4, 0.9],
+    ];
     let mut records = Vec::new();
     for (k, c) in colours.iter().enumerate() {
-        records.push(SbtEntry::new(0, vec![2 * k as u32, c[0].to_bits(), c[1].to_bits(), c[2].to_bits()]));
+        records.push(SbtEntry::new(
+            0,
+            vec![2 * k as u32, c[0].to_bits(), c[1].to_bits(), c[2].to_bits()],
+        ));
         records.push(SbtEntry::new(0, vec![2 * k as u32 + 1, 0, 0, 0]));
     }
     let mut case = StdCase::new(
@@ -659,12 +873,17 @@ fn course_scenes() -> Case {
     .launch_on(Some(world), w, rays(6))
     .launch_on(Some(world), w, rays(9))
     .record(rgba_channels());
-    case.miss_groups = vec![Some("miss__course".into()), Some("miss__course_shadow".into())];
+    case.miss_groups = vec![
+        Some("miss__course".into()),
+        Some("miss__course_shadow".into()),
+    ];
     case.miss_records = vec![SbtEntry::new(0, vec![0]), SbtEntry::new(1, vec![1])];
     case.raygen = "raygen__course";
     case.more_wgsl = Some((COURSE_WGSL.into(), course_models()));
-    case.link = PipelineLinkOptions { max_trace_depth: 2, ..Default::default() };
+    case.link = PipelineLinkOptions {
+        max_trace_depth: 2,
+        ..Default::default()
+    };
     case.judgement = Judgement::Image(IdiffOptions::I_DET);
     case.build()
 }
-

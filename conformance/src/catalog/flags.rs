@@ -25,19 +25,32 @@ pub fn cases() -> Vec<Case> {
 /// A counter-clockwise (seen from +z) quad over [x, x+1] × [y, y+1] at z, or clockwise.
 fn facing_quad(x: f32, y: f32, z: f32, ccw: bool) -> Vec<[f32; 3]> {
     let q = quad(x, y, x + 1.0, y + 1.0, z);
-    if ccw { q } else { q.chunks(3).flat_map(|t| [t[0], t[2], t[1]]).collect() }
+    if ccw {
+        q
+    } else {
+        q.chunks(3).flat_map(|t| [t[0], t[2], t[1]]).collect()
+    }
 }
 
 fn facing_hitkind() -> Case {
     let mut scene = Scene::default();
     let mut verts = facing_quad(0.0, 0.0, 0.0, true);
     verts.extend(facing_quad(2.0, 0.0, 0.0, false));
-    let gas = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(verts, GeometryFlags::DISABLE_ANYHIT))])));
+    let gas = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(verts, GeometryFlags::DISABLE_ANYHIT),
+    )])));
     let root = scene.add(Node::Ias(vec![
         InstanceDesc::of(gas),
-        InstanceDesc { id: 1, flags: InstanceFlags::FLIP_TRIANGLE_FACING, ..InstanceDesc::of(gas).at(translate([0.0, 2.0, 0.0])) },
+        InstanceDesc {
+            id: 1,
+            flags: InstanceFlags::FLIP_TRIANGLE_FACING,
+            ..InstanceDesc::of(gas).at(translate([0.0, 2.0, 0.0]))
+        },
         // A mirroring instance: facing is decided in object space, so it changes nothing.
-        InstanceDesc { id: 2, ..InstanceDesc::of(gas).at(scale_translate([-1.0, 1.0, 1.0], [3.0, 4.0, 0.0])) },
+        InstanceDesc {
+            id: 2,
+            ..InstanceDesc::of(gas).at(scale_translate([-1.0, 1.0, 1.0], [3.0, 4.0, 0.0]))
+        },
     ]));
     let mut rays = Vec::new();
     for y in [0.0f32, 2.0, 4.0] {
@@ -125,26 +138,46 @@ fn flags_models() -> Models {
 fn ray_flags_truth_table(aabbs: bool) -> Case {
     // Four primitives: opaque front-facing, opaque back-facing, non-opaque front, non-opaque
     // back (facing only matters for triangles). Every flag byte 0..=255 against each.
-    let opaque: Vec<[f32; 3]> = [facing_quad(0.0, 0.0, -1.0, true), facing_quad(2.0, 0.0, -1.0, false)].concat();
-    let clear: Vec<[f32; 3]> = [facing_quad(4.0, 0.0, -1.0, true), facing_quad(6.0, 0.0, -1.0, false)].concat();
+    let opaque: Vec<[f32; 3]> = [
+        facing_quad(0.0, 0.0, -1.0, true),
+        facing_quad(2.0, 0.0, -1.0, false),
+    ]
+    .concat();
+    let clear: Vec<[f32; 3]> = [
+        facing_quad(4.0, 0.0, -1.0, true),
+        facing_quad(6.0, 0.0, -1.0, false),
+    ]
+    .concat();
     let input = |v: Vec<[f32; 3]>, f: GeometryFlags| -> GeomInput {
         if aabbs {
-            let boxes = v.chunks(6).map(|q| [q[0][0], q[0][1], -1.5, q[0][0] + 1.0, q[0][1] + 1.0, -0.5]).collect();
+            let boxes = v
+                .chunks(6)
+                .map(|q| [q[0][0], q[0][1], -1.5, q[0][0] + 1.0, q[0][1] + 1.0, -0.5])
+                .collect();
             GeomInput::Aabbs(Aabbs::new(boxes, f))
         } else {
             GeomInput::Triangles(Triangles::soup(v, f))
         }
     };
-    let (scene, root) = Scene::single(Gas::new(vec![input(opaque, GeometryFlags::DISABLE_ANYHIT), input(clear, GeometryFlags::NONE)]));
+    let (scene, root) = Scene::single(Gas::new(vec![
+        input(opaque, GeometryFlags::DISABLE_ANYHIT),
+        input(clear, GeometryFlags::NONE),
+    ]));
     let mut rays = Vec::new();
     for flags in 0..256u32 {
         for x in [0.375f32, 2.375, 4.375, 6.375] {
             rays.push(Ray::new([x, 0.75, 1.0], [0.0, 0.0, -1.0]).flags(flags));
         }
     }
-    let (is, ch_name) = if aabbs { (Some(prog::IS_FIXED), "closesthit__flags") } else { (None, "closesthit__flags") };
+    let (is, ch_name) = if aabbs {
+        (Some(prog::IS_FIXED), "closesthit__flags")
+    } else {
+        (None, "closesthit__flags")
+    };
     let groups = vec![hit_group(Some(ch_name), Some("anyhit__flags"), is)];
-    let records = (0..2).map(|k| SbtEntry::new(0, vec![k, action::ACCEPT, 0, 0, 1, 2.0f32.to_bits()])).collect();
+    let records = (0..2)
+        .map(|k| SbtEntry::new(0, vec![k, action::ACCEPT, 0, 0, 1, 2.0f32.to_bits()]))
+        .collect();
     let mut case = StdCase::new(
         Group::Flags,
         if aabbs { "ray_flags_truth_table_aabbs" } else { "ray_flags_truth_table" },
@@ -167,14 +200,29 @@ fn ray_flags_truth_table(aabbs: bool) -> Case {
 fn precedence_matrix() -> Case {
     let mut scene = Scene::default();
     let gas = scene.add(Node::Gas(Gas::new(vec![
-        GeomInput::Triangles(Triangles::soup(quad(0.0, 0.0, 1.0, 1.0, -1.0), GeometryFlags::DISABLE_ANYHIT)),
-        GeomInput::Triangles(Triangles::soup(quad(2.0, 0.0, 3.0, 1.0, -1.0), GeometryFlags::NONE)),
+        GeomInput::Triangles(Triangles::soup(
+            quad(0.0, 0.0, 1.0, 1.0, -1.0),
+            GeometryFlags::DISABLE_ANYHIT,
+        )),
+        GeomInput::Triangles(Triangles::soup(
+            quad(2.0, 0.0, 3.0, 1.0, -1.0),
+            GeometryFlags::NONE,
+        )),
     ])));
-    let inst_flags = [InstanceFlags::NONE, InstanceFlags::DISABLE_ANYHIT, InstanceFlags::ENFORCE_ANYHIT, InstanceFlags::DISABLE_ANYHIT | InstanceFlags::ENFORCE_ANYHIT];
+    let inst_flags = [
+        InstanceFlags::NONE,
+        InstanceFlags::DISABLE_ANYHIT,
+        InstanceFlags::ENFORCE_ANYHIT,
+        InstanceFlags::DISABLE_ANYHIT | InstanceFlags::ENFORCE_ANYHIT,
+    ];
     let instances = inst_flags
         .iter()
         .enumerate()
-        .map(|(i, f)| InstanceDesc { id: i as u32, flags: *f, ..InstanceDesc::of(gas).at(translate([0.0, 2.0 * i as f32, 0.0])) })
+        .map(|(i, f)| InstanceDesc {
+            id: i as u32,
+            flags: *f,
+            ..InstanceDesc::of(gas).at(translate([0.0, 2.0 * i as f32, 0.0]))
+        })
         .collect();
     let root = scene.add(Node::Ias(instances));
     let ray_flags = [
@@ -211,14 +259,26 @@ fn precedence_matrix() -> Case {
 fn face_culling_overrides() -> Case {
     let mut scene = Scene::default();
     let gas = scene.add(Node::Gas(Gas::new(vec![
-        GeomInput::Triangles(Triangles::soup(facing_quad(0.0, 0.0, 0.0, true), GeometryFlags::DISABLE_ANYHIT)),
-        GeomInput::Triangles(Triangles::soup(facing_quad(2.0, 0.0, 0.0, true), GeometryFlags::DISABLE_ANYHIT | GeometryFlags::DISABLE_TRIANGLE_FACE_CULLING)),
+        GeomInput::Triangles(Triangles::soup(
+            facing_quad(0.0, 0.0, 0.0, true),
+            GeometryFlags::DISABLE_ANYHIT,
+        )),
+        GeomInput::Triangles(Triangles::soup(
+            facing_quad(2.0, 0.0, 0.0, true),
+            GeometryFlags::DISABLE_ANYHIT | GeometryFlags::DISABLE_TRIANGLE_FACE_CULLING,
+        )),
     ])));
     // Two stacked non-opaque triangles for CTS preserve_flip_facing.
-    let stacked = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
-        [facing_quad(4.0, 0.0, -0.5, true), facing_quad(4.0, 0.0, -1.0, true)].concat(),
-        GeometryFlags::REQUIRE_SINGLE_ANYHIT_CALL,
-    ))])));
+    let stacked = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(
+            [
+                facing_quad(4.0, 0.0, -0.5, true),
+                facing_quad(4.0, 0.0, -1.0, true),
+            ]
+            .concat(),
+            GeometryFlags::REQUIRE_SINGLE_ANYHIT_CALL,
+        ),
+    )])));
     let inst_flags = [
         InstanceFlags::NONE,
         InstanceFlags::DISABLE_TRIANGLE_FACE_CULLING,
@@ -228,7 +288,11 @@ fn face_culling_overrides() -> Case {
     let mut instances: Vec<InstanceDesc> = inst_flags
         .iter()
         .enumerate()
-        .map(|(i, f)| InstanceDesc { id: i as u32, flags: *f, ..InstanceDesc::of(gas).at(translate([0.0, 2.0 * i as f32, 0.0])) })
+        .map(|(i, f)| InstanceDesc {
+            id: i as u32,
+            flags: *f,
+            ..InstanceDesc::of(gas).at(translate([0.0, 2.0 * i as f32, 0.0]))
+        })
         .collect();
     instances.push(InstanceDesc {
         id: 9,
@@ -298,17 +362,38 @@ fn shadow_ray_pattern() -> Case {
         let z = -1.0 - k as f32 * 0.5;
         verts.extend(quad(k as f32 * 0.5, 0.0, k as f32 * 0.5 + 2.0, 1.0, z));
     }
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(verts, GeometryFlags::NONE))]));
-    let shadow = RayFlags::DISABLE_ANYHIT | RayFlags::TERMINATE_ON_FIRST_HIT | RayFlags::DISABLE_CLOSESTHIT;
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
+        verts,
+        GeometryFlags::NONE,
+    ))]));
+    let shadow =
+        RayFlags::DISABLE_ANYHIT | RayFlags::TERMINATE_ON_FIRST_HIT | RayFlags::DISABLE_CLOSESTHIT;
     let mut rays = Vec::new();
     for k in 0..16 {
         let x = -0.25 + 0.25 * k as f32;
-        let r = Ray { sbt_offset: 1, sbt_stride: 2, miss_index: 1, ..Ray::new([x, 0.375, -5.0], [0.0, 0.0, 1.0]).flags(shadow.0) };
+        let r = Ray {
+            sbt_offset: 1,
+            sbt_stride: 2,
+            miss_index: 1,
+            ..Ray::new([x, 0.375, -5.0], [0.0, 0.0, 1.0]).flags(shadow.0)
+        };
         rays.push(r);
-        rays.push(Ray { sbt_offset: 0, sbt_stride: 2, miss_index: 0, flags: 0, ..r });
+        rays.push(Ray {
+            sbt_offset: 0,
+            sbt_stride: 2,
+            miss_index: 0,
+            flags: 0,
+            ..r
+        });
     }
-    let groups = vec![hit_group(Some(prog::CH), Some(prog::AH), None), hit_group(Some("closesthit__never"), Some(prog::AH), None)];
-    let records = vec![SbtEntry::new(0, vec![0, action::ACCEPT]), SbtEntry::new(1, vec![1, action::ACCEPT])];
+    let groups = vec![
+        hit_group(Some(prog::CH), Some(prog::AH), None),
+        hit_group(Some("closesthit__never"), Some(prog::AH), None),
+    ];
+    let records = vec![
+        SbtEntry::new(0, vec![0, action::ACCEPT]),
+        SbtEntry::new(1, vec![1, action::ACCEPT]),
+    ];
     let mut case = StdCase::new(
         Group::Flags,
         "shadow_ray_pattern",
@@ -332,17 +417,34 @@ fn shadow_ray_pattern() -> Case {
         Ok(())
     });
     case.more_wgsl = Some((SHADOW_WGSL.into(), m));
-    case.link = PipelineLinkOptions { max_trace_depth: 1, ..Default::default() };
+    case.link = PipelineLinkOptions {
+        max_trace_depth: 1,
+        ..Default::default()
+    };
     case.build()
 }
 
 fn terminate_on_first_hit() -> Case {
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(vec![[0.0, 0.0, -1.0, 1.0, 1.0, 0.0]], GeometryFlags::DISABLE_ANYHIT))]));
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(
+        vec![[0.0, 0.0, -1.0, 1.0, 1.0, 0.0]],
+        GeometryFlags::DISABLE_ANYHIT,
+    ))]));
     let rays = vec![
         Ray::new([0.5, 0.5, 1.0], [0.0, 0.0, -1.0]),
         Ray::new([0.5, 0.5, 1.0], [0.0, 0.0, -1.0]).flags(RayFlags::TERMINATE_ON_FIRST_HIT.0),
     ];
-    let records = vec![SbtEntry::new(0, vec![0, action::ACCEPT, 0, 0, 2, 0.6f32.to_bits(), 0.5f32.to_bits()])];
+    let records = vec![SbtEntry::new(
+        0,
+        vec![
+            0,
+            action::ACCEPT,
+            0,
+            0,
+            2,
+            0.6f32.to_bits(),
+            0.5f32.to_bits(),
+        ],
+    )];
     StdCase::new(
         Group::Flags,
         "terminate_on_first_hit",

@@ -6,9 +6,14 @@ use super::util::*;
 use crate::case::*;
 use crate::kit::{Ray, StdCase, ch, hit_group, sphere_group};
 use crate::oracle::model::Models;
-use crate::scene::{Aabbs, Gas, GeomInput, InstanceDesc, Node, Scene, Spheres, TransformKind, TransformNode, Triangles};
+use crate::scene::{
+    Aabbs, Gas, GeomInput, InstanceDesc, Node, Scene, Spheres, TransformKind, TransformNode,
+    Triangles,
+};
 use crate::tolerance::Tolerance;
-use optik::{GeometryFlags, Matrix3x4, MotionFlags, MotionOptions, PipelineCompileOptions, Setting, SrtData};
+use optik::{
+    GeometryFlags, Matrix3x4, MotionFlags, MotionOptions, PipelineCompileOptions, Setting, SrtData,
+};
 
 /// Every case of the `inst` group.
 pub fn inst_cases() -> Vec<Case> {
@@ -21,10 +26,12 @@ pub fn motion_cases() -> Vec<Case> {
 }
 
 fn small_quad_gas(scene: &mut Scene) -> usize {
-    scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
-        quad(-0.5, -0.5, 0.5, 0.5, 0.0),
-        GeometryFlags::DISABLE_ANYHIT,
-    ))])))
+    scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(
+            quad(-0.5, -0.5, 0.5, 0.5, 0.0),
+            GeometryFlags::DISABLE_ANYHIT,
+        ),
+    )])))
 }
 
 fn masks_and_ids() -> Case {
@@ -35,7 +42,11 @@ fn masks_and_ids() -> Case {
     for k in 1..=255u32 {
         id = (id.wrapping_mul(7).wrapping_add(153325)) & 0xFF_FFFF;
         let (x, y) = ((k % 16) as f32 * 2.0, (k / 16) as f32 * 2.0);
-        instances.push(InstanceDesc { id, mask: k, ..InstanceDesc::of(gas).at(translate([x, y, -1.0])) });
+        instances.push(InstanceDesc {
+            id,
+            mask: k,
+            ..InstanceDesc::of(gas).at(translate([x, y, -1.0]))
+        });
     }
     let root = scene.add(Node::Ias(instances));
     let mut rays = Vec::new();
@@ -43,9 +54,15 @@ fn masks_and_ids() -> Case {
         let (x, y) = ((k % 16) as f32 * 2.0, (k / 16) as f32 * 2.0);
         let r = Ray::new([x + 0.125, y - 0.25, 0.0], [0.0, 0.0, -1.0]);
         // The ray's mask with garbage above bit 8: visible.
-        rays.push(Ray { mask: k | 0x00FF_FF00, ..r });
+        rays.push(Ray {
+            mask: k | 0x00FF_FF00,
+            ..r
+        });
         // The complement within 8 bits: invisible.
-        rays.push(Ray { mask: !k & 0xFF | 0x100, ..r });
+        rays.push(Ray {
+            mask: !k & 0xFF | 0x100,
+            ..r
+        });
     }
     StdCase::new(
         Group::Inst,
@@ -65,14 +82,33 @@ fn multilevel() -> Case {
     let mut scene = Scene::default();
     let gas = small_quad_gas(&mut scene);
     let rot = rotate_translate([0.0, 0.0, 1.0], 0.5, [0.25, 0.0, 0.0]);
-    let xf = scene.add(Node::Transform(TransformNode { kind: TransformKind::Static(rot), child: gas }));
+    let xf = scene.add(Node::Transform(TransformNode {
+        kind: TransformKind::Static(rot),
+        child: gas,
+    }));
     let mid = scene.add(Node::Ias(vec![
-        InstanceDesc { id: 20, sbt_offset: 1, ..InstanceDesc::of(xf).at(translate([0.0, 0.0, -1.0])) },
-        InstanceDesc { id: 21, sbt_offset: 5, ..InstanceDesc::of(xf).at(scale_translate([1.0, 2.0, 1.0], [3.0, 0.0, -2.0])) },
+        InstanceDesc {
+            id: 20,
+            sbt_offset: 1,
+            ..InstanceDesc::of(xf).at(translate([0.0, 0.0, -1.0]))
+        },
+        InstanceDesc {
+            id: 21,
+            sbt_offset: 5,
+            ..InstanceDesc::of(xf).at(scale_translate([1.0, 2.0, 1.0], [3.0, 0.0, -2.0]))
+        },
     ]));
     let root = scene.add(Node::Ias(vec![
-        InstanceDesc { id: 10, sbt_offset: 0, ..InstanceDesc::of(mid) },
-        InstanceDesc { id: 11, sbt_offset: 2, ..InstanceDesc::of(mid).at(rotate_translate([1.0, 0.0, 0.0], 0.2, [0.0, 6.0, 0.0])) },
+        InstanceDesc {
+            id: 10,
+            sbt_offset: 0,
+            ..InstanceDesc::of(mid)
+        },
+        InstanceDesc {
+            id: 11,
+            sbt_offset: 2,
+            ..InstanceDesc::of(mid).at(rotate_translate([1.0, 0.0, 0.0], 0.2, [0.0, 6.0, 0.0]))
+        },
     ]));
     let records = (0..8).map(|k| SbtEntry::new(0, vec![k])).collect();
     let mut rays = Vec::new();
@@ -103,14 +139,28 @@ fn nonuniform_scale() -> Case {
         scale_translate([-1.0, 1.0, 1.0], [16.0, 0.0, -5.0]),
         scale_translate([2.0, -1.0, -0.5], [24.0, 0.0, -5.0]),
     ];
-    let instances = ms.iter().enumerate().map(|(i, m)| InstanceDesc { id: i as u32, ..InstanceDesc::of(gas).at(*m) }).collect();
+    let instances = ms
+        .iter()
+        .enumerate()
+        .map(|(i, m)| InstanceDesc {
+            id: i as u32,
+            ..InstanceDesc::of(gas).at(*m)
+        })
+        .collect();
     let root = scene.add(Node::Ias(instances));
     let mut rng = Rng::new(31);
     let mut rays = Vec::new();
     for k in 0..4 {
         for _ in 0..8 {
-            let o = [8.0 * k as f64 + rng.range(-0.5, 0.5), rng.range(-0.3, 0.3), 2.0];
-            rays.push(Ray::new(v32(o), v32([rng.range(-0.05, 0.05), rng.range(-0.05, 0.05), -1.0])));
+            let o = [
+                8.0 * k as f64 + rng.range(-0.5, 0.5),
+                rng.range(-0.3, 0.3),
+                2.0,
+            ];
+            rays.push(Ray::new(
+                v32(o),
+                v32([rng.range(-0.05, 0.05), rng.range(-0.05, 0.05), -1.0]),
+            ));
         }
     }
     xform_case(
@@ -128,17 +178,37 @@ fn nonuniform_scale() -> Case {
 
 fn matrix() -> Case {
     let mut scene = Scene::default();
-    let gas = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
-        quad(0.0, 0.0, 1.0, 1.0, -1.0),
-        GeometryFlags::DISABLE_ANYHIT,
-    ))])));
-    let variants = [(2u16, MotionFlags::NONE), (3, MotionFlags::NONE), (5, MotionFlags::NONE), (3, MotionFlags::START_VANISH | MotionFlags::END_VANISH)];
+    let gas = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(
+            quad(0.0, 0.0, 1.0, 1.0, -1.0),
+            GeometryFlags::DISABLE_ANYHIT,
+        ),
+    )])));
+    let variants = [
+        (2u16, MotionFlags::NONE),
+        (3, MotionFlags::NONE),
+        (5, MotionFlags::NONE),
+        (3, MotionFlags::START_VANISH | MotionFlags::END_VANISH),
+    ];
     let mut instances = Vec::new();
     for (row, (keys, flags)) in variants.iter().enumerate() {
-        let motion = MotionOptions { num_keys: *keys, flags: *flags, time_begin: 0.25, time_end: 0.75 };
-        let mats = (0..*keys).map(|k| translate([0.5 * k as f32, 0.0, -0.25 * k as f32])).collect();
-        let xf = scene.add(Node::Transform(TransformNode { kind: TransformKind::MatrixMotion(motion, mats), child: gas }));
-        instances.push(InstanceDesc { id: row as u32, ..InstanceDesc::of(xf).at(translate([0.0, 2.0 * row as f32, 0.0])) });
+        let motion = MotionOptions {
+            num_keys: *keys,
+            flags: *flags,
+            time_begin: 0.25,
+            time_end: 0.75,
+        };
+        let mats = (0..*keys)
+            .map(|k| translate([0.5 * k as f32, 0.0, -0.25 * k as f32]))
+            .collect();
+        let xf = scene.add(Node::Transform(TransformNode {
+            kind: TransformKind::MatrixMotion(motion, mats),
+            child: gas,
+        }));
+        instances.push(InstanceDesc {
+            id: row as u32,
+            ..InstanceDesc::of(xf).at(translate([0.0, 2.0 * row as f32, 0.0]))
+        });
     }
     let root = scene.add(Node::Ias(instances));
     let times = [0.0f32, 0.25, 0.375, 0.5, 0.625, 0.75, 1.0, 0.3, 0.7];
@@ -146,7 +216,9 @@ fn matrix() -> Case {
     for row in 0..variants.len() {
         for t in times {
             for x in [0.125f32, 0.875, 1.375, 2.125, 2.875] {
-                rays.push(Ray::new([x, 2.0 * row as f32 + 0.375, 1.0], [0.0, 0.0, -1.0]).at_time(t));
+                rays.push(
+                    Ray::new([x, 2.0 * row as f32 + 0.375, 1.0], [0.0, 0.0, -1.0]).at_time(t),
+                );
             }
         }
     }
@@ -175,12 +247,21 @@ fn srt_nlerp() -> Case {
     // slerp angle (where it differs by more than the needle's width) do not.
     let half = 0.004f32;
     let pivot = [0.25f32, -0.125, 0.0];
-    let needle = [[0.8, -half], [1.2, -half], [1.2, half], [0.8, -half], [1.2, half], [0.8, half]]
-        .iter()
-        .map(|p: &[f32; 2]| [pivot[0] + p[0], pivot[1] + p[1], 0.0])
-        .collect();
+    let needle = [
+        [0.8, -half],
+        [1.2, -half],
+        [1.2, half],
+        [0.8, -half],
+        [1.2, half],
+        [0.8, half],
+    ]
+    .iter()
+    .map(|p: &[f32; 2]| [pivot[0] + p[0], pivot[1] + p[1], 0.0])
+    .collect();
     let mut scene = Scene::default();
-    let gas = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(needle, GeometryFlags::DISABLE_ANYHIT))])));
+    let gas = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(needle, GeometryFlags::DISABLE_ANYHIT),
+    )])));
     let angles = [std::f64::consts::FRAC_PI_2, 179f64.to_radians()];
     let mut instances = Vec::new();
     for (row, theta) in angles.iter().enumerate() {
@@ -197,17 +278,34 @@ fn srt_nlerp() -> Case {
             tz: pivot[2],
             ..SrtData::identity()
         };
-        let motion = MotionOptions { num_keys: 2, flags: MotionFlags::NONE, time_begin: 0.0, time_end: 1.0 };
-        let xf = scene.add(Node::Transform(TransformNode { kind: TransformKind::SrtMotion(motion, vec![key(0.0), key(*theta)]), child: gas }));
-        instances.push(InstanceDesc { id: row as u32, ..InstanceDesc::of(xf).at(translate([4.0 * row as f32, 0.0, -1.0])) });
+        let motion = MotionOptions {
+            num_keys: 2,
+            flags: MotionFlags::NONE,
+            time_begin: 0.0,
+            time_end: 1.0,
+        };
+        let xf = scene.add(Node::Transform(TransformNode {
+            kind: TransformKind::SrtMotion(motion, vec![key(0.0), key(*theta)]),
+            child: gas,
+        }));
+        instances.push(InstanceDesc {
+            id: row as u32,
+            ..InstanceDesc::of(xf).at(translate([4.0 * row as f32, 0.0, -1.0]))
+        });
     }
     let root = scene.add(Node::Ias(instances));
     let mut rays = Vec::new();
     for (row, theta) in angles.iter().enumerate() {
         for t in [0.0, 0.1, 0.25, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0] {
             for angle in [nlerp_angle(*theta, t), theta * t] {
-                let p = [pivot[0] as f64 + 0.95 * angle.cos(), pivot[1] as f64 + 0.95 * angle.sin()];
-                rays.push(Ray::new(v32([4.0 * row as f64 + p[0], p[1], 1.0]), [0.0, 0.0, -1.0]).at_time(t as f32));
+                let p = [
+                    pivot[0] as f64 + 0.95 * angle.cos(),
+                    pivot[1] as f64 + 0.95 * angle.sin(),
+                ];
+                rays.push(
+                    Ray::new(v32([4.0 * row as f64 + p[0], p[1], 1.0]), [0.0, 0.0, -1.0])
+                        .at_time(t as f32),
+                );
             }
         }
     }
@@ -260,7 +358,17 @@ fn motion_models() -> Models {
     let mut m = Models::new();
     m.add("closesthit__time", |ctx| {
         let s = ctx.linear_index() as usize * 32;
-        let words = [(0, 1), (1, ctx.ray_tmax().to_bits()), (2, ctx.primitive_index()), (3, ctx.instance_id()), (4, ctx.instance_index()), (5, ctx.sbt_gas_index()), (6, ctx.hit_kind()), (15, ctx.sbt_data_u32(0)), (19, ctx.ray_time().to_bits())];
+        let words = [
+            (0, 1),
+            (1, ctx.ray_tmax().to_bits()),
+            (2, ctx.primitive_index()),
+            (3, ctx.instance_id()),
+            (4, ctx.instance_index()),
+            (5, ctx.sbt_gas_index()),
+            (6, ctx.hit_kind()),
+            (15, ctx.sbt_data_u32(0)),
+            (19, ctx.ray_time().to_bits()),
+        ];
         for (k, v) in words {
             ctx.write(2, s + k, v);
         }
@@ -296,24 +404,42 @@ fn motion_models() -> Models {
 }
 
 fn gas_vertex_aabb() -> Case {
-    let motion = |n: u16| MotionOptions { num_keys: n, flags: MotionFlags::NONE, time_begin: 0.0, time_end: 1.0 };
+    let motion = |n: u16| MotionOptions {
+        num_keys: n,
+        flags: MotionFlags::NONE,
+        time_begin: 0.0,
+        time_end: 1.0,
+    };
     let mut scene = Scene::default();
     // Triangles: a quad moving +2 in x over two keys.
     let q0 = quad(0.0, 0.0, 1.0, 1.0, -1.0);
     let q1: Vec<[f32; 3]> = q0.iter().map(|v| [v[0] + 2.0, v[1], v[2] - 0.5]).collect();
     let mut tris = Triangles::soup(q0, GeometryFlags::DISABLE_ANYHIT);
     tris.keys.push(q1);
-    let tri_gas = scene.add(Node::Gas(Gas { motion: Some(motion(2)), ..Gas::new(vec![GeomInput::Triangles(tris)]) }));
+    let tri_gas = scene.add(Node::Gas(Gas {
+        motion: Some(motion(2)),
+        ..Gas::new(vec![GeomInput::Triangles(tris)])
+    }));
     // Boxes: a sphere of radius 0.4 moving from x 0.5 to 2.5 over four keys.
     let (c0, c1) = ([0.5f32, 0.5, -1.0], [2.5f32, 0.5, -1.0]);
     let keyed = |k: usize| -> [f32; 6] {
         let t = k as f32 / 3.0;
         let c = [c0[0] * (1.0 - t) + c1[0] * t, 0.5, -1.0];
-        [c[0] - 0.4, c[1] - 0.4, c[2] - 0.4, c[0] + 0.4, c[1] + 0.4, c[2] + 0.4]
+        [
+            c[0] - 0.4,
+            c[1] - 0.4,
+            c[2] - 0.4,
+            c[0] + 0.4,
+            c[1] + 0.4,
+            c[2] + 0.4,
+        ]
     };
     let mut boxes = Aabbs::new(vec![keyed(0)], GeometryFlags::DISABLE_ANYHIT);
     boxes.keys = (0..4).map(|k| vec![keyed(k)]).collect();
-    let box_gas = scene.add(Node::Gas(Gas { motion: Some(motion(4)), ..Gas::new(vec![GeomInput::Aabbs(boxes)]) }));
+    let box_gas = scene.add(Node::Gas(Gas {
+        motion: Some(motion(4)),
+        ..Gas::new(vec![GeomInput::Aabbs(boxes)])
+    }));
     // Built-in spheres: the same motion over two keys.
     let sph = Spheres {
         centres: vec![vec![c0], vec![c1]],
@@ -323,18 +449,31 @@ fn gas_vertex_aabb() -> Case {
         sbt_offsets: None,
         prim_index_offset: 0,
     };
-    let sph_gas = scene.add(Node::Gas(Gas { motion: Some(motion(2)), ..Gas::new(vec![GeomInput::Spheres(sph)]) }));
+    let sph_gas = scene.add(Node::Gas(Gas {
+        motion: Some(motion(2)),
+        ..Gas::new(vec![GeomInput::Spheres(sph)])
+    }));
     let mut rays = Vec::new();
     for t in [0.0f32, 0.25, 0.5, 0.75, 1.0, 1.5] {
         for x in [0.5f32, 1.0, 1.5, 2.0, 2.5, 2.95] {
             rays.push(Ray::new([x, 0.5, 1.0], [0.0, 0.0, -1.0]).at_time(t));
         }
     }
-    let with_offset = |o: u32| rays.iter().map(|r| Ray { sbt_offset: o, ..*r }).collect::<Vec<_>>();
+    let with_offset = |o: u32| {
+        rays.iter()
+            .map(|r| Ray {
+                sbt_offset: o,
+                ..*r
+            })
+            .collect::<Vec<_>>()
+    };
     let groups = vec![
         hit_group(Some("closesthit__time"), None, None),
         hit_group(Some("closesthit__time"), None, Some("intersection__moving")),
-        crate::case::HitGroupDesc { closest_hit: Some("closesthit__time".into()), ..sphere_group() },
+        crate::case::HitGroupDesc {
+            closest_hit: Some("closesthit__time".into()),
+            ..sphere_group()
+        },
     ];
     let records = (0..3).map(|k| SbtEntry::new(k, vec![k as u32])).collect();
     let mut case = StdCase::new(
@@ -359,8 +498,13 @@ fn gas_vertex_aabb() -> Case {
 fn blur_disabled() -> Case {
     let mut scene = Scene::default();
     let gas = small_quad_gas(&mut scene);
-    let root = scene.add(Node::Ias(vec![InstanceDesc::of(gas).at(translate([0.0, 0.0, -1.0]))]));
-    let rays = [0.0f32, 0.5, 1.0, -3.0, 7.5].iter().map(|t| Ray::new([0.125, 0.25, 0.0], [0.0, 0.0, -1.0]).at_time(*t)).collect();
+    let root = scene.add(Node::Ias(vec![
+        InstanceDesc::of(gas).at(translate([0.0, 0.0, -1.0])),
+    ]));
+    let rays = [0.0f32, 0.5, 1.0, -3.0, 7.5]
+        .iter()
+        .map(|t| Ray::new([0.125, 0.25, 0.0], [0.0, 0.0, -1.0]).at_time(*t))
+        .collect();
     let mut case = StdCase::new(
         Group::Motion,
         "blur_disabled",
@@ -373,8 +517,10 @@ fn blur_disabled() -> Case {
     .launch(5, rays)
     .record(vec![ch::hit(), ch::t(Tolerance::U16), ch::aux()]);
     case.miss_groups = vec![Some("miss__time".into())];
-    case.compile = PipelineCompileOptions { uses_motion_blur: Setting::Value(false), ..Default::default() };
+    case.compile = PipelineCompileOptions {
+        uses_motion_blur: Setting::Value(false),
+        ..Default::default()
+    };
     case.more_wgsl = Some((MOTION_WGSL.into(), motion_models()));
     case.build()
 }
-

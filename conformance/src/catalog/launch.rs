@@ -48,7 +48,10 @@ fn launch_models() -> Models {
     m.add("raygen__index", |ctx| {
         let (i, d) = (ctx.launch_index(), ctx.launch_dimensions());
         let id = ctx.linear_index() as usize;
-        for (k, v) in [i[0] + 1, i[1] + 1, i[2] + 1, d[0], d[1], d[2]].into_iter().enumerate() {
+        for (k, v) in [i[0] + 1, i[1] + 1, i[2] + 1, d[0], d[1], d[2]]
+            .into_iter()
+            .enumerate()
+        {
             ctx.write(1, id * 6 + k, v);
         }
         Ok(())
@@ -70,8 +73,14 @@ fn launch_pipeline(raygen: &str) -> PipelineDesc {
         hit: vec![],
         callables: vec![],
         exception: None,
-        compile: PipelineCompileOptions { num_payload_values: Setting::Value(1), ..Default::default() },
-        link: PipelineLinkOptions { max_trace_depth: 0, ..Default::default() },
+        compile: PipelineCompileOptions {
+            num_payload_values: Setting::Value(1),
+            ..Default::default()
+        },
+        link: PipelineLinkOptions {
+            max_trace_depth: 0,
+            ..Default::default()
+        },
     }
 }
 
@@ -228,7 +237,20 @@ fn state_models() -> Models {
         let f = |k: usize| f32::from_bits(w[k]);
         let mut p = [0u32; 8];
         let handle = [ctx.param(0), ctx.param(1)];
-        ctx.trace(handle, [f(0), f(1), f(2)], [f(4), f(5), f(6)], f(3), f(7), f(8), w[9], w[10], w[11], w[12], w[13], &mut p)?;
+        ctx.trace(
+            handle,
+            [f(0), f(1), f(2)],
+            [f(4), f(5), f(6)],
+            f(3),
+            f(7),
+            f(8),
+            w[9],
+            w[10],
+            w[11],
+            w[12],
+            w[13],
+            &mut p,
+        )?;
         ctx.write(2, id as usize * 48 + 44, p[0] | 1);
         Ok(())
     });
@@ -272,16 +294,29 @@ fn ray_state_per_stage() -> Case {
             }
             let c = depth(i, j);
             verts.extend(quad(i as f32, j as f32, i as f32 + 1.0, j as f32 + 1.0, -c));
-            boxes.push([i as f32, j as f32, -c - 0.01, i as f32 + 1.0, j as f32 + 1.0, -c + 0.01]);
+            boxes.push([
+                i as f32,
+                j as f32,
+                -c - 0.01,
+                i as f32 + 1.0,
+                j as f32 + 1.0,
+                -c + 0.01,
+            ]);
         }
     }
     let mut scene = Scene::default();
-    let tris = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(verts, GeometryFlags::NONE))])));
+    let tris = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(verts, GeometryFlags::NONE),
+    )])));
     // One box per record so each reports its own t: per-primitive SBT offsets.
     let n = boxes.len() as u32;
     let mut aabbs = Aabbs::new(boxes, GeometryFlags::NONE);
     aabbs.flags = vec![GeometryFlags::NONE; n as usize];
-    aabbs.sbt_offsets = Some(crate::scene::SbtOffsets { offsets: (0..n).collect(), size_in_bytes: 4, stride: 0 });
+    aabbs.sbt_offsets = Some(crate::scene::SbtOffsets {
+        offsets: (0..n).collect(),
+        size_in_bytes: 4,
+        stride: 0,
+    });
     let aabb = scene.add(Node::Gas(Gas::new(vec![GeomInput::Aabbs(aabbs)])));
     let mut rays = Vec::new();
     let flags = [0u32, 4, 16, 4 | 16];
@@ -298,7 +333,11 @@ fn ray_state_per_stage() -> Case {
         }
     }
     let groups = vec![
-        HitGroupDesc { closest_hit: Some("closesthit__state".into()), any_hit: Some("anyhit__state".into()), ..Default::default() },
+        HitGroupDesc {
+            closest_hit: Some("closesthit__state".into()),
+            any_hit: Some("anyhit__state".into()),
+            ..Default::default()
+        },
         HitGroupDesc {
             closest_hit: Some("closesthit__state".into()),
             any_hit: Some("anyhit__state".into()),
@@ -314,11 +353,20 @@ fn ray_state_per_stage() -> Case {
             if i == 3 && j == 3 {
                 continue;
             }
-            records.push(SbtEntry::new(1, vec![1 + k, 0, (depth(i, j) + 0.5).to_bits()]));
+            records.push(SbtEntry::new(
+                1,
+                vec![1 + k, 0, (depth(i, j) + 0.5).to_bits()],
+            ));
             k += 1;
         }
     }
-    let box_rays: Vec<Ray> = rays.iter().map(|r| Ray { sbt_offset: 1, ..*r }).collect();
+    let box_rays: Vec<Ray> = rays
+        .iter()
+        .map(|r| Ray {
+            sbt_offset: 1,
+            ..*r
+        })
+        .collect();
     let mut case = StdCase::new(
         Group::Builtin,
         "ray_state_per_stage",
@@ -334,7 +382,9 @@ fn ray_state_per_stage() -> Case {
     case.raygen = "raygen__state";
     case.more_wgsl = Some((STATE_WGSL.into(), state_models()));
     let mut case = case.build();
-    let fields = ["ox", "oy", "oz", "dx", "dy", "dz", "tmin", "tmax", "flags", "mask", "time"];
+    let fields = [
+        "ox", "oy", "oz", "dx", "dy", "dz", "tmin", "tmax", "flags", "mask", "time",
+    ];
     let mut channels = Vec::new();
     for (s, stage) in ["is", "ah", "ch", "ms"].iter().enumerate() {
         for (f, field) in fields.iter().enumerate() {
@@ -347,10 +397,18 @@ fn ray_state_per_stage() -> Case {
         }
     }
     channels.push(uint_channel("programs", 44));
-    case.record = RecordSpec { binding: 2, layout: RecordLayout::PerIndex { stride: 48 }, channels, judgement: Judgement::PerRecord };
+    case.record = RecordSpec {
+        binding: 2,
+        layout: RecordLayout::PerIndex { stride: 48 },
+        channels,
+        judgement: Judgement::PerRecord,
+    };
     for l in &mut case.launches {
         let n = l.dims[0] as usize * l.dims[1] as usize;
-        l.buffers.iter_mut().filter(|b| b.binding == 2).for_each(|b| b.words = vec![0; n * 48]);
+        l.buffers
+            .iter_mut()
+            .filter(|b| b.binding == 2)
+            .for_each(|b| b.words = vec![0; n * 48]);
     }
     case
 }
@@ -370,7 +428,12 @@ fn ids_models() -> Models {
     m.add("anyhit__ids", |ctx| {
         let p = ctx.get_payload(0);
         ctx.set_payload(0, p | 4);
-        let v = [ctx.primitive_index(), ctx.instance_id(), ctx.instance_index(), ctx.sbt_gas_index()];
+        let v = [
+            ctx.primitive_index(),
+            ctx.instance_id(),
+            ctx.instance_index(),
+            ctx.sbt_gas_index(),
+        ];
         for (k, x) in v.into_iter().enumerate() {
             ctx.set_payload(3 + k as u32, x);
         }
@@ -385,25 +448,37 @@ fn ids_per_stage() -> Case {
     let mut scene = Scene::default();
     let inputs = (0..8)
         .map(|g| {
-            let mut t = Triangles::soup(quad(g as f32, 0.0, g as f32 + 1.0, 1.0, -1.0), GeometryFlags::NONE);
+            let mut t = Triangles::soup(
+                quad(g as f32, 0.0, g as f32 + 1.0, 1.0, -1.0),
+                GeometryFlags::NONE,
+            );
             t.prim_index_offset = 100 * g;
             GeomInput::Triangles(t)
         })
         .collect();
     let gas = scene.add(Node::Gas(Gas::new(inputs)));
     let instances = (0..4)
-        .map(|i| InstanceDesc { id: 2 * i, sbt_offset: 8 * i, ..InstanceDesc::of(gas).at(translate([0.0, 2.0 * i as f32, 0.0])) })
+        .map(|i| InstanceDesc {
+            id: 2 * i,
+            sbt_offset: 8 * i,
+            ..InstanceDesc::of(gas).at(translate([0.0, 2.0 * i as f32, 0.0]))
+        })
         .collect();
     let root = scene.add(Node::Ias(instances));
     let mut rays = Vec::new();
     for i in 0..4 {
         for g in 0..8 {
             for (x, y) in [(0.75f32, 0.25f32), (0.25, 0.75)] {
-                rays.push(Ray::new([g as f32 + x, 2.0 * i as f32 + y, 1.0], [0.0, 0.0, -1.0]));
+                rays.push(Ray::new(
+                    [g as f32 + x, 2.0 * i as f32 + y, 1.0],
+                    [0.0, 0.0, -1.0],
+                ));
             }
         }
     }
-    let records = (0..32).map(|k| SbtEntry::new(0, vec![k, action::ACCEPT])).collect();
+    let records = (0..32)
+        .map(|k| SbtEntry::new(0, vec![k, action::ACCEPT]))
+        .collect();
     let mut case = StdCase::new(
         Group::Builtin,
         "ids_per_stage",
@@ -490,7 +565,14 @@ pub fn xform_models() -> Models {
             ctx.write(2, b + 24 + k, o[k].to_bits());
             ctx.write(2, b + 27 + k, d[k].to_bits());
         }
-        let extra = [1, ctx.instance_id(), ctx.sbt_data_u32(0), ctx.instance_index(), ctx.hit_kind(), ctx.ray_tmax().to_bits()];
+        let extra = [
+            1,
+            ctx.instance_id(),
+            ctx.sbt_data_u32(0),
+            ctx.instance_index(),
+            ctx.hit_kind(),
+            ctx.ray_tmax().to_bits(),
+        ];
         for (k, v) in extra.into_iter().enumerate() {
             ctx.write(2, b + 30 + k, v);
         }
@@ -510,7 +592,20 @@ pub fn xform_models() -> Models {
         let f = |k: usize| f32::from_bits(w[k]);
         let mut p = [0u32; 8];
         let handle = [ctx.param(0), ctx.param(1)];
-        ctx.trace(handle, [f(0), f(1), f(2)], [f(4), f(5), f(6)], f(3), f(7), f(8), w[9], w[10], w[11], w[12], w[13], &mut p)
+        ctx.trace(
+            handle,
+            [f(0), f(1), f(2)],
+            [f(4), f(5), f(6)],
+            f(3),
+            f(7),
+            f(8),
+            w[9],
+            w[10],
+            w[11],
+            w[12],
+            w[13],
+            &mut p,
+        )
     });
     m
 }
@@ -522,11 +617,25 @@ pub fn xform_channels(t: Tolerance) -> Vec<ChannelSpec> {
         v.push(kit::float_channel(&format!("o2w{k}"), k, t));
         v.push(kit::float_channel(&format!("w2o{k}"), 12 + k, t));
     }
-    for (k, n) in ["obj_ox", "obj_oy", "obj_oz", "obj_dx", "obj_dy", "obj_dz"].iter().enumerate() {
+    for (k, n) in ["obj_ox", "obj_oy", "obj_oz", "obj_dx", "obj_dy", "obj_dz"]
+        .iter()
+        .enumerate()
+    {
         v.push(kit::float_channel(n, 24 + k, t));
     }
-    for (word, name) in [(30, "hit"), (31, "inst_id"), (32, "sbt_index"), (33, "inst_index"), (34, "hit_kind")] {
-        v.push(ChannelSpec { name: name.into(), word, kind: ChannelKind::Uint, tolerance: Tolerance::Exact });
+    for (word, name) in [
+        (30, "hit"),
+        (31, "inst_id"),
+        (32, "sbt_index"),
+        (33, "inst_index"),
+        (34, "hit_kind"),
+    ] {
+        v.push(ChannelSpec {
+            name: name.into(),
+            word,
+            kind: ChannelKind::Uint,
+            tolerance: Tolerance::Exact,
+        });
     }
     v.push(kit::float_channel("t", 35, t));
     v
@@ -547,7 +656,10 @@ pub fn xform_case(
 ) -> Case {
     let n = rays.len() as u32;
     let mut case = StdCase::new(group, name, summary, guards, scene, Some(root))
-        .hits(vec![hit_group(Some("closesthit__xform"), None, None)], records)
+        .hits(
+            vec![hit_group(Some("closesthit__xform"), None, None)],
+            records,
+        )
         .launch(n.min(16), rays)
         .record(xform_channels(t));
     case.miss_groups = vec![Some("miss__xform".into())];
@@ -557,7 +669,10 @@ pub fn xform_case(
     case.record.layout = RecordLayout::PerIndex { stride: 40 };
     for l in &mut case.launches {
         let n = l.dims[0] as usize * l.dims[1] as usize;
-        l.buffers.iter_mut().filter(|b| b.binding == 2).for_each(|b| b.words = vec![0; n * 40]);
+        l.buffers
+            .iter_mut()
+            .filter(|b| b.binding == 2)
+            .for_each(|b| b.words = vec![0; n * 40]);
     }
     case
 }
@@ -565,11 +680,13 @@ pub fn xform_case(
 fn transforms() -> Case {
     let (w, h) = (16.0f32, 16.0f32);
     let mut scene = Scene::default();
-    let gas = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
-        quad(-0.5, -0.5, 0.5, 0.5, 0.0),
-        GeometryFlags::DISABLE_ANYHIT,
-    ))])));
-    let ms = vec![
+    let gas = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(
+            quad(-0.5, -0.5, 0.5, 0.5, 0.0),
+            GeometryFlags::DISABLE_ANYHIT,
+        ),
+    )])));
+    let ms = [
         translate([0.125 / w, 0.0625 / h, -1.0]),
         translate([3.0 - 0.125 / w, -0.0625 / h, -1.0]),
         rotate_translate([1.0, 2.0, 3.0], 0.7, [6.0, 0.0, -2.0]),
@@ -582,11 +699,21 @@ fn transforms() -> Case {
             m
         },
     ];
-    let instances = ms.iter().enumerate().map(|(i, m)| InstanceDesc { id: i as u32, ..InstanceDesc::of(gas).at(*m) }).collect();
+    let instances = ms
+        .iter()
+        .enumerate()
+        .map(|(i, m)| InstanceDesc {
+            id: i as u32,
+            ..InstanceDesc::of(gas).at(*m)
+        })
+        .collect();
     let root = scene.add(Node::Ias(instances));
     let rays: Vec<Ray> = [0.0f32, 3.0, 6.0, 9.0]
         .iter()
-        .flat_map(|x| [(0.1f32, 0.2f32), (-0.15, 0.05), (0.05, -0.1), (0.2, -0.2)].map(|(dx, dy)| Ray::new([x + dx, dy, 1.0], [0.01, 0.02, -1.0])))
+        .flat_map(|x| {
+            [(0.1f32, 0.2f32), (-0.15, 0.05), (0.05, -0.1), (0.2, -0.2)]
+                .map(|(dx, dy)| Ray::new([x + dx, dy, 1.0], [0.01, 0.02, -1.0]))
+        })
         .collect();
     xform_case(
         Group::Builtin,

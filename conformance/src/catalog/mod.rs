@@ -66,33 +66,72 @@ pub fn check_structure(case: &Case) -> Result<(), String> {
     }
     let p = &case.pipeline;
     let payload = p.compile.num_payload_values.or(32);
-    let module = optik::frontend::compile(&ProgramSource::new(format!("{}.wgsl", case.name), p.wgsl.clone()), payload)
-        .map_err(|e| format!("{}: the WGSL does not compile: {e}", case.name))?;
+    let module = optik::frontend::compile(
+        &ProgramSource::new(format!("{}.wgsl", case.name), p.wgsl.clone()),
+        payload,
+    )
+    .map_err(|e| format!("{}: the WGSL does not compile: {e}", case.name))?;
     let mut named: Vec<(&str, ProgramKind)> = vec![(&p.raygen, ProgramKind::Raygen)];
-    named.extend(p.miss.iter().flatten().map(|m| (m.as_str(), ProgramKind::Miss)));
+    named.extend(
+        p.miss
+            .iter()
+            .flatten()
+            .map(|m| (m.as_str(), ProgramKind::Miss)),
+    );
     for h in &p.hit {
-        named.extend(h.closest_hit.iter().map(|n| (n.as_str(), ProgramKind::ClosestHit)));
+        named.extend(
+            h.closest_hit
+                .iter()
+                .map(|n| (n.as_str(), ProgramKind::ClosestHit)),
+        );
         named.extend(h.any_hit.iter().map(|n| (n.as_str(), ProgramKind::AnyHit)));
-        named.extend(h.intersection.iter().map(|n| (n.as_str(), ProgramKind::Intersection)));
+        named.extend(
+            h.intersection
+                .iter()
+                .map(|n| (n.as_str(), ProgramKind::Intersection)),
+        );
     }
     for c in &p.callables {
-        named.extend(c.direct.iter().map(|n| (n.as_str(), ProgramKind::DirectCallable)));
-        named.extend(c.continuation.iter().map(|n| (n.as_str(), ProgramKind::ContinuationCallable)));
+        named.extend(
+            c.direct
+                .iter()
+                .map(|n| (n.as_str(), ProgramKind::DirectCallable)),
+        );
+        named.extend(
+            c.continuation
+                .iter()
+                .map(|n| (n.as_str(), ProgramKind::ContinuationCallable)),
+        );
     }
-    named.extend(p.exception.iter().map(|n| (n.as_str(), ProgramKind::Exception)));
+    named.extend(
+        p.exception
+            .iter()
+            .map(|n| (n.as_str(), ProgramKind::Exception)),
+    );
     for (name, kind) in &named {
-        let info = module.program(name).ok_or_else(|| format!("{}: no program `{name}` in the WGSL", case.name))?;
+        let info = module
+            .program(name)
+            .ok_or_else(|| format!("{}: no program `{name}` in the WGSL", case.name))?;
         if info.kind != *kind {
-            return Err(format!("{}: `{name}` is a {} program, used as {}", case.name, info.kind, kind));
+            return Err(format!(
+                "{}: `{name}` is a {} program, used as {}",
+                case.name, info.kind, kind
+            ));
         }
         if case.models.get(name).is_none() {
             return Err(format!("{}: `{name}` has no Rust model", case.name));
         }
     }
     let check_records = |region: &str, entries: &[crate::case::SbtEntry], groups: usize| {
-        entries.iter().find(|e| e.group >= groups).map_or(Ok(()), |e| {
-            Err(format!("{}: a {region} record names group {} of {groups}", case.name, e.group))
-        })
+        entries
+            .iter()
+            .find(|e| e.group >= groups)
+            .map_or(Ok(()), |e| {
+                Err(format!(
+                    "{}: a {region} record names group {} of {groups}",
+                    case.name, e.group
+                ))
+            })
     };
     check_records("miss", &case.sbt.miss, p.miss.len())?;
     check_records("hit", &case.sbt.hit, p.hit.len())?;
@@ -103,12 +142,20 @@ pub fn check_structure(case: &Case) -> Result<(), String> {
 /// Checks the oracle's expectation of a case: it evaluates, enumeration never stopped early,
 /// and no record depends on the order candidates are visited in (which real traversals do
 /// not fix; see [`oracle::expect`]).
-pub fn check_expectation(case: &Case, expected: &Result<Vec<oracle::Expectation>, String>) -> Result<CaseStats, String> {
-    let expected = expected.as_ref().map_err(|e| format!("{}: oracle: {e}", case.name))?;
+pub fn check_expectation(
+    case: &Case,
+    expected: &Result<Vec<oracle::Expectation>, String>,
+) -> Result<CaseStats, String> {
+    let expected = expected
+        .as_ref()
+        .map_err(|e| format!("{}: oracle: {e}", case.name))?;
     let mut stats = CaseStats::default();
     for (k, e) in expected.iter().enumerate() {
         if let Some(i) = e.truncated.iter().position(|t| *t) {
-            return Err(format!("{}: launch {k}, record {i}: too many ambiguous outcomes to enumerate", case.name));
+            return Err(format!(
+                "{}: launch {k}, record {i}: too many ambiguous outcomes to enumerate",
+                case.name
+            ));
         }
         stats.records += e.admissible.len();
         stats.ambiguous += e.ambiguous_count();
@@ -130,11 +177,22 @@ mod tests {
         let before = names.len();
         names.dedup();
         assert_eq!(before, names.len(), "case names are unique");
-        let problems: Vec<String> = cases.iter().filter_map(|c| check_structure(c).err()).collect();
+        let problems: Vec<String> = cases
+            .iter()
+            .filter_map(|c| check_structure(c).err())
+            .collect();
         assert!(problems.is_empty(), "{}", problems.join("\n"));
         let groups: std::collections::BTreeSet<_> = cases.iter().map(|c| c.group).collect();
-        assert!(cases.len() >= 85 && groups.len() >= 11, "{} cases in {} groups", cases.len(), groups.len());
-        let numerics = cases.iter().filter(|c| c.group == crate::case::Group::Numerics).count();
+        assert!(
+            cases.len() >= 85 && groups.len() >= 11,
+            "{} cases in {} groups",
+            cases.len(),
+            groups.len()
+        );
+        let numerics = cases
+            .iter()
+            .filter(|c| c.group == crate::case::Group::Numerics)
+            .count();
         assert!(numerics >= 25, "{numerics} numerics cases");
     }
 
@@ -143,7 +201,10 @@ mod tests {
     fn every_rule_has_a_case() {
         let cases = all();
         for rule in crate::case::Rule::ALL {
-            assert!(cases.iter().any(|c| c.guards.contains(&rule)), "no case guards {rule:?}");
+            assert!(
+                cases.iter().any(|c| c.guards.contains(&rule)),
+                "no case guards {rule:?}"
+            );
         }
     }
 }

@@ -8,19 +8,58 @@ use super::tri::COUNTED;
 use super::util::*;
 use crate::case::{Case, Group, HitGroupDesc, Rule, SbtEntry};
 use crate::kit::{Ray, StdCase, action, ch, hit_group, prog, sphere_group};
-use crate::scene::{Aabbs, Gas, GeomInput, InstanceDesc, Node, Scene, Spheres, TransformKind, TransformNode, Triangles};
+use crate::scene::{
+    Aabbs, Gas, GeomInput, InstanceDesc, Node, Scene, Spheres, TransformKind, TransformNode,
+    Triangles,
+};
 use crate::tolerance::Tolerance;
 use optik::{GeometryFlags, MotionFlags, MotionOptions};
 
 /// Every case of the group.
 pub fn cases() -> Vec<Case> {
     vec![
-        shared_edges("shared_edge_origin", "edge midpoints of a closed icosphere at the origin", 1.0, [0.0; 3], Target::Edges),
-        shared_edges("shared_vertex_origin", "vertices of a closed icosphere at the origin", 1.0, [0.0; 3], Target::Vertices),
-        shared_edges("shared_edge_far", "edge midpoints of a closed icosphere of radius 10 at (1e5, -1e5, 3e4)", 10.0, FAR, Target::Edges),
-        shared_edges("shared_vertex_far", "vertices of a closed icosphere of radius 10 at (1e5, -1e5, 3e4)", 10.0, FAR, Target::Vertices),
-        shared_edges("shared_edge_tiny", "edge midpoints of a closed icosphere of radius 1e-4", 1e-4, [0.3, 0.2, 0.1], Target::Edges),
-        shared_edges("shared_vertex_tiny", "vertices of a closed icosphere of radius 1e-4", 1e-4, [0.3, 0.2, 0.1], Target::Vertices),
+        shared_edges(
+            "shared_edge_origin",
+            "edge midpoints of a closed icosphere at the origin",
+            1.0,
+            [0.0; 3],
+            Target::Edges,
+        ),
+        shared_edges(
+            "shared_vertex_origin",
+            "vertices of a closed icosphere at the origin",
+            1.0,
+            [0.0; 3],
+            Target::Vertices,
+        ),
+        shared_edges(
+            "shared_edge_far",
+            "edge midpoints of a closed icosphere of radius 10 at (1e5, -1e5, 3e4)",
+            10.0,
+            FAR,
+            Target::Edges,
+        ),
+        shared_edges(
+            "shared_vertex_far",
+            "vertices of a closed icosphere of radius 10 at (1e5, -1e5, 3e4)",
+            10.0,
+            FAR,
+            Target::Vertices,
+        ),
+        shared_edges(
+            "shared_edge_tiny",
+            "edge midpoints of a closed icosphere of radius 1e-4",
+            1e-4,
+            [0.3, 0.2, 0.1],
+            Target::Edges,
+        ),
+        shared_edges(
+            "shared_vertex_tiny",
+            "vertices of a closed icosphere of radius 1e-4",
+            1e-4,
+            [0.3, 0.2, 0.1],
+            Target::Vertices,
+        ),
         fan_high_valence(),
         grazing_plane(),
         grazing_ridge(),
@@ -55,13 +94,18 @@ const FAR: [f64; 3] = [1.0e5, -1.0e5, 3.0e4];
 fn record_and_count() -> (Vec<HitGroupDesc>, Vec<SbtEntry>) {
     (
         vec![hit_group(Some(prog::CH), Some(prog::AH), None)],
-        vec![SbtEntry::new(0, vec![0, action::ACCEPT]), SbtEntry::new(0, vec![1, action::IGNORE])],
+        vec![
+            SbtEntry::new(0, vec![0, action::ACCEPT]),
+            SbtEntry::new(0, vec![1, action::IGNORE]),
+        ],
     )
 }
 
 /// Each ray twice: through record 0 (recorded) and record 1 (counted).
 fn twice(rays: Vec<Ray>) -> Vec<Ray> {
-    rays.into_iter().flat_map(|r| [r, Ray { sbt_offset: 1, ..r }]).collect()
+    rays.into_iter()
+        .flat_map(|r| [r, Ray { sbt_offset: 1, ..r }])
+        .collect()
 }
 
 #[derive(Clone, Copy)]
@@ -74,7 +118,11 @@ fn shared_edges(name: &str, what: &str, scale: f64, offset: [f64; 3], target: Ta
     let mesh = icosphere(2).placed(scale, offset);
     let c = mesh.centroid();
     let targets: Vec<[f64; 3]> = match target {
-        Target::Edges => mesh.edges().iter().map(|(a, b)| mesh.midpoint(*a, *b)).collect(),
+        Target::Edges => mesh
+            .edges()
+            .iter()
+            .map(|(a, b)| mesh.midpoint(*a, *b))
+            .collect(),
         Target::Vertices => mesh.vertices.iter().map(|v| v.map(|x| x as f64)).collect(),
     };
     let rays = twice(targets.iter().map(|t| ray_to(c, *t)).collect());
@@ -106,7 +154,10 @@ fn fan_high_valence() -> Case {
         for k in 0..8 {
             let a = 0.37 + k as f64 * 0.785;
             for e in [1e-2, 1e-4, 1e-6, 1e-7, 1e-9] {
-                rays.push(ray_to(from, [off[0] + e * a.cos(), off[1] + e * a.sin(), off[2]]));
+                rays.push(ray_to(
+                    from,
+                    [off[0] + e * a.cos(), off[1] + e * a.sin(), off[2]],
+                ));
             }
         }
         case_rays.push((root, twice(rays)));
@@ -124,7 +175,8 @@ fn fan_high_valence() -> Case {
     for (root, rays) in case_rays {
         case = case.launch_on(Some(root), 41, rays);
     }
-    case.record(vec![ch::hit(), ch::prim(), ch::ah_count(), ch::sbt_index()]).build()
+    case.record(vec![ch::hit(), ch::prim(), ch::ah_count(), ch::sbt_index()])
+        .build()
 }
 
 fn grazing_plane() -> Case {
@@ -133,7 +185,7 @@ fn grazing_plane() -> Case {
     let mut rays = Vec::new();
     let mut rng = Rng::new(5);
     for k in 0..8 {
-        let eps = 10f64.powi(-(k as i32) - 1);
+        let eps = 10f64.powi(-k - 1);
         for _ in 0..8 {
             let (x, y) = (rng.range(-3.0, -2.0), rng.range(-3.0, 3.0));
             let h = eps * rng.range(1.0, 4.0);
@@ -143,7 +195,10 @@ fn grazing_plane() -> Case {
     }
     // Rays exactly in the plane (z = 0, no z component): parallel, never hit.
     for k in 0..8 {
-        rays.push(Ray::new([-3.5, -3.0 + 0.7 * k as f32, 0.0], [1.0, 0.05, 0.0]));
+        rays.push(Ray::new(
+            [-3.5, -3.0 + 0.7 * k as f32, 0.0],
+            [1.0, 0.05, 0.0],
+        ));
     }
     let (groups, records) = record_and_count();
     StdCase::new(
@@ -163,9 +218,18 @@ fn grazing_plane() -> Case {
 fn grazing_ridge() -> Case {
     // Two quads meeting at a ridge along y = 0 with a dihedral angle of 179.9°.
     let s = 1e-3f32;
-    let verts = vec![[-1.0, -1.0, -s], [1.0, -1.0, -s], [1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [1.0, 1.0, -s], [-1.0, 1.0, -s]];
+    let verts = vec![
+        [-1.0, -1.0, -s],
+        [1.0, -1.0, -s],
+        [1.0, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [1.0, 1.0, -s],
+        [-1.0, 1.0, -s],
+    ];
     let tris = vec![[0, 1, 2], [0, 2, 3], [3, 2, 4], [3, 4, 5]];
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::mesh(verts, tris, COUNTED))]));
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::mesh(
+        verts, tris, COUNTED,
+    ))]));
     let mut rays = Vec::new();
     for k in 0..16 {
         let x = -0.9 + 0.11 * k as f64;
@@ -206,10 +270,15 @@ fn secondary(name: &str, offset: bool, scale: f64, at: [f64; 3]) -> Case {
         let v = t.map(|i| inner.vertices[i as usize]);
         let (u, w) = (rng.range(0.1, 0.45) as f32, rng.range(0.1, 0.45) as f32);
         // The hit point as an f32 intersector would reconstruct it from barycentrics.
-        let p: [f32; 3] = std::array::from_fn(|i| v[0][i] + u * (v[1][i] - v[0][i]) + w * (v[2][i] - v[0][i]));
+        let p: [f32; 3] =
+            std::array::from_fn(|i| v[0][i] + u * (v[1][i] - v[0][i]) + w * (v[2][i] - v[0][i]));
         let e1: [f32; 3] = std::array::from_fn(|i| v[1][i] - v[0][i]);
         let e2: [f32; 3] = std::array::from_fn(|i| v[2][i] - v[0][i]);
-        let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+        let n = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
         let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
         let n = n.map(|c| c / len);
         let tangent = rng.direction();
@@ -228,16 +297,28 @@ fn secondary(name: &str, offset: bool, scale: f64, at: [f64; 3]) -> Case {
         Group::Numerics,
         name,
         &format!("secondary rays leaving a closed mesh (scale {scale:e}), {what}"),
-        if offset { &[Rule::OffsetRay] } else { &[Rule::TriangleOpenInterval] },
+        if offset {
+            &[Rule::OffsetRay]
+        } else {
+            &[Rule::TriangleOpenInterval]
+        },
         scene,
         Some(root),
     )
     .hits(
         vec![hit_group(Some(prog::CH), None, None)],
-        vec![SbtEntry::new(0, vec![0, action::ACCEPT]), SbtEntry::new(0, vec![1, action::ACCEPT])],
+        vec![
+            SbtEntry::new(0, vec![0, action::ACCEPT]),
+            SbtEntry::new(0, vec![1, action::ACCEPT]),
+        ],
     )
     .launch(32, rays)
-    .record(vec![ch::hit(), ch::prim(), ch::gas_index(), ch::sbt_index()]);
+    .record(vec![
+        ch::hit(),
+        ch::prim(),
+        ch::gas_index(),
+        ch::sbt_index(),
+    ]);
     if offset {
         case.raygen = prog::RAYGEN_OFFSET;
         case.extra = normals;
@@ -249,7 +330,11 @@ fn degenerate_neighbours() -> Case {
     // A closed cube whose faces carry zero-area slivers along their diagonals and edges, and
     // a NaN triangle: rays from inside through those shared edges still cross exactly once.
     let m = cube(-1.0, 1.0);
-    let mut verts: Vec<[f32; 3]> = m.triangles.iter().flat_map(|t| t.map(|i| m.vertices[i as usize])).collect();
+    let mut verts: Vec<[f32; 3]> = m
+        .triangles
+        .iter()
+        .flat_map(|t| t.map(|i| m.vertices[i as usize]))
+        .collect();
     let mut extra = Vec::new();
     for t in &m.triangles {
         let v = t.map(|i| m.vertices[i as usize]);
@@ -259,14 +344,23 @@ fn degenerate_neighbours() -> Case {
     }
     extra.extend([[f32::NAN, 0.0, 1.0], [1.0, 1.0, 1.0], [-1.0, 1.0, 1.0]]);
     verts.extend(extra);
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(verts, COUNTED))]));
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
+        verts, COUNTED,
+    ))]));
     let mut targets = Vec::new();
     for (a, b) in m.edges() {
         targets.push(m.midpoint(a, b));
         let (pa, pb) = (m.vertices[a as usize], m.vertices[b as usize]);
-        targets.push(std::array::from_fn(|i| 0.75 * pa[i] as f64 + 0.25 * pb[i] as f64));
+        targets.push(std::array::from_fn(|i| {
+            0.75 * pa[i] as f64 + 0.25 * pb[i] as f64
+        }));
     }
-    let rays = twice(targets.iter().map(|t| ray_to([0.01, 0.02, 0.03], *t)).collect());
+    let rays = twice(
+        targets
+            .iter()
+            .map(|t| ray_to([0.01, 0.02, 0.03], *t))
+            .collect(),
+    );
     let (groups, records) = record_and_count();
     StdCase::new(
         Group::Numerics,
@@ -286,14 +380,25 @@ fn signed_zero_directions() -> Case {
     let mut scene = Scene::default();
     let tri = scene.add(Node::Gas(cube(0.0, 1.0).gas(GeometryFlags::DISABLE_ANYHIT)));
     let boxes = scene.add(Node::Gas(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(
-        vec![[0.0, 0.0, 0.0, 1.0, 1.0, 1.0], [0.0, 2.0, 0.0, 1.0, 3.0, 1.0]],
+        vec![
+            [0.0, 0.0, 0.0, 1.0, 1.0, 1.0],
+            [0.0, 2.0, 0.0, 1.0, 3.0, 1.0],
+        ],
         GeometryFlags::DISABLE_ANYHIT,
     ))])));
     let z = 0.0f32;
     let nz = -0.0f32;
     let mut rays = Vec::new();
     // Along x, through the cube and one box, on and off their y and z slab planes.
-    for (oy, oz) in [(0.5f32, 0.5f32), (0.25, 0.75), (1.0, 0.5), (0.0, 0.5), (0.5, 1.0), (2.0, 0.5), (3.0, 1.0)] {
+    for (oy, oz) in [
+        (0.5f32, 0.5f32),
+        (0.25, 0.75),
+        (1.0, 0.5),
+        (0.0, 0.5),
+        (0.5, 1.0),
+        (2.0, 0.5),
+        (3.0, 1.0),
+    ] {
         for dy in [z, nz] {
             for dz in [z, nz] {
                 rays.push(Ray::new([-1.0, oy, oz], [1.0, dy, dz]));
@@ -308,11 +413,23 @@ fn signed_zero_directions() -> Case {
             rays.push(Ray::new([ox, 4.0, oz], [nz, -1.0, dx]).interval(0.0, 1.5));
         }
     }
-    let groups = vec![hit_group(Some(prog::CH), None, None), hit_group(Some(prog::CH_ATTRS), None, Some(prog::IS_FIXED))];
+    let groups = vec![
+        hit_group(Some(prog::CH), None, None),
+        hit_group(Some(prog::CH_ATTRS), None, Some(prog::IS_FIXED)),
+    ];
     let t_report = 0.5f32.to_bits();
-    let records = vec![SbtEntry::new(0, vec![0, action::ACCEPT]), SbtEntry::new(1, vec![1, action::ACCEPT, 0, 0, 1, t_report])];
+    let records = vec![
+        SbtEntry::new(0, vec![0, action::ACCEPT]),
+        SbtEntry::new(1, vec![1, action::ACCEPT, 0, 0, 1, t_report]),
+    ];
     let n = rays.len();
-    let box_rays: Vec<Ray> = rays.iter().map(|r| Ray { sbt_offset: 1, ..*r }).collect();
+    let box_rays: Vec<Ray> = rays
+        .iter()
+        .map(|r| Ray {
+            sbt_offset: 1,
+            ..*r
+        })
+        .collect();
     StdCase::new(
         Group::Numerics,
         "signed_zero_directions",
@@ -334,12 +451,30 @@ fn inf_nan_ray_components() -> Case {
     let good = Ray::new([0.5, 0.25, 5.0], [0.0, 0.0, -1.0]);
     let rays = vec![
         good,
-        Ray { origin: [nan, 0.25, 5.0], ..good },
-        Ray { origin: [0.5, inf, 5.0], ..good },
-        Ray { origin: [0.5, 0.25, -inf], ..good },
-        Ray { dir: [nan, 0.0, -1.0], ..good },
-        Ray { dir: [0.0, -inf, -1.0], ..good },
-        Ray { dir: [0.0, 0.0, nan], ..good },
+        Ray {
+            origin: [nan, 0.25, 5.0],
+            ..good
+        },
+        Ray {
+            origin: [0.5, inf, 5.0],
+            ..good
+        },
+        Ray {
+            origin: [0.5, 0.25, -inf],
+            ..good
+        },
+        Ray {
+            dir: [nan, 0.0, -1.0],
+            ..good
+        },
+        Ray {
+            dir: [0.0, -inf, -1.0],
+            ..good
+        },
+        Ray {
+            dir: [0.0, 0.0, nan],
+            ..good
+        },
         good.interval(nan, 10.0),
         good.interval(0.0, nan),
         good.interval(-1e-30, 10.0),
@@ -347,10 +482,22 @@ fn inf_nan_ray_components() -> Case {
         good.interval(2.0, 1.0),
         good.interval(0.0, inf),
         good.interval(inf, inf),
-        Ray { dir: [0.0, 0.0, 0.0], ..good },
-        Ray { origin: [1e38, 0.25, 5.0], ..good },
-        Ray { dir: [0.0, 0.0, -1e20], ..good },
-        Ray { origin: [0.5, 0.25, f32::MAX], ..good },
+        Ray {
+            dir: [0.0, 0.0, 0.0],
+            ..good
+        },
+        Ray {
+            origin: [1e38, 0.25, 5.0],
+            ..good
+        },
+        Ray {
+            dir: [0.0, 0.0, -1e20],
+            ..good
+        },
+        Ray {
+            origin: [0.5, 0.25, f32::MAX],
+            ..good
+        },
         good,
     ];
     StdCase::new(
@@ -375,17 +522,41 @@ fn denormal_rays() -> Case {
     let tiny = f32::from_bits(1);
     let base = Ray::new([0.25, 0.375, 0.0], [0.0, 0.0, -1.0]);
     let rays = vec![
-        Ray { dir: [den, den, -1.0], ..base },
-        Ray { dir: [-den, tiny, -1.0], ..base },
-        Ray { dir: [tiny, -tiny, -tiny], ..base },
-        Ray { dir: [0.0, 0.0, -den], ..base },
-        Ray { origin: [den, -den, 0.0], ..base },
-        Ray { origin: [tiny, tiny, tiny], ..base },
+        Ray {
+            dir: [den, den, -1.0],
+            ..base
+        },
+        Ray {
+            dir: [-den, tiny, -1.0],
+            ..base
+        },
+        Ray {
+            dir: [tiny, -tiny, -tiny],
+            ..base
+        },
+        Ray {
+            dir: [0.0, 0.0, -den],
+            ..base
+        },
+        Ray {
+            origin: [den, -den, 0.0],
+            ..base
+        },
+        Ray {
+            origin: [tiny, tiny, tiny],
+            ..base
+        },
         base.interval(den, 10.0),
         base.interval(tiny, 10.0),
         base.interval(0.0, den),
-        Ray { dir: [den, 0.0, 0.0], ..base },
-        Ray { dir: [f32::MIN_POSITIVE, 0.0, -f32::MIN_POSITIVE], ..base },
+        Ray {
+            dir: [den, 0.0, 0.0],
+            ..base
+        },
+        Ray {
+            dir: [f32::MIN_POSITIVE, 0.0, -f32::MIN_POSITIVE],
+            ..base
+        },
         base,
     ];
     StdCase::new(
@@ -409,7 +580,10 @@ fn tmin_tmax_ulps() -> Case {
         let x = 4.0 * k as f32;
         verts.extend([[x, 0.0, -c], [x + 2.0, 0.0, -c], [x, 2.0, -c]]);
     }
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(verts, GeometryFlags::DISABLE_ANYHIT))]));
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
+        verts,
+        GeometryFlags::DISABLE_ANYHIT,
+    ))]));
     let step = |x: f32, k: i32| f32::from_bits((x.to_bits() as i32 + k) as u32);
     let mut rays = Vec::new();
     for (k, c) in depths.iter().enumerate() {
@@ -435,10 +609,12 @@ fn tmin_tmax_ulps() -> Case {
 
 fn tmax_zero_and_infinite() -> Case {
     let mut scene = Scene::default();
-    let tri = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
-        quad(-1.0, -1.0, 1.0, 1.0, 0.0),
-        GeometryFlags::DISABLE_ANYHIT,
-    ))])));
+    let tri = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(
+            quad(-1.0, -1.0, 1.0, 1.0, 0.0),
+            GeometryFlags::DISABLE_ANYHIT,
+        ),
+    )])));
     let boxes = scene.add(Node::Gas(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(
         vec![[-1.0, -1.0, -1.0, 1.0, 1.0, 1.0]],
         GeometryFlags::DISABLE_ANYHIT,
@@ -456,13 +632,33 @@ fn tmax_zero_and_infinite() -> Case {
         above.interval(f32::MAX, inf),
         above.interval(0.0, f32::MAX),
     ];
-    let groups = vec![hit_group(Some(prog::CH), None, None), hit_group(Some(prog::CH_ATTRS), None, Some(prog::IS_FIXED))];
+    let groups = vec![
+        hit_group(Some(prog::CH), None, None),
+        hit_group(Some(prog::CH_ATTRS), None, Some(prog::IS_FIXED)),
+    ];
     let records = vec![
         SbtEntry::new(0, vec![0, action::ACCEPT]),
         // The intersection program reports t = 0 and t = 2.
-        SbtEntry::new(1, vec![1, action::ACCEPT, 0, 0, 2, 0.0f32.to_bits(), 2.0f32.to_bits()]),
+        SbtEntry::new(
+            1,
+            vec![
+                1,
+                action::ACCEPT,
+                0,
+                0,
+                2,
+                0.0f32.to_bits(),
+                2.0f32.to_bits(),
+            ],
+        ),
     ];
-    let box_rays: Vec<Ray> = rays.iter().map(|r| Ray { sbt_offset: 1, ..*r }).collect();
+    let box_rays: Vec<Ray> = rays
+        .iter()
+        .map(|r| Ray {
+            sbt_offset: 1,
+            ..*r
+        })
+        .collect();
     StdCase::new(
         Group::Numerics,
         "tmax_zero_and_infinite",
@@ -479,7 +675,14 @@ fn tmax_zero_and_infinite() -> Case {
     .build()
 }
 
-fn spheres_case(name: &str, what: &str, centres: Vec<[f32; 3]>, radii: Vec<f32>, rays: Vec<Ray>, t: Tolerance) -> Case {
+fn spheres_case(
+    name: &str,
+    what: &str,
+    centres: Vec<[f32; 3]>,
+    radii: Vec<f32>,
+    rays: Vec<Ray>,
+    t: Tolerance,
+) -> Case {
     let input = GeomInput::Spheres(Spheres {
         centres: vec![centres],
         radii: vec![radii],
@@ -491,7 +694,10 @@ fn spheres_case(name: &str, what: &str, centres: Vec<[f32; 3]>, radii: Vec<f32>,
     let (scene, root) = Scene::single(Gas::new(vec![input]));
     let n = rays.len() as u32;
     StdCase::new(Group::Numerics, name, what, &[], scene, Some(root))
-        .hits(vec![sphere_group()], vec![SbtEntry::new(0, vec![0, action::ACCEPT])])
+        .hits(
+            vec![sphere_group()],
+            vec![SbtEntry::new(0, vec![0, action::ACCEPT])],
+        )
         .launch(n.min(32), rays)
         .record(vec![ch::hit(), ch::t(t), ch::prim()])
         .build()
@@ -508,7 +714,11 @@ fn tiny_sphere_far() -> Case {
         let c = v32(c).map(|x| x as f64);
         let cl = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
         // A unit vector perpendicular to the line of sight.
-        let perp = [-c[1] / (c[0] * c[0] + c[1] * c[1]).sqrt(), c[0] / (c[0] * c[0] + c[1] * c[1]).sqrt(), 0.0];
+        let perp = [
+            -c[1] / (c[0] * c[0] + c[1] * c[1]).sqrt(),
+            c[0] / (c[0] * c[0] + c[1] * c[1]).sqrt(),
+            0.0,
+        ];
         for off in [0.0, 0.5, 0.9, 1.1, 2.0] {
             let target = [c[0] + off * r * perp[0], c[1] + off * r * perp[1], c[2]];
             rays.push(Ray::new([0.0; 3], v32(target.map(|x| x / cl))));
@@ -547,15 +757,35 @@ fn huge_sphere_near() -> Case {
     )
 }
 
-fn instanced(name: &str, what: &str, guards: &[Rule], transforms: Vec<optik::Matrix3x4>, rays: Vec<Ray>, t: Tolerance) -> Case {
+fn instanced(
+    name: &str,
+    what: &str,
+    guards: &[Rule],
+    transforms: Vec<optik::Matrix3x4>,
+    rays: Vec<Ray>,
+    t: Tolerance,
+) -> Case {
     let mut scene = Scene::default();
     let gas = scene.add(Node::Gas(icosphere(2).gas(GeometryFlags::DISABLE_ANYHIT)));
-    let instances = transforms.into_iter().enumerate().map(|(i, m)| InstanceDesc { id: i as u32, ..InstanceDesc::of(gas).at(m) }).collect();
+    let instances = transforms
+        .into_iter()
+        .enumerate()
+        .map(|(i, m)| InstanceDesc {
+            id: i as u32,
+            ..InstanceDesc::of(gas).at(m)
+        })
+        .collect();
     let root = scene.add(Node::Ias(instances));
     let n = rays.len() as u32;
     StdCase::new(Group::Numerics, name, what, guards, scene, Some(root))
         .launch(n.min(32), rays)
-        .record(vec![ch::hit(), ch::t(t), ch::prim(), ch::inst_id(), ch::hit_kind()])
+        .record(vec![
+            ch::hit(),
+            ch::t(t),
+            ch::prim(),
+            ch::inst_id(),
+            ch::hit_kind(),
+        ])
         .build()
 }
 
@@ -613,7 +843,9 @@ fn mirrored_instance() -> Case {
 fn sheared_instance() -> Case {
     let ms = vec![
         [1.0, 10.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
-        [1.0, 0.0, 0.0, 40.0, 0.5, 1.0, -30.0, 0.0, 0.0, 0.0, 0.1, 0.0],
+        [
+            1.0, 0.0, 0.0, 40.0, 0.5, 1.0, -30.0, 0.0, 0.0, 0.0, 0.1, 0.0,
+        ],
     ];
     let mut rays = rays_at(&ms[0], [3.0, 2.0, 8.0], 32, 7);
     rays.extend(rays_at(&ms[1], [40.0, -5.0, 3.0], 32, 8));
@@ -641,25 +873,59 @@ fn far_instance() -> Case {
 }
 
 /// A quad at z = -1 over [0, 1]² moved by 3 matrix keys; rays at x positions and times.
-fn motion_case(name: &str, what: &str, guards: &[Rule], flags: MotionFlags, rays: Vec<Ray>, exact: bool) -> Case {
+fn motion_case(
+    name: &str,
+    what: &str,
+    guards: &[Rule],
+    flags: MotionFlags,
+    rays: Vec<Ray>,
+    exact: bool,
+) -> Case {
     let mut scene = Scene::default();
-    let gas = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
-        quad(0.0, 0.0, 1.0, 1.0, -1.0),
-        GeometryFlags::DISABLE_ANYHIT,
-    ))])));
-    let keys = vec![translate([0.0, 0.0, 0.0]), translate([1.0, 0.0, -1.0]), translate([2.0, 0.0, -2.0])];
-    let motion = MotionOptions { num_keys: 3, flags, time_begin: 0.0, time_end: 1.0 };
-    let xf = scene.add(Node::Transform(TransformNode { kind: TransformKind::MatrixMotion(motion, keys), child: gas }));
+    let gas = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(
+            quad(0.0, 0.0, 1.0, 1.0, -1.0),
+            GeometryFlags::DISABLE_ANYHIT,
+        ),
+    )])));
+    let keys = vec![
+        translate([0.0, 0.0, 0.0]),
+        translate([1.0, 0.0, -1.0]),
+        translate([2.0, 0.0, -2.0]),
+    ];
+    let motion = MotionOptions {
+        num_keys: 3,
+        flags,
+        time_begin: 0.0,
+        time_end: 1.0,
+    };
+    let xf = scene.add(Node::Transform(TransformNode {
+        kind: TransformKind::MatrixMotion(motion, keys),
+        child: gas,
+    }));
     let root = scene.add(Node::Ias(vec![InstanceDesc::of(xf)]));
     let n = rays.len() as u32;
     let c = StdCase::new(Group::Numerics, name, what, guards, scene, Some(root))
         .launch(n.min(32), rays)
-        .record(vec![ch::hit(), ch::t(if exact { Tolerance::Exact } else { Tolerance::U16 })]);
+        .record(vec![
+            ch::hit(),
+            ch::t(if exact {
+                Tolerance::Exact
+            } else {
+                Tolerance::U16
+            }),
+        ]);
     if exact { c.exact().build() } else { c.build() }
 }
 
 fn motion_rays(times: &[f32], xs: &[f32]) -> Vec<Ray> {
-    times.iter().flat_map(|t| xs.iter().map(move |x| Ray::new([*x, 0.375, 0.0], [0.0, 0.0, -1.0]).at_time(*t))).collect()
+    times
+        .iter()
+        .flat_map(|t| {
+            xs.iter()
+                .map(move |x| Ray::new([*x, 0.375, 0.0], [0.0, 0.0, -1.0]).at_time(*t))
+        })
+        .collect()
 }
 
 fn motion_key_times() -> Case {
@@ -679,7 +945,10 @@ fn motion_between_keys() -> Case {
         "matrix motion between keys (0.1, 0.25, 0.6, 0.9): the linearly interpolated transform",
         &[Rule::MatrixMotion],
         MotionFlags::NONE,
-        motion_rays(&[0.1, 0.25, 0.6, 0.9], &[0.1, 0.3, 0.55, 0.9, 1.3, 1.7, 2.05, 2.6]),
+        motion_rays(
+            &[0.1, 0.25, 0.6, 0.9],
+            &[0.1, 0.3, 0.55, 0.9, 1.3, 1.7, 2.05, 2.6],
+        ),
         false,
     )
 }
@@ -697,9 +966,21 @@ fn motion_outside_range() -> Case {
     );
     // A second transform with the vanish flags, traced in a second launch.
     let gas = 0;
-    let keys = vec![translate([0.0, 0.0, 0.0]), translate([1.0, 0.0, -1.0]), translate([2.0, 0.0, -2.0])];
-    let motion = MotionOptions { num_keys: 3, flags: MotionFlags::START_VANISH | MotionFlags::END_VANISH, time_begin: 0.0, time_end: 1.0 };
-    let xf = c.scene.add(Node::Transform(TransformNode { kind: TransformKind::MatrixMotion(motion, keys), child: gas }));
+    let keys = vec![
+        translate([0.0, 0.0, 0.0]),
+        translate([1.0, 0.0, -1.0]),
+        translate([2.0, 0.0, -2.0]),
+    ];
+    let motion = MotionOptions {
+        num_keys: 3,
+        flags: MotionFlags::START_VANISH | MotionFlags::END_VANISH,
+        time_begin: 0.0,
+        time_end: 1.0,
+    };
+    let xf = c.scene.add(Node::Transform(TransformNode {
+        kind: TransformKind::MatrixMotion(motion, keys),
+        child: gas,
+    }));
     let root = c.scene.add(Node::Ias(vec![InstanceDesc::of(xf)]));
     let mut second = c.launches[0].clone();
     second.params[0] = crate::case::ParamWord::HandleLo(Some(root));
@@ -749,9 +1030,18 @@ fn needle_triangles() -> Case {
         triangles.push([0, 2 + i + 1, 2 + i]);
         triangles.push([1, 2 + i, 2 + i + 1]);
     }
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::mesh(vertices, triangles, COUNTED))]));
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::mesh(
+        vertices, triangles, COUNTED,
+    ))]));
     let mut rng = Rng::new(3);
-    let rays: Vec<Ray> = (0..256).map(|_| Ray::new(v32([rng.range(0.01, 0.99), rng.range(0.01, 0.99), 0.0]), [0.0, 0.0, -1.0])).collect();
+    let rays: Vec<Ray> = (0..256)
+        .map(|_| {
+            Ray::new(
+                v32([rng.range(0.01, 0.99), rng.range(0.01, 0.99), 0.0]),
+                [0.0, 0.0, -1.0],
+            )
+        })
+        .collect();
     let (groups, records) = record_and_count();
     StdCase::new(
         Group::Numerics,
@@ -771,10 +1061,15 @@ fn near_box_faces() -> Case {
     // A row of boxes sharing faces; rays along the shared faces and just inside them with
     // zero, -0, tiny and denormal cross components: a box whose closed bounds the ray meets
     // must run its intersection program (boxes may be enlarged, never shrunk).
-    let boxes: Vec<[f32; 6]> = (0..4).flat_map(|i| {
-        let x = i as f32;
-        [[x, 0.0, 0.0, x + 1.0, 1.0, 1.0], [x, 1.0, 0.0, x + 1.0, 2.0, 1.0]]
-    }).collect();
+    let boxes: Vec<[f32; 6]> = (0..4)
+        .flat_map(|i| {
+            let x = i as f32;
+            [
+                [x, 0.0, 0.0, x + 1.0, 1.0, 1.0],
+                [x, 1.0, 0.0, x + 1.0, 2.0, 1.0],
+            ]
+        })
+        .collect();
     let mut aabbs = Aabbs::new(boxes, GeometryFlags::REQUIRE_SINGLE_ANYHIT_CALL);
     aabbs.flags = vec![GeometryFlags::REQUIRE_SINGLE_ANYHIT_CALL];
     let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Aabbs(aabbs)]));
@@ -787,7 +1082,10 @@ fn near_box_faces() -> Case {
     let groups = vec![hit_group(None, Some(prog::AH), Some(prog::IS_FIXED))];
     // The intersection program reports t = 0.25; the any-hit program ignores it, so every
     // box crossed runs both programs once.
-    let records = vec![SbtEntry::new(0, vec![0, action::IGNORE, 0, 0, 1, 0.25f32.to_bits()])];
+    let records = vec![SbtEntry::new(
+        0,
+        vec![0, action::IGNORE, 0, 0, 1, 0.25f32.to_bits()],
+    )];
     StdCase::new(
         Group::Numerics,
         "near_box_faces",

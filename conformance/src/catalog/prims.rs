@@ -3,11 +3,16 @@
 
 use super::util::*;
 use crate::case::*;
-use crate::kit::{Ray, StdCase, action, ch, float_channel, hit_group, prog, sphere_group, uint_channel};
+use crate::kit::{
+    Ray, StdCase, action, ch, float_channel, hit_group, prog, sphere_group, uint_channel,
+};
 use crate::oracle::model::Models;
 use crate::scene::{Curves, Gas, GeomInput, InstanceDesc, Node, Omm, Scene, Spheres, Triangles};
 use crate::tolerance::Tolerance;
-use optik::{BuildFlags, BuiltinIntersector, CurveEndcaps, CurveType, GeometryFlags, InstanceFlags, MotionFlags, MotionOptions, OpacityMicromapFormat, RayFlags};
+use optik::{
+    BuildFlags, BuiltinIntersector, CurveEndcaps, CurveType, GeometryFlags, InstanceFlags,
+    MotionFlags, MotionOptions, OpacityMicromapFormat, RayFlags,
+};
 
 /// Every case of the `prim` group.
 pub fn prim_cases() -> Vec<Case> {
@@ -37,7 +42,16 @@ fn closesthit__curve() {
 
 fn record_hit_model(ctx: &mut crate::oracle::exec::Ctx<'_, '_>) {
     let s = ctx.linear_index() as usize * 32;
-    let words = [(0, 1), (1, ctx.ray_tmax().to_bits()), (2, ctx.primitive_index()), (3, ctx.instance_id()), (4, ctx.instance_index()), (5, ctx.sbt_gas_index()), (6, ctx.hit_kind()), (15, ctx.sbt_data_u32(0))];
+    let words = [
+        (0, 1),
+        (1, ctx.ray_tmax().to_bits()),
+        (2, ctx.primitive_index()),
+        (3, ctx.instance_id()),
+        (4, ctx.instance_index()),
+        (5, ctx.sbt_gas_index()),
+        (6, ctx.hit_kind()),
+        (15, ctx.sbt_data_u32(0)),
+    ];
     for (k, v) in words {
         ctx.write(2, s + k, v);
     }
@@ -67,7 +81,13 @@ fn sphere_models() -> Models {
 }
 
 fn spheres() -> Case {
-    let centres = vec![[0.0f32, 0.0, -5.0], [3.0, 0.0, -5.0], [6.0, 0.0, -5.0], [9.0, 0.0, -2000.0], [12.0, 0.0, -5.0]];
+    let centres = vec![
+        [0.0f32, 0.0, -5.0],
+        [3.0, 0.0, -5.0],
+        [6.0, 0.0, -5.0],
+        [9.0, 0.0, -2000.0],
+        [12.0, 0.0, -5.0],
+    ];
     let radii = vec![1.0f32, 0.5, 1e-3, 1e3, 0.25];
     let multi = Spheres {
         centres: vec![centres.clone()],
@@ -77,13 +97,25 @@ fn spheres() -> Case {
         sbt_offsets: None,
         prim_index_offset: 0,
     };
-    let single = Spheres { radii: vec![vec![0.75]], single_radius: true, prim_index_offset: 10, ..multi.clone() };
+    let single = Spheres {
+        radii: vec![vec![0.75]],
+        single_radius: true,
+        prim_index_offset: 10,
+        ..multi.clone()
+    };
     let mut scene = Scene::default();
     let a = scene.add(Node::Gas(Gas::new(vec![GeomInput::Spheres(multi)])));
     let b = scene.add(Node::Gas(Gas::new(vec![GeomInput::Spheres(single)])));
     let mut rays = Vec::new();
     for c in &centres {
-        for (dx, dy) in [(0.0f32, 0.0f32), (0.1, 0.2), (-0.3, 0.1), (0.0, 0.6), (2e-4, -3e-4), (0.0, 0.9)] {
+        for (dx, dy) in [
+            (0.0f32, 0.0f32),
+            (0.1, 0.2),
+            (-0.3, 0.1),
+            (0.0, 0.6),
+            (2e-4, -3e-4),
+            (0.0, 0.9),
+        ] {
             rays.push(Ray::new([c[0] + dx, c[1] + dy, 0.0], [0.0, 0.0, -1.0]));
         }
     }
@@ -114,8 +146,14 @@ fn spheres() -> Case {
 fn curves() -> Case {
     // Round linear curves of constant radius (capsules): two strands of three segments.
     let points = vec![
-        [0.0f32, 0.0, -3.0], [1.0, 0.0, -3.0], [2.0, 0.5, -3.0], [3.0, 0.5, -3.5],
-        [0.0, 2.0, -3.0], [1.0, 2.5, -3.0], [2.0, 2.0, -2.5], [3.0, 2.0, -3.0],
+        [0.0f32, 0.0, -3.0],
+        [1.0, 0.0, -3.0],
+        [2.0, 0.5, -3.0],
+        [3.0, 0.5, -3.5],
+        [0.0, 2.0, -3.0],
+        [1.0, 2.5, -3.0],
+        [2.0, 2.0, -2.5],
+        [3.0, 2.0, -3.0],
     ];
     let radii = vec![0.2f32; points.len()];
     let curves = Curves {
@@ -161,11 +199,17 @@ fn opacity_micromap() -> Case {
     }
     let mk = |format: OpacityMicromapFormat| {
         let mut t = Triangles::soup(verts.clone(), GeometryFlags::NONE);
-        t.omm = Some(Omm { format, states: states.clone(), indices: indices.clone() });
+        t.omm = Some(Omm {
+            format,
+            states: states.clone(),
+            indices: indices.clone(),
+        });
         t
     };
     let mut scene = Scene::default();
-    let four = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(mk(OpacityMicromapFormat::FourState))])));
+    let four = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(mk(
+        OpacityMicromapFormat::FourState,
+    ))])));
     let two = {
         // Two-state maps hold 0 or 1 only.
         let mut t = mk(OpacityMicromapFormat::TwoState);
@@ -174,12 +218,20 @@ fn opacity_micromap() -> Case {
         }
         scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(t)])))
     };
-    let flags = [InstanceFlags::NONE, InstanceFlags::FORCE_OPACITY_MICROMAP_2_STATE, InstanceFlags::DISABLE_OPACITY_MICROMAPS];
+    let flags = [
+        InstanceFlags::NONE,
+        InstanceFlags::FORCE_OPACITY_MICROMAP_2_STATE,
+        InstanceFlags::DISABLE_OPACITY_MICROMAPS,
+    ];
     let mut instances = Vec::new();
     for (g, gas) in [four, two].iter().enumerate() {
         for (i, f) in flags.iter().enumerate() {
             let row = (g * flags.len() + i) as f32;
-            instances.push(InstanceDesc { id: (g * 10 + i) as u32, flags: *f, ..InstanceDesc::of(*gas).at(translate([0.0, 2.0 * row, 0.0])) });
+            instances.push(InstanceDesc {
+                id: (g * 10 + i) as u32,
+                flags: *f,
+                ..InstanceDesc::of(*gas).at(translate([0.0, 2.0 * row, 0.0]))
+            });
         }
     }
     let root = scene.add(Node::Ias(instances));
@@ -187,7 +239,13 @@ fn opacity_micromap() -> Case {
     for row in 0..6 {
         for k in 0..16 {
             for rf in [RayFlags::NONE, RayFlags::FORCE_OPACITY_MICROMAP_2_STATE] {
-                rays.push(Ray::new([k as f32 + 0.75, 2.0 * row as f32 + 0.25, 0.0], [0.0, 0.0, -1.0]).flags(rf.0));
+                rays.push(
+                    Ray::new(
+                        [k as f32 + 0.75, 2.0 * row as f32 + 0.25, 0.0],
+                        [0.0, 0.0, -1.0],
+                    )
+                    .flags(rf.0),
+                );
             }
         }
     }
@@ -208,24 +266,49 @@ fn opacity_micromap() -> Case {
 fn empty_null_update_compact() -> Case {
     let f = GeometryFlags::DISABLE_ANYHIT;
     let mut scene = Scene::default();
-    let empty_gas = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(vec![], f))])));
+    let empty_gas = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(vec![], f),
+    )])));
     let empty_ias = scene.add(Node::Ias(vec![]));
-    let real = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(quad(0.0, 0.0, 1.0, 1.0, -1.0), f))])));
+    let real = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(quad(0.0, 0.0, 1.0, 1.0, -1.0), f),
+    )])));
     let null_child = scene.add(Node::Ias(vec![
-        InstanceDesc { child: None, ..InstanceDesc::of(real) },
-        InstanceDesc { id: 1, ..InstanceDesc::of(real).at(translate([2.0, 0.0, 0.0])) },
-        InstanceDesc { id: 2, ..InstanceDesc::of(empty_gas) },
+        InstanceDesc {
+            child: None,
+            ..InstanceDesc::of(real)
+        },
+        InstanceDesc {
+            id: 1,
+            ..InstanceDesc::of(real).at(translate([2.0, 0.0, 0.0]))
+        },
+        InstanceDesc {
+            id: 2,
+            ..InstanceDesc::of(empty_gas)
+        },
     ]));
     // Built from a quad elsewhere with ALLOW_UPDATE, then refit to the real positions.
-    let mut refit = Gas::new(vec![GeomInput::Triangles(Triangles::soup(quad(0.0, 0.0, 1.0, 1.0, -1.0), f))]);
-    refit.update_from = Some(vec![GeomInput::Triangles(Triangles::soup(quad(5.0, 5.0, 6.0, 6.0, -3.0), f))]);
+    let mut refit = Gas::new(vec![GeomInput::Triangles(Triangles::soup(
+        quad(0.0, 0.0, 1.0, 1.0, -1.0),
+        f,
+    ))]);
+    refit.update_from = Some(vec![GeomInput::Triangles(Triangles::soup(
+        quad(5.0, 5.0, 6.0, 6.0, -3.0),
+        f,
+    ))]);
     let refit = scene.add(Node::Gas(refit));
     let compacted = scene.add(Node::Gas(Gas {
         compact: true,
         build_flags: BuildFlags::ALLOW_COMPACTION,
-        ..Gas::new(vec![GeomInput::Triangles(Triangles::soup(quad(0.0, 0.0, 1.0, 1.0, -1.0), f))])
+        ..Gas::new(vec![GeomInput::Triangles(Triangles::soup(
+            quad(0.0, 0.0, 1.0, 1.0, -1.0),
+            f,
+        ))])
     }));
-    let rays: Vec<Ray> = [(0.75f32, 0.25f32), (2.75, 0.25), (5.5, 5.5), (0.25, 0.75)].iter().map(|(x, y)| Ray::new([*x, *y, 0.0], [0.0, 0.0, -1.0])).collect();
+    let rays: Vec<Ray> = [(0.75f32, 0.25f32), (2.75, 0.25), (5.5, 5.5), (0.25, 0.75)]
+        .iter()
+        .map(|(x, y)| Ray::new([*x, *y, 0.0], [0.0, 0.0, -1.0]))
+        .collect();
     let mut case = StdCase::new(
         Group::As,
         "empty_null_update_compact",
@@ -234,10 +317,24 @@ fn empty_null_update_compact() -> Case {
         scene,
         None,
     );
-    for root in [Some(empty_gas), Some(empty_ias), None, Some(null_child), Some(refit), Some(compacted)] {
+    for root in [
+        Some(empty_gas),
+        Some(empty_ias),
+        None,
+        Some(null_child),
+        Some(refit),
+        Some(compacted),
+    ] {
         case = case.launch_on(root, 4, rays.clone());
     }
-    case.record(vec![ch::hit(), ch::t(Tolerance::U16), ch::prim(), ch::inst_id(), ch::programs()]).build()
+    case.record(vec![
+        ch::hit(),
+        ch::t(Tolerance::U16),
+        ch::prim(),
+        ch::inst_id(),
+        ch::programs(),
+    ])
+    .build()
 }
 
 const VERTS_WGSL: &str = r#"
@@ -262,25 +359,44 @@ fn vertex_access() -> Case {
     let f = GeometryFlags::NONE;
     let q = quad(0.0, 0.0, 1.0, 1.0, -1.0);
     let mut scene = Scene::default();
-    let plain = scene.add(Node::Gas(Gas { build_flags: BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS, ..Gas::new(vec![GeomInput::Triangles(Triangles::soup(q.clone(), f))]) }));
+    let plain = scene.add(Node::Gas(Gas {
+        build_flags: BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS,
+        ..Gas::new(vec![GeomInput::Triangles(Triangles::soup(q.clone(), f))])
+    }));
     let mut pre = Triangles::soup(q.clone(), f);
     pre.pre_transform = Some(rotate_translate([0.0, 0.0, 1.0], 0.3, [0.1, 0.2, -0.5]));
-    let pre = scene.add(Node::Gas(Gas { build_flags: BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS, ..Gas::new(vec![GeomInput::Triangles(pre)]) }));
+    let pre = scene.add(Node::Gas(Gas {
+        build_flags: BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS,
+        ..Gas::new(vec![GeomInput::Triangles(pre)])
+    }));
     let mut moving = Triangles::soup(q.clone(), f);
-    moving.keys.push(q.iter().map(|v| [v[0] + 0.5, v[1], v[2] - 1.0]).collect());
+    moving
+        .keys
+        .push(q.iter().map(|v| [v[0] + 0.5, v[1], v[2] - 1.0]).collect());
     let moving = scene.add(Node::Gas(Gas {
         build_flags: BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS,
-        motion: Some(MotionOptions { num_keys: 2, flags: MotionFlags::NONE, time_begin: 0.0, time_end: 1.0 }),
+        motion: Some(MotionOptions {
+            num_keys: 2,
+            flags: MotionFlags::NONE,
+            time_begin: 0.0,
+            time_end: 1.0,
+        }),
         ..Gas::new(vec![GeomInput::Triangles(moving)])
     }));
-    let rays: Vec<Ray> = [0.0f32, 0.5, 1.0].iter().flat_map(|t| [(0.7f32, 0.3f32), (0.3, 0.7)].map(|(x, y)| Ray::new([x, y, 0.0], [0.0, 0.0, -1.0]).at_time(*t))).collect();
+    let rays: Vec<Ray> = [0.0f32, 0.5, 1.0]
+        .iter()
+        .flat_map(|t| {
+            [(0.7f32, 0.3f32), (0.3, 0.7)]
+                .map(|(x, y)| Ray::new([x, y, 0.0], [0.0, 0.0, -1.0]).at_time(*t))
+        })
+        .collect();
     let mut m = Models::new();
     m.add("closesthit__verts", |ctx| {
         let v = ctx.triangle_vertices();
         let b = ctx.linear_index() as usize * 32;
-        for i in 0..3 {
-            for c in 0..3 {
-                ctx.write(2, b + 3 * i + c, v[i][c].to_bits());
+        for (i, vertex) in v.iter().enumerate() {
+            for (c, x) in vertex.iter().enumerate() {
+                ctx.write(2, b + 3 * i + c, x.to_bits());
             }
         }
         ctx.write(2, b + 9, 1);
@@ -295,7 +411,11 @@ fn vertex_access() -> Case {
     let mut channels: Vec<ChannelSpec> = Vec::new();
     for i in 0..3 {
         for (c, axis) in ["x", "y", "z"].iter().enumerate() {
-            channels.push(float_channel(&format!("v{i}{axis}"), 3 * i + c, Tolerance::U16));
+            channels.push(float_channel(
+                &format!("v{i}{axis}"),
+                3 * i + c,
+                Tolerance::U16,
+            ));
         }
     }
     channels.push(uint_channel("hit", 9));

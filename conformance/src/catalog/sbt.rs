@@ -11,13 +11,23 @@ use optik::{GeometryFlags, RayFlags};
 
 /// Every case of the group.
 pub fn cases() -> Vec<Case> {
-    vec![hit_index_grid(), high_bits_ignored(), miss_index(), gas_index_multi_record(), record_data_layout(), null_programs()]
+    vec![
+        hit_index_grid(),
+        high_bits_ignored(),
+        miss_index(),
+        gas_index_multi_record(),
+        record_data_layout(),
+        null_programs(),
+    ]
 }
 
 /// 32 unit quads in a checkerboard of 8 × 8 cells, shuffled into GASes of 3 inputs (one quad
 /// each), one instance per GAS with SBT offset = instance index (CTS shader_binding_table).
 fn checkerboard(scene: &mut Scene) -> (usize, Vec<[f32; 2]>) {
-    let mut cells: Vec<[f32; 2]> = (0..64).filter(|k| (k % 8 + k / 8) % 2 == 0).map(|k| [(k % 8) as f32, (k / 8) as f32]).collect();
+    let mut cells: Vec<[f32; 2]> = (0..64)
+        .filter(|k| (k % 8 + k / 8) % 2 == 0)
+        .map(|k| [(k % 8) as f32, (k / 8) as f32])
+        .collect();
     let mut rng = Rng::new(1410);
     for i in (1..cells.len()).rev() {
         let j = rng.next_u32() as usize % (i + 1);
@@ -27,10 +37,19 @@ fn checkerboard(scene: &mut Scene) -> (usize, Vec<[f32; 2]>) {
     for (g, chunk) in cells.chunks(3).enumerate() {
         let inputs = chunk
             .iter()
-            .map(|c| GeomInput::Triangles(Triangles::soup(quad(c[0], c[1], c[0] + 1.0, c[1] + 1.0, -1.0), GeometryFlags::DISABLE_ANYHIT)))
+            .map(|c| {
+                GeomInput::Triangles(Triangles::soup(
+                    quad(c[0], c[1], c[0] + 1.0, c[1] + 1.0, -1.0),
+                    GeometryFlags::DISABLE_ANYHIT,
+                ))
+            })
             .collect();
         let gas = scene.add(Node::Gas(Gas::new(inputs)));
-        instances.push(InstanceDesc { id: g as u32, sbt_offset: g as u32, ..InstanceDesc::of(gas) });
+        instances.push(InstanceDesc {
+            id: g as u32,
+            sbt_offset: g as u32,
+            ..InstanceDesc::of(gas)
+        });
     }
     (scene.add(Node::Ias(instances)), cells)
 }
@@ -42,7 +61,11 @@ fn hit_index_grid() -> Case {
     for off in 0..4u32 {
         for stride in 0..6u32 {
             for c in &cells {
-                rays.push(Ray { sbt_offset: off, sbt_stride: stride, ..Ray::new([c[0] + 0.75, c[1] + 0.25, 0.0], [0.0, 0.0, -1.0]) });
+                rays.push(Ray {
+                    sbt_offset: off,
+                    sbt_stride: stride,
+                    ..Ray::new([c[0] + 0.75, c[1] + 0.25, 0.0], [0.0, 0.0, -1.0])
+                });
             }
         }
     }
@@ -66,15 +89,30 @@ fn high_bits_ignored() -> Case {
     let mut scene = Scene::default();
     let (root, cells) = checkerboard(&mut scene);
     let mut rays = Vec::new();
-    let garbage = [(0x13u32, 0xF2u32), (0xFFFF_FFF0 | 2, 0x1_0001), (0x70, 0x30), (0x8000_0001, 0xA5A5_A5A3)];
+    let garbage = [
+        (0x13u32, 0xF2u32),
+        (0xFFFF_FFF0 | 2, 0x1_0001),
+        (0x70, 0x30),
+        (0x8000_0001, 0xA5A5_A5A3),
+    ];
     for (k, c) in cells.iter().enumerate() {
         let (off, stride) = garbage[k % 4];
         let base = Ray::new([c[0] + 0.75, c[1] + 0.25, 0.0], [0.0, 0.0, -1.0]);
-        rays.push(Ray { sbt_offset: off, sbt_stride: stride, ..base });
+        rays.push(Ray {
+            sbt_offset: off,
+            sbt_stride: stride,
+            ..base
+        });
         // Masks: bits above 8 do not count (0x100 sees nothing, 0x101 sees mask 0x01).
-        rays.push(Ray { mask: 0x100 | (k as u32 % 2), ..base });
+        rays.push(Ray {
+            mask: 0x100 | (k as u32 % 2),
+            ..base
+        });
         // Miss indices: bits above 16 do not count.
-        rays.push(Ray { miss_index: 0x1_0001 + 0x10000 * k as u32, ..Ray::new([c[0] + 0.5, c[1] + 0.5, 0.0], [0.0, 0.0, 1.0]) });
+        rays.push(Ray {
+            miss_index: 0x1_0001 + 0x10000 * k as u32,
+            ..Ray::new([c[0] + 0.5, c[1] + 0.5, 0.0], [0.0, 0.0, 1.0])
+        });
     }
     let records = (0..32).map(|k| SbtEntry::new(0, vec![k])).collect();
     let mut case = StdCase::new(
@@ -95,24 +133,56 @@ fn high_bits_ignored() -> Case {
 
 fn miss_index() -> Case {
     let mut scene = Scene::default();
-    let gas = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
-        quad(0.0, 0.0, 1.0, 1.0, -1.0),
-        GeometryFlags::DISABLE_ANYHIT,
-    ))])));
-    let root = scene.add(Node::Ias(vec![InstanceDesc { mask: 0x0F, ..InstanceDesc::of(gas) }]));
+    let gas = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(
+            quad(0.0, 0.0, 1.0, 1.0, -1.0),
+            GeometryFlags::DISABLE_ANYHIT,
+        ),
+    )])));
+    let root = scene.add(Node::Ias(vec![InstanceDesc {
+        mask: 0x0F,
+        ..InstanceDesc::of(gas)
+    }]));
     let hit = Ray::new([0.75, 0.25, 0.0], [0.0, 0.0, -1.0]);
     let mut rays = Vec::new();
     for m in 0..4 {
-        rays.push(Ray { miss_index: m, ..Ray::new([5.0, 5.0, 0.0], [0.0, 0.0, -1.0]) });
+        rays.push(Ray {
+            miss_index: m,
+            ..Ray::new([5.0, 5.0, 0.0], [0.0, 0.0, -1.0])
+        });
     }
     // Misses by cause (CTS non_uniform_args): culling flag, mask, origin, tmin, direction, tmax.
-    rays.push(Ray { miss_index: 1, ..hit.flags(RayFlags::CULL_FRONT_FACING_TRIANGLES.0) });
-    rays.push(Ray { miss_index: 2, mask: 0xF0, ..hit });
-    rays.push(Ray { miss_index: 3, origin: [3.0, 0.25, 0.0], ..hit });
-    rays.push(Ray { miss_index: 0, ..hit.interval(2.0, 10.0) });
-    rays.push(Ray { miss_index: 1, dir: [0.0, 0.0, 1.0], ..hit });
-    rays.push(Ray { miss_index: 2, ..hit.interval(0.0, 0.5) });
-    rays.push(Ray { miss_index: 3, ..hit });
+    rays.push(Ray {
+        miss_index: 1,
+        ..hit.flags(RayFlags::CULL_FRONT_FACING_TRIANGLES.0)
+    });
+    rays.push(Ray {
+        miss_index: 2,
+        mask: 0xF0,
+        ..hit
+    });
+    rays.push(Ray {
+        miss_index: 3,
+        origin: [3.0, 0.25, 0.0],
+        ..hit
+    });
+    rays.push(Ray {
+        miss_index: 0,
+        ..hit.interval(2.0, 10.0)
+    });
+    rays.push(Ray {
+        miss_index: 1,
+        dir: [0.0, 0.0, 1.0],
+        ..hit
+    });
+    rays.push(Ray {
+        miss_index: 2,
+        ..hit.interval(0.0, 0.5)
+    });
+    rays.push(Ray {
+        miss_index: 3,
+        ..hit
+    });
     let mut case = StdCase::new(
         Group::Sbt,
         "miss_index",
@@ -130,30 +200,84 @@ fn miss_index() -> Case {
 fn gas_index_multi_record() -> Case {
     // Inputs with 1 or 3 records; per-primitive offsets stored in 8, 16 and 32 bits with strides.
     let f = GeometryFlags::DISABLE_ANYHIT;
-    let row = |y: f32, n: usize| -> Vec<[f32; 3]> { (0..n).flat_map(|i| quad(i as f32, y, i as f32 + 1.0, y + 1.0, -1.0)).collect() };
+    let row = |y: f32, n: usize| -> Vec<[f32; 3]> {
+        (0..n)
+            .flat_map(|i| quad(i as f32, y, i as f32 + 1.0, y + 1.0, -1.0))
+            .collect()
+    };
     let inputs = vec![
         GeomInput::Triangles(Triangles::soup(row(0.0, 3), f)),
-        GeomInput::Triangles(with_offsets(Triangles::soup(row(2.0, 3), f), vec![0, 0, 2, 2, 1, 1], 1, 3, vec![f; 3])),
-        GeomInput::Triangles(with_offsets(Triangles::soup(row(4.0, 3), f), vec![1, 2, 0, 1, 2, 0], 2, 0, vec![f; 3])),
-        GeomInput::Triangles(with_offsets(Triangles::soup(row(6.0, 3), f), vec![2, 1, 2, 0, 0, 1], 4, 8, vec![f; 3])),
+        GeomInput::Triangles(with_offsets(
+            Triangles::soup(row(2.0, 3), f),
+            vec![0, 0, 2, 2, 1, 1],
+            1,
+            3,
+            vec![f; 3],
+        )),
+        GeomInput::Triangles(with_offsets(
+            Triangles::soup(row(4.0, 3), f),
+            vec![1, 2, 0, 1, 2, 0],
+            2,
+            0,
+            vec![f; 3],
+        )),
+        GeomInput::Triangles(with_offsets(
+            Triangles::soup(row(6.0, 3), f),
+            vec![2, 1, 2, 0, 0, 1],
+            4,
+            8,
+            vec![f; 3],
+        )),
     ];
-    let mut aabbs = Aabbs::new((0..3).map(|i| [i as f32, 8.0, -1.5, i as f32 + 1.0, 9.0, -0.5]).collect(), f);
+    let mut aabbs = Aabbs::new(
+        (0..3)
+            .map(|i| [i as f32, 8.0, -1.5, i as f32 + 1.0, 9.0, -0.5])
+            .collect(),
+        f,
+    );
     aabbs.flags = vec![f; 3];
-    aabbs.sbt_offsets = Some(crate::scene::SbtOffsets { offsets: vec![2, 0, 1], size_in_bytes: 2, stride: 4 });
+    aabbs.sbt_offsets = Some(crate::scene::SbtOffsets {
+        offsets: vec![2, 0, 1],
+        size_in_bytes: 2,
+        stride: 4,
+    });
     let mut scene = Scene::default();
     let tris = scene.add(Node::Gas(Gas::new(inputs)));
     let boxes = scene.add(Node::Gas(Gas::new(vec![GeomInput::Aabbs(aabbs)])));
-    let root = scene.add(Node::Ias(vec![InstanceDesc::of(tris), InstanceDesc { sbt_offset: 10, ..InstanceDesc::of(boxes) }]));
+    let root = scene.add(Node::Ias(vec![
+        InstanceDesc::of(tris),
+        InstanceDesc {
+            sbt_offset: 10,
+            ..InstanceDesc::of(boxes)
+        },
+    ]));
     let mut rays = Vec::new();
     for y in 0..5 {
         for x in 0..3 {
             for (dx, dy) in [(0.75f32, 0.25f32), (0.25, 0.75)] {
-                rays.push(Ray::new([x as f32 + dx, 2.0 * y as f32 + dy, 0.0], [0.0, 0.0, -1.0]));
+                rays.push(Ray::new(
+                    [x as f32 + dx, 2.0 * y as f32 + dy, 0.0],
+                    [0.0, 0.0, -1.0],
+                ));
             }
         }
     }
-    let mut records: Vec<SbtEntry> = (0..10).map(|k| SbtEntry::new(0, vec![k, action::ACCEPT])).collect();
-    records.extend((10..13).map(|k| SbtEntry::new(1, vec![k, action::ACCEPT, 0, 0, 1, (1.0f32 + 0.125 * (k - 10) as f32).to_bits()])));
+    let mut records: Vec<SbtEntry> = (0..10)
+        .map(|k| SbtEntry::new(0, vec![k, action::ACCEPT]))
+        .collect();
+    records.extend((10..13).map(|k| {
+        SbtEntry::new(
+            1,
+            vec![
+                k,
+                action::ACCEPT,
+                0,
+                0,
+                1,
+                (1.0f32 + 0.125 * (k - 10) as f32).to_bits(),
+            ],
+        )
+    }));
     StdCase::new(
         Group::Sbt,
         "gas_index_multi_record",
@@ -188,28 +312,64 @@ fn miss__data() {
 fn record_data_layout() -> Case {
     let lens = [3u32, 4, 8, 17, 32, 64];
     let cells: Vec<f32> = (0..lens.len()).map(|i| i as f32 * 2.0).collect();
-    let verts: Vec<[f32; 3]> = cells.iter().flat_map(|x| quad(*x, 0.0, x + 1.0, 1.0, -1.0)).collect();
+    let verts: Vec<[f32; 3]> = cells
+        .iter()
+        .flat_map(|x| quad(*x, 0.0, x + 1.0, 1.0, -1.0))
+        .collect();
     let mut t = Triangles::soup(verts, GeometryFlags::DISABLE_ANYHIT);
-    t = with_offsets(t, (0..lens.len() as u32).flat_map(|k| [k, k]).collect(), 4, 0, vec![GeometryFlags::DISABLE_ANYHIT; lens.len()]);
+    t = with_offsets(
+        t,
+        (0..lens.len() as u32).flat_map(|k| [k, k]).collect(),
+        4,
+        0,
+        vec![GeometryFlags::DISABLE_ANYHIT; lens.len()],
+    );
     let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(t)]));
     let data = |k: u32, len: u32| -> Vec<u32> {
         let mut d = vec![k, action::ACCEPT, len];
-        d.extend((3..len).map(|j| if j == 3 { 1.5f32.to_bits() } else { (k << 16) | j }));
+        d.extend((3..len).map(|j| {
+            if j == 3 {
+                1.5f32.to_bits()
+            } else {
+                (k << 16) | j
+            }
+        }));
         d
     };
-    let records = lens.iter().enumerate().map(|(k, l)| SbtEntry::new(0, data(k as u32, *l))).collect();
-    let rays: Vec<Ray> = cells.iter().map(|x| Ray::new([x + 0.75, 0.25, 0.0], [0.0, 0.0, -1.0])).chain([Ray::new([-5.0, 0.0, 0.0], [0.0, 0.0, -1.0])]).collect();
+    let records = lens
+        .iter()
+        .enumerate()
+        .map(|(k, l)| SbtEntry::new(0, data(k as u32, *l)))
+        .collect();
+    let rays: Vec<Ray> = cells
+        .iter()
+        .map(|x| Ray::new([x + 0.75, 0.25, 0.0], [0.0, 0.0, -1.0]))
+        .chain([Ray::new([-5.0, 0.0, 0.0], [0.0, 0.0, -1.0])])
+        .collect();
     let mut m = Models::new();
     m.add("closesthit__data", |ctx| {
         let s = ctx.linear_index() as usize * 32;
-        let words = [(0, 1), (1, ctx.ray_tmax().to_bits()), (2, ctx.primitive_index()), (3, ctx.instance_id()), (4, ctx.instance_index()), (5, ctx.sbt_gas_index()), (6, ctx.hit_kind()), (15, ctx.sbt_data_u32(0))];
+        let words = [
+            (0, 1),
+            (1, ctx.ray_tmax().to_bits()),
+            (2, ctx.primitive_index()),
+            (3, ctx.instance_id()),
+            (4, ctx.instance_index()),
+            (5, ctx.sbt_gas_index()),
+            (6, ctx.hit_kind()),
+            (15, ctx.sbt_data_u32(0)),
+        ];
         for (k, v) in words {
             ctx.write(2, s + k, v);
         }
         let p = ctx.get_payload(0);
         ctx.set_payload(0, p | 8);
         let n = ctx.sbt_data_u32(2);
-        let (a, b, c) = (ctx.sbt_data_u32(n - 1), ctx.sbt_data_u32(n / 2), ctx.sbt_data_f32(3).to_bits());
+        let (a, b, c) = (
+            ctx.sbt_data_u32(n - 1),
+            ctx.sbt_data_u32(n / 2),
+            ctx.sbt_data_f32(3).to_bits(),
+        );
         ctx.set_payload(3, a);
         ctx.set_payload(4, b);
         ctx.set_payload(5, c);
@@ -248,14 +408,36 @@ fn null_programs() -> Case {
     // Hit groups: 0 null closest-hit, 1 null any-hit on non-opaque geometry, 2 a box group
     // with a null intersection program; the miss group is null.
     let mut scene = Scene::default();
-    let tris = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(quad(0.0, 0.0, 1.0, 1.0, -1.0), GeometryFlags::NONE))])));
-    let boxes = scene.add(Node::Gas(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(vec![[2.0, 0.0, -1.5, 3.0, 1.0, -0.5]], GeometryFlags::NONE))])));
-    let root = scene.add(Node::Ias(vec![InstanceDesc::of(tris), InstanceDesc { sbt_offset: 2, ..InstanceDesc::of(boxes) }]));
-    let groups = vec![hit_group(None, Some(prog::AH), None), hit_group(Some(prog::CH), None, None), hit_group(Some(prog::CH_ATTRS), Some(prog::AH), None)];
-    let records = vec![SbtEntry::new(0, vec![0, action::ACCEPT]), SbtEntry::new(1, vec![1, action::ACCEPT]), SbtEntry::new(2, vec![2, action::ACCEPT])];
+    let tris = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(quad(0.0, 0.0, 1.0, 1.0, -1.0), GeometryFlags::NONE),
+    )])));
+    let boxes = scene.add(Node::Gas(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(
+        vec![[2.0, 0.0, -1.5, 3.0, 1.0, -0.5]],
+        GeometryFlags::NONE,
+    ))])));
+    let root = scene.add(Node::Ias(vec![
+        InstanceDesc::of(tris),
+        InstanceDesc {
+            sbt_offset: 2,
+            ..InstanceDesc::of(boxes)
+        },
+    ]));
+    let groups = vec![
+        hit_group(None, Some(prog::AH), None),
+        hit_group(Some(prog::CH), None, None),
+        hit_group(Some(prog::CH_ATTRS), Some(prog::AH), None),
+    ];
+    let records = vec![
+        SbtEntry::new(0, vec![0, action::ACCEPT]),
+        SbtEntry::new(1, vec![1, action::ACCEPT]),
+        SbtEntry::new(2, vec![2, action::ACCEPT]),
+    ];
     let rays = vec![
         Ray::new([0.75, 0.25, 0.0], [0.0, 0.0, -1.0]),
-        Ray { sbt_offset: 1, ..Ray::new([0.75, 0.25, 0.0], [0.0, 0.0, -1.0]) },
+        Ray {
+            sbt_offset: 1,
+            ..Ray::new([0.75, 0.25, 0.0], [0.0, 0.0, -1.0])
+        },
         Ray::new([2.5, 0.5, 0.0], [0.0, 0.0, -1.0]),
         Ray::new([5.0, 0.5, 0.0], [0.0, 0.0, -1.0]),
     ];

@@ -4,7 +4,7 @@
 use super::util::*;
 use crate::case::{Case, Group, Rule, SbtEntry};
 use crate::kit::{Ray, StdCase, action, ch, geometry_channels, hit_group, prog};
-use crate::scene::{Gas, GeomInput, InstanceDesc, Node, Scene, SbtOffsets, Triangles};
+use crate::scene::{Gas, GeomInput, InstanceDesc, Node, SbtOffsets, Scene, Triangles};
 use crate::tolerance::Tolerance;
 use optik::{GeometryFlags, IndexFormat, VertexFormat};
 
@@ -27,7 +27,10 @@ pub fn cases() -> Vec<Case> {
 /// A hit group whose any-hit ignores every candidate and counts it (record 0), used to count
 /// how many surfaces a ray crosses; geometry must be non-opaque with single any-hit calls.
 pub fn counting_hits() -> (Vec<crate::case::HitGroupDesc>, Vec<SbtEntry>) {
-    (vec![hit_group(Some(prog::CH), Some(prog::AH), None)], vec![SbtEntry::new(0, vec![0, action::IGNORE])])
+    (
+        vec![hit_group(Some(prog::CH), Some(prog::AH), None)],
+        vec![SbtEntry::new(0, vec![0, action::IGNORE])],
+    )
 }
 
 /// Flags of counted geometry: non-opaque, any-hit once per primitive.
@@ -42,7 +45,10 @@ fn t_plane() -> Case {
             verts.extend(quad(i as f32, j as f32, (i + 1) as f32, (j + 1) as f32, z));
         }
     }
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(verts, GeometryFlags::DISABLE_ANYHIT))]));
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
+        verts,
+        GeometryFlags::DISABLE_ANYHIT,
+    ))]));
     StdCase::new(
         Group::Tri,
         "t_plane",
@@ -53,13 +59,21 @@ fn t_plane() -> Case {
     )
     // 64 × 48 rays: cell fractions 1/8.. in x and 1/6.. in y never meet the quads' diagonals.
     .launch(64, down_grid(64, 48, 0.0, 0.0, 16.0, 16.0, 0.0))
-    .record(vec![ch::hit(), ch::t(Tolerance::F6), ch::prim(), ch::hit_kind()])
+    .record(vec![
+        ch::hit(),
+        ch::t(Tolerance::F6),
+        ch::prim(),
+        ch::hit_kind(),
+    ])
     .build()
 }
 
 fn barycentrics() -> Case {
     let tri = vec![[0.0, -1.0, 5.0], [-1.0, 1.0, 5.0], [1.0, 1.0, 5.0]];
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(tri.clone(), GeometryFlags::DISABLE_ANYHIT))]));
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
+        tri.clone(),
+        GeometryFlags::DISABLE_ANYHIT,
+    ))]));
     let mut rng = Rng::new(77);
     let mut rays = Vec::new();
     for k in 0..20 {
@@ -70,11 +84,17 @@ fn barycentrics() -> Case {
             2 => (0.0005, 0.999),
             _ => {
                 let (a, b) = (rng.range(0.02, 0.96), rng.range(0.02, 0.96));
-                if a + b > 0.98 { (0.98 - b, 0.98 - a) } else { (a, b) }
+                if a + b > 0.98 {
+                    (0.98 - b, 0.98 - a)
+                } else {
+                    (a, b)
+                }
             }
         };
         let b0 = 1.0 - b1 - b2;
-        let p: [f64; 3] = std::array::from_fn(|i| b0 * tri[0][i] as f64 + b1 * tri[1][i] as f64 + b2 * tri[2][i] as f64);
+        let p: [f64; 3] = std::array::from_fn(|i| {
+            b0 * tri[0][i] as f64 + b1 * tri[1][i] as f64 + b2 * tri[2][i] as f64
+        });
         rays.push(Ray::new([0.0; 3], v32(p)).interval(0.999, 1.001));
     }
     StdCase::new(
@@ -94,26 +114,36 @@ fn direction_scaling() -> Case {
     // A quad at z = 5 in object space, 4 units from the ray origin (0, 0, 1); five rotated
     // instances far apart; directions scaled by 1 and five factors in [0.5, 10].
     let mut scene = Scene::default();
-    let gas = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
-        quad(-1.0, -1.0, 1.0, 1.0, 5.0),
-        GeometryFlags::DISABLE_ANYHIT,
-    ))])));
+    let gas = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(
+            quad(-1.0, -1.0, 1.0, 1.0, 5.0),
+            GeometryFlags::DISABLE_ANYHIT,
+        ),
+    )])));
     let mut rng = Rng::new(1410);
     let mut instances = Vec::new();
     let mut rays = Vec::new();
-    let scales: Vec<f64> = std::iter::once(1.0).chain((0..5).map(|_| rng.range(0.5, 10.0))).collect();
+    let scales: Vec<f64> = std::iter::once(1.0)
+        .chain((0..5).map(|_| rng.range(0.5, 10.0)))
+        .collect();
     for r in 0..5 {
         let axis = rng.direction();
         let angle = rng.range(0.0, std::f64::consts::TAU);
         let offset = [20.0 * r as f32, 0.0, 0.0];
         let m = rotate_translate(axis, angle, offset);
-        instances.push(InstanceDesc { id: r, ..InstanceDesc::of(gas).at(m) });
+        instances.push(InstanceDesc {
+            id: r,
+            ..InstanceDesc::of(gas).at(m)
+        });
         let mm = crate::oracle::math::m_from_f32(&m);
         for s in &scales {
             let o = crate::oracle::math::m_point(&mm, [0.3, 0.1, 1.0]);
             let d = crate::oracle::math::m_vector(&mm, [0.0, 0.0, *s]);
             let expected = 4.0 / s;
-            rays.push(Ray::new(v32(o), v32(d)).interval((expected - 2e-3) as f32, (expected + 2e-3) as f32));
+            rays.push(
+                Ray::new(v32(o), v32(d))
+                    .interval((expected - 2e-3) as f32, (expected + 2e-3) as f32),
+            );
         }
     }
     let root = scene.add(Node::Ias(instances));
@@ -142,8 +172,14 @@ fn watertight_subdivided() -> Case {
         None,
     )
     .hits(groups, records);
-    let meshes: Vec<_> = [(64, 11u64), (512, 12), (2048, 13)].iter().map(|(n, seed)| subdivided_square(*n, *seed)).collect();
-    let roots: Vec<_> = meshes.iter().map(|m| scene.add(Node::Gas(m.gas(COUNTED)))).collect();
+    let meshes: Vec<_> = [(64, 11u64), (512, 12), (2048, 13)]
+        .iter()
+        .map(|(n, seed)| subdivided_square(*n, *seed))
+        .collect();
+    let roots: Vec<_> = meshes
+        .iter()
+        .map(|m| scene.add(Node::Gas(m.gas(COUNTED))))
+        .collect();
     case.scene = scene;
     for root in roots {
         case = case.launch_on(Some(root), 64, down_grid(64, 64, 0.0, 0.0, 1.0, 1.0, 0.0));
@@ -173,7 +209,9 @@ fn closed_fan() -> Case {
         let mut instances = Vec::new();
         for t in &m.triangles {
             let tri: Vec<[f32; 3]> = t.iter().map(|i| m.vertices[*i as usize]).collect();
-            let g = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(Triangles::soup(tri, COUNTED))])));
+            let g = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+                Triangles::soup(tri, COUNTED),
+            )])));
             instances.push(InstanceDesc::of(g));
         }
         let root = scene.add(Node::Ias(instances));
@@ -198,7 +236,8 @@ fn closed_fan() -> Case {
 fn watertight_far() -> Case {
     let offset = [148376.0, 1234.0, -223423.0];
     let sphere = icosphere(3).placed(100.0, offset);
-    let plane = terrain(32, |_, _| 0.0).placed(400.0, [offset[0] - 200.0, offset[1] - 200.0, offset[2]]);
+    let plane =
+        terrain(32, |_, _| 0.0).placed(400.0, [offset[0] - 200.0, offset[1] - 200.0, offset[2]]);
     let mut scene = Scene::default();
     let s = scene.add(Node::Gas(sphere.gas(GeometryFlags::DISABLE_ANYHIT)));
     let p = scene.add(Node::Gas(plane.gas(GeometryFlags::DISABLE_ANYHIT)));
@@ -208,13 +247,21 @@ fn watertight_far() -> Case {
             let d = rng.direction();
             let r = 50.0 * rng.unit().cbrt();
             let u = rng.direction();
-            let o = [offset[0] + r * u[0], offset[1] + r * u[1], offset[2] + r * u[2]];
+            let o = [
+                offset[0] + r * u[0],
+                offset[1] + r * u[1],
+                offset[2] + r * u[2],
+            ];
             Ray::new(v32(o), v32(d))
         })
         .collect();
     let above: Vec<Ray> = (0..4096)
         .map(|_| {
-            let o = [offset[0] + rng.range(-190.0, 190.0), offset[1] + rng.range(-190.0, 190.0), offset[2] + 50.0];
+            let o = [
+                offset[0] + rng.range(-190.0, 190.0),
+                offset[1] + rng.range(-190.0, 190.0),
+                offset[2] + 50.0,
+            ];
             let d = [rng.range(-0.3, 0.3), rng.range(-0.3, 0.3), -1.0];
             Ray::new(v32(o), v32(d))
         })
@@ -241,7 +288,10 @@ fn t_interval_bounds() -> Case {
         let x = 4.0 * k as f32;
         verts.extend([[x, 0.0, -c], [x + 2.0, 0.0, -c], [x, 2.0, -c]]);
     }
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(verts, GeometryFlags::DISABLE_ANYHIT))]));
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
+        verts,
+        GeometryFlags::DISABLE_ANYHIT,
+    ))]));
     let up = |x: f32| f32::from_bits(x.to_bits() + 1);
     let down = |x: f32| f32::from_bits(x.to_bits() - 1);
     let mut rays = Vec::new();
@@ -308,7 +358,10 @@ fn degenerate_and_nan() -> Case {
     for t in &invalid {
         verts.extend(t.iter().copied());
     }
-    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(verts, GeometryFlags::DISABLE_ANYHIT))]));
+    let (scene, root) = Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
+        verts,
+        GeometryFlags::DISABLE_ANYHIT,
+    ))]));
     let rays = down_grid(96, 6, 0.0, 0.0, 12.0, 1.0, 0.0);
     StdCase::new(
         Group::Tri,
@@ -326,29 +379,52 @@ fn degenerate_and_nan() -> Case {
 fn formats_indices() -> Case {
     // Eight inputs, each a quad in its own cell of a 4 × 2 grid inside [-1, 1]², every
     // vertex format, strides and index formats; one input with a pre-transform.
-    let cell = |k: usize| -> (f32, f32) { (-1.0 + 0.5 * (k % 4) as f32, -1.0 + 1.0 * (k / 4) as f32) };
+    let cell =
+        |k: usize| -> (f32, f32) { (-1.0 + 0.5 * (k % 4) as f32, -1.0 + 1.0 * (k / 4) as f32) };
     let quad_in = |k: usize, z: f32| -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
         let (x, y) = cell(k);
         let (x0, y0, x1, y1) = (x + 0.0625, y + 0.125, x + 0.4375, y + 0.875);
-        (vec![[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y1, z]], vec![[0, 1, 2], [0, 2, 3]])
+        (
+            vec![[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y1, z]],
+            vec![[0, 1, 2], [0, 2, 3]],
+        )
     };
-    let unindexed = |v: &[[f32; 3]], t: &[[u32; 3]]| -> Vec<[f32; 3]> { t.iter().flat_map(|tri| tri.map(|i| v[i as usize])).collect() };
+    let unindexed = |v: &[[f32; 3]], t: &[[u32; 3]]| -> Vec<[f32; 3]> {
+        t.iter()
+            .flat_map(|tri| tri.map(|i| v[i as usize]))
+            .collect()
+    };
     let f = GeometryFlags::DISABLE_ANYHIT;
     let mut inputs = Vec::new();
-    let specs: [(VertexFormat, u32, Option<(IndexFormat, u32)>, f32); 8] = [
+    // (vertex format, vertex stride, index format and stride, z)
+    type Spec = (VertexFormat, u32, Option<(IndexFormat, u32)>, f32);
+    let specs: [Spec; 8] = [
         (VertexFormat::Float3, 0, None, -0.25),
-        (VertexFormat::Float3, 16, Some((IndexFormat::U32x3, 16)), -0.3),
+        (
+            VertexFormat::Float3,
+            16,
+            Some((IndexFormat::U32x3, 16)),
+            -0.3,
+        ),
         (VertexFormat::Float2, 0, Some((IndexFormat::U16x3, 0)), 0.0),
         (VertexFormat::Half3, 8, Some((IndexFormat::U16x3, 8)), -0.5),
         (VertexFormat::Half2, 0, None, 0.0),
-        (VertexFormat::Snorm16x3, 10, Some((IndexFormat::U32x3, 0)), -0.7),
+        (
+            VertexFormat::Snorm16x3,
+            10,
+            Some((IndexFormat::U32x3, 0)),
+            -0.7,
+        ),
         (VertexFormat::Snorm16x2, 6, None, 0.0),
         (VertexFormat::Float3, 0, Some((IndexFormat::U32x3, 0)), -0.2),
     ];
     for (k, (format, stride, index, z)) in specs.iter().enumerate() {
         let (v, t) = quad_in(k, *z);
         let mut tris = match index {
-            Some((fmt, istride)) => Triangles { indices: Some((t.clone(), *fmt, *istride)), ..Triangles::soup(v.clone(), f) },
+            Some((fmt, istride)) => Triangles {
+                indices: Some((t.clone(), *fmt, *istride)),
+                ..Triangles::soup(v.clone(), f)
+            },
             None => Triangles::soup(unindexed(&v, &t), f),
         };
         tris.format = *format;
@@ -357,14 +433,22 @@ fn formats_indices() -> Case {
             // Pre-transform: the quad is stored around the origin at half size and moved.
             let (x, y) = cell(k);
             let centre = [x + 0.25, y + 0.5];
-            tris.keys[0] = tris.keys[0].iter().map(|p| [2.0 * (p[0] - centre[0]), 2.0 * (p[1] - centre[1]), p[2]]).collect();
-            tris.pre_transform = Some(scale_translate([0.5, 0.5, 1.0], [centre[0], centre[1], 0.0]));
+            tris.keys[0] = tris.keys[0]
+                .iter()
+                .map(|p| [2.0 * (p[0] - centre[0]), 2.0 * (p[1] - centre[1]), p[2]])
+                .collect();
+            tris.pre_transform = Some(scale_translate(
+                [0.5, 0.5, 1.0],
+                [centre[0], centre[1], 0.0],
+            ));
         }
         inputs.push(GeomInput::Triangles(tris));
     }
     let (scene, root) = Scene::single(Gas::new(inputs));
     let rays = down_grid(64, 24, -1.0, -1.0, 1.0, 1.0, 1.0);
-    let hit_records = (0..8).map(|i| SbtEntry::new(0, vec![i, action::ACCEPT])).collect();
+    let hit_records = (0..8)
+        .map(|i| SbtEntry::new(0, vec![i, action::ACCEPT]))
+        .collect();
     StdCase::new(
         Group::Tri,
         "formats_indices",
@@ -386,16 +470,27 @@ fn complex_mesh_hitrate() -> Case {
     let knot = torus_knot(2.0, 3.0, 96, 8, 0.12).placed(0.3, [0.5, 0.5, -1.0]);
     let mut soup = Mesh::default();
     for _ in 0..300 {
-        let c = [rng.range(0.0, 1.0), rng.range(0.0, 1.0), rng.range(-1.5, -0.5)];
+        let c = [
+            rng.range(0.0, 1.0),
+            rng.range(0.0, 1.0),
+            rng.range(-1.5, -0.5),
+        ];
         let base = soup.vertices.len() as u32;
         for _ in 0..3 {
             let d = rng.direction();
-            soup.vertices.push(v32([c[0] + 0.08 * d[0], c[1] + 0.08 * d[1], c[2] + 0.08 * d[2]]));
+            soup.vertices.push(v32([
+                c[0] + 0.08 * d[0],
+                c[1] + 0.08 * d[1],
+                c[2] + 0.08 * d[2],
+            ]));
         }
         soup.triangles.push([base, base + 1, base + 2]);
     }
     let mut scene = Scene::default();
-    let roots: Vec<_> = [ico, ter, knot, soup].iter().map(|m| scene.add(Node::Gas(m.gas(GeometryFlags::DISABLE_ANYHIT)))).collect();
+    let roots: Vec<_> = [ico, ter, knot, soup]
+        .iter()
+        .map(|m| scene.add(Node::Gas(m.gas(GeometryFlags::DISABLE_ANYHIT))))
+        .collect();
     let mut case = StdCase::new(
         Group::Tri,
         "complex_mesh_hitrate",
@@ -407,12 +502,28 @@ fn complex_mesh_hitrate() -> Case {
     for root in roots {
         case = case.launch_on(Some(root), 64, down_grid(64, 64, 0.0, 0.0, 1.0, 1.0, 0.0));
     }
-    case.record(vec![ch::hit(), ch::t(Tolerance::U16), ch::prim(), ch::hit_kind()]).build()
+    case.record(vec![
+        ch::hit(),
+        ch::t(Tolerance::U16),
+        ch::prim(),
+        ch::hit_kind(),
+    ])
+    .build()
 }
 
 /// A mesh input with per-primitive SBT offsets (used by other groups).
-pub fn with_offsets(mut t: Triangles, offsets: Vec<u32>, size_in_bytes: u32, stride: u32, flags: Vec<GeometryFlags>) -> Triangles {
+pub fn with_offsets(
+    mut t: Triangles,
+    offsets: Vec<u32>,
+    size_in_bytes: u32,
+    stride: u32,
+    flags: Vec<GeometryFlags>,
+) -> Triangles {
     t.flags = flags;
-    t.sbt_offsets = Some(SbtOffsets { offsets, size_in_bytes, stride });
+    t.sbt_offsets = Some(SbtOffsets {
+        offsets,
+        size_in_bytes,
+        stride,
+    });
     t
 }

@@ -245,7 +245,13 @@ struct Path {
 impl<'c> Engine<'c> {
     /// An engine for `case` with these settings.
     pub fn new(case: &'c Case, nodes: Vec<PNode>, settings: Settings) -> Self {
-        Engine { case, nodes, models: &case.models, cache: RefCell::new(HashMap::new()), settings }
+        Engine {
+            case,
+            nodes,
+            models: &case.models,
+            cache: RefCell::new(HashMap::new()),
+            settings,
+        }
     }
 
     fn model(&self, name: &str) -> Result<&super::model::ProgramFn, Unwind> {
@@ -395,7 +401,10 @@ impl<'c> Engine<'c> {
             // Per object coordinate j, the terms Σ_k |W_jk · o_k| + |t_j| the transform sums.
             let terms = (0..3)
                 .map(|r| {
-                    (0..3).map(|c| (path.w2o[r * 4 + c] * wo[c]).abs()).sum::<f64>() + path.w2o[r * 4 + 3].abs()
+                    (0..3)
+                        .map(|c| (path.w2o[r * 4 + c] * wo[c]).abs())
+                        .sum::<f64>()
+                        + path.w2o[r * 4 + 3].abs()
                 })
                 .fold(0.0, f64::max);
             extra += 0.25 * terms;
@@ -555,7 +564,12 @@ impl<'c> Engine<'c> {
             .into_iter()
             .chain(ray.origin.map(f32::to_bits))
             .chain(ray.direction.map(f32::to_bits))
-            .chain([ray.tmin.to_bits(), ray.tmax.to_bits(), ray.time.to_bits(), ray.mask])
+            .chain([
+                ray.tmin.to_bits(),
+                ray.tmax.to_bits(),
+                ray.time.to_bits(),
+                ray.mask,
+            ])
             .collect();
         if let Some(g) = self.cache.borrow().get(&key) {
             return g.clone();
@@ -572,7 +586,14 @@ impl<'c> Engine<'c> {
                 o2w: IDENTITY,
                 instanced: false,
             };
-            self.walk(node, &root, from_f32(ray.origin), from_f32(ray.direction), ray, &mut contacts);
+            self.walk(
+                node,
+                &root,
+                from_f32(ray.origin),
+                from_f32(ray.direction),
+                ray,
+                &mut contacts,
+            );
         }
         // Clusters: ambiguous triangles of one object space whose t bands overlap.
         let mut amb: Vec<usize> = (0..contacts.len())
@@ -580,7 +601,10 @@ impl<'c> Engine<'c> {
             .collect();
         amb.sort_by(|&a, &b| {
             let (ta, tb) = (tri_of(&contacts[a]).t, tri_of(&contacts[b]).t);
-            contacts[a].space.cmp(&contacts[b].space).then(ta.total_cmp(&tb))
+            contacts[a]
+                .space
+                .cmp(&contacts[b].space)
+                .then(ta.total_cmp(&tb))
         });
         let mut groups: Vec<Vec<usize>> = Vec::new();
         for i in amb {
@@ -597,10 +621,17 @@ impl<'c> Engine<'c> {
         let clusters = groups
             .into_iter()
             .map(|members| {
-                let tris: Vec<&TriContact> = members.iter().map(|&i| tri_of(&contacts[i])).collect();
+                let tris: Vec<&TriContact> =
+                    members.iter().map(|&i| tri_of(&contacts[i])).collect();
                 let outcomes = geometry::cluster_outcomes(&tris, contacts[members[0]].obj.d);
-                let vertex = tris.iter().any(|m| m.edges.iter().filter(|e| e.near).count() >= 2);
-                Cluster { members, outcomes, reason: if vertex { "vertex" } else { "edge" } }
+                let vertex = tris
+                    .iter()
+                    .any(|m| m.edges.iter().filter(|e| e.near).count() >= 2);
+                Cluster {
+                    members,
+                    outcomes,
+                    reason: if vertex { "vertex" } else { "edge" },
+                }
             })
             .collect();
         let g = Rc::new(TraceGeometry { contacts, clusters });

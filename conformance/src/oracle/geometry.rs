@@ -156,7 +156,11 @@ pub fn triangle(v: [V3; 3], ray: &ObjRay, rnd: &Rounding) -> Option<TriContact> 
         (0.0, 0.0)
     };
     let clamp = |x: f64| x.clamp(0.0, 1.0);
-    let dt = if rnd.exact { 0.0 } else { r * length(n) / n_dot_d.abs() + rnd.band(t.abs()) };
+    let dt = if rnd.exact {
+        0.0
+    } else {
+        r * length(n) / n_dot_d.abs() + rnd.band(t.abs())
+    };
     Some(TriContact {
         t,
         dt,
@@ -236,7 +240,9 @@ pub fn cluster_outcomes(members: &[&TriContact], d: V3) -> Vec<Vec<bool>> {
             edge_lines.push(a - std::f64::consts::FRAC_PI_2);
         }
     }
-    edge_lines.iter_mut().for_each(|a| *a = a.rem_euclid(std::f64::consts::TAU));
+    edge_lines
+        .iter_mut()
+        .for_each(|a| *a = a.rem_euclid(std::f64::consts::TAU));
     edge_lines.sort_by(f64::total_cmp);
     edge_lines.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
     for w in edge_lines.windows(2) {
@@ -251,10 +257,8 @@ pub fn cluster_outcomes(members: &[&TriContact], d: V3) -> Vec<Vec<bool>> {
             let delta = add(scale(u, radius * a.cos()), scale(v, radius * a.sin()));
             let hits: Option<Vec<bool>> =
                 members.iter().map(|c| hit_when_moved(c, delta)).collect();
-            if let Some(h) = hits {
-                if !outcomes.contains(&h) {
-                    outcomes.push(h);
-                }
+            if let Some(h) = hits.filter(|h| !outcomes.contains(h)) {
+                outcomes.push(h);
             }
         }
     }
@@ -311,7 +315,10 @@ pub fn aabb(b: [f64; 6], ray: &ObjRay, tmin: f64, tmax: f64, rnd: &Rounding) -> 
     // may be enlarged, never shrunk); one that misses it only by rounding may.
     let exact = interval(0.0).filter(|(lo, hi)| *lo <= tmax && *hi >= tmin);
     let t_enter = exact.map_or(glo, |(lo, _)| lo).max(tmin);
-    Some(BoxContact { t_enter, ambiguous: exact.is_none() })
+    Some(BoxContact {
+        t_enter,
+        ambiguous: exact.is_none(),
+    })
 }
 
 /// A ray meeting a sphere or capsule from outside.
@@ -359,7 +366,11 @@ pub fn sphere(c: V3, radius: f64, ray: &ObjRay, rnd: &Rounding) -> Option<RoundC
     let t = (-along - half) / a.sqrt();
     // Moving the surface by rs moves t by rs / cos(incidence), at most by the tangent bound.
     let surface = (rs * radius / half.max(f64::MIN_POSITIVE)).min(rs + (2.0 * radius * rs).sqrt());
-    let dt = if rnd.exact { 0.0 } else { surface / a.sqrt() + rnd.band(t.abs()) };
+    let dt = if rnd.exact {
+        0.0
+    } else {
+        surface / a.sqrt() + rnd.band(t.abs())
+    };
     Some(RoundContact {
         t,
         dt,
@@ -529,7 +540,14 @@ mod tests {
         )
         .unwrap();
         assert!(!on_face.ambiguous, "a ray on a face meets the closed box");
-        let beside = aabb(b, &ray([1.0 + 1e-9, 0.5, -1.0], [0.0, 0.0, 1.0]), 0.0, 10.0, &Rounding::F32).unwrap();
+        let beside = aabb(
+            b,
+            &ray([1.0 + 1e-9, 0.5, -1.0], [0.0, 0.0, 1.0]),
+            0.0,
+            10.0,
+            &Rounding::F32,
+        )
+        .unwrap();
         assert!(beside.ambiguous);
         assert!(
             aabb(

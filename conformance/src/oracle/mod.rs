@@ -78,6 +78,9 @@ pub fn params_words(params: &[ParamWord]) -> Vec<u32> {
         .collect()
 }
 
+/// The buffer writes of one run: ((binding, word), value), sorted.
+type Writes = Vec<((u32, usize), u32)>;
+
 /// Runs one launch index through every ambiguity sequence; returns the distinct overlays
 /// (writes) and why it was ambiguous.
 fn run_index(
@@ -86,9 +89,9 @@ fn run_index(
     params: &[u32],
     index: [u32; 3],
     dims: [u32; 3],
-) -> Result<(Vec<Vec<((u32, usize), u32)>>, Vec<&'static str>, bool), String> {
+) -> Result<(Vec<Writes>, Vec<&'static str>, bool), String> {
     let mut chooser = Chooser::new();
-    let mut outcomes: Vec<Vec<((u32, usize), u32)>> = Vec::new();
+    let mut outcomes: Vec<Writes> = Vec::new();
     let mut runs = 0;
     loop {
         let mut st = ExecState::new(&mut chooser, buffers, params, index, dims);

@@ -181,7 +181,10 @@ pub fn prepare(scene: &Scene) -> Vec<PNode> {
                                             -2 => MicromapState::Opaque,
                                             -3 => MicromapState::UnknownTransparent,
                                             -4 => MicromapState::UnknownOpaque,
-                                            i => MicromapState::from_code(o.states.get(i as usize).copied().unwrap_or(0) as u32),
+                                            i => MicromapState::from_code(
+                                                o.states.get(i as usize).copied().unwrap_or(0)
+                                                    as u32,
+                                            ),
                                         })
                                         .collect()
                                 });
