@@ -1,1 +1,32 @@
-fn main() {}
+//! The `optik` command.
+
+mod compile;
+mod info;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// optik: an OptiX-7-style ray tracing API for Rust, on CPU, wgpu and Vulkan.
+#[derive(Parser)]
+#[command(name = "optik", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Compiles a WGSL module and lists its programs, or prints each error as FILE:LINE:COLUMN.
+    Compile(compile::CompileArgs),
+    /// Lists each backend, whether it can run here, and the devices and adapters found.
+    Info,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let code = match cli.command {
+        Command::Compile(args) => compile::run(&args),
+        Command::Info => info::run(),
+    };
+    ExitCode::from(code)
+}
