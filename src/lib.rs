@@ -57,7 +57,10 @@ pub fn open(choice: BackendChoice) -> Result<Box<dyn Device>> {
                     Err(e) => reasons.push(format!("{kind}: {}", e.message())),
                 }
             }
-            Err(Error::unsupported(format!("no backend can run here ({})", reasons.join("; "))))
+            Err(Error::unsupported(format!(
+                "no backend can run here ({})",
+                reasons.join("; ")
+            )))
         }
     }
 }

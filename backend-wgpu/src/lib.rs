@@ -3,7 +3,7 @@
 
 mod probe;
 
-pub use probe::{probe, AdapterReport};
+pub use probe::{AdapterReport, probe};
 
 /// Opens a device of this backend.
 pub fn open() -> optik_api::Result<Box<dyn optik_api::Device>> {

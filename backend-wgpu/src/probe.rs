@@ -29,13 +29,41 @@ pub struct AdapterReport {
 
 impl fmt::Display for AdapterReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        writeln!(f, "{} ({} via {}, driver {})", self.name, self.device_type, self.backend, self.driver)?;
-        writeln!(f, "  max storage buffer binding      {} bytes", self.max_storage_buffer_binding_size)?;
-        writeln!(f, "  max buffer size                 {} bytes", self.max_buffer_size)?;
-        writeln!(f, "  storage buffers per stage       {}", self.max_storage_buffers_per_shader_stage)?;
-        writeln!(f, "  workgroups per dimension        {}", self.max_compute_workgroups_per_dimension)?;
-        writeln!(f, "  invocations per workgroup       {}", self.max_compute_invocations_per_workgroup)?;
-        write!(f, "  experimental ray query          {}", if self.ray_query { "offered" } else { "no" })
+        writeln!(
+            f,
+            "{} ({} via {}, driver {})",
+            self.name, self.device_type, self.backend, self.driver
+        )?;
+        writeln!(
+            f,
+            "  max storage buffer binding      {} bytes",
+            self.max_storage_buffer_binding_size
+        )?;
+        writeln!(
+            f,
+            "  max buffer size                 {} bytes",
+            self.max_buffer_size
+        )?;
+        writeln!(
+            f,
+            "  storage buffers per stage       {}",
+            self.max_storage_buffers_per_shader_stage
+        )?;
+        writeln!(
+            f,
+            "  workgroups per dimension        {}",
+            self.max_compute_workgroups_per_dimension
+        )?;
+        writeln!(
+            f,
+            "  invocations per workgroup       {}",
+            self.max_compute_invocations_per_workgroup
+        )?;
+        write!(
+            f,
+            "  experimental ray query          {}",
+            if self.ray_query { "offered" } else { "no" }
+        )
     }
 }
 
@@ -60,13 +88,17 @@ pub fn probe() -> Vec<AdapterReport> {
                 name: info.name.clone(),
                 backend: format!("{:?}", info.backend),
                 device_type: format!("{:?}", info.device_type),
-                driver: format!("{} {}", info.driver, info.driver_info).trim().to_string(),
-                max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size as u64,
+                driver: format!("{} {}", info.driver, info.driver_info)
+                    .trim()
+                    .to_string(),
+                max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
                 max_buffer_size: limits.max_buffer_size,
                 max_storage_buffers_per_shader_stage: limits.max_storage_buffers_per_shader_stage,
                 max_compute_workgroups_per_dimension: limits.max_compute_workgroups_per_dimension,
                 max_compute_invocations_per_workgroup: limits.max_compute_invocations_per_workgroup,
-                ray_query: a.features().contains(wgpu::Features::EXPERIMENTAL_RAY_QUERY),
+                ray_query: a
+                    .features()
+                    .contains(wgpu::Features::EXPERIMENTAL_RAY_QUERY),
             }
         })
         .collect()

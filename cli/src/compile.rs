@@ -25,7 +25,10 @@ pub fn run(args: &CompileArgs) -> u8 {
         }
     };
     if args.payload_values > 32 {
-        eprintln!("--payload-values is {}; at most 32 payload registers exist", args.payload_values);
+        eprintln!(
+            "--payload-values is {}; at most 32 payload registers exist",
+            args.payload_values
+        );
         return 2;
     }
     match frontend::compile(&ProgramSource::new(&name, text), args.payload_values) {
@@ -61,7 +64,11 @@ fn print_module(m: &frontend::CompiledModule) {
                 kind.name(),
                 p.name,
                 p.line,
-                if calls.is_empty() { "-".to_string() } else { calls.join(", ") },
+                if calls.is_empty() {
+                    "-".to_string()
+                } else {
+                    calls.join(", ")
+                },
             );
         }
     }
