@@ -4,3 +4,4 @@
 pub mod mesh;
 pub mod npy;
 pub mod raycast;
+pub mod rays;
