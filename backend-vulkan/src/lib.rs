@@ -1,4 +1,6 @@
-//! optik-vulkan: the Vulkan ray tracing backend (issue 6). Not implemented yet: it opens no device.
+//! optik-vulkan: the Vulkan ray tracing backend (issue 6).
+
+pub mod program;
 
 /// Opens a device of this backend.
 pub fn open() -> optik_api::Result<Box<dyn optik_api::Device>> {
