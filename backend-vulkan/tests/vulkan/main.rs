@@ -1,0 +1,5 @@
+//! End-to-end tests of the Vulkan backend on the machine's ray tracing device (lavapipe in
+//! CI), with the Khronos validation layer on: any message it reports fails the test.
+
+mod common;
+mod triangles;
