@@ -192,3 +192,25 @@ pub fn params(handle: TraversableHandle, width: u32, height: u32) -> Vec<u8> {
     let w = handle.to_words();
     bytemuck::cast_slice(&[w[0], w[1], width, height]).to_vec()
 }
+
+/// Runs a one-dimensional launch of `n` rays of `pipeline` with `table`, an output buffer of
+/// `words_per_ray` `u32`s per ray at binding 1 and `extra` resources; returns the words.
+pub fn run_rays(dev: &TestDevice, pipeline: Pipeline, sbt: &ShaderBindingTable, handle: TraversableHandle, n: u32, words_per_ray: u32, extra: &[Resource]) -> Vec<u32> {
+    let out = dev.create_buffer(n as u64 * words_per_ray as u64 * 4).unwrap();
+    let mut resources = vec![Resource::buffer(1, out)];
+    resources.extend_from_slice(extra);
+    dev.launch(pipeline, &params(handle, n, 1), &resources, sbt, LaunchSize::new(n, 1, 1)).unwrap_or_else(|e| panic!("{e}"));
+    dev.read_u32(out)
+}
+
+/// WGSL shared by the ray tests: the params struct, the output buffer, and `ray_for(i)`:
+/// ray `i` of `n` starts at (x, 0.5, 1) with x spread over [-1, 2], pointing down -z.
+pub const RAY_HEADER: &str = r#"
+struct Params { handle: vec2<u32>, n: u32, pad: u32 }
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read_write> out: array<u32>;
+
+fn ray_x(i: u32) -> f32 {
+    return -1.0 + 3.0 * (f32(i) + 0.5) / f32(params.n);
+}
+"#;

@@ -2,4 +2,9 @@
 //! CI), with the Khronos validation layer on: any message it reports fails the test.
 
 mod common;
+mod aabb;
+mod anyhit;
+mod callables;
+mod exceptions;
+mod sbt;
 mod triangles;
