@@ -71,9 +71,10 @@ fn optik_curve_eval(basis: u32, p0: vec4<f32>, p1: vec4<f32>, p2: vec4<f32>, p3:
 
 // Where a ray enters a round cone: the union of the spheres centred on a.xyz -> b.xyz whose
 // radius goes linearly from a.w to b.w. The end spheres count only where `cap_a` / `cap_b`
-// ask for them (open strand ends leave them out). Returns (t, s, 1) for the first entry with
-// t in [tmin, tmax], where s in [0, 1] is the parameter of the sphere touching the hit
-// point, or (0, 0, 0).
+// ask for them. Hits must also lie on the positive side of both planes `clip0` and `clip1`
+// (dot(xyz, p) + w >= 0; vec4(0, 0, 0, 1) clips nothing): open strand ends cut the whole
+// segment flat there. Returns (t, s, 1) for the first entry with t in [tmin, tmax], where s in
+// [0, 1] is the parameter of the sphere touching the hit point, or (0, 0, 0).
 //
 // The cone body: with L^2 = |b - a|^2, rr = a.w - b.w and d2 = L^2 - rr^2 > 0 (neither end
 // sphere contains the other), a point x lies on the tangent cone when
@@ -81,7 +82,7 @@ fn optik_curve_eval(basis: u32, p0: vec4<f32>, p1: vec4<f32>, p2: vec4<f32>, p3:
 // negative inside, and on the part between the tangent circles when Y - a.w rr is in [0, d2];
 // then s = (Y - a.w rr) / d2. Substituting x = o + t d gives k2 t^2 + 2 k1 t + k0 = 0; the ray
 // enters where the implicit function decreases, the root (-k1 - sqrt(k1^2 - k0 k2)) / k2.
-fn optik_round_cone(origin: vec3<f32>, direction: vec3<f32>, a: vec4<f32>, b: vec4<f32>, cap_a: bool, cap_b: bool, tmin: f32, tmax: f32) -> vec3<f32> {
+fn optik_round_cone(origin: vec3<f32>, direction: vec3<f32>, a: vec4<f32>, b: vec4<f32>, cap_a: bool, cap_b: bool, clip0: vec4<f32>, clip1: vec4<f32>, tmin: f32, tmax: f32) -> vec3<f32> {
     var best = vec3<f32>(0.0);
     var best_t = tmax;
     let ba = b.xyz - a.xyz;
@@ -102,7 +103,7 @@ fn optik_round_cone(origin: vec3<f32>, direction: vec3<f32>, a: vec4<f32>, b: ve
         if k2 != 0.0 && h >= 0.0 {
             let t = (-k1 - sqrt(h)) / k2;
             let y = m1 + t * m2 - a.w * rr;
-            if y >= 0.0 && y <= d2 && t >= tmin && t <= best_t {
+            if y >= 0.0 && y <= d2 && t >= tmin && t <= best_t && optik_curve_kept(origin + t * direction, clip0, clip1) {
                 best_t = t;
                 best = vec3<f32>(t, y / d2, 1.0);
             }
@@ -110,14 +111,14 @@ fn optik_round_cone(origin: vec3<f32>, direction: vec3<f32>, a: vec4<f32>, b: ve
     }
     if cap_a {
         let r = optik_sphere_roots(a.xyz, a.w, origin, direction);
-        if r.z != 0.0 && r.x >= tmin && r.x <= best_t {
+        if r.z != 0.0 && r.x >= tmin && r.x <= best_t && optik_curve_kept(origin + r.x * direction, clip0, clip1) {
             best_t = r.x;
             best = vec3<f32>(r.x, 0.0, 1.0);
         }
     }
     if cap_b {
         let r = optik_sphere_roots(b.xyz, b.w, origin, direction);
-        if r.z != 0.0 && r.x >= tmin && r.x <= best_t {
+        if r.z != 0.0 && r.x >= tmin && r.x <= best_t && optik_curve_kept(origin + r.x * direction, clip0, clip1) {
             best_t = r.x;
             best = vec3<f32>(r.x, 1.0, 1.0);
         }
@@ -125,10 +126,17 @@ fn optik_round_cone(origin: vec3<f32>, direction: vec3<f32>, a: vec4<f32>, b: ve
     return best;
 }
 
+// Whether a point lies on the kept side of both clip planes.
+fn optik_curve_kept(p: vec3<f32>, clip0: vec4<f32>, clip1: vec4<f32>) -> bool {
+    return dot(clip0.xyz, p) + clip0.w >= 0.0 && dot(clip1.xyz, p) + clip1.w >= 0.0;
+}
+
 // The first entry of a ray into a round curve segment in [tmin, tmax], as (t, u, 1) with u the
 // curve parameter in [0, 1], or (0, 0, 0). `cap_start` / `cap_end` put round caps on the
-// segment's ends (strand ends with end caps, and every end of a linear curve); joints between
-// the pieces of a segment are always round.
+// segment's ends (strand ends with end caps, and every end of a linear curve; joints between
+// the segments of a strand); joints between the pieces of a segment are always round. An end
+// without a cap is open: the tube is cut flat by the plane through the end, perpendicular
+// to the end piece's axis (the joint spheres inside the segment do not poke out of it).
 fn optik_curve_intersect(basis: u32, p0: vec4<f32>, p1: vec4<f32>, p2: vec4<f32>, p3: vec4<f32>, cap_start: bool, cap_end: bool, origin: vec3<f32>, direction: vec3<f32>, tmin: f32, tmax: f32) -> vec3<f32> {
     let dd = dot(direction, direction);
     if !(dd > 0.0) {
@@ -142,11 +150,26 @@ fn optik_curve_intersect(basis: u32, p0: vec4<f32>, p1: vec4<f32>, p2: vec4<f32>
     let n = optik_curve_pieces(basis);
     var best = vec3<f32>(0.0);
     var best_t = tmax - shift;
+    var clip0 = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    var clip1 = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    let first = optik_curve_eval(basis, p0, p1, p2, p3, 0.0).xyz;
+    let last = optik_curve_eval(basis, p0, p1, p2, p3, 1.0).xyz;
+    if !cap_start {
+        let axis = optik_curve_eval(basis, p0, p1, p2, p3, 1.0 / f32(n)).xyz - first;
+        clip0 = vec4<f32>(axis, -dot(axis, first));
+    }
+    if !cap_end {
+        let axis = last - optik_curve_eval(basis, p0, p1, p2, p3, 1.0 - 1.0 / f32(n)).xyz;
+        clip1 = vec4<f32>(-axis, dot(axis, last));
+    }
+    // The planes in the shifted frame.
+    clip0.w += dot(clip0.xyz, shift * direction);
+    clip1.w += dot(clip1.xyz, shift * direction);
     var a = optik_curve_eval(basis, p0, p1, p2, p3, 0.0);
     for (var i = 0u; i < n; i++) {
         let u1 = f32(i + 1u) / f32(n);
         let b = optik_curve_eval(basis, p0, p1, p2, p3, u1);
-        let hit = optik_round_cone(o, direction, a, b, i > 0u || cap_start, i + 1u < n || cap_end, tmin - shift, best_t);
+        let hit = optik_round_cone(o, direction, a, b, i > 0u || cap_start, i + 1u < n || cap_end, clip0, clip1, tmin - shift, best_t);
         if hit.z != 0.0 {
             best_t = hit.x;
             best = vec3<f32>(hit.x + shift, (f32(i) + hit.y) / f32(n), 1.0);

@@ -4,7 +4,9 @@
 mod common;
 mod aabb;
 mod anyhit;
+mod builtins;
 mod callables;
 mod exceptions;
+mod instances;
 mod sbt;
 mod triangles;
