@@ -90,17 +90,11 @@ fn f32_bytes(v: &[f32]) -> Vec<u8> {
     v.iter().flat_map(|x| x.to_le_bytes()).collect()
 }
 
-/// An AABB Vulkan treats as inactive when `b` is not a usable box (non-finite, or inverted):
-/// its minimum x becomes NaN, which the spec defines as inactive.
-fn sanitised(b: [f32; 6]) -> [f32; 6] {
-    let ok = b.iter().all(|v| v.is_finite()) && (0..3).all(|k| b[k] <= b[k + 3]);
-    if ok {
-        b
-    } else {
-        let mut out = b;
-        out[0] = f32::NAN;
-        out
-    }
+/// Whether a box can hold a primitive: finite and not inverted. Primitives whose boxes
+/// cannot are left out of the Vulkan geometry (their primitive indices are remapped around
+/// them), so they never hit and no intersection program sees them.
+fn usable(b: &[f32; 6]) -> bool {
+    b.iter().all(|v| v.is_finite()) && (0..3).all(|k| b[k] <= b[k + 3])
 }
 
 /// Which of an input's primitives use each of its records.
@@ -136,29 +130,38 @@ pub fn decode_gas(options: &AccelBuildOptions, inputs: &[BuildInput], bytes: &dy
                 let records = t.flags.len() as u32;
                 let offsets = decode::sbt_offsets(t.sbt_index_offsets.as_ref(), n, records, bytes).map_err(at)?;
                 // A triangle with a NaN or infinite vertex never hits and must not disturb its
-                // neighbours: its indices point at an extra vertex whose x is NaN, which
-                // Vulkan defines as an inactive triangle.
-                let nan_vertex = tris.vertices.len() as u32;
+                // neighbours: it becomes degenerate (all three indices on one finite vertex),
+                // which Vulkan never reports. (Vulkan's own rule, a NaN x making a triangle
+                // inactive, is not safe to rely on: lavapipe lets one such triangle hide its
+                // neighbours.) Degenerate triangles stay active, so refits keep working.
+                let finite = |v: &[f32; 3]| v.iter().all(|c| c.is_finite());
                 let mut vertices: Vec<f32> = tris.vertices.iter().flatten().copied().collect();
-                vertices.extend([f32::NAN, 0.0, 0.0]);
+                let stand_in = match tris.vertices.iter().position(finite) {
+                    Some(i) => i as u32,
+                    None => {
+                        vertices.extend([0.0, 0.0, 0.0]);
+                        tris.vertices.len() as u32
+                    }
+                };
+                let vertex_count = (vertices.len() / 3) as u32;
                 let data_offset = push_aligned(&mut out.bytes, &f32_bytes(&vertices));
                 for (r, prims) in split_by_record(&offsets, records).iter().enumerate() {
                     let mut idx: Vec<u32> = Vec::with_capacity(prims.len() * 3);
                     for &p in prims {
                         let tri = tris.indices[p as usize];
-                        let finite = tri.iter().all(|&v| tris.vertices[v as usize].iter().all(|c| c.is_finite()));
-                        idx.extend(if finite { tri } else { [nan_vertex; 3] });
+                        let usable = tri.iter().all(|&v| finite(&tris.vertices[v as usize]));
+                        idx.extend(if usable { tri } else { [stand_in; 3] });
                     }
                     let idx_bytes: Vec<u8> = idx.iter().flat_map(|v| v.to_le_bytes()).collect();
                     let index_offset = push_aligned(&mut out.bytes, &idx_bytes);
                     out.geometries.push(DecodedGeometry {
                         data_offset,
-                        vertex_count: nan_vertex + 1,
+                        vertex_count,
                         index_offset,
                         count: prims.len() as u32,
                         flags: t.flags[r],
                     });
-                    let remap = remap_table(&mut out.data, prims, records);
+                    let remap = remap_table(&mut out.data, prims, records > 1);
                     let vertex_data = if vertex_access {
                         let base = out.data.len() as u32;
                         for &p in prims {
@@ -178,11 +181,12 @@ pub fn decode_gas(options: &AccelBuildOptions, inputs: &[BuildInput], bytes: &dy
                 let boxes = decode::aabbs(c, 0, bytes).map_err(at)?;
                 let records = c.flags.len() as u32;
                 let offsets = decode::sbt_offsets(c.sbt_index_offsets.as_ref(), boxes.len() as u32, records, bytes).map_err(at)?;
-                for (r, prims) in split_by_record(&offsets, records).iter().enumerate() {
-                    let packed: Vec<f32> = prims.iter().flat_map(|&p| sanitised(boxes[p as usize])).collect();
+                for (r, all) in split_by_record(&offsets, records).iter().enumerate() {
+                    let prims: Vec<u32> = all.iter().copied().filter(|&p| usable(&boxes[p as usize])).collect();
+                    let packed: Vec<f32> = prims.iter().flat_map(|&p| boxes[p as usize]).collect();
                     let data_offset = push_aligned(&mut out.bytes, &f32_bytes(&packed));
                     out.geometries.push(DecodedGeometry { data_offset, vertex_count: 0, index_offset: 0, count: prims.len() as u32, flags: c.flags[r] });
-                    let remap = remap_table(&mut out.data, prims, records);
+                    let remap = remap_table(&mut out.data, &prims, records > 1 || prims.len() < all.len());
                     out.records.push([c.primitive_index_offset, remap, NONE, 0]);
                 }
                 out.partition.push(offsets);
@@ -191,17 +195,19 @@ pub fn decode_gas(options: &AccelBuildOptions, inputs: &[BuildInput], bytes: &dy
                 let spheres = decode::spheres(s, 0, bytes).map_err(at)?;
                 let records = s.flags.len() as u32;
                 let offsets = decode::sbt_offsets(s.sbt_index_offsets.as_ref(), spheres.len() as u32, records, bytes).map_err(at)?;
-                for (r, prims) in split_by_record(&offsets, records).iter().enumerate() {
+                let bounds = |s: &[f32; 4]| [s[0] - s[3], s[1] - s[3], s[2] - s[3], s[0] + s[3], s[1] + s[3], s[2] + s[3]];
+                for (r, all) in split_by_record(&offsets, records).iter().enumerate() {
+                    let prims: Vec<u32> = all.iter().copied().filter(|&p| usable(&bounds(&spheres[p as usize]))).collect();
                     let mut packed: Vec<f32> = Vec::with_capacity(prims.len() * 6);
                     let base = out.data.len() as u32;
-                    for &p in prims {
-                        let [x, y, z, radius] = spheres[p as usize];
-                        packed.extend(sanitised([x - radius, y - radius, z - radius, x + radius, y + radius, z + radius]));
-                        out.data.extend([x, y, z, radius].map(f32::to_bits));
+                    for &p in &prims {
+                        let sphere = spheres[p as usize];
+                        packed.extend(bounds(&sphere));
+                        out.data.extend(sphere.map(f32::to_bits));
                     }
                     let data_offset = push_aligned(&mut out.bytes, &f32_bytes(&packed));
                     out.geometries.push(DecodedGeometry { data_offset, vertex_count: 0, index_offset: 0, count: prims.len() as u32, flags: s.flags[r] });
-                    let remap = remap_table(&mut out.data, prims, records);
+                    let remap = remap_table(&mut out.data, &prims, records > 1 || prims.len() < all.len());
                     out.records.push([s.primitive_index_offset, remap, base, 0]);
                 }
                 out.partition.push(offsets);
@@ -211,6 +217,7 @@ pub fn decode_gas(options: &AccelBuildOptions, inputs: &[BuildInput], bytes: &dy
                 let per = c.curve_type.control_points() as usize;
                 let n = curves.segments.len();
                 let mut packed: Vec<f32> = Vec::with_capacity(n * 6);
+                let mut kept: Vec<u32> = Vec::with_capacity(n);
                 let base = out.data.len() as u32;
                 for (s, &first) in curves.segments.iter().enumerate() {
                     let points: Vec<[f32; 4]> = (0..4).map(|k| curves.points[first as usize + k.min(per - 1)]).collect();
@@ -221,15 +228,21 @@ pub fn decode_gas(options: &AccelBuildOptions, inputs: &[BuildInput], bytes: &dy
                     let caps_on = c.curve_type == CurveType::RoundLinear || c.endcaps == CurveEndcaps::On;
                     let cap_start = !starts_strand || caps_on;
                     let cap_end = !ends_strand || caps_on;
-                    packed.extend(sanitised(curve_bounds(c.curve_type, &points[..per])));
+                    let bounds = curve_bounds(c.curve_type, &points[..per]);
+                    if !usable(&bounds) {
+                        continue;
+                    }
+                    kept.push(s as u32);
+                    packed.extend(bounds);
                     for p in &points {
                         out.data.extend(p.map(f32::to_bits));
                     }
                     out.data.push(u32::from(cap_start) | (u32::from(cap_end) << 1));
                 }
                 let data_offset = push_aligned(&mut out.bytes, &f32_bytes(&packed));
-                out.geometries.push(DecodedGeometry { data_offset, vertex_count: 0, index_offset: 0, count: n as u32, flags: c.flag });
-                out.records.push([c.primitive_index_offset, NONE, base, optik_api::wgsl::curve_basis(c.curve_type)]);
+                out.geometries.push(DecodedGeometry { data_offset, vertex_count: 0, index_offset: 0, count: kept.len() as u32, flags: c.flag });
+                let remap = remap_table(&mut out.data, &kept, kept.len() < n);
+                out.records.push([c.primitive_index_offset, remap, base, optik_api::wgsl::curve_basis(c.curve_type)]);
                 out.partition.push(vec![0; n]);
             }
             BuildInput::Instances(_) => return Err(Error::invalid("instances cannot be built into a geometry acceleration structure")),
@@ -241,10 +254,11 @@ pub fn decode_gas(options: &AccelBuildOptions, inputs: &[BuildInput], bytes: &dy
     Ok(out)
 }
 
-/// Writes a record's local-to-input primitive index table when the input has several
-/// records (its geometry holds a subset); returns its data offset, or NONE for identity.
-fn remap_table(data: &mut Vec<u32>, prims: &[u32], records: u32) -> u32 {
-    if records <= 1 {
+/// Writes a geometry's table from its primitives to their indices in the input when it
+/// holds a subset of the input (several records, or primitives left out); returns its data
+/// offset, or NONE when the geometry holds the input's primitives in order.
+fn remap_table(data: &mut Vec<u32>, prims: &[u32], subset: bool) -> u32 {
+    if !subset {
         return NONE;
     }
     let base = data.len() as u32;
@@ -283,16 +297,18 @@ mod tests {
     fn records_partition_primitives_in_order() {
         assert_eq!(split_by_record(&[1, 0, 1, 2, 1], 3), vec![vec![1], vec![0, 2, 4], vec![3]]);
         let mut data = Vec::new();
-        assert_eq!(remap_table(&mut data, &[0, 2, 4], 3), 0);
-        assert_eq!(remap_table(&mut data, &[0, 1], 1), NONE);
+        assert_eq!(remap_table(&mut data, &[0, 2, 4], true), 0);
+        assert_eq!(remap_table(&mut data, &[0, 1], false), NONE);
         assert_eq!(data, vec![0, 2, 4]);
     }
 
     #[test]
-    fn unusable_boxes_become_inactive() {
-        assert!(sanitised([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])[0] == 0.0);
-        assert!(sanitised([2.0, 0.0, 0.0, 1.0, 1.0, 1.0])[0].is_nan());
-        assert!(sanitised([0.0, f32::INFINITY, 0.0, 1.0, 1.0, 1.0])[0].is_nan());
+    fn unusable_boxes_are_recognised() {
+        assert!(usable(&[0.0, 0.0, 0.0, 1.0, 1.0, 1.0]));
+        assert!(usable(&[1.0, 1.0, 1.0, 1.0, 1.0, 1.0]));
+        assert!(!usable(&[2.0, 0.0, 0.0, 1.0, 1.0, 1.0]));
+        assert!(!usable(&[0.0, f32::INFINITY, 0.0, 1.0, 1.0, 1.0]));
+        assert!(!usable(&[f32::NAN, 0.0, 0.0, 1.0, 1.0, 1.0]));
     }
 
     #[test]

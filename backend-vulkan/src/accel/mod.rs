@@ -280,19 +280,14 @@ fn part_geometries(kind: GasKind, decoded: &DecodedGas, holds: &[bool], base: u6
         .collect()
 }
 
-/// A hash of which primitives are active (index arrays and AABB minima decide it).
+/// A hash of what a refit must keep: each geometry's primitive count and triangle indices
+/// (Vulkan refits move vertices and boxes, nothing else).
 fn activity_of(decoded: &DecodedGas) -> u64 {
     let mut h = std::collections::hash_map::DefaultHasher::new();
     for g in &decoded.geometries {
+        g.count.hash(&mut h);
         if g.vertex_count > 0 {
-            let idx = &decoded.bytes[g.index_offset as usize..g.index_offset as usize + g.count as usize * 12];
-            idx.hash(&mut h);
-        } else {
-            for p in 0..g.count as usize {
-                let at = g.data_offset as usize + p * 24;
-                let min_x = f32::from_le_bytes(decoded.bytes[at..at + 4].try_into().unwrap_or([0; 4]));
-                min_x.is_nan().hash(&mut h);
-            }
+            decoded.bytes[g.index_offset as usize..g.index_offset as usize + g.count as usize * 12].hash(&mut h);
         }
     }
     h.finish()
@@ -698,16 +693,13 @@ impl Inner {
 
     fn update_gas(&mut self, accel: Accel, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<()> {
         let decoded = self.decode(options, inputs)?;
-        let (kind, parts, holds, data_start, data_len, partition, activity, compacted, flags) = match self.accels.get(accel)? {
+        let (kind, parts, holds, partition, activity, flags) = match self.accels.get(accel)? {
             AccelObject::Gas(g) => (
                 g.kind,
                 g.parts.iter().map(|(p, _)| p.accel).collect::<Vec<_>>(),
                 g.part_geometries.clone(),
-                g.data_start,
-                g.data_len,
                 g.partition.clone(),
                 g.activity,
-                g.compacted,
                 vk_build_flags(g.options.flags),
             ),
             _ => return Err(Error::backend("not a geometry structure")),
@@ -717,33 +709,68 @@ impl Inner {
                 "the update changes which SBT record some primitive uses (sbt_index_offsets); updates keep them, so build a new structure instead",
             ));
         }
-        let new_activity = activity_of(&decoded);
-        let target = |structure| if new_activity == activity { BuildTarget::Update(structure) } else { BuildTarget::Rebuild(structure) };
-        if new_activity != activity && compacted {
-            return Err(Error::invalid(
-                "the update makes primitives valid or invalid (NaN or degenerate boxes) in a compacted structure; Vulkan refits keep the set of active primitives and a compacted structure cannot be rebuilt in place, so build a new structure",
-            ));
+        if activity_of(&decoded) != activity {
+            // Primitives became usable or unusable (or triangle indices changed): Vulkan
+            // refits cannot follow, so the bottom levels are built anew under the same handle.
+            return self.rebuild_gas(accel, options, inputs);
         }
         let input = self.input_buffer(&decoded)?;
         let mut result = Ok(());
         for (structure, held) in parts.iter().zip(&holds) {
             let geoms = part_geometries(kind, &decoded, held, input.address);
-            if let Err(e) = self.build_as(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, &geoms, None, flags, target(*structure)) {
+            if let Err(e) = self.build_as(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, &geoms, None, flags, BuildTarget::Update(*structure)) {
                 result = Err(e);
                 break;
             }
         }
         input.destroy(&self.ctx, &mut self.alloc);
         result?;
-        if decoded.data.len() as u32 == data_len {
-            self.tables.data.write(data_start, &decoded.data);
+        if let AccelObject::Gas(g) = self.accels.get(accel)? {
+            let start = g.data_start;
+            self.tables.data.write(start, &decoded.data);
             self.tables.touch();
         }
         let flat = self.accels.get(accel)?.flat();
         self.rebuild_tlas(accel, &flat)?;
         if let AccelObject::Gas(g) = self.accels.get_mut(accel)? {
             g.inputs = inputs.to_vec();
-            g.activity = new_activity;
+        }
+        Ok(())
+    }
+
+    /// Replaces a GAS's bottom levels and tables with new ones built from `decoded`, keeping
+    /// its handle (its top level is built again in place, as are the top levels above it).
+    fn rebuild_gas(&mut self, accel: Accel, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<()> {
+        let fresh = self.build_gas(options, inputs)?;
+        let AccelObject::Gas(mut new) = self.accels.remove(fresh)? else {
+            return Err(Error::backend("a geometry build made something else"));
+        };
+        // The new object's own top level goes; the old one stays and keeps the handle.
+        let new_wrapper_handle = new.wrapper.structure.address;
+        self.by_handle.remove(&new_wrapper_handle);
+        self.tables.instances.remove(new.wrapper.table_start, new.wrapper.count);
+        let AccelObject::Gas(old) = self.accels.get_mut(accel)? else {
+            return Err(Error::backend("not a geometry structure"));
+        };
+        let old_parts = std::mem::replace(&mut old.parts, std::mem::take(&mut new.parts));
+        old.part_geometries = new.part_geometries.clone();
+        let (old_g, old_gn, old_d, old_dn) = (old.geometry_start, old.geometry_count, old.data_start, old.data_len);
+        old.geometry_start = new.geometry_start;
+        old.geometry_count = new.geometry_count;
+        old.data_start = new.data_start;
+        old.data_len = new.data_len;
+        old.inputs = inputs.to_vec();
+        old.activity = new.activity;
+        old.compacted = false;
+        self.tables.geometries.remove(old_g, old_gn);
+        self.tables.data.remove(old_d, old_dn);
+        self.tables.touch();
+        new.wrapper.destroy(&self.ctx, &mut self.alloc);
+        let flat = self.accels.get(accel)?.flat();
+        self.rebuild_tlas(accel, &flat)?;
+        self.refresh_dependents(accel)?;
+        for (p, _) in old_parts {
+            p.destroy(&self.ctx, &mut self.alloc);
         }
         Ok(())
     }

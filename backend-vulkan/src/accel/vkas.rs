@@ -253,7 +253,7 @@ impl Inner {
         // SAFETY: no pending use.
         unsafe { ctx.device.destroy_query_pool(pool, None) };
         read?;
-        let compacted = self.create_as(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, size[0].max(256))?;
+        let compacted = self.create_as(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, size[0].max(16))?;
         let dst = compacted.accel;
         let copied = self.run_commands(|cmd| {
             let info = vk::CopyAccelerationStructureInfoKHR::default()

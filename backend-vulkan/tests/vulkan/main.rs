@@ -7,6 +7,7 @@ mod anyhit;
 mod builtins;
 mod callables;
 mod exceptions;
+mod geometry;
 mod instances;
 mod sbt;
 mod triangles;
