@@ -33,9 +33,9 @@ fn header_matches(data: &[u8], ctx: &Context) -> bool {
 }
 
 impl PipelineCache {
-    /// Opens the cache (`enabled` false: an in-memory cache only).
-    pub fn open(ctx: &Context, enabled: bool) -> PipelineCache {
-        let path = enabled.then(cache_dir).flatten().map(|dir| {
+    /// Opens the cache in `dir` (default: [`cache_dir`]); `enabled` false keeps it in memory.
+    pub fn open(ctx: &Context, enabled: bool, dir: Option<PathBuf>) -> PipelineCache {
+        let path = enabled.then(|| dir.or_else(cache_dir)).flatten().map(|dir| {
             let uuid: String = ctx.info.pipeline_cache_uuid.iter().map(|b| format!("{b:02x}")).collect();
             dir.join(format!("vulkan-{:04x}-{:04x}-{uuid}.bin", ctx.info.vendor_id, ctx.info.device_id))
         });

@@ -25,6 +25,8 @@ pub struct VulkanOptions {
     /// Keep a pipeline cache on disk (`$OPTIK_CACHE_PATH`, else `$XDG_CACHE_HOME/optik`, else
     /// `~/.cache/optik`); off with `OPTIK_CACHE_DISABLE=1`.
     pub pipeline_cache: bool,
+    /// The pipeline cache's directory, instead of the one the environment names.
+    pub cache_dir: Option<std::path::PathBuf>,
 }
 
 impl VulkanOptions {
@@ -36,6 +38,7 @@ impl VulkanOptions {
             device: std::env::var("OPTIK_VULKAN_DEVICE").ok().filter(|s| !s.is_empty()),
             force_staging: flag("OPTIK_VULKAN_STAGING"),
             pipeline_cache: !flag("OPTIK_CACHE_DISABLE"),
+            cache_dir: None,
         }
     }
 }

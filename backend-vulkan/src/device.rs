@@ -69,7 +69,7 @@ impl VulkanDevice {
         let id = DeviceId::next();
         let props = properties(&ctx.info);
         let commands = Commands::new(&ctx)?;
-        let cache = PipelineCache::open(&ctx, options.pipeline_cache);
+        let cache = PipelineCache::open(&ctx, options.pipeline_cache, options.cache_dir.clone());
         let mut inner = Inner {
             ctx: ctx.clone(),
             props: props.clone(),
@@ -108,6 +108,11 @@ impl VulkanDevice {
     /// reports while the device is destroyed arrive there too.
     pub fn validation_log(&self) -> Arc<crate::validation::MessageLog> {
         self.ctx.log.clone()
+    }
+
+    /// The pipeline cache file, when the cache is kept on disk.
+    pub fn pipeline_cache_path(&self) -> Option<std::path::PathBuf> {
+        self.lock().cache.path().cloned()
     }
 
     /// Whether buffers live in device-local memory behind staging copies.

@@ -57,3 +57,25 @@ unsafe extern "system" fn callback(
     log.push(format!("[{severity:?} {kind:?}] {}: {}", text(data.p_message_id_name), text(data.p_message)));
     vk::FALSE
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::context::{Context, VulkanOptions};
+    use ash::vk;
+
+    /// The messenger really reports: an invalid call through the device is caught.
+    #[test]
+    fn the_layer_reports_invalid_usage() {
+        let options = VulkanOptions { validation: true, device: None, force_staging: false, pipeline_cache: false, cache_dir: None };
+        let ctx = Context::new(&options).expect("a Vulkan ray tracing device for the tests");
+        assert!(ctx.log.take().is_empty());
+        // No usage bits: VUID-VkBufferCreateInfo-usage-requiredbitmask.
+        let info = vk::BufferCreateInfo::default().size(16);
+        // SAFETY: deliberately invalid usage for the layer to catch; the buffer is destroyed.
+        if let Ok(b) = unsafe { ctx.device.create_buffer(&info, None) } {
+            unsafe { ctx.device.destroy_buffer(b, None) };
+        }
+        let messages = ctx.log.take();
+        assert!(messages.iter().any(|m| m.contains("usage")), "{messages:?}");
+    }
+}

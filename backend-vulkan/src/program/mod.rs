@@ -133,4 +133,6 @@ fn forbidden(role: &StageRole, intrinsic: intrinsic::Intrinsic, stage: VkStage) 
 }
 
 #[cfg(test)]
+mod golden;
+#[cfg(test)]
 mod tests;

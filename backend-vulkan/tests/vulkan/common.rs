@@ -31,7 +31,15 @@ impl Drop for TestDevice {
 
 /// Opens the test device: validation on, pipeline cache off, staging as asked.
 pub fn device_with(force_staging: bool) -> TestDevice {
-    let options = VulkanOptions { validation: true, device: None, force_staging, pipeline_cache: false };
+    let options = VulkanOptions { validation: true, device: None, force_staging, pipeline_cache: false, cache_dir: None };
+    let dev = VulkanDevice::open(&options).unwrap_or_else(|e| panic!("no Vulkan ray tracing device for the tests: {e}"));
+    let log = dev.validation_log();
+    TestDevice { dev: Some(dev), log }
+}
+
+/// A validated device with `options` (validation is forced on).
+pub fn device_with_options(mut options: VulkanOptions) -> TestDevice {
+    options.validation = true;
     let dev = VulkanDevice::open(&options).unwrap_or_else(|e| panic!("no Vulkan ray tracing device for the tests: {e}"));
     let log = dev.validation_log();
     TestDevice { dev: Some(dev), log }

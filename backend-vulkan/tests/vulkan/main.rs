@@ -6,6 +6,8 @@ mod aabb;
 mod anyhit;
 mod builtins;
 mod callables;
+mod device;
+mod errors;
 mod exceptions;
 mod geometry;
 mod instances;
