@@ -11,13 +11,19 @@ use std::collections::HashMap;
 
 /// Usage of user buffers: bound as storage buffers, copied to and from.
 fn user_usage() -> vk::BufferUsageFlags {
-    vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST
+    vk::BufferUsageFlags::STORAGE_BUFFER
+        | vk::BufferUsageFlags::TRANSFER_SRC
+        | vk::BufferUsageFlags::TRANSFER_DST
 }
 
 impl Inner {
     /// Where user buffers live.
     fn user_location(&self) -> Location {
-        if self.ctx.staging { Location::DeviceLocal } else { Location::HostVisible }
+        if self.ctx.staging {
+            Location::DeviceLocal
+        } else {
+            Location::HostVisible
+        }
     }
 
     pub fn create_buffer(&mut self, size: u64) -> Result<Buffer> {
@@ -29,7 +35,10 @@ impl Inner {
             let ctx = self.ctx.clone();
             let filled = self.run_commands(|cmd| {
                 // SAFETY: recording; the buffer is new.
-                unsafe { ctx.device.cmd_fill_buffer(cmd, buffer, 0, vk::WHOLE_SIZE, 0) };
+                unsafe {
+                    ctx.device
+                        .cmd_fill_buffer(cmd, buffer, 0, vk::WHOLE_SIZE, 0)
+                };
                 Ok(())
             });
             if let Err(e) = filled {
@@ -43,7 +52,9 @@ impl Inner {
 
     pub fn write_buffer(&mut self, buffer: Buffer, offset: u64, data: &[u8]) -> Result<()> {
         let size = self.buffers.get(buffer)?.gpu.size;
-        validate::buffer_range("write_buffer", buffer, offset, data.len() as u64, &|_| Ok(size))?;
+        validate::buffer_range("write_buffer", buffer, offset, data.len() as u64, &|_| {
+            Ok(size)
+        })?;
         if data.is_empty() {
             return Ok(());
         }
@@ -62,7 +73,9 @@ impl Inner {
 
     pub fn read_buffer(&mut self, buffer: Buffer, offset: u64, out: &mut [u8]) -> Result<()> {
         let size = self.buffers.get(buffer)?.gpu.size;
-        validate::buffer_range("read_buffer", buffer, offset, out.len() as u64, &|_| Ok(size))?;
+        validate::buffer_range("read_buffer", buffer, offset, out.len() as u64, &|_| {
+            Ok(size)
+        })?;
         self.wait_launches()?;
         if out.is_empty() {
             return Ok(());
@@ -86,12 +99,23 @@ impl Inner {
 
     /// Copies `data` into `target` at `offset` through a staging buffer, and waits.
     pub fn upload(&mut self, target: vk::Buffer, offset: u64, data: &[u8]) -> Result<()> {
-        let staging = GpuBuffer::new(&self.ctx, &mut self.alloc, data.len() as u64, vk::BufferUsageFlags::TRANSFER_SRC, Location::HostVisible, 16)?;
+        let staging = GpuBuffer::new(
+            &self.ctx,
+            &mut self.alloc,
+            data.len() as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            Location::HostVisible,
+            16,
+        )?;
         let result = staging.write(0, data).and_then(|_| {
             let src = staging.buffer;
             let ctx = self.ctx.clone();
             self.run_commands(|cmd| {
-                let region = vk::BufferCopy { src_offset: 0, dst_offset: offset, size: data.len() as u64 };
+                let region = vk::BufferCopy {
+                    src_offset: 0,
+                    dst_offset: offset,
+                    size: data.len() as u64,
+                };
                 // SAFETY: recording; both ranges lie inside their buffers.
                 unsafe { ctx.device.cmd_copy_buffer(cmd, src, target, &[region]) };
                 Ok(())
@@ -104,11 +128,22 @@ impl Inner {
     /// Copies `out.len()` bytes of `source` from `offset` to the host through a staging
     /// buffer, and waits.
     pub fn download(&mut self, source: vk::Buffer, offset: u64, out: &mut [u8]) -> Result<()> {
-        let staging = GpuBuffer::new(&self.ctx, &mut self.alloc, out.len() as u64, vk::BufferUsageFlags::TRANSFER_DST, Location::HostVisible, 16)?;
+        let staging = GpuBuffer::new(
+            &self.ctx,
+            &mut self.alloc,
+            out.len() as u64,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            Location::HostVisible,
+            16,
+        )?;
         let dst = staging.buffer;
         let ctx = self.ctx.clone();
         let result = self.run_commands(|cmd| {
-            let region = vk::BufferCopy { src_offset: offset, dst_offset: 0, size: out.len() as u64 };
+            let region = vk::BufferCopy {
+                src_offset: offset,
+                dst_offset: 0,
+                size: out.len() as u64,
+            };
             // SAFETY: recording; both ranges lie inside their buffers.
             unsafe { ctx.device.cmd_copy_buffer(cmd, source, dst, &[region]) };
             Ok(())
@@ -124,7 +159,10 @@ impl Inner {
 
     /// Copies of `buffers` that are not host-visible, for [`Inner::snapshot_view`]. Waits for
     /// launches first, so the bytes are current.
-    pub fn download_for_snapshot(&mut self, buffers: &[Buffer]) -> Result<HashMap<Buffer, Vec<u8>>> {
+    pub fn download_for_snapshot(
+        &mut self,
+        buffers: &[Buffer],
+    ) -> Result<HashMap<Buffer, Vec<u8>>> {
         self.wait_launches()?;
         let mut downloaded: HashMap<Buffer, Vec<u8>> = HashMap::new();
         for &b in buffers {
@@ -141,12 +179,19 @@ impl Inner {
 
     /// The bytes of `buffers` on the host: mapped memory where it is host-visible, the
     /// downloaded copies elsewhere.
-    pub fn snapshot_view(&self, downloaded: HashMap<Buffer, Vec<u8>>, buffers: &[Buffer]) -> Result<Snapshot<'_>> {
-        let mut views: HashMap<Buffer, Cow<'_, [u8]>> = downloaded.into_iter().map(|(b, v)| (b, Cow::Owned(v))).collect();
+    pub fn snapshot_view(
+        &self,
+        downloaded: HashMap<Buffer, Vec<u8>>,
+        buffers: &[Buffer],
+    ) -> Result<Snapshot<'_>> {
+        let mut views: HashMap<Buffer, Cow<'_, [u8]>> = downloaded
+            .into_iter()
+            .map(|(b, v)| (b, Cow::Owned(v)))
+            .collect();
         for &b in buffers {
-            if !views.contains_key(&b) {
+            if let std::collections::hash_map::Entry::Vacant(e) = views.entry(b) {
                 let obj = self.buffers.get(b)?;
-                views.insert(b, Cow::Borrowed(obj.gpu.bytes().unwrap_or(&[])));
+                e.insert(Cow::Borrowed(obj.gpu.bytes().unwrap_or(&[])));
             }
         }
         Ok(Snapshot { views })

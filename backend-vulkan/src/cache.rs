@@ -16,7 +16,11 @@ pub struct PipelineCache {
 
 /// The directory the cache lives in, from the environment.
 pub fn cache_dir() -> Option<PathBuf> {
-    let env = |n: &str| std::env::var_os(n).filter(|v| !v.is_empty()).map(PathBuf::from);
+    let env = |n: &str| {
+        std::env::var_os(n)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+    };
     env("OPTIK_CACHE_PATH")
         .or_else(|| env("XDG_CACHE_HOME").map(|d| d.join("optik")))
         .or_else(|| env("HOME").map(|h| h.join(".cache").join("optik")))
@@ -24,7 +28,10 @@ pub fn cache_dir() -> Option<PathBuf> {
 
 /// Whether `data` is a cache this device wrote (Vulkan's header version one).
 fn header_matches(data: &[u8], ctx: &Context) -> bool {
-    let word = |i: usize| data.get(i * 4..i * 4 + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+    let word = |i: usize| {
+        data.get(i * 4..i * 4 + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    };
     data.len() >= 32
         && word(1) == Some(1)
         && word(2) == Some(ctx.info.vendor_id)
@@ -35,17 +42,35 @@ fn header_matches(data: &[u8], ctx: &Context) -> bool {
 impl PipelineCache {
     /// Opens the cache in `dir` (default: [`cache_dir`]); `enabled` false keeps it in memory.
     pub fn open(ctx: &Context, enabled: bool, dir: Option<PathBuf>) -> PipelineCache {
-        let path = enabled.then(|| dir.or_else(cache_dir)).flatten().map(|dir| {
-            let uuid: String = ctx.info.pipeline_cache_uuid.iter().map(|b| format!("{b:02x}")).collect();
-            dir.join(format!("vulkan-{:04x}-{:04x}-{uuid}.bin", ctx.info.vendor_id, ctx.info.device_id))
-        });
-        let data = path.as_ref().and_then(|p| std::fs::read(p).ok()).filter(|d| header_matches(d, ctx)).unwrap_or_default();
+        let path = enabled
+            .then(|| dir.or_else(cache_dir))
+            .flatten()
+            .map(|dir| {
+                let uuid: String = ctx
+                    .info
+                    .pipeline_cache_uuid
+                    .iter()
+                    .map(|b| format!("{b:02x}"))
+                    .collect();
+                dir.join(format!(
+                    "vulkan-{:04x}-{:04x}-{uuid}.bin",
+                    ctx.info.vendor_id, ctx.info.device_id
+                ))
+            });
+        let data = path
+            .as_ref()
+            .and_then(|p| std::fs::read(p).ok())
+            .filter(|d| header_matches(d, ctx))
+            .unwrap_or_default();
         let info = vk::PipelineCacheCreateInfo::default().initial_data(&data);
         // SAFETY: the data is either empty or a cache with this device's header.
         let cache = unsafe { ctx.device.create_pipeline_cache(&info, None) }
             .or_else(|_| {
                 // SAFETY: an empty cache.
-                unsafe { ctx.device.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default(), None) }
+                unsafe {
+                    ctx.device
+                        .create_pipeline_cache(&vk::PipelineCacheCreateInfo::default(), None)
+                }
             })
             .unwrap_or_default();
         PipelineCache { cache, path }
@@ -68,7 +93,9 @@ impl PipelineCache {
             return;
         }
         // SAFETY: a cache of this device.
-        let Ok(data) = (unsafe { ctx.device.get_pipeline_cache_data(self.cache) }) else { return };
+        let Ok(data) = (unsafe { ctx.device.get_pipeline_cache_data(self.cache) }) else {
+            return;
+        };
         if let Some(dir) = path.parent() {
             let _ = std::fs::create_dir_all(dir);
         }

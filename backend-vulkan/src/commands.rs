@@ -23,24 +23,35 @@ impl Commands {
     pub fn new(ctx: &Context) -> Result<Commands> {
         let info = vk::CommandPoolCreateInfo::default()
             .queue_family_index(ctx.queue_family)
-            .flags(vk::CommandPoolCreateFlags::TRANSIENT | vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+            .flags(
+                vk::CommandPoolCreateFlags::TRANSIENT
+                    | vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER,
+            );
         // SAFETY: valid create info; destroyed in `destroy`.
-        let pool = unsafe { ctx.device.create_command_pool(&info, None) }.or_vk("vkCreateCommandPool")?;
+        let pool =
+            unsafe { ctx.device.create_command_pool(&info, None) }.or_vk("vkCreateCommandPool")?;
         Ok(Commands { pool })
     }
 
     /// Records with `record`, submits, and returns without waiting.
-    pub fn submit(&self, ctx: &Context, record: impl FnOnce(vk::CommandBuffer) -> Result<()>) -> Result<Submission> {
+    pub fn submit(
+        &self,
+        ctx: &Context,
+        record: impl FnOnce(vk::CommandBuffer) -> Result<()>,
+    ) -> Result<Submission> {
         let info = vk::CommandBufferAllocateInfo::default()
             .command_pool(self.pool)
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(1);
         // SAFETY: the pool is used under the device's lock only.
-        let cmd = unsafe { ctx.device.allocate_command_buffers(&info) }.or_vk("vkAllocateCommandBuffers")?[0];
+        let cmd = unsafe { ctx.device.allocate_command_buffers(&info) }
+            .or_vk("vkAllocateCommandBuffers")?[0];
         let result = (|| {
-            let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            let begin = vk::CommandBufferBeginInfo::default()
+                .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
             // SAFETY: a fresh command buffer.
-            unsafe { ctx.device.begin_command_buffer(cmd, &begin) }.or_vk("vkBeginCommandBuffer")?;
+            unsafe { ctx.device.begin_command_buffer(cmd, &begin) }
+                .or_vk("vkBeginCommandBuffer")?;
             // Earlier work (launches, builds) finishes its writes before this work starts.
             full_barrier(ctx, cmd);
             record(cmd)?;
@@ -63,7 +74,11 @@ impl Commands {
             }
             .or_vk("vkEndCommandBuffer")?;
             // SAFETY: valid create info.
-            let fence = unsafe { ctx.device.create_fence(&vk::FenceCreateInfo::default(), None) }.or_vk("vkCreateFence")?;
+            let fence = unsafe {
+                ctx.device
+                    .create_fence(&vk::FenceCreateInfo::default(), None)
+            }
+            .or_vk("vkCreateFence")?;
             let cmds = [cmd];
             let submit = vk::SubmitInfo::default().command_buffers(&cmds);
             // SAFETY: the queue is used under the device's lock only.
@@ -85,7 +100,11 @@ impl Commands {
     }
 
     /// Records, submits and waits.
-    pub fn run(&self, ctx: &Context, record: impl FnOnce(vk::CommandBuffer) -> Result<()>) -> Result<()> {
+    pub fn run(
+        &self,
+        ctx: &Context,
+        record: impl FnOnce(vk::CommandBuffer) -> Result<()>,
+    ) -> Result<()> {
         let s = self.submit(ctx, record)?;
         let waited = self.wait(ctx, &s);
         self.release(ctx, s);

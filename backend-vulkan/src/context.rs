@@ -32,10 +32,14 @@ pub struct VulkanOptions {
 impl VulkanOptions {
     /// The options the environment asks for.
     pub fn from_env() -> Self {
-        let flag = |name: &str| std::env::var(name).is_ok_and(|v| v == "1" || v.eq_ignore_ascii_case("true"));
+        let flag = |name: &str| {
+            std::env::var(name).is_ok_and(|v| v == "1" || v.eq_ignore_ascii_case("true"))
+        };
         VulkanOptions {
             validation: validation::requested_by_env(),
-            device: std::env::var("OPTIK_VULKAN_DEVICE").ok().filter(|s| !s.is_empty()),
+            device: std::env::var("OPTIK_VULKAN_DEVICE")
+                .ok()
+                .filter(|s| !s.is_empty()),
             force_staging: flag("OPTIK_VULKAN_STAGING"),
             pipeline_cache: !flag("OPTIK_CACHE_DISABLE"),
             cache_dir: None,
@@ -86,8 +90,12 @@ impl Context {
         let mut extensions = Vec::new();
         if options.validation {
             // SAFETY: a global command of the loaded entry.
-            let available = unsafe { entry.enumerate_instance_layer_properties() }.or_vk("vkEnumerateInstanceLayerProperties")?;
-            let has = available.iter().any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == c"VK_LAYER_KHRONOS_validation"));
+            let available = unsafe { entry.enumerate_instance_layer_properties() }
+                .or_vk("vkEnumerateInstanceLayerProperties")?;
+            let has = available.iter().any(|l| {
+                l.layer_name_as_c_str()
+                    .is_ok_and(|n| n == c"VK_LAYER_KHRONOS_validation")
+            });
             if !has {
                 return Err(Error::unsupported(
                     "validation was asked for (OPTIK_VALIDATION=1 or a test), but VK_LAYER_KHRONOS_validation is not installed (Debian: apt install vulkan-validationlayers)",
@@ -96,7 +104,10 @@ impl Context {
             layers.push(c"VK_LAYER_KHRONOS_validation".as_ptr());
             extensions.push(ash::ext::debug_utils::NAME.as_ptr());
         }
-        let app = vk::ApplicationInfo::default().application_name(c"optik").engine_name(c"optik").api_version(probe::API_VERSION);
+        let app = vk::ApplicationInfo::default()
+            .application_name(c"optik")
+            .engine_name(c"optik")
+            .api_version(probe::API_VERSION);
         let mut messenger_info = validation::messenger_info(&log);
         let mut create = vk::InstanceCreateInfo::default()
             .application_info(&app)
@@ -168,9 +179,13 @@ impl Context {
         options: &VulkanOptions,
     ) -> Result<(vk::PhysicalDevice, ash::Device, u32, VulkanDeviceInfo)> {
         // SAFETY: valid instance.
-        let physicals = unsafe { instance.enumerate_physical_devices() }.or_vk("vkEnumeratePhysicalDevices")?;
-        let infos: Vec<VulkanDeviceInfo> =
-            physicals.iter().enumerate().map(|(i, p)| probe::device_info(&instance, *p, i)).collect::<Result<_>>()?;
+        let physicals =
+            unsafe { instance.enumerate_physical_devices() }.or_vk("vkEnumeratePhysicalDevices")?;
+        let infos: Vec<VulkanDeviceInfo> = physicals
+            .iter()
+            .enumerate()
+            .map(|(i, p)| probe::device_info(&instance, *p, i))
+            .collect::<Result<_>>()?;
         let describe = |infos: &[VulkanDeviceInfo]| {
             infos
                 .iter()
@@ -193,10 +208,15 @@ impl Context {
             Some(want) => {
                 let found = match want.parse::<usize>() {
                     Ok(i) => infos.get(i),
-                    Err(_) => infos.iter().find(|i| i.name.to_lowercase().contains(&want.to_lowercase())),
+                    Err(_) => infos
+                        .iter()
+                        .find(|i| i.name.to_lowercase().contains(&want.to_lowercase())),
                 };
                 let info = found.ok_or_else(|| {
-                    Error::invalid(format!("OPTIK_VULKAN_DEVICE={want} names no Vulkan device; the devices are: {}", describe(&infos)))
+                    Error::invalid(format!(
+                        "OPTIK_VULKAN_DEVICE={want} names no Vulkan device; the devices are: {}",
+                        describe(&infos)
+                    ))
                 })?;
                 if !info.usable() {
                     return Err(Error::unsupported(format!(
@@ -215,13 +235,21 @@ impl Context {
                     vk::PhysicalDeviceType::CPU => 3,
                     _ => 4,
                 };
-                infos.iter().filter(|i| i.usable()).min_by_key(|i| (rank(i.device_type), i.index)).ok_or_else(|| {
-                    Error::unsupported(format!(
-                        "no Vulkan device has ray tracing pipelines: {}; optik needs {}",
-                        describe(&infos),
-                        REQUIRED_EXTENSIONS.iter().map(|n| n.to_string_lossy()).collect::<Vec<_>>().join(", ")
-                    ))
-                })?
+                infos
+                    .iter()
+                    .filter(|i| i.usable())
+                    .min_by_key(|i| (rank(i.device_type), i.index))
+                    .ok_or_else(|| {
+                        Error::unsupported(format!(
+                            "no Vulkan device has ray tracing pipelines: {}; optik needs {}",
+                            describe(&infos),
+                            REQUIRED_EXTENSIONS
+                                .iter()
+                                .map(|n| n.to_string_lossy())
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ))
+                    })?
             }
         };
         let physical = physicals[chosen.index];
@@ -230,14 +258,23 @@ impl Context {
         let queue_family = families
             .iter()
             .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
-            .ok_or_else(|| Error::unsupported(format!("the Vulkan device {} has no compute queue", chosen.name)))?
-            as u32;
+            .ok_or_else(|| {
+                Error::unsupported(format!(
+                    "the Vulkan device {} has no compute queue",
+                    chosen.name
+                ))
+            })? as u32;
         let priorities = [1.0f32];
-        let queues = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
-        let extension_names: Vec<*const std::ffi::c_char> = REQUIRED_EXTENSIONS.iter().map(|n| n.as_ptr()).collect();
+        let queues = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&priorities)];
+        let extension_names: Vec<*const std::ffi::c_char> =
+            REQUIRED_EXTENSIONS.iter().map(|n| n.as_ptr()).collect();
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(true);
-        let mut fas = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
-        let mut frt = vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default().ray_tracing_pipeline(true);
+        let mut fas = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default()
+            .acceleration_structure(true);
+        let mut frt =
+            vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default().ray_tracing_pipeline(true);
         let create = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queues)
             .enabled_extension_names(&extension_names)
@@ -245,7 +282,8 @@ impl Context {
             .push_next(&mut fas)
             .push_next(&mut frt);
         // SAFETY: the device supports every extension and feature enabled (probed above).
-        let device = unsafe { instance.create_device(physical, &create, None) }.or_vk("vkCreateDevice")?;
+        let device =
+            unsafe { instance.create_device(physical, &create, None) }.or_vk("vkCreateDevice")?;
         Ok((physical, device, queue_family, chosen.clone()))
     }
 
@@ -266,7 +304,9 @@ impl Context {
                 .filter(|(i, t)| allowed & (1 << i) != 0 && t.property_flags.contains(required))
         };
         candidates()
-            .find(|(_, t)| t.property_flags.contains(preferred) && !t.property_flags.intersects(avoided))
+            .find(|(_, t)| {
+                t.property_flags.contains(preferred) && !t.property_flags.intersects(avoided)
+            })
             .or_else(|| candidates().find(|(_, t)| t.property_flags.contains(preferred)))
             .or_else(|| candidates().next())
             .map(|(i, _)| i as u32)

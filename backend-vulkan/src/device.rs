@@ -90,7 +90,13 @@ impl VulkanDevice {
             next_generation: 1,
         };
         inner.create_empty_tlas()?;
-        Ok(VulkanDevice { id, ctx, props, inner: Mutex::new(inner), lost: false.into() })
+        Ok(VulkanDevice {
+            id,
+            ctx,
+            props,
+            inner: Mutex::new(inner),
+            lost: false.into(),
+        })
     }
 
     /// The physical device's properties.
@@ -128,7 +134,10 @@ impl VulkanDevice {
     fn with<T>(&self, f: impl FnOnce(&mut Inner) -> Result<T>) -> Result<T> {
         use std::sync::atomic::Ordering;
         if self.lost.load(Ordering::Relaxed) {
-            return Err(Error::new(ErrorKind::DeviceLost, "the Vulkan device was lost earlier; open a new optik device"));
+            return Err(Error::new(
+                ErrorKind::DeviceLost,
+                "the Vulkan device was lost earlier; open a new optik device",
+            ));
         }
         let mut inner = self.lock();
         let r = f(&mut inner);
@@ -208,13 +217,19 @@ impl Inner {
     }
 
     /// Runs recorded work and waits (after earlier launches finish).
-    pub fn run_commands(&mut self, record: impl FnOnce(vk::CommandBuffer) -> Result<()>) -> Result<()> {
+    pub fn run_commands(
+        &mut self,
+        record: impl FnOnce(vk::CommandBuffer) -> Result<()>,
+    ) -> Result<()> {
         self.wait_launches()?;
         self.commands.run(&self.ctx, record)
     }
 
     /// Submits recorded work without waiting.
-    pub fn submit_commands(&mut self, record: impl FnOnce(vk::CommandBuffer) -> Result<()>) -> Result<Submission> {
+    pub fn submit_commands(
+        &mut self,
+        record: impl FnOnce(vk::CommandBuffer) -> Result<()>,
+    ) -> Result<Submission> {
         self.commands.submit(&self.ctx, record)
     }
 }
@@ -332,7 +347,11 @@ impl Device for VulkanDevice {
         self.with(|i| i.destroy_texture(texture))
     }
 
-    fn accel_memory_usage(&self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<AccelBufferSizes> {
+    fn accel_memory_usage(
+        &self,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<AccelBufferSizes> {
         self.with(|i| i.accel_memory_usage(options, inputs))
     }
 
@@ -340,7 +359,12 @@ impl Device for VulkanDevice {
         self.with(|i| i.accel_build(options, inputs))
     }
 
-    fn accel_update(&self, accel: Accel, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<()> {
+    fn accel_update(
+        &self,
+        accel: Accel,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<()> {
         self.with(|i| i.accel_update(accel, options, inputs))
     }
 
@@ -356,7 +380,10 @@ impl Device for VulkanDevice {
         self.with(|i| i.create_transform(desc))
     }
 
-    fn create_opacity_micromap_array(&self, desc: &OpacityMicromapArrayDesc) -> Result<MicromapArray> {
+    fn create_opacity_micromap_array(
+        &self,
+        desc: &OpacityMicromapArrayDesc,
+    ) -> Result<MicromapArray> {
         validate::micromap_array(desc)?;
         Err(Error::unsupported(
             "opacity micromaps are not available on the Vulkan backend: they need VK_EXT_opacity_micromap, which optik does not use yet (use the cpu or wgpu backend, or an any-hit program)",
@@ -374,7 +401,10 @@ impl Device for VulkanDevice {
     fn destroy_micromap_array(&self, array: MicromapArray) -> Result<()> {
         Err(Error::new(
             ErrorKind::InvalidHandle,
-            format!("opacity micromap array {:?} does not exist: the Vulkan backend creates none", array.raw()),
+            format!(
+                "opacity micromap array {:?} does not exist: the Vulkan backend creates none",
+                array.raw()
+            ),
         ))
     }
 
@@ -420,7 +450,14 @@ impl Device for VulkanDevice {
         self.with(|i| Ok(SbtHeader::pack(group, i.groups.get(group)?.desc.region())))
     }
 
-    fn launch(&self, pipeline: Pipeline, params: &[u8], resources: &[Resource], sbt: &ShaderBindingTable, size: LaunchSize) -> Result<()> {
+    fn launch(
+        &self,
+        pipeline: Pipeline,
+        params: &[u8],
+        resources: &[Resource],
+        sbt: &ShaderBindingTable,
+        size: LaunchSize,
+    ) -> Result<()> {
         self.with(|i| i.launch(pipeline, params, resources, sbt, size))
     }
 

@@ -9,17 +9,22 @@ pub fn vk_error(what: &str, result: vk::Result) -> Error {
     match result {
         vk::Result::ERROR_DEVICE_LOST => Error::new(
             ErrorKind::DeviceLost,
-            format!("{what}: the Vulkan device was lost (VK_ERROR_DEVICE_LOST); every object of this optik device is gone, open a new one"),
+            format!(
+                "{what}: the Vulkan device was lost (VK_ERROR_DEVICE_LOST); every object of this optik device is gone, open a new one"
+            ),
         ),
-        vk::Result::ERROR_OUT_OF_DEVICE_MEMORY => {
-            Error::new(ErrorKind::OutOfMemory, format!("{what}: the GPU is out of memory (VK_ERROR_OUT_OF_DEVICE_MEMORY)"))
-        }
-        vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
-            Error::new(ErrorKind::OutOfMemory, format!("{what}: the host is out of memory (VK_ERROR_OUT_OF_HOST_MEMORY)"))
-        }
-        vk::Result::ERROR_TOO_MANY_OBJECTS => {
-            Error::new(ErrorKind::OutOfMemory, format!("{what}: the driver's object limit is reached (VK_ERROR_TOO_MANY_OBJECTS)"))
-        }
+        vk::Result::ERROR_OUT_OF_DEVICE_MEMORY => Error::new(
+            ErrorKind::OutOfMemory,
+            format!("{what}: the GPU is out of memory (VK_ERROR_OUT_OF_DEVICE_MEMORY)"),
+        ),
+        vk::Result::ERROR_OUT_OF_HOST_MEMORY => Error::new(
+            ErrorKind::OutOfMemory,
+            format!("{what}: the host is out of memory (VK_ERROR_OUT_OF_HOST_MEMORY)"),
+        ),
+        vk::Result::ERROR_TOO_MANY_OBJECTS => Error::new(
+            ErrorKind::OutOfMemory,
+            format!("{what}: the driver's object limit is reached (VK_ERROR_TOO_MANY_OBJECTS)"),
+        ),
         other => Error::backend(format!("{what} failed: {other:?}")),
     }
 }

@@ -57,7 +57,14 @@ impl Inner {
 
     fn host_buffer(&mut self, data: &[u8], usage: vk::BufferUsageFlags) -> Result<GpuBuffer> {
         let size = (data.len() as u64).max(16).div_ceil(16) * 16;
-        let b = GpuBuffer::new(&self.ctx, &mut self.alloc, size, usage, Location::HostVisible, 16)?;
+        let b = GpuBuffer::new(
+            &self.ctx,
+            &mut self.alloc,
+            size,
+            usage,
+            Location::HostVisible,
+            16,
+        )?;
         if let Err(e) = b.write(0, data) {
             b.destroy(&self.ctx, &mut self.alloc);
             return Err(e);
@@ -65,7 +72,14 @@ impl Inner {
         Ok(b)
     }
 
-    pub fn launch(&mut self, pipeline: Pipeline, params: &[u8], resources: &[Resource], table: &ShaderBindingTable, size: LaunchSize) -> Result<()> {
+    pub fn launch(
+        &mut self,
+        pipeline: Pipeline,
+        params: &[u8],
+        resources: &[Resource],
+        table: &ShaderBindingTable,
+        size: LaunchSize,
+    ) -> Result<()> {
         validate::launch_size(size, &self.props)?;
         let dims = [size.width, size.height, size.depth];
         for (k, name) in ["width", "height", "depth"].iter().enumerate() {
@@ -83,7 +97,9 @@ impl Inner {
         let align = self.ctx.info.min_storage_buffer_offset_alignment.max(1);
         for r in resources {
             match r {
-                Resource::Buffer { binding, offset, .. } if offset % align != 0 => {
+                Resource::Buffer {
+                    binding, offset, ..
+                } if offset % align != 0 => {
                     return Err(Error::invalid(format!(
                         "the buffer at binding {binding} starts at byte {offset}; this device binds storage buffers at multiples of {align} (use multiples of 256 everywhere)"
                     )));
@@ -111,13 +127,26 @@ impl Inner {
         let tables = self.table_buffers()?;
 
         let mut held: Vec<GpuBuffer> = Vec::new();
-        let result = self.record_launch(pipeline, params, resources, &bindings, &sbt, tables, size, uses_state, &mut held);
+        let result = self.record_launch(
+            pipeline, params, resources, &bindings, &sbt, tables, size, uses_state, &mut held,
+        );
         match result {
             Ok((submission, pool)) => {
                 // Buffers the programs may write are new for cached SBT translations.
                 for r in resources {
-                    if let Resource::Buffer { binding, buffer, .. } = r
-                        && bindings.iter().any(|b| b.binding == *binding && matches!(b.kind, BindingKind::StorageBuffer { read_only: false, .. }))
+                    if let Resource::Buffer {
+                        binding, buffer, ..
+                    } = r
+                        && bindings.iter().any(|b| {
+                            b.binding == *binding
+                                && matches!(
+                                    b.kind,
+                                    BindingKind::StorageBuffer {
+                                        read_only: false,
+                                        ..
+                                    }
+                                )
+                        })
                     {
                         let g = self.generation();
                         if let Ok(b) = self.buffers.get_mut(*buffer) {
@@ -125,7 +154,12 @@ impl Inner {
                         }
                     }
                 }
-                self.in_flight.push(InFlight { submission, pool, buffers: held, sbt });
+                self.in_flight.push(InFlight {
+                    submission,
+                    pool,
+                    buffers: held,
+                    sbt,
+                });
                 Ok(())
             }
             Err(e) => {
@@ -153,16 +187,37 @@ impl Inner {
         let params_buffer = self.host_buffer(params, vk::BufferUsageFlags::UNIFORM_BUFFER)?;
         let params_vk = params_buffer.buffer;
         held.push(params_buffer);
-        let empty = self.empty_tlas.as_ref().map(|t| t.structure.address).unwrap_or(0);
-        let constants: Vec<u8> = [empty as u32, (empty >> 32) as u32, sbt.miss_count, sbt.callable_count]
-            .iter()
-            .flat_map(|w| w.to_le_bytes())
-            .collect();
-        let constants_buffer = self.host_buffer(&constants, vk::BufferUsageFlags::UNIFORM_BUFFER)?;
+        let empty = self
+            .empty_tlas
+            .as_ref()
+            .map(|t| t.structure.address)
+            .unwrap_or(0);
+        let constants: Vec<u8> = [
+            empty as u32,
+            (empty >> 32) as u32,
+            sbt.miss_count,
+            sbt.callable_count,
+        ]
+        .iter()
+        .flat_map(|w| w.to_le_bytes())
+        .collect();
+        let constants_buffer =
+            self.host_buffer(&constants, vk::BufferUsageFlags::UNIFORM_BUFFER)?;
         let constants_vk = constants_buffer.buffer;
         held.push(constants_buffer);
-        let state_size = if uses_state { size.count() * STATE_BYTES } else { STATE_BYTES };
-        let state = GpuBuffer::new(&self.ctx, &mut self.alloc, state_size, vk::BufferUsageFlags::STORAGE_BUFFER, Location::DeviceLocal, 16)?;
+        let state_size = if uses_state {
+            size.count() * STATE_BYTES
+        } else {
+            STATE_BYTES
+        };
+        let state = GpuBuffer::new(
+            &self.ctx,
+            &mut self.alloc,
+            state_size,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            Location::DeviceLocal,
+            16,
+        )?;
         let state_vk = state.buffer;
         held.push(state);
 
@@ -174,90 +229,237 @@ impl Inner {
                 BindingKind::Params { .. } => buffer_infos.push((
                     b.binding,
                     vk::DescriptorType::UNIFORM_BUFFER,
-                    vk::DescriptorBufferInfo { buffer: params_vk, offset: 0, range: vk::WHOLE_SIZE },
+                    vk::DescriptorBufferInfo {
+                        buffer: params_vk,
+                        offset: 0,
+                        range: vk::WHOLE_SIZE,
+                    },
                 )),
                 BindingKind::StorageBuffer { .. } => {
-                    let Some(Resource::Buffer { buffer, offset, size, .. }) = resources.iter().find(|r| r.binding() == b.binding) else {
-                        return Err(Error::invalid(format!("no buffer given for binding {}", b.binding)));
+                    let Some(Resource::Buffer {
+                        buffer,
+                        offset,
+                        size,
+                        ..
+                    }) = resources.iter().find(|r| r.binding() == b.binding)
+                    else {
+                        return Err(Error::invalid(format!(
+                            "no buffer given for binding {}",
+                            b.binding
+                        )));
                     };
                     let obj = self.buffers.get(*buffer)?;
                     let range = size.unwrap_or(obj.gpu.size - offset).max(4);
                     buffer_infos.push((
                         b.binding,
                         vk::DescriptorType::STORAGE_BUFFER,
-                        vk::DescriptorBufferInfo { buffer: obj.gpu.buffer, offset: *offset, range },
+                        vk::DescriptorBufferInfo {
+                            buffer: obj.gpu.buffer,
+                            offset: *offset,
+                            range,
+                        },
                     ));
                 }
                 BindingKind::Texture2d => {
-                    let Some(Resource::Texture { texture, .. }) = resources.iter().find(|r| r.binding() == b.binding) else {
-                        return Err(Error::invalid(format!("no texture given for binding {}", b.binding)));
+                    let Some(Resource::Texture { texture, .. }) =
+                        resources.iter().find(|r| r.binding() == b.binding)
+                    else {
+                        return Err(Error::invalid(format!(
+                            "no texture given for binding {}",
+                            b.binding
+                        )));
                     };
                     let view = self.textures.get(*texture)?.view;
                     image_infos.push((
                         b.binding,
-                        vk::DescriptorImageInfo { sampler: vk::Sampler::null(), image_view: view, image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL },
+                        vk::DescriptorImageInfo {
+                            sampler: vk::Sampler::null(),
+                            image_view: view,
+                            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                        },
                     ));
                 }
                 BindingKind::Sampler => {
-                    let Some(Resource::Sampler { sampler, .. }) = resources.iter().find(|r| r.binding() == b.binding) else {
-                        return Err(Error::invalid(format!("no sampler given for binding {}", b.binding)));
+                    let Some(Resource::Sampler { sampler, .. }) =
+                        resources.iter().find(|r| r.binding() == b.binding)
+                    else {
+                        return Err(Error::invalid(format!(
+                            "no sampler given for binding {}",
+                            b.binding
+                        )));
                     };
                     let s = self.sampler(*sampler)?;
-                    image_infos.push((b.binding, vk::DescriptorImageInfo { sampler: s, image_view: vk::ImageView::null(), image_layout: vk::ImageLayout::UNDEFINED }));
+                    image_infos.push((
+                        b.binding,
+                        vk::DescriptorImageInfo {
+                            sampler: s,
+                            image_view: vk::ImageView::null(),
+                            image_layout: vk::ImageLayout::UNDEFINED,
+                        },
+                    ));
                 }
             }
         }
-        let count = |t: vk::DescriptorType| buffer_infos.iter().filter(|(_, ty, _)| *ty == t).count() as u32;
-        let textures = bindings.iter().filter(|b| b.kind == BindingKind::Texture2d).count() as u32;
-        let samplers = bindings.iter().filter(|b| b.kind == BindingKind::Sampler).count() as u32;
+        let count = |t: vk::DescriptorType| {
+            buffer_infos.iter().filter(|(_, ty, _)| *ty == t).count() as u32
+        };
+        let textures = bindings
+            .iter()
+            .filter(|b| b.kind == BindingKind::Texture2d)
+            .count() as u32;
+        let samplers = bindings
+            .iter()
+            .filter(|b| b.kind == BindingKind::Sampler)
+            .count() as u32;
         let mut pool_sizes = vec![
-            vk::DescriptorPoolSize { ty: vk::DescriptorType::UNIFORM_BUFFER, descriptor_count: count(vk::DescriptorType::UNIFORM_BUFFER) + 1 },
-            vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: count(vk::DescriptorType::STORAGE_BUFFER) + 4 },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::UNIFORM_BUFFER,
+                descriptor_count: count(vk::DescriptorType::UNIFORM_BUFFER) + 1,
+            },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::STORAGE_BUFFER,
+                descriptor_count: count(vk::DescriptorType::STORAGE_BUFFER) + 4,
+            },
         ];
         if textures > 0 {
-            pool_sizes.push(vk::DescriptorPoolSize { ty: vk::DescriptorType::SAMPLED_IMAGE, descriptor_count: textures });
+            pool_sizes.push(vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::SAMPLED_IMAGE,
+                descriptor_count: textures,
+            });
         }
         if samplers > 0 {
-            pool_sizes.push(vk::DescriptorPoolSize { ty: vk::DescriptorType::SAMPLER, descriptor_count: samplers });
+            pool_sizes.push(vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::SAMPLER,
+                descriptor_count: samplers,
+            });
         }
         let ctx = self.ctx.clone();
         let device = &ctx.device;
-        let pool_info = vk::DescriptorPoolCreateInfo::default().max_sets(2).pool_sizes(&pool_sizes);
+        let pool_info = vk::DescriptorPoolCreateInfo::default()
+            .max_sets(2)
+            .pool_sizes(&pool_sizes);
         // SAFETY: valid create info; destroyed when the launch retires (or below).
-        let pool = unsafe { device.create_descriptor_pool(&pool_info, None) }.or_vk("vkCreateDescriptorPool")?;
+        let pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
+            .or_vk("vkCreateDescriptorPool")?;
         let recorded = (|| {
             let p = self.pipelines.get(pipeline)?;
-            let (vk_pipeline, layout, set_layouts, stack) = (p.pipeline, p.layout, p.set_layouts, p.stack_size);
-            let alloc_info = vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts);
+            let (vk_pipeline, layout, set_layouts, stack) =
+                (p.pipeline, p.layout, p.set_layouts, p.stack_size);
+            let alloc_info = vk::DescriptorSetAllocateInfo::default()
+                .descriptor_pool(pool)
+                .set_layouts(&set_layouts);
             // SAFETY: a pool sized for both sets.
-            let sets = unsafe { device.allocate_descriptor_sets(&alloc_info) }.or_vk("vkAllocateDescriptorSets")?;
+            let sets = unsafe { device.allocate_descriptor_sets(&alloc_info) }
+                .or_vk("vkAllocateDescriptorSets")?;
             let backend_buffers: Vec<(u32, vk::DescriptorType, vk::DescriptorBufferInfo)> = vec![
-                (0, vk::DescriptorType::UNIFORM_BUFFER, vk::DescriptorBufferInfo { buffer: constants_vk, offset: 0, range: vk::WHOLE_SIZE }),
-                (1, vk::DescriptorType::STORAGE_BUFFER, vk::DescriptorBufferInfo { buffer: state_vk, offset: 0, range: vk::WHOLE_SIZE }),
-                (2, vk::DescriptorType::STORAGE_BUFFER, vk::DescriptorBufferInfo { buffer: tables[0], offset: 0, range: vk::WHOLE_SIZE }),
-                (3, vk::DescriptorType::STORAGE_BUFFER, vk::DescriptorBufferInfo { buffer: tables[1], offset: 0, range: vk::WHOLE_SIZE }),
-                (4, vk::DescriptorType::STORAGE_BUFFER, vk::DescriptorBufferInfo { buffer: tables[2], offset: 0, range: vk::WHOLE_SIZE }),
+                (
+                    0,
+                    vk::DescriptorType::UNIFORM_BUFFER,
+                    vk::DescriptorBufferInfo {
+                        buffer: constants_vk,
+                        offset: 0,
+                        range: vk::WHOLE_SIZE,
+                    },
+                ),
+                (
+                    1,
+                    vk::DescriptorType::STORAGE_BUFFER,
+                    vk::DescriptorBufferInfo {
+                        buffer: state_vk,
+                        offset: 0,
+                        range: vk::WHOLE_SIZE,
+                    },
+                ),
+                (
+                    2,
+                    vk::DescriptorType::STORAGE_BUFFER,
+                    vk::DescriptorBufferInfo {
+                        buffer: tables[0],
+                        offset: 0,
+                        range: vk::WHOLE_SIZE,
+                    },
+                ),
+                (
+                    3,
+                    vk::DescriptorType::STORAGE_BUFFER,
+                    vk::DescriptorBufferInfo {
+                        buffer: tables[1],
+                        offset: 0,
+                        range: vk::WHOLE_SIZE,
+                    },
+                ),
+                (
+                    4,
+                    vk::DescriptorType::STORAGE_BUFFER,
+                    vk::DescriptorBufferInfo {
+                        buffer: tables[2],
+                        offset: 0,
+                        range: vk::WHOLE_SIZE,
+                    },
+                ),
             ];
             let mut writes: Vec<vk::WriteDescriptorSet> = Vec::new();
             for (b, ty, info) in &buffer_infos {
-                writes.push(vk::WriteDescriptorSet::default().dst_set(sets[0]).dst_binding(*b).descriptor_type(*ty).buffer_info(std::slice::from_ref(info)));
+                writes.push(
+                    vk::WriteDescriptorSet::default()
+                        .dst_set(sets[0])
+                        .dst_binding(*b)
+                        .descriptor_type(*ty)
+                        .buffer_info(std::slice::from_ref(info)),
+                );
             }
             for (b, info) in &image_infos {
-                let ty = if info.sampler == vk::Sampler::null() { vk::DescriptorType::SAMPLED_IMAGE } else { vk::DescriptorType::SAMPLER };
-                writes.push(vk::WriteDescriptorSet::default().dst_set(sets[0]).dst_binding(*b).descriptor_type(ty).image_info(std::slice::from_ref(info)));
+                let ty = if info.sampler == vk::Sampler::null() {
+                    vk::DescriptorType::SAMPLED_IMAGE
+                } else {
+                    vk::DescriptorType::SAMPLER
+                };
+                writes.push(
+                    vk::WriteDescriptorSet::default()
+                        .dst_set(sets[0])
+                        .dst_binding(*b)
+                        .descriptor_type(ty)
+                        .image_info(std::slice::from_ref(info)),
+                );
             }
             for (b, ty, info) in &backend_buffers {
-                writes.push(vk::WriteDescriptorSet::default().dst_set(sets[1]).dst_binding(*b).descriptor_type(*ty).buffer_info(std::slice::from_ref(info)));
+                writes.push(
+                    vk::WriteDescriptorSet::default()
+                        .dst_set(sets[1])
+                        .dst_binding(*b)
+                        .descriptor_type(*ty)
+                        .buffer_info(std::slice::from_ref(info)),
+                );
             }
             // SAFETY: every write names a binding of its set's layout with live resources.
             unsafe { device.update_descriptor_sets(&writes, &[]) };
             self.submit_commands(|cmd| {
                 // SAFETY: recording; the pipeline, layout and sets are live.
                 unsafe {
-                    device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, vk_pipeline);
-                    device.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, layout, 0, &sets, &[]);
+                    device.cmd_bind_pipeline(
+                        cmd,
+                        vk::PipelineBindPoint::RAY_TRACING_KHR,
+                        vk_pipeline,
+                    );
+                    device.cmd_bind_descriptor_sets(
+                        cmd,
+                        vk::PipelineBindPoint::RAY_TRACING_KHR,
+                        layout,
+                        0,
+                        &sets,
+                        &[],
+                    );
                     ctx.rt.cmd_set_ray_tracing_pipeline_stack_size(cmd, stack);
-                    ctx.rt.cmd_trace_rays(cmd, &sbt.raygen, &sbt.miss, &sbt.hit, &sbt.callable, size.width, size.height, size.depth);
+                    ctx.rt.cmd_trace_rays(
+                        cmd,
+                        &sbt.raygen,
+                        &sbt.miss,
+                        &sbt.hit,
+                        &sbt.callable,
+                        size.width,
+                        size.height,
+                        size.depth,
+                    );
                 }
                 Ok(())
             })

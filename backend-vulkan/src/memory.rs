@@ -61,7 +61,13 @@ fn align_up(v: u64, a: u64) -> u64 {
 }
 
 impl Allocator {
-    fn flags_for(location: Location) -> (vk::MemoryPropertyFlags, vk::MemoryPropertyFlags, vk::MemoryPropertyFlags) {
+    fn flags_for(
+        location: Location,
+    ) -> (
+        vk::MemoryPropertyFlags,
+        vk::MemoryPropertyFlags,
+        vk::MemoryPropertyFlags,
+    ) {
         match location {
             Location::DeviceLocal => (
                 vk::MemoryPropertyFlags::DEVICE_LOCAL,
@@ -77,16 +83,36 @@ impl Allocator {
     }
 
     /// Allocates memory for `req` in `location`, aligned to at least `min_align`.
-    pub fn allocate(&mut self, ctx: &Context, req: vk::MemoryRequirements, location: Location, min_align: u64) -> Result<Allocation> {
+    pub fn allocate(
+        &mut self,
+        ctx: &Context,
+        req: vk::MemoryRequirements,
+        location: Location,
+        min_align: u64,
+    ) -> Result<Allocation> {
         let (required, preferred, avoided) = Self::flags_for(location);
-        let type_index = ctx.memory_type(req.memory_type_bits, required, preferred, avoided).or_else(|| {
-            // Some device-local requests (acceleration structures on odd drivers) fit only
-            // other memory; any allowed type will do.
-            (location == Location::DeviceLocal)
-                .then(|| ctx.memory_type(req.memory_type_bits, vk::MemoryPropertyFlags::empty(), vk::MemoryPropertyFlags::empty(), vk::MemoryPropertyFlags::empty()))
-                .flatten()
-        });
-        let type_index = type_index.ok_or_else(|| Error::backend(format!("no Vulkan memory type fits a {location:?} request (type bits {:#x})", req.memory_type_bits)))?;
+        let type_index = ctx
+            .memory_type(req.memory_type_bits, required, preferred, avoided)
+            .or_else(|| {
+                // Some device-local requests (acceleration structures on odd drivers) fit only
+                // other memory; any allowed type will do.
+                (location == Location::DeviceLocal)
+                    .then(|| {
+                        ctx.memory_type(
+                            req.memory_type_bits,
+                            vk::MemoryPropertyFlags::empty(),
+                            vk::MemoryPropertyFlags::empty(),
+                            vk::MemoryPropertyFlags::empty(),
+                        )
+                    })
+                    .flatten()
+            });
+        let type_index = type_index.ok_or_else(|| {
+            Error::backend(format!(
+                "no Vulkan memory type fits a {location:?} request (type bits {:#x})",
+                req.memory_type_bits
+            ))
+        })?;
         let align = req.alignment.max(min_align).max(1);
         let size = req.size.max(1);
         if size <= DEDICATED_ABOVE {
@@ -96,20 +122,35 @@ impl Allocator {
                     continue;
                 }
                 if let Some(offset) = take_range(&mut b.free, size, align) {
-                    return Ok(Allocation { block: bi, offset, size, mapped: offset_ptr(b.mapped, offset) });
+                    return Ok(Allocation {
+                        block: bi,
+                        offset,
+                        size,
+                        mapped: offset_ptr(b.mapped, offset),
+                    });
                 }
             }
         }
         let dedicated = size > DEDICATED_ABOVE;
         let block_size = if dedicated { size } else { BLOCK_SIZE };
-        let mut flags = vk::MemoryAllocateFlagsInfo::default().flags(vk::MemoryAllocateFlags::DEVICE_ADDRESS);
-        let info = vk::MemoryAllocateInfo::default().allocation_size(block_size).memory_type_index(type_index).push_next(&mut flags);
+        let mut flags =
+            vk::MemoryAllocateFlagsInfo::default().flags(vk::MemoryAllocateFlags::DEVICE_ADDRESS);
+        let info = vk::MemoryAllocateInfo::default()
+            .allocation_size(block_size)
+            .memory_type_index(type_index)
+            .push_next(&mut flags);
         // SAFETY: valid allocate info; freed in `free` or `destroy`.
-        let memory = unsafe { ctx.device.allocate_memory(&info, None) }.or_vk("vkAllocateMemory")?;
-        let host_visible = ctx.memory.memory_types[type_index as usize].property_flags.contains(vk::MemoryPropertyFlags::HOST_VISIBLE);
+        let memory =
+            unsafe { ctx.device.allocate_memory(&info, None) }.or_vk("vkAllocateMemory")?;
+        let host_visible = ctx.memory.memory_types[type_index as usize]
+            .property_flags
+            .contains(vk::MemoryPropertyFlags::HOST_VISIBLE);
         let mapped = if host_visible {
             // SAFETY: host-visible memory, mapped whole for the block's life.
-            match unsafe { ctx.device.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) } {
+            match unsafe {
+                ctx.device
+                    .map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
+            } {
                 Ok(p) => p as *mut u8,
                 Err(e) => {
                     // SAFETY: just allocated, unused.
@@ -120,8 +161,16 @@ impl Allocator {
         } else {
             std::ptr::null_mut()
         };
-        let mut block = Block { memory, type_index, size: block_size, mapped, free: vec![(0, block_size)], dedicated };
-        let offset = take_range(&mut block.free, size, align).ok_or_else(|| Error::backend("fresh memory block too small"))?;
+        let mut block = Block {
+            memory,
+            type_index,
+            size: block_size,
+            mapped,
+            free: vec![(0, block_size)],
+            dedicated,
+        };
+        let offset = take_range(&mut block.free, size, align)
+            .ok_or_else(|| Error::backend("fresh memory block too small"))?;
         let alloc_mapped = offset_ptr(mapped, offset);
         let bi = match self.blocks.iter().position(|b| b.is_none()) {
             Some(i) => {
@@ -133,12 +182,19 @@ impl Allocator {
                 self.blocks.len() - 1
             }
         };
-        Ok(Allocation { block: bi, offset, size, mapped: alloc_mapped })
+        Ok(Allocation {
+            block: bi,
+            offset,
+            size,
+            mapped: alloc_mapped,
+        })
     }
 
     /// Returns an allocation; dedicated blocks are freed at once.
     pub fn free(&mut self, ctx: &Context, a: Allocation) {
-        let Some(Some(b)) = self.blocks.get_mut(a.block) else { return };
+        let Some(Some(b)) = self.blocks.get_mut(a.block) else {
+            return;
+        };
         if b.dedicated {
             // SAFETY: the allocation's only user is gone.
             unsafe { ctx.device.free_memory(b.memory, None) };
@@ -150,7 +206,12 @@ impl Allocator {
 
     /// The memory and offset to bind an allocation.
     pub fn binding(&self, a: &Allocation) -> (vk::DeviceMemory, u64) {
-        let memory = self.blocks.get(a.block).and_then(|b| b.as_ref()).map(|b| b.memory).unwrap_or_default();
+        let memory = self
+            .blocks
+            .get(a.block)
+            .and_then(|b| b.as_ref())
+            .map(|b| b.memory)
+            .unwrap_or_default();
         (memory, a.offset)
     }
 
@@ -169,7 +230,11 @@ impl Allocator {
 }
 
 fn offset_ptr(base: *mut u8, offset: u64) -> *mut u8 {
-    if base.is_null() { base } else { base.wrapping_add(offset as usize) }
+    if base.is_null() {
+        base
+    } else {
+        base.wrapping_add(offset as usize)
+    }
 }
 
 /// First fit of `size` bytes aligned to `align` in a sorted free list.
@@ -225,9 +290,19 @@ pub struct GpuBuffer {
 impl GpuBuffer {
     /// Creates a buffer; host-visible buffers are zero-filled, device-local ones hold whatever
     /// the memory held (callers that need zeros fill them).
-    pub fn new(ctx: &Context, allocator: &mut Allocator, size: u64, usage: vk::BufferUsageFlags, location: Location, min_align: u64) -> Result<GpuBuffer> {
+    pub fn new(
+        ctx: &Context,
+        allocator: &mut Allocator,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: Location,
+        min_align: u64,
+    ) -> Result<GpuBuffer> {
         let usage = usage | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
-        let info = vk::BufferCreateInfo::default().size(size.max(4)).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let info = vk::BufferCreateInfo::default()
+            .size(size.max(4))
+            .usage(usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
         // SAFETY: valid create info; destroyed in `destroy`.
         let buffer = unsafe { ctx.device.create_buffer(&info, None) }.or_vk("vkCreateBuffer")?;
         // SAFETY: valid buffer.
@@ -249,9 +324,22 @@ impl GpuBuffer {
             return Err(crate::error::vk_error("vkBindBufferMemory", e));
         }
         // SAFETY: the buffer has device-address usage and bound memory.
-        let address = unsafe { ctx.device.get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(buffer)) };
-        let location = if alloc.mapped.is_null() { Location::DeviceLocal } else { location };
-        let buf = GpuBuffer { buffer, size, address, location, alloc };
+        let address = unsafe {
+            ctx.device
+                .get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(buffer))
+        };
+        let location = if alloc.mapped.is_null() {
+            Location::DeviceLocal
+        } else {
+            location
+        };
+        let buf = GpuBuffer {
+            buffer,
+            size,
+            address,
+            location,
+            alloc,
+        };
         if let Some(p) = buf.mapped() {
             // SAFETY: the mapping covers the allocation's `size` bytes.
             unsafe { std::ptr::write_bytes(p, 0, buf.alloc.size as usize) };
@@ -268,12 +356,15 @@ impl GpuBuffer {
     /// work writes the buffer meanwhile.
     pub fn bytes(&self) -> Option<&[u8]> {
         // SAFETY: the mapping covers `size` bytes and lives as long as `self`.
-        self.mapped().map(|p| unsafe { std::slice::from_raw_parts(p, self.size as usize) })
+        self.mapped()
+            .map(|p| unsafe { std::slice::from_raw_parts(p, self.size as usize) })
     }
 
     /// Writes `data` at `offset` of a host-visible buffer.
     pub fn write(&self, offset: u64, data: &[u8]) -> Result<()> {
-        let p = self.mapped().ok_or_else(|| Error::backend("write to a buffer that is not host-visible"))?;
+        let p = self
+            .mapped()
+            .ok_or_else(|| Error::backend("write to a buffer that is not host-visible"))?;
         if offset + data.len() as u64 > self.alloc.size {
             return Err(Error::backend("write past the end of a mapped buffer"));
         }
@@ -292,7 +383,10 @@ impl GpuBuffer {
 
 /// The error for an allocation the device cannot satisfy.
 pub fn out_of_memory(what: &str, bytes: u64) -> Error {
-    Error::new(ErrorKind::OutOfMemory, format!("{what}: cannot allocate {bytes} bytes of device memory"))
+    Error::new(
+        ErrorKind::OutOfMemory,
+        format!("{what}: cannot allocate {bytes} bytes of device memory"),
+    )
 }
 
 #[cfg(test)]

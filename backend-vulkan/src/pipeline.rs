@@ -135,7 +135,11 @@ fn all_rt_stages() -> vk::ShaderStageFlags {
 #[derive(Clone, Copy, Debug)]
 enum VkGroup {
     General(u32),
-    Hit { closest: Option<u32>, any: Option<u32>, intersection: Option<u32> },
+    Hit {
+        closest: Option<u32>,
+        any: Option<u32>,
+        intersection: Option<u32>,
+    },
 }
 
 /// Which Vulkan shader groups serve which optik groups.
@@ -149,18 +153,35 @@ struct GroupPlan {
 }
 
 /// Settings for the lowering from the resolved features and the programs.
-fn lowering_config(features: &FeatureSet, link: &PipelineLinkOptions, descs: &[&ProgramGroupDesc], module_of: &dyn Fn(&ProgramRef) -> Option<Arc<CompiledModule>>) -> LoweringConfig {
+fn lowering_config(
+    features: &FeatureSet,
+    link: &PipelineLinkOptions,
+    descs: &[&ProgramGroupDesc],
+    module_of: &dyn Fn(&ProgramRef) -> Option<Arc<CompiledModule>>,
+) -> LoweringConfig {
     let calls = |pred: &dyn Fn(ProgramKind, DeviceFunction) -> bool| {
         descs.iter().flat_map(|d| d.programs()).any(|(kind, p)| {
-            module_of(p).and_then(|m| m.program(&p.entry).cloned()).is_some_and(|info| info.device_functions.iter().any(|f| pred(kind, *f)))
+            module_of(p)
+                .and_then(|m| m.program(&p.entry).cloned())
+                .is_some_and(|info| info.device_functions.iter().any(|f| pred(kind, *f)))
         })
     };
     let continuation_calls = calls(&|_, f| f == DeviceFunction::ContinuationCall);
     let track_depth = continuation_calls
-        || calls(&|k, f| k != ProgramKind::Raygen && matches!(f, DeviceFunction::Trace | DeviceFunction::RemainingTraceDepth));
-    let track_ray_flags = calls(&|_, f| matches!(f, DeviceFunction::RayFlags | DeviceFunction::RayMask));
-    let guard_direct_calls = calls(&|k, f| k == ProgramKind::DirectCallable && f == DeviceFunction::DirectCall);
-    let exception_program = descs.iter().any(|d| matches!(d, ProgramGroupDesc::Exception(_)));
+        || calls(&|k, f| {
+            k != ProgramKind::Raygen
+                && matches!(
+                    f,
+                    DeviceFunction::Trace | DeviceFunction::RemainingTraceDepth
+                )
+        });
+    let track_ray_flags =
+        calls(&|_, f| matches!(f, DeviceFunction::RayFlags | DeviceFunction::RayMask));
+    let guard_direct_calls =
+        calls(&|k, f| k == ProgramKind::DirectCallable && f == DeviceFunction::DirectCall);
+    let exception_program = descs
+        .iter()
+        .any(|d| matches!(d, ProgramGroupDesc::Exception(_)));
     LoweringConfig {
         payload_len: features.num_payload_values.max(1),
         max_trace_depth: link.max_trace_depth,
@@ -177,24 +198,43 @@ fn lowering_config(features: &FeatureSet, link: &PipelineLinkOptions, descs: &[&
 }
 
 impl Inner {
-    pub fn create_module(&mut self, _options: &ModuleCompileOptions, pipeline_options: &PipelineCompileOptions, source: &ProgramSource) -> Result<(Module, String)> {
+    pub fn create_module(
+        &mut self,
+        _options: &ModuleCompileOptions,
+        pipeline_options: &PipelineCompileOptions,
+        source: &ProgramSource,
+    ) -> Result<(Module, String)> {
         let payload = pipeline_options.num_payload_values.or(32);
         if payload > 32 {
-            return Err(Error::limit(format!("pipeline_options.num_payload_values is {payload}; at most 32 payload registers exist")));
+            return Err(Error::limit(format!(
+                "pipeline_options.num_payload_values is {payload}; at most 32 payload registers exist"
+            )));
         }
         let compiled = optik_api::frontend::compile(source, payload)?;
-        let mut log = format!("{}: {} program(s)", compiled.file_name, compiled.programs.len());
+        let mut log = format!(
+            "{}: {} program(s)",
+            compiled.file_name,
+            compiled.programs.len()
+        );
         for p in &compiled.programs {
             log.push_str(&format!("\n  {} `{}` (line {})", p.kind, p.name, p.line));
         }
-        let module = self.modules.insert(ModuleObject { compiled: Arc::new(compiled) });
+        let module = self.modules.insert(ModuleObject {
+            compiled: Arc::new(compiled),
+        });
         Ok((module, log))
     }
 
-    pub fn create_program_groups(&mut self, descs: &[ProgramGroupDesc]) -> Result<Vec<ProgramGroup>> {
+    pub fn create_program_groups(
+        &mut self,
+        descs: &[ProgramGroupDesc],
+    ) -> Result<Vec<ProgramGroup>> {
         for (i, desc) in descs.iter().enumerate() {
             for (kind, p) in desc.programs() {
-                let module = self.modules.get(p.module).map_err(|e| e.context(format!("program group {i}")))?;
+                let module = self
+                    .modules
+                    .get(p.module)
+                    .map_err(|e| e.context(format!("program group {i}")))?;
                 match module.compiled.program(&p.entry) {
                     Some(info) if info.kind == kind => {}
                     Some(info) => {
@@ -204,7 +244,12 @@ impl Inner {
                         )));
                     }
                     None => {
-                        let names: Vec<&str> = module.compiled.programs.iter().map(|p| p.name.as_str()).collect();
+                        let names: Vec<&str> = module
+                            .compiled
+                            .programs
+                            .iter()
+                            .map(|p| p.name.as_str())
+                            .collect();
                         return Err(Error::invalid(format!(
                             "program group {i}: the module has no program `{}` (its programs: {})",
                             p.entry,
@@ -214,7 +259,10 @@ impl Inner {
                 }
             }
         }
-        Ok(descs.iter().map(|d| self.groups.insert(GroupObject { desc: d.clone() })).collect())
+        Ok(descs
+            .iter()
+            .map(|d| self.groups.insert(GroupObject { desc: d.clone() }))
+            .collect())
     }
 
     pub fn destroy_pipeline(&mut self, pipeline: Pipeline) -> Result<()> {
@@ -225,47 +273,92 @@ impl Inner {
         Ok(())
     }
 
-    pub fn create_pipeline(&mut self, options: &PipelineCompileOptions, link: &PipelineLinkOptions, groups: &[ProgramGroup]) -> Result<Pipeline> {
+    pub fn create_pipeline(
+        &mut self,
+        options: &PipelineCompileOptions,
+        link: &PipelineLinkOptions,
+        groups: &[ProgramGroup],
+    ) -> Result<Pipeline> {
         if groups.is_empty() {
-            return Err(Error::invalid("create_pipeline needs at least one program group (a raygen group)"));
+            return Err(Error::invalid(
+                "create_pipeline needs at least one program group (a raygen group)",
+            ));
         }
         let mut descs = Vec::with_capacity(groups.len());
         for (i, g) in groups.iter().enumerate() {
-            descs.push(self.groups.get(*g).map_err(|e| e.context(format!("groups[{i}]")))?.desc.clone());
+            descs.push(
+                self.groups
+                    .get(*g)
+                    .map_err(|e| e.context(format!("groups[{i}]")))?
+                    .desc
+                    .clone(),
+            );
         }
         let mut modules: HashMap<Module, Arc<CompiledModule>> = HashMap::new();
         for d in &descs {
             for (_, p) in d.programs() {
-                let m = self.modules.get(p.module).map_err(|e| e.context(format!("program `{}`", p.entry)))?;
+                let m = self
+                    .modules
+                    .get(p.module)
+                    .map_err(|e| e.context(format!("program `{}`", p.entry)))?;
                 modules.insert(p.module, m.compiled.clone());
             }
         }
         let module_of = |p: &ProgramRef| modules.get(&p.module).cloned();
         let desc_refs: Vec<&ProgramGroupDesc> = descs.iter().collect();
-        let program_features = ProgramFeatures::of_groups(&desc_refs, |p| modules.get(&p.module).map(|m| &**m));
-        let features = features::resolve(options, link, self.scene_features(), &program_features, self.props.max_trace_depth)?;
+        let program_features =
+            ProgramFeatures::of_groups(&desc_refs, |p| modules.get(&p.module).map(|m| &**m));
+        let features = features::resolve(
+            options,
+            link,
+            self.scene_features(),
+            &program_features,
+            self.props.max_trace_depth,
+        )?;
         let config = lowering_config(&features, link, &desc_refs, &module_of);
 
-        let recursion = config.max_trace_depth + if config.continuation_calls { config.max_continuation_callable_depth } else { 0 };
+        let recursion = config.max_trace_depth
+            + if config.continuation_calls {
+                config.max_continuation_callable_depth
+            } else {
+                0
+            };
         if recursion > self.ctx.info.max_ray_recursion_depth {
             return Err(Error::limit(format!(
                 "max_trace_depth {} plus max_continuation_callable_depth {} (continuation callables run as nested rays on Vulkan) is {recursion}; this device allows a ray recursion depth of {}",
-                config.max_trace_depth, config.max_continuation_callable_depth, self.ctx.info.max_ray_recursion_depth
+                config.max_trace_depth,
+                config.max_continuation_callable_depth,
+                self.ctx.info.max_ray_recursion_depth
             )));
         }
-        for (what, v) in [("max_direct_callable_depth", link.max_direct_callable_depth), ("max_continuation_callable_depth", link.max_continuation_callable_depth)] {
+        for (what, v) in [
+            ("max_direct_callable_depth", link.max_direct_callable_depth),
+            (
+                "max_continuation_callable_depth",
+                link.max_continuation_callable_depth,
+            ),
+        ] {
             if v > 255 {
-                return Err(Error::limit(format!("link_options.{what} is {v}; the Vulkan backend tracks at most 255")));
+                return Err(Error::limit(format!(
+                    "link_options.{what} is {v}; the Vulkan backend tracks at most 255"
+                )));
             }
         }
         let bindings = merged_bindings(modules.values())?;
         let (plan, group_plan) = plan_stages(groups, &descs, &config);
         let stages = self.lower(&plan, &modules, &config)?;
-        self.link(stages, &plan, group_plan, features, config, bindings, recursion)
+        self.link(
+            stages, &plan, group_plan, features, config, bindings, recursion,
+        )
     }
 
     /// Lowers every planned stage, one naga pass per source.
-    fn lower(&self, plan: &StagePlan, modules: &HashMap<Module, Arc<CompiledModule>>, config: &LoweringConfig) -> Result<Vec<program::LoweredStage>> {
+    fn lower(
+        &self,
+        plan: &StagePlan,
+        modules: &HashMap<Module, Arc<CompiledModule>>,
+        config: &LoweringConfig,
+    ) -> Result<Vec<program::LoweredStage>> {
         let mut by_source: Vec<(Source, Vec<(usize, StageRole)>)> = Vec::new();
         for (i, (source, role)) in plan.stages.iter().enumerate() {
             match by_source.iter_mut().find(|(s, _)| s == source) {
@@ -278,17 +371,29 @@ impl Inner {
             let role_list: Vec<StageRole> = roles.iter().map(|(_, r)| r.clone()).collect();
             let lowered = match source {
                 Source::User(m) => {
-                    let compiled = modules.get(&m).ok_or_else(|| Error::backend("module vanished"))?;
-                    program::lower_stages(ModuleText::User(&compiled.user_source), config, &role_list)
-                        .map_err(|e| e.context(format!("module {}", compiled.file_name)))?
+                    let compiled = modules
+                        .get(&m)
+                        .ok_or_else(|| Error::backend("module vanished"))?;
+                    program::lower_stages(
+                        ModuleText::User(&compiled.user_source),
+                        config,
+                        &role_list,
+                    )
+                    .map_err(|e| e.context(format!("module {}", compiled.file_name)))?
                 }
-                Source::Internal(basis) => program::lower_stages(ModuleText::Internal { curve_basis: basis }, config, &role_list)?,
+                Source::Internal(basis) => program::lower_stages(
+                    ModuleText::Internal { curve_basis: basis },
+                    config,
+                    &role_list,
+                )?,
             };
             for ((i, _), stage) in roles.into_iter().zip(lowered) {
                 out[i] = Some(stage);
             }
         }
-        out.into_iter().map(|s| s.ok_or_else(|| Error::backend("a stage was not lowered"))).collect()
+        out.into_iter()
+            .map(|s| s.ok_or_else(|| Error::backend("a stage was not lowered")))
+            .collect()
     }
 
     /// Creates the Vulkan pipeline from lowered stages.
@@ -323,12 +428,20 @@ impl Inner {
                 }
             }
         }
-        let names: Vec<CString> = stages.iter().map(|s| CString::new(s.entry_name.clone()).unwrap_or_default()).collect();
+        let names: Vec<CString> = stages
+            .iter()
+            .map(|s| CString::new(s.entry_name.clone()).unwrap_or_default())
+            .collect();
         let stage_infos: Vec<vk::PipelineShaderStageCreateInfo> = stages
             .iter()
             .zip(&shader_modules)
             .zip(&names)
-            .map(|((s, m), n)| vk::PipelineShaderStageCreateInfo::default().stage(vk_stage_flags(s.stage)).module(*m).name(n))
+            .map(|((s, m), n)| {
+                vk::PipelineShaderStageCreateInfo::default()
+                    .stage(vk_stage_flags(s.stage))
+                    .module(*m)
+                    .name(n)
+            })
             .collect();
         let _ = plan;
         let group_infos: Vec<vk::RayTracingShaderGroupCreateInfoKHR> = group_plan
@@ -341,7 +454,11 @@ impl Inner {
                     .closest_hit_shader(vk::SHADER_UNUSED_KHR)
                     .any_hit_shader(vk::SHADER_UNUSED_KHR)
                     .intersection_shader(vk::SHADER_UNUSED_KHR),
-                VkGroup::Hit { closest, any, intersection } => vk::RayTracingShaderGroupCreateInfoKHR::default()
+                VkGroup::Hit {
+                    closest,
+                    any,
+                    intersection,
+                } => vk::RayTracingShaderGroupCreateInfoKHR::default()
                     .ty(if intersection.is_some() {
                         vk::RayTracingShaderGroupTypeKHR::PROCEDURAL_HIT_GROUP
                     } else {
@@ -368,7 +485,11 @@ impl Inner {
             Err(e) => {
                 destroy_modules(&shader_modules);
                 // SAFETY: unused layouts.
-                unsafe { set_layouts.iter().for_each(|l| device.destroy_descriptor_set_layout(*l, None)) };
+                unsafe {
+                    set_layouts
+                        .iter()
+                        .for_each(|l| device.destroy_descriptor_set_layout(*l, None))
+                };
                 return Err(crate::error::vk_error("vkCreatePipelineLayout", e));
             }
         };
@@ -382,7 +503,12 @@ impl Inner {
             .layout(layout);
         // SAFETY: every index in the groups refers to a stage of the right kind.
         let created = unsafe {
-            ctx.rt.create_ray_tracing_pipelines(vk::DeferredOperationKHR::null(), self.cache.handle(), &[create], None)
+            ctx.rt.create_ray_tracing_pipelines(
+                vk::DeferredOperationKHR::null(),
+                self.cache.handle(),
+                &[create],
+                None,
+            )
         };
         destroy_modules(&shader_modules);
         let pipeline = match created {
@@ -391,7 +517,9 @@ impl Inner {
                 // SAFETY: unused layouts.
                 unsafe {
                     device.destroy_pipeline_layout(layout, None);
-                    set_layouts.iter().for_each(|l| device.destroy_descriptor_set_layout(*l, None));
+                    set_layouts
+                        .iter()
+                        .for_each(|l| device.destroy_descriptor_set_layout(*l, None));
                 }
                 return Err(crate::error::vk_error("vkCreateRayTracingPipelinesKHR", e));
             }
@@ -401,7 +529,14 @@ impl Inner {
         let handle_size = ctx.info.shader_group_handle_size as usize;
         let count = group_infos.len();
         // SAFETY: a ray tracing pipeline with `count` groups.
-        let all = unsafe { ctx.rt.get_ray_tracing_shader_group_handles(pipeline, 0, count as u32, count * handle_size) };
+        let all = unsafe {
+            ctx.rt.get_ray_tracing_shader_group_handles(
+                pipeline,
+                0,
+                count as u32,
+                count * handle_size,
+            )
+        };
         let all = match all {
             Ok(h) => h,
             Err(e) => {
@@ -409,15 +544,29 @@ impl Inner {
                 unsafe {
                     device.destroy_pipeline(pipeline, None);
                     device.destroy_pipeline_layout(layout, None);
-                    set_layouts.iter().for_each(|l| device.destroy_descriptor_set_layout(*l, None));
+                    set_layouts
+                        .iter()
+                        .for_each(|l| device.destroy_descriptor_set_layout(*l, None));
                 }
-                return Err(crate::error::vk_error("vkGetRayTracingShaderGroupHandlesKHR", e));
+                return Err(crate::error::vk_error(
+                    "vkGetRayTracingShaderGroupHandlesKHR",
+                    e,
+                ));
             }
         };
         let handle = |g: usize| all[g * handle_size..(g + 1) * handle_size].to_vec();
         let mut handles = HashMap::new();
         for (raw, region, primary, continuation) in &group_plan.user {
-            handles.insert(*raw, (*region, GroupHandles { primary: primary.map(handle), continuation: continuation.map(handle) }));
+            handles.insert(
+                *raw,
+                (
+                    *region,
+                    GroupHandles {
+                        primary: primary.map(handle),
+                        continuation: continuation.map(handle),
+                    },
+                ),
+            );
         }
         let stack_size = self.stack_size(pipeline, &group_plan, &stages, &config, recursion);
         let object = PipelineObject {
@@ -448,21 +597,43 @@ impl Inner {
                     BindingKind::Texture2d => vk::DescriptorType::SAMPLED_IMAGE,
                     BindingKind::Sampler => vk::DescriptorType::SAMPLER,
                 };
-                vk::DescriptorSetLayoutBinding::default().binding(b.binding).descriptor_type(ty).descriptor_count(1).stage_flags(stages)
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(b.binding)
+                    .descriptor_type(ty)
+                    .descriptor_count(1)
+                    .stage_flags(stages)
             })
             .collect();
         let backend: Vec<vk::DescriptorSetLayoutBinding> = (0..5)
             .map(|b| {
-                let ty = if b == 0 { vk::DescriptorType::UNIFORM_BUFFER } else { vk::DescriptorType::STORAGE_BUFFER };
-                vk::DescriptorSetLayoutBinding::default().binding(b).descriptor_type(ty).descriptor_count(1).stage_flags(stages)
+                let ty = if b == 0 {
+                    vk::DescriptorType::UNIFORM_BUFFER
+                } else {
+                    vk::DescriptorType::STORAGE_BUFFER
+                };
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(b)
+                    .descriptor_type(ty)
+                    .descriptor_count(1)
+                    .stage_flags(stages)
             })
             .collect();
         let device = &self.ctx.device;
         // SAFETY: valid bindings.
-        let first = unsafe { device.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&user), None) }
-            .or_vk("vkCreateDescriptorSetLayout")?;
+        let first = unsafe {
+            device.create_descriptor_set_layout(
+                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&user),
+                None,
+            )
+        }
+        .or_vk("vkCreateDescriptorSetLayout")?;
         // SAFETY: valid bindings.
-        match unsafe { device.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&backend), None) } {
+        match unsafe {
+            device.create_descriptor_set_layout(
+                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&backend),
+                None,
+            )
+        } {
             Ok(second) => Ok([first, second]),
             Err(e) => {
                 // SAFETY: unused layout.
@@ -474,13 +645,21 @@ impl Inner {
 
     /// The pipeline stack size: OptiX's `optixUtilComputeStackSizes` with Vulkan's group
     /// stack sizes, counting continuation calls as ray levels and callables at every level.
-    fn stack_size(&self, pipeline: vk::Pipeline, plan: &GroupPlan, stages: &[program::LoweredStage], config: &LoweringConfig, recursion: u32) -> u32 {
+    fn stack_size(
+        &self,
+        pipeline: vk::Pipeline,
+        plan: &GroupPlan,
+        stages: &[program::LoweredStage],
+        config: &LoweringConfig,
+        recursion: u32,
+    ) -> u32 {
         let rt = &self.ctx.rt;
         let size = |group: usize, shader: vk::ShaderGroupShaderKHR| -> u64 {
             // SAFETY: a group index of this pipeline.
             unsafe { rt.get_ray_tracing_shader_group_stack_size(pipeline, group as u32, shader) }
         };
-        let (mut rg, mut ms, mut ch, mut ah, mut is, mut callable) = (0u64, 0u64, 0u64, 0u64, 0u64, 0u64);
+        let (mut rg, mut ms, mut ch, mut ah, mut is, mut callable) =
+            (0u64, 0u64, 0u64, 0u64, 0u64, 0u64);
         for (g, group) in plan.groups.iter().enumerate() {
             match *group {
                 VkGroup::General(s) => {
@@ -491,7 +670,11 @@ impl Inner {
                         _ => callable = callable.max(v),
                     }
                 }
-                VkGroup::Hit { closest, any, intersection } => {
+                VkGroup::Hit {
+                    closest,
+                    any,
+                    intersection,
+                } => {
                     if closest.is_some() {
                         ch = ch.max(size(g, vk::ShaderGroupShaderKHR::CLOSEST_HIT));
                     }
@@ -504,7 +687,11 @@ impl Inner {
                 }
             }
         }
-        let direct_depth = if config.guard_direct_calls { config.max_direct_callable_depth.max(1) } else { 1 } as u64;
+        let direct_depth = if config.guard_direct_calls {
+            config.max_direct_callable_depth.max(1)
+        } else {
+            1
+        } as u64;
         let callable_depth = direct_depth + u64::from(config.exception_program);
         let per_level = ch.max(ms).max(is + ah) + callable_depth * callable;
         let total = rg + callable_depth * callable + recursion as u64 * per_level;
@@ -513,7 +700,9 @@ impl Inner {
 }
 
 /// The union of the modules' `@group(0)` bindings; one number, one kind.
-fn merged_bindings<'a>(modules: impl Iterator<Item = &'a Arc<CompiledModule>>) -> Result<Vec<BindingInfo>> {
+fn merged_bindings<'a>(
+    modules: impl Iterator<Item = &'a Arc<CompiledModule>>,
+) -> Result<Vec<BindingInfo>> {
     let mut out: Vec<BindingInfo> = Vec::new();
     for m in modules {
         for b in &m.bindings {
@@ -526,7 +715,8 @@ fn merged_bindings<'a>(modules: impl Iterator<Item = &'a Arc<CompiledModule>>) -
                 }
                 Some(o) => {
                     // Keep the larger fixed size, so launches check against both.
-                    if let (BindingKind::Params { size: a }, BindingKind::Params { size: bsize }) = (o.kind, b.kind)
+                    if let (BindingKind::Params { size: a }, BindingKind::Params { size: bsize }) =
+                        (o.kind, b.kind)
                         && bsize > a
                     {
                         let i = out.iter().position(|x| x.binding == b.binding).unwrap_or(0);
@@ -542,12 +732,23 @@ fn merged_bindings<'a>(modules: impl Iterator<Item = &'a Arc<CompiledModule>>) -
 }
 
 /// Stages and Vulkan groups for a pipeline's optik groups.
-fn plan_stages(groups: &[ProgramGroup], descs: &[ProgramGroupDesc], config: &LoweringConfig) -> (StagePlan, GroupPlan) {
+fn plan_stages(
+    groups: &[ProgramGroup],
+    descs: &[ProgramGroupDesc],
+    config: &LoweringConfig,
+) -> (StagePlan, GroupPlan) {
     let mut plan = StagePlan::default();
     let mut vk_groups: Vec<VkGroup> = Vec::new();
     let mut user = Vec::new();
     let program = |p: &ProgramRef, kind: ProgramKind, context: Option<HitContext>| {
-        (Source::User(p.module), StageRole::Program { name: p.entry.clone(), kind, context })
+        (
+            Source::User(p.module),
+            StageRole::Program {
+                name: p.entry.clone(),
+                kind,
+                context,
+            },
+        )
     };
     for (g, desc) in groups.iter().zip(descs) {
         let add = |vk_groups: &mut Vec<VkGroup>, group: VkGroup| {
@@ -557,18 +758,32 @@ fn plan_stages(groups: &[ProgramGroup], descs: &[ProgramGroupDesc], config: &Low
         let (primary, continuation) = match desc {
             ProgramGroupDesc::Raygen(p) => {
                 let (s, r) = program(p, ProgramKind::Raygen, None);
-                (Some(add(&mut vk_groups, VkGroup::General(plan.stage(s, r)))), None)
+                (
+                    Some(add(&mut vk_groups, VkGroup::General(plan.stage(s, r)))),
+                    None,
+                )
             }
             ProgramGroupDesc::Miss(Some(p)) => {
                 let (s, r) = program(p, ProgramKind::Miss, None);
-                (Some(add(&mut vk_groups, VkGroup::General(plan.stage(s, r)))), None)
+                (
+                    Some(add(&mut vk_groups, VkGroup::General(plan.stage(s, r)))),
+                    None,
+                )
             }
             ProgramGroupDesc::Miss(None) => (None, None),
             ProgramGroupDesc::Exception(p) => {
                 let (s, r) = program(p, ProgramKind::Exception, None);
-                (Some(add(&mut vk_groups, VkGroup::General(plan.stage(s, r)))), None)
+                (
+                    Some(add(&mut vk_groups, VkGroup::General(plan.stage(s, r)))),
+                    None,
+                )
             }
-            ProgramGroupDesc::HitGroup { closest_hit, any_hit, intersection, builtin } => {
+            ProgramGroupDesc::HitGroup {
+                closest_hit,
+                any_hit,
+                intersection,
+                builtin,
+            } => {
                 let context = match (intersection, builtin) {
                     (Some(_), _) => HitContext::Custom,
                     (None, BuiltinIntersector::Triangle) => HitContext::Triangles,
@@ -583,21 +798,40 @@ fn plan_stages(groups: &[ProgramGroup], descs: &[ProgramGroupDesc], config: &Low
                     let (s, r) = program(p, ProgramKind::AnyHit, Some(context));
                     plan.stage(s, r)
                 });
-                let is = match (intersection, builtin) {
-                    (Some(p), _) => {
-                        let (s, r) = program(p, ProgramKind::Intersection, None);
-                        Some(plan.stage(s, r))
-                    }
-                    (None, BuiltinIntersector::Sphere) => Some(plan.stage(Source::Internal(0), StageRole::SphereIntersection)),
-                    (None, BuiltinIntersector::Curve(t)) => {
-                        let basis = optik_api::wgsl::curve_basis(*t);
-                        Some(plan.stage(Source::Internal(basis), StageRole::CurveIntersection(basis)))
-                    }
-                    (None, BuiltinIntersector::Triangle) => None,
-                };
-                (Some(add(&mut vk_groups, VkGroup::Hit { closest, any, intersection: is })), None)
+                let is =
+                    match (intersection, builtin) {
+                        (Some(p), _) => {
+                            let (s, r) = program(p, ProgramKind::Intersection, None);
+                            Some(plan.stage(s, r))
+                        }
+                        (None, BuiltinIntersector::Sphere) => {
+                            Some(plan.stage(Source::Internal(0), StageRole::SphereIntersection))
+                        }
+                        (None, BuiltinIntersector::Curve(t)) => {
+                            let basis = optik_api::wgsl::curve_basis(*t);
+                            Some(plan.stage(
+                                Source::Internal(basis),
+                                StageRole::CurveIntersection(basis),
+                            ))
+                        }
+                        (None, BuiltinIntersector::Triangle) => None,
+                    };
+                (
+                    Some(add(
+                        &mut vk_groups,
+                        VkGroup::Hit {
+                            closest,
+                            any,
+                            intersection: is,
+                        },
+                    )),
+                    None,
+                )
             }
-            ProgramGroupDesc::Callables { direct, continuation } => {
+            ProgramGroupDesc::Callables {
+                direct,
+                continuation,
+            } => {
                 let d = direct.as_ref().map(|p| {
                     let (s, r) = program(p, ProgramKind::DirectCallable, None);
                     add(&mut vk_groups, VkGroup::General(plan.stage(s, r)))
@@ -609,13 +843,30 @@ fn plan_stages(groups: &[ProgramGroup], descs: &[ProgramGroupDesc], config: &Low
                 (d, c)
             }
         };
-        user.push((optik_api::Handle::raw(g), desc.region(), primary, continuation));
+        user.push((
+            optik_api::Handle::raw(g),
+            desc.region(),
+            primary,
+            continuation,
+        ));
     }
-    vk_groups.push(VkGroup::General(plan.stage(Source::Internal(0), StageRole::NullCallable)));
+    vk_groups.push(VkGroup::General(
+        plan.stage(Source::Internal(0), StageRole::NullCallable),
+    ));
     let null_callable = vk_groups.len() - 1;
     let null_continuation = config.continuation_calls.then(|| {
-        vk_groups.push(VkGroup::General(plan.stage(Source::Internal(0), StageRole::NullContinuation)));
+        vk_groups.push(VkGroup::General(
+            plan.stage(Source::Internal(0), StageRole::NullContinuation),
+        ));
         vk_groups.len() - 1
     });
-    (plan, GroupPlan { groups: vk_groups, user, null_callable, null_continuation })
+    (
+        plan,
+        GroupPlan {
+            groups: vk_groups,
+            user,
+            null_callable,
+            null_continuation,
+        },
+    )
 }

@@ -55,10 +55,19 @@ impl RayTracingExtensions {
         for (on, name) in [
             (self.acceleration_structure, "VK_KHR_acceleration_structure"),
             (self.ray_tracing_pipeline, "VK_KHR_ray_tracing_pipeline"),
-            (self.deferred_host_operations, "VK_KHR_deferred_host_operations"),
+            (
+                self.deferred_host_operations,
+                "VK_KHR_deferred_host_operations",
+            ),
             (self.ray_query, "VK_KHR_ray_query"),
-            (self.ray_tracing_maintenance1, "VK_KHR_ray_tracing_maintenance1"),
-            (self.ray_tracing_position_fetch, "VK_KHR_ray_tracing_position_fetch"),
+            (
+                self.ray_tracing_maintenance1,
+                "VK_KHR_ray_tracing_maintenance1",
+            ),
+            (
+                self.ray_tracing_position_fetch,
+                "VK_KHR_ray_tracing_position_fetch",
+            ),
             (self.opacity_micromap, "VK_EXT_opacity_micromap"),
             (self.nv_motion_blur, "VK_NV_ray_tracing_motion_blur"),
         ] {
@@ -143,40 +152,72 @@ impl VulkanDeviceInfo {
 impl fmt::Display for VulkanDeviceInfo {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let (a, b, c) = self.api_version;
-        writeln!(f, "[{}] {} ({:?}, vendor {:#06x}, device {:#06x})", self.index, self.name, self.device_type, self.vendor_id, self.device_id)?;
-        writeln!(f, "    driver: {} {} (version {:#x}), Vulkan {a}.{b}.{c}", self.driver_name, self.driver_info, self.driver_version)?;
+        writeln!(
+            f,
+            "[{}] {} ({:?}, vendor {:#06x}, device {:#06x})",
+            self.index, self.name, self.device_type, self.vendor_id, self.device_id
+        )?;
+        writeln!(
+            f,
+            "    driver: {} {} (version {:#x}), Vulkan {a}.{b}.{c}",
+            self.driver_name, self.driver_info, self.driver_version
+        )?;
         let ext = self.extensions.names();
-        writeln!(f, "    ray tracing extensions: {}", if ext.is_empty() { "none".to_string() } else { ext.join(", ") })?;
+        writeln!(
+            f,
+            "    ray tracing extensions: {}",
+            if ext.is_empty() {
+                "none".to_string()
+            } else {
+                ext.join(", ")
+            }
+        )?;
         if self.extensions.ray_tracing_pipeline {
             writeln!(
                 f,
                 "    shader groups: handle size {}, handle alignment {}, base alignment {}, max stride {}",
-                self.shader_group_handle_size, self.shader_group_handle_alignment, self.shader_group_base_alignment, self.max_shader_group_stride
+                self.shader_group_handle_size,
+                self.shader_group_handle_alignment,
+                self.shader_group_base_alignment,
+                self.max_shader_group_stride
             )?;
             writeln!(
                 f,
                 "    rays: max recursion depth {}, max hit attribute size {} bytes, max dispatch invocations {}",
-                self.max_ray_recursion_depth, self.max_ray_hit_attribute_size, self.max_ray_dispatch_invocation_count
+                self.max_ray_recursion_depth,
+                self.max_ray_hit_attribute_size,
+                self.max_ray_dispatch_invocation_count
             )?;
         }
         if self.extensions.acceleration_structure {
             writeln!(
                 f,
                 "    acceleration structures: max geometries {}, max instances {}, max primitives {}, scratch alignment {}",
-                self.max_geometry_count, self.max_instance_count, self.max_primitive_count, self.min_scratch_offset_alignment
+                self.max_geometry_count,
+                self.max_instance_count,
+                self.max_primitive_count,
+                self.min_scratch_offset_alignment
             )?;
         }
         writeln!(
             f,
             "    memory: largest device-local heap {} MiB, {}; max storage buffer range {} MiB",
             self.device_local_heap >> 20,
-            if self.separate_device_memory { "separate device memory (staging copies)" } else { "host-visible device memory" },
+            if self.separate_device_memory {
+                "separate device memory (staging copies)"
+            } else {
+                "host-visible device memory"
+            },
             self.max_storage_buffer_range >> 20
         )?;
         if self.missing.is_empty() {
             write!(f, "    usable by optik")
         } else {
-            write!(f, "    not usable by optik: lacks {}", self.missing.join(", "))
+            write!(
+                f,
+                "    not usable by optik: lacks {}",
+                self.missing.join(", ")
+            )
         }
     }
 }
@@ -188,8 +229,13 @@ pub fn probe() -> Result<Vec<VulkanDeviceInfo>> {
     let instance = create_bare_instance(&entry)?;
     let result = (|| {
         // SAFETY: the instance is valid until destroyed below.
-        let physicals = unsafe { instance.enumerate_physical_devices() }.or_vk("vkEnumeratePhysicalDevices")?;
-        physicals.iter().enumerate().map(|(i, p)| device_info(&instance, *p, i)).collect()
+        let physicals =
+            unsafe { instance.enumerate_physical_devices() }.or_vk("vkEnumeratePhysicalDevices")?;
+        physicals
+            .iter()
+            .enumerate()
+            .map(|(i, p)| device_info(&instance, *p, i))
+            .collect()
     })();
     // SAFETY: no object of this instance outlives it.
     unsafe { instance.destroy_instance(None) };
@@ -211,7 +257,10 @@ pub(crate) const API_VERSION: u32 = vk::API_VERSION_1_2;
 
 fn create_bare_instance(entry: &ash::Entry) -> Result<ash::Instance> {
     check_instance_version(entry)?;
-    let app = vk::ApplicationInfo::default().application_name(c"optik").engine_name(c"optik").api_version(API_VERSION);
+    let app = vk::ApplicationInfo::default()
+        .application_name(c"optik")
+        .engine_name(c"optik")
+        .api_version(API_VERSION);
     let info = vk::InstanceCreateInfo::default().application_info(&app);
     // SAFETY: valid create info; the caller destroys the instance.
     unsafe { entry.create_instance(&info, None) }.or_vk("vkCreateInstance")
@@ -219,7 +268,9 @@ fn create_bare_instance(entry: &ash::Entry) -> Result<ash::Instance> {
 
 pub(crate) fn check_instance_version(entry: &ash::Entry) -> Result<()> {
     // SAFETY: a global command of the loaded entry.
-    let version = unsafe { entry.try_enumerate_instance_version() }.or_vk("vkEnumerateInstanceVersion")?.unwrap_or(vk::API_VERSION_1_0);
+    let version = unsafe { entry.try_enumerate_instance_version() }
+        .or_vk("vkEnumerateInstanceVersion")?
+        .unwrap_or(vk::API_VERSION_1_0);
     if version < API_VERSION {
         return Err(Error::unsupported(format!(
             "the Vulkan loader supports Vulkan {}.{}; optik needs 1.2",
@@ -231,15 +282,27 @@ pub(crate) fn check_instance_version(entry: &ash::Entry) -> Result<()> {
 }
 
 fn c_text(chars: &[std::ffi::c_char]) -> String {
-    let bytes: Vec<u8> = chars.iter().take_while(|c| **c != 0).map(|c| *c as u8).collect();
+    let bytes: Vec<u8> = chars
+        .iter()
+        .take_while(|c| **c != 0)
+        .map(|c| *c as u8)
+        .collect();
     String::from_utf8_lossy(&bytes).into_owned()
 }
 
 /// Reads a device's properties and what optik needs that it lacks.
-pub(crate) fn device_info(instance: &ash::Instance, physical: vk::PhysicalDevice, index: usize) -> Result<VulkanDeviceInfo> {
+pub(crate) fn device_info(
+    instance: &ash::Instance,
+    physical: vk::PhysicalDevice,
+    index: usize,
+) -> Result<VulkanDeviceInfo> {
     // SAFETY: `physical` comes from this instance.
-    let ext_props = unsafe { instance.enumerate_device_extension_properties(physical) }.or_vk("vkEnumerateDeviceExtensionProperties")?;
-    let ext_names: Vec<String> = ext_props.iter().map(|e| c_text(&e.extension_name)).collect();
+    let ext_props = unsafe { instance.enumerate_device_extension_properties(physical) }
+        .or_vk("vkEnumerateDeviceExtensionProperties")?;
+    let ext_names: Vec<String> = ext_props
+        .iter()
+        .map(|e| c_text(&e.extension_name))
+        .collect();
     let extensions = RayTracingExtensions::from_names(&ext_names);
     // SAFETY: as above.
     let base = unsafe { instance.get_physical_device_properties(physical) };
@@ -265,12 +328,25 @@ pub(crate) fn device_info(instance: &ash::Instance, physical: vk::PhysicalDevice
 
     let mut missing = Vec::new();
     if api < vk::API_VERSION_1_2 {
-        missing.push(format!("Vulkan 1.2 (it has {}.{})", vk::api_version_major(api), vk::api_version_minor(api)));
+        missing.push(format!(
+            "Vulkan 1.2 (it has {}.{})",
+            vk::api_version_major(api),
+            vk::api_version_minor(api)
+        ));
     }
     for (name, have) in [
-        ("VK_KHR_acceleration_structure", extensions.acceleration_structure),
-        ("VK_KHR_ray_tracing_pipeline", extensions.ray_tracing_pipeline),
-        ("VK_KHR_deferred_host_operations", extensions.deferred_host_operations),
+        (
+            "VK_KHR_acceleration_structure",
+            extensions.acceleration_structure,
+        ),
+        (
+            "VK_KHR_ray_tracing_pipeline",
+            extensions.ray_tracing_pipeline,
+        ),
+        (
+            "VK_KHR_deferred_host_operations",
+            extensions.deferred_host_operations,
+        ),
     ] {
         if !have {
             missing.push(name.to_string());
@@ -280,12 +356,18 @@ pub(crate) fn device_info(instance: &ash::Instance, physical: vk::PhysicalDevice
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
         let mut fas = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default();
         let mut frt = vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default();
-        let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12).push_next(&mut fas).push_next(&mut frt);
+        let mut features2 = vk::PhysicalDeviceFeatures2::default()
+            .push_next(&mut f12)
+            .push_next(&mut fas)
+            .push_next(&mut frt);
         // SAFETY: the device has 1.2 and both extensions (checked above).
         unsafe { instance.get_physical_device_features2(physical, &mut features2) };
         for (name, have) in [
             ("the bufferDeviceAddress feature", f12.buffer_device_address),
-            ("the accelerationStructure feature", fas.acceleration_structure),
+            (
+                "the accelerationStructure feature",
+                fas.acceleration_structure,
+            ),
             ("the rayTracingPipeline feature", frt.ray_tracing_pipeline),
         ] {
             if have == vk::FALSE {
@@ -293,22 +375,34 @@ pub(crate) fn device_info(instance: &ash::Instance, physical: vk::PhysicalDevice
             }
         }
         if rt.max_ray_hit_attribute_size < 32 {
-            missing.push(format!("32 bytes of hit attributes (it has {})", rt.max_ray_hit_attribute_size));
+            missing.push(format!(
+                "32 bytes of hit attributes (it has {})",
+                rt.max_ray_hit_attribute_size
+            ));
         }
     }
 
     // SAFETY: as above.
     let memory = unsafe { instance.get_physical_device_memory_properties(physical) };
     let heaps = &memory.memory_heaps[..memory.memory_heap_count as usize];
-    let device_local_heap =
-        heaps.iter().filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL)).map(|h| h.size).max().unwrap_or(0);
+    let device_local_heap = heaps
+        .iter()
+        .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+        .map(|h| h.size)
+        .max()
+        .unwrap_or(0);
     let types = &memory.memory_types[..memory.memory_type_count as usize];
     let separate_device_memory = types.iter().any(|t| {
-        t.property_flags.contains(vk::MemoryPropertyFlags::DEVICE_LOCAL) && !t.property_flags.contains(vk::MemoryPropertyFlags::HOST_VISIBLE)
+        t.property_flags
+            .contains(vk::MemoryPropertyFlags::DEVICE_LOCAL)
+            && !t
+                .property_flags
+                .contains(vk::MemoryPropertyFlags::HOST_VISIBLE)
     });
     let limits = &base.limits;
-    let max_launch_dimensions: [u64; 3] =
-        std::array::from_fn(|i| limits.max_compute_work_group_count[i] as u64 * limits.max_compute_work_group_size[i] as u64);
+    let max_launch_dimensions: [u64; 3] = std::array::from_fn(|i| {
+        limits.max_compute_work_group_count[i] as u64 * limits.max_compute_work_group_size[i] as u64
+    });
 
     Ok(VulkanDeviceInfo {
         index,
@@ -319,7 +413,11 @@ pub(crate) fn device_info(instance: &ash::Instance, physical: vk::PhysicalDevice
         driver_name: c_text(&driver.driver_name),
         driver_info: c_text(&driver.driver_info),
         driver_version: base.driver_version,
-        api_version: (vk::api_version_major(api), vk::api_version_minor(api), vk::api_version_patch(api)),
+        api_version: (
+            vk::api_version_major(api),
+            vk::api_version_minor(api),
+            vk::api_version_patch(api),
+        ),
         extensions,
         shader_group_handle_size: rt.shader_group_handle_size,
         shader_group_handle_alignment: rt.shader_group_handle_alignment,

@@ -89,7 +89,13 @@ struct Reader<'a> {
 impl Reader<'_> {
     /// The handles of the group a record's header names; checks the group is in the pipeline
     /// and belongs in `region`.
-    fn header(&self, what: &str, buffer: Buffer, offset: u64, region: GroupRegion) -> Result<&GroupHandles> {
+    fn header(
+        &self,
+        what: &str,
+        buffer: Buffer,
+        offset: u64,
+        region: GroupRegion,
+    ) -> Result<&GroupHandles> {
         let bytes = self.bytes.bytes(buffer)?;
         let header = bytes
             .get(offset as usize..offset as usize + sbt::SBT_RECORD_HEADER_SIZE as usize)
@@ -119,15 +125,29 @@ impl Reader<'_> {
         let bytes = self.bytes.bytes(buffer)?;
         let start = (offset + sbt::SBT_RECORD_HEADER_SIZE as u64) as usize;
         let end = (start + len as usize).min(bytes.len());
-        Ok(bytes.get(start..end).map(|b| b.to_vec()).unwrap_or_default())
+        Ok(bytes
+            .get(start..end)
+            .map(|b| b.to_vec())
+            .unwrap_or_default())
     }
 
-    fn array(&self, what: &str, r: &SbtRegion, region: GroupRegion) -> Result<Vec<(GroupHandles, Vec<u8>)>> {
+    fn array(
+        &self,
+        what: &str,
+        r: &SbtRegion,
+        region: GroupRegion,
+    ) -> Result<Vec<(GroupHandles, Vec<u8>)>> {
         (0..r.count)
             .map(|k| {
                 let offset = r.offset + k as u64 * r.stride as u64;
-                let handles = self.header(&format!("{what} record {k}"), r.buffer, offset, region)?.clone();
-                let data = self.data(r.buffer, offset, (r.stride - sbt::SBT_RECORD_HEADER_SIZE) as u64)?;
+                let handles = self
+                    .header(&format!("{what} record {k}"), r.buffer, offset, region)?
+                    .clone();
+                let data = self.data(
+                    r.buffer,
+                    offset,
+                    (r.stride - sbt::SBT_RECORD_HEADER_SIZE) as u64,
+                )?;
                 Ok((handles, data))
             })
             .collect()
@@ -136,19 +156,43 @@ impl Reader<'_> {
 
 impl Inner {
     /// The Vulkan table for a launch of `pipeline` with `table`: cached, or translated now.
-    pub fn translate_sbt(&mut self, pipeline: Pipeline, table: &ShaderBindingTable) -> Result<Arc<TranslatedSbt>> {
+    pub fn translate_sbt(
+        &mut self,
+        pipeline: Pipeline,
+        table: &ShaderBindingTable,
+    ) -> Result<Arc<TranslatedSbt>> {
         let mut buffers = vec![table.raygen.buffer];
         buffers.extend(table.exception.iter().map(|r| r.buffer));
-        buffers.extend([table.miss, table.hitgroup, table.callables].iter().flatten().map(|r| r.buffer));
+        buffers.extend(
+            [table.miss, table.hitgroup, table.callables]
+                .iter()
+                .flatten()
+                .map(|r| r.buffer),
+        );
         buffers.sort();
         buffers.dedup();
         let mut generations = Vec::with_capacity(buffers.len());
         for b in &buffers {
             generations.push((*b, self.buffers.get(*b)?.generation));
         }
-        let hit_reach = self.accels.iter().map(|(_, a)| a.sbt_reach()).max().unwrap_or(0);
-        let key = SbtKey { table: *table, generations, hit_reach };
-        if let Some(t) = self.pipelines.get(pipeline)?.sbt_cache.iter().find(|t| t.key == key) {
+        let hit_reach = self
+            .accels
+            .iter()
+            .map(|(_, a)| a.sbt_reach())
+            .max()
+            .unwrap_or(0);
+        let key = SbtKey {
+            table: *table,
+            generations,
+            hit_reach,
+        };
+        if let Some(t) = self
+            .pipelines
+            .get(pipeline)?
+            .sbt_cache
+            .iter()
+            .find(|t| t.key == key)
+        {
             return Ok(t.clone());
         }
         // Reading the table waits for launches that may write it.
@@ -158,14 +202,26 @@ impl Inner {
         let regions = {
             let downloaded = self.download_for_snapshot(&snapshot_buffers)?;
             let snapshot = self.snapshot_view(downloaded, &snapshot_buffers)?;
-            let reader = Reader { bytes: &snapshot, pipeline: self.pipelines.get(pipeline)? };
-            read_regions(&reader, table, hit_reach, max_stride.saturating_sub(handle_size))?
+            let reader = Reader {
+                bytes: &snapshot,
+                pipeline: self.pipelines.get(pipeline)?,
+            };
+            read_regions(
+                &reader,
+                table,
+                hit_reach,
+                max_stride.saturating_sub(handle_size),
+            )?
         };
         let translated = self.lay_out(key, regions, table)?;
         let p = self.pipelines.get_mut(pipeline)?;
         let translated = Arc::new(translated);
         p.sbt_cache.insert(0, translated.clone());
-        let evicted: Vec<Arc<TranslatedSbt>> = if p.sbt_cache.len() > CACHE_ENTRIES { p.sbt_cache.split_off(CACHE_ENTRIES) } else { Vec::new() };
+        let evicted: Vec<Arc<TranslatedSbt>> = if p.sbt_cache.len() > CACHE_ENTRIES {
+            p.sbt_cache.split_off(CACHE_ENTRIES)
+        } else {
+            Vec::new()
+        };
         for t in evicted {
             // In-flight launches hold their table; the last holder frees it (launch.rs).
             if let Ok(t) = Arc::try_unwrap(t) {
@@ -176,7 +232,12 @@ impl Inner {
     }
 
     /// Writes the regions into a new buffer in Vulkan's layout.
-    fn lay_out(&mut self, key: SbtKey, regions: [Region; 4], table: &ShaderBindingTable) -> Result<TranslatedSbt> {
+    fn lay_out(
+        &mut self,
+        key: SbtKey,
+        regions: [Region; 4],
+        table: &ShaderBindingTable,
+    ) -> Result<TranslatedSbt> {
         let info = &self.ctx.info;
         let (hs, ha, ba, max_stride) = (
             info.shader_group_handle_size as u64,
@@ -187,7 +248,12 @@ impl Inner {
         let mut layout = Vec::with_capacity(4);
         let mut size = 0u64;
         for r in &regions {
-            let data = r.records.iter().map(|x| x.data.len() as u64).max().unwrap_or(0);
+            let data = r
+                .records
+                .iter()
+                .map(|x| x.data.len() as u64)
+                .max()
+                .unwrap_or(0);
             let stride = align(hs + data, ha);
             if stride > max_stride {
                 let advice = match r.user_stride {
@@ -253,7 +319,12 @@ impl Inner {
 }
 
 /// Reads the user's records into the four Vulkan regions.
-fn read_regions(reader: &Reader, table: &ShaderBindingTable, hit_reach: u64, max_data: u64) -> Result<[Region; 4]> {
+fn read_regions(
+    reader: &Reader,
+    table: &ShaderBindingTable,
+    hit_reach: u64,
+    max_data: u64,
+) -> Result<[Region; 4]> {
     let single_data = |buffer: Buffer, offset: u64| -> Result<Vec<u8>> {
         // A single record's data runs to the end of its buffer; Vulkan's record holds as much
         // of it as the largest stride allows.
@@ -262,52 +333,113 @@ fn read_regions(reader: &Reader, table: &ShaderBindingTable, hit_reach: u64, max
         reader.data(buffer, offset, available.min(max_data) / 4 * 4)
     };
     let p = reader.pipeline;
-    let rg = reader.header("sbt.raygen", table.raygen.buffer, table.raygen.offset, GroupRegion::Raygen)?;
+    let rg = reader.header(
+        "sbt.raygen",
+        table.raygen.buffer,
+        table.raygen.offset,
+        GroupRegion::Raygen,
+    )?;
     let raygen = Region {
         name: "raygen",
-        records: vec![Record { handle: rg.primary.clone(), data: single_data(table.raygen.buffer, table.raygen.offset)? }],
+        records: vec![Record {
+            handle: rg.primary.clone(),
+            data: single_data(table.raygen.buffer, table.raygen.offset)?,
+        }],
         user_stride: None,
     };
 
-    let mut miss = Region { name: "miss", records: Vec::new(), user_stride: table.miss.map(|m| m.stride) };
+    let mut miss = Region {
+        name: "miss",
+        records: Vec::new(),
+        user_stride: table.miss.map(|m| m.stride),
+    };
     if let Some(m) = &table.miss {
         for (handles, data) in reader.array("sbt.miss", m, GroupRegion::Miss)? {
-            miss.records.push(Record { handle: handles.primary, data });
+            miss.records.push(Record {
+                handle: handles.primary,
+                data,
+            });
         }
     }
-    miss.records.push(Record { handle: None, data: Vec::new() });
+    miss.records.push(Record {
+        handle: None,
+        data: Vec::new(),
+    });
     let callables = match &table.callables {
         Some(c) => reader.array("sbt.callables", c, GroupRegion::Callables)?,
         None => Vec::new(),
     };
     if let Some(null_cc) = &p.null_continuation {
         for (handles, data) in &callables {
-            miss.records.push(Record { handle: Some(handles.continuation.clone().unwrap_or_else(|| null_cc.clone())), data: data.clone() });
+            miss.records.push(Record {
+                handle: Some(
+                    handles
+                        .continuation
+                        .clone()
+                        .unwrap_or_else(|| null_cc.clone()),
+                ),
+                data: data.clone(),
+            });
         }
-        miss.records.push(Record { handle: Some(null_cc.clone()), data: Vec::new() });
+        miss.records.push(Record {
+            handle: Some(null_cc.clone()),
+            data: Vec::new(),
+        });
     }
 
-    let mut hit = Region { name: "hit group", records: Vec::new(), user_stride: table.hitgroup.map(|h| h.stride) };
+    let mut hit = Region {
+        name: "hit group",
+        records: Vec::new(),
+        user_stride: table.hitgroup.map(|h| h.stride),
+    };
     if let Some(h) = &table.hitgroup {
         for (handles, data) in reader.array("sbt.hitgroup", h, GroupRegion::HitGroup)? {
-            hit.records.push(Record { handle: handles.primary, data });
+            hit.records.push(Record {
+                handle: handles.primary,
+                data,
+            });
         }
     }
-    let wanted = (hit_reach + 1).min(hit.records.len() as u64 + MAX_HIT_PADDING).max(1);
+    let wanted = (hit_reach + 1)
+        .min(hit.records.len() as u64 + MAX_HIT_PADDING)
+        .max(1);
     while (hit.records.len() as u64) < wanted {
-        hit.records.push(Record { handle: None, data: Vec::new() });
+        hit.records.push(Record {
+            handle: None,
+            data: Vec::new(),
+        });
     }
 
     let exception = match &table.exception {
         Some(e) => {
-            let handles = reader.header("sbt.exception", e.buffer, e.offset, GroupRegion::Exception)?;
-            Record { handle: handles.primary.clone(), data: single_data(e.buffer, e.offset)? }
+            let handles =
+                reader.header("sbt.exception", e.buffer, e.offset, GroupRegion::Exception)?;
+            Record {
+                handle: handles.primary.clone(),
+                data: single_data(e.buffer, e.offset)?,
+            }
         }
-        None => Record { handle: Some(p.null_callable.clone()), data: Vec::new() },
+        None => Record {
+            handle: Some(p.null_callable.clone()),
+            data: Vec::new(),
+        },
     };
-    let mut callable = Region { name: "callables", records: vec![exception, Record { handle: Some(p.null_callable.clone()), data: Vec::new() }], user_stride: table.callables.map(|c| c.stride) };
+    let mut callable = Region {
+        name: "callables",
+        records: vec![
+            exception,
+            Record {
+                handle: Some(p.null_callable.clone()),
+                data: Vec::new(),
+            },
+        ],
+        user_stride: table.callables.map(|c| c.stride),
+    };
     for (handles, data) in callables {
-        callable.records.push(Record { handle: Some(handles.primary.unwrap_or_else(|| p.null_callable.clone())), data });
+        callable.records.push(Record {
+            handle: Some(handles.primary.unwrap_or_else(|| p.null_callable.clone())),
+            data,
+        });
     }
     Ok([raygen, miss, hit, callable])
 }

@@ -4,7 +4,10 @@ use crate::device::Inner;
 use crate::error::VkResultExt;
 use crate::memory::{GpuBuffer, Location};
 use ash::vk;
-use optik_api::{AddressMode, Error, FilterMode, Result, SamplerDesc, Texture, TextureDesc, TextureFormat, validate};
+use optik_api::{
+    AddressMode, Error, FilterMode, Result, SamplerDesc, Texture, TextureDesc, TextureFormat,
+    validate,
+};
 
 /// A 2D image in shader-read layout, with its own memory.
 pub struct TextureObject {
@@ -35,11 +38,20 @@ fn vk_format(f: TextureFormat) -> vk::Format {
 }
 
 fn color_range() -> vk::ImageSubresourceRange {
-    vk::ImageSubresourceRange::default().aspect_mask(vk::ImageAspectFlags::COLOR).level_count(1).layer_count(1)
+    vk::ImageSubresourceRange::default()
+        .aspect_mask(vk::ImageAspectFlags::COLOR)
+        .level_count(1)
+        .layer_count(1)
 }
 
 /// Records a layout transition of a whole colour image.
-fn transition(device: &ash::Device, cmd: vk::CommandBuffer, image: vk::Image, from: vk::ImageLayout, to: vk::ImageLayout) {
+fn transition(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    image: vk::Image,
+    from: vk::ImageLayout,
+    to: vk::ImageLayout,
+) {
     let barrier = vk::ImageMemoryBarrier::default()
         .src_access_mask(vk::AccessFlags::MEMORY_WRITE)
         .dst_access_mask(vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE)
@@ -71,7 +83,11 @@ impl Inner {
         let info = vk::ImageCreateInfo::default()
             .image_type(vk::ImageType::TYPE_2D)
             .format(format)
-            .extent(vk::Extent3D { width: desc.width, height: desc.height, depth: 1 })
+            .extent(vk::Extent3D {
+                width: desc.width,
+                height: desc.height,
+                depth: 1,
+            })
             .mip_levels(1)
             .array_layers(1)
             .samples(vk::SampleCountFlags::TYPE_1)
@@ -92,7 +108,9 @@ impl Inner {
             unsafe { ctx.device.destroy_image(image, None) };
             return Err(Error::backend("no memory type fits a texture"));
         };
-        let alloc = vk::MemoryAllocateInfo::default().allocation_size(req.size).memory_type_index(type_index);
+        let alloc = vk::MemoryAllocateInfo::default()
+            .allocation_size(req.size)
+            .memory_type_index(type_index);
         // SAFETY: valid allocate info.
         let memory = match unsafe { ctx.device.allocate_memory(&alloc, None) } {
             Ok(m) => m,
@@ -124,14 +142,39 @@ impl Inner {
                 return Err(e);
             }
         };
-        let obj = TextureObject { image, view, memory, desc: *desc };
+        let obj = TextureObject {
+            image,
+            view,
+            memory,
+            desc: *desc,
+        };
         // Zero-filled, then in the layout programs sample it in.
         let cleared = self.run_commands(|cmd| {
-            transition(&ctx.device, cmd, image, vk::ImageLayout::UNDEFINED, vk::ImageLayout::TRANSFER_DST_OPTIMAL);
+            transition(
+                &ctx.device,
+                cmd,
+                image,
+                vk::ImageLayout::UNDEFINED,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+            );
             let clear = vk::ClearColorValue { float32: [0.0; 4] };
             // SAFETY: recording; the image is in TRANSFER_DST layout.
-            unsafe { ctx.device.cmd_clear_color_image(cmd, image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &clear, &[color_range()]) };
-            transition(&ctx.device, cmd, image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL);
+            unsafe {
+                ctx.device.cmd_clear_color_image(
+                    cmd,
+                    image,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &clear,
+                    &[color_range()],
+                )
+            };
+            transition(
+                &ctx.device,
+                cmd,
+                image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            );
             Ok(())
         });
         if let Err(e) = cleared {
@@ -148,18 +191,53 @@ impl Inner {
         };
         validate::texture_data(&desc, data)?;
         self.wait_launches()?;
-        let staging = GpuBuffer::new(&self.ctx, &mut self.alloc, data.len() as u64, vk::BufferUsageFlags::TRANSFER_SRC, Location::HostVisible, 16)?;
+        let staging = GpuBuffer::new(
+            &self.ctx,
+            &mut self.alloc,
+            data.len() as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            Location::HostVisible,
+            16,
+        )?;
         let ctx = self.ctx.clone();
         let src = staging.buffer;
         let result = staging.write(0, data).and_then(|_| {
             self.run_commands(|cmd| {
-                transition(&ctx.device, cmd, image, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL, vk::ImageLayout::TRANSFER_DST_OPTIMAL);
+                transition(
+                    &ctx.device,
+                    cmd,
+                    image,
+                    vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                );
                 let region = vk::BufferImageCopy::default()
-                    .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1))
-                    .image_extent(vk::Extent3D { width: desc.width, height: desc.height, depth: 1 });
+                    .image_subresource(
+                        vk::ImageSubresourceLayers::default()
+                            .aspect_mask(vk::ImageAspectFlags::COLOR)
+                            .layer_count(1),
+                    )
+                    .image_extent(vk::Extent3D {
+                        width: desc.width,
+                        height: desc.height,
+                        depth: 1,
+                    });
                 // SAFETY: recording; the staging buffer holds the whole image.
-                unsafe { ctx.device.cmd_copy_buffer_to_image(cmd, src, image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &[region]) };
-                transition(&ctx.device, cmd, image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL);
+                unsafe {
+                    ctx.device.cmd_copy_buffer_to_image(
+                        cmd,
+                        src,
+                        image,
+                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                        &[region],
+                    )
+                };
+                transition(
+                    &ctx.device,
+                    cmd,
+                    image,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                );
                 Ok(())
             })
         });

@@ -18,7 +18,10 @@ impl MessageLog {
     }
 
     fn push(&self, message: String) {
-        self.messages.lock().unwrap_or_else(|p| p.into_inner()).push(message);
+        self.messages
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .push(message);
     }
 }
 
@@ -32,8 +35,14 @@ pub fn requested_by_env() -> bool {
 /// hardware) are not the program's fault and are left out.
 pub fn messenger_info(log: &MessageLog) -> vk::DebugUtilsMessengerCreateInfoEXT<'_> {
     vk::DebugUtilsMessengerCreateInfoEXT::default()
-        .message_severity(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR)
-        .message_type(vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE)
+        .message_severity(
+            vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+        )
+        .message_type(
+            vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+        )
         .pfn_user_callback(Some(callback))
         .user_data(log as *const MessageLog as *mut std::ffi::c_void)
 }
@@ -52,9 +61,17 @@ unsafe extern "system" fn callback(
     // is destroyed.
     let (data, log) = unsafe { (&*data, &*(user as *const MessageLog)) };
     let text = |p: *const std::ffi::c_char| {
-        if p.is_null() { String::new() } else { unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned() }
+        if p.is_null() {
+            String::new()
+        } else {
+            unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
+        }
     };
-    log.push(format!("[{severity:?} {kind:?}] {}: {}", text(data.p_message_id_name), text(data.p_message)));
+    log.push(format!(
+        "[{severity:?} {kind:?}] {}: {}",
+        text(data.p_message_id_name),
+        text(data.p_message)
+    ));
     vk::FALSE
 }
 
@@ -66,7 +83,13 @@ mod tests {
     /// The messenger really reports: an invalid call through the device is caught.
     #[test]
     fn the_layer_reports_invalid_usage() {
-        let options = VulkanOptions { validation: true, device: None, force_staging: false, pipeline_cache: false, cache_dir: None };
+        let options = VulkanOptions {
+            validation: true,
+            device: None,
+            force_staging: false,
+            pipeline_cache: false,
+            cache_dir: None,
+        };
         let ctx = Context::new(&options).expect("a Vulkan ray tracing device for the tests");
         assert!(ctx.log.take().is_empty());
         // No usage bits: VUID-VkBufferCreateInfo-usage-requiredbitmask.

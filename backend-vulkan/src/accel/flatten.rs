@@ -107,13 +107,21 @@ fn combine_flags(outer: u32, inner: u32) -> u32 {
         // Both set: disabling any-hit wins (optik_api::semantics::opacity).
         outer_force = FORCE_OPAQUE;
     }
-    let opacity = if outer_force != 0 { outer_force } else { inner & force };
+    let opacity = if outer_force != 0 {
+        outer_force
+    } else {
+        inner & force
+    };
     ((outer | inner) & CULL_DISABLE) | ((outer ^ inner) & FLIP_FACING) | opacity
 }
 
 /// The flat list of instance `index` of an instance acceleration structure, over its
 /// child's flat list.
-pub fn through_instance(inst: &Instance, index: u32, child: &[FlatInstance]) -> Result<Vec<FlatInstance>> {
+pub fn through_instance(
+    inst: &Instance,
+    index: u32,
+    child: &[FlatInstance],
+) -> Result<Vec<FlatInstance>> {
     let outer_mask = (inst.visibility_mask & 0xFF) as u8;
     let outer_flags = inst.flags & InstanceFlags::ALL.0 & 0xF;
     child
@@ -149,7 +157,13 @@ pub fn through_instance(inst: &Instance, index: u32, child: &[FlatInstance]) -> 
 
 /// The flat list of a static transform over its child's.
 pub fn through_transform(object_to_world: &Matrix3x4, child: &[FlatInstance]) -> Vec<FlatInstance> {
-    child.iter().map(|c| FlatInstance { transform: affine::mul(object_to_world, &c.transform), ..*c }).collect()
+    child
+        .iter()
+        .map(|c| FlatInstance {
+            transform: affine::mul(object_to_world, &c.transform),
+            ..*c
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -171,9 +185,15 @@ mod tests {
         assert_eq!(combine_flags(FLIP_FACING, FLIP_FACING), 0);
         assert_eq!(combine_flags(FLIP_FACING, 0), FLIP_FACING);
         assert_eq!(combine_flags(CULL_DISABLE, 0), CULL_DISABLE);
-        assert_eq!(combine_flags(FORCE_NO_OPAQUE, FORCE_OPAQUE), FORCE_NO_OPAQUE);
+        assert_eq!(
+            combine_flags(FORCE_NO_OPAQUE, FORCE_OPAQUE),
+            FORCE_NO_OPAQUE
+        );
         assert_eq!(combine_flags(0, FORCE_OPAQUE), FORCE_OPAQUE);
-        assert_eq!(combine_flags(FORCE_OPAQUE | FORCE_NO_OPAQUE, 0), FORCE_OPAQUE);
+        assert_eq!(
+            combine_flags(FORCE_OPAQUE | FORCE_NO_OPAQUE, 0),
+            FORCE_OPAQUE
+        );
     }
 
     #[test]

@@ -13,7 +13,8 @@
 use super::tables::NONE;
 use optik_api::decode::{self, BufferBytes};
 use optik_api::{
-    AccelBuildOptions, BuildFlags, BuildInput, CurveEndcaps, CurveType, Error, GeometryFlags, PrimitiveTypeFlags, Result,
+    AccelBuildOptions, BuildFlags, BuildInput, CurveEndcaps, CurveType, Error, GeometryFlags,
+    PrimitiveTypeFlags, Result,
 };
 
 /// What kind of primitives a geometry acceleration structure holds.
@@ -78,7 +79,7 @@ pub struct DecodedGas {
 }
 
 fn push_aligned(bytes: &mut Vec<u8>, data: &[u8]) -> u64 {
-    while bytes.len() % 16 != 0 {
+    while !bytes.len().is_multiple_of(16) {
         bytes.push(0);
     }
     let at = bytes.len() as u64;
@@ -113,14 +114,24 @@ pub fn gas_kind(inputs: &[BuildInput]) -> Result<GasKind> {
         Some(BuildInput::CustomPrimitives(_)) => GasKind::Custom,
         Some(BuildInput::Spheres(_)) => GasKind::Spheres,
         Some(BuildInput::Curves(c)) => GasKind::Curves(c.curve_type),
-        _ => return Err(Error::invalid("a geometry acceleration structure needs geometry inputs")),
+        _ => {
+            return Err(Error::invalid(
+                "a geometry acceleration structure needs geometry inputs",
+            ));
+        }
     })
 }
 
 /// Decodes validated geometry inputs.
-pub fn decode_gas(options: &AccelBuildOptions, inputs: &[BuildInput], bytes: &dyn BufferBytes) -> Result<DecodedGas> {
+pub fn decode_gas(
+    options: &AccelBuildOptions,
+    inputs: &[BuildInput],
+    bytes: &dyn BufferBytes,
+) -> Result<DecodedGas> {
     let mut out = DecodedGas::default();
-    let vertex_access = options.flags.contains(BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS);
+    let vertex_access = options
+        .flags
+        .contains(BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS);
     for (i, input) in inputs.iter().enumerate() {
         let at = |e: Error| e.context(format!("build_inputs[{i}]"));
         match input {
@@ -128,7 +139,8 @@ pub fn decode_gas(options: &AccelBuildOptions, inputs: &[BuildInput], bytes: &dy
                 let tris = decode::triangles(t, 0, bytes).map_err(at)?;
                 let n = tris.indices.len() as u32;
                 let records = t.flags.len() as u32;
-                let offsets = decode::sbt_offsets(t.sbt_index_offsets.as_ref(), n, records, bytes).map_err(at)?;
+                let offsets = decode::sbt_offsets(t.sbt_index_offsets.as_ref(), n, records, bytes)
+                    .map_err(at)?;
                 // A triangle with a NaN or infinite vertex never hits and must not disturb its
                 // neighbours: it becomes degenerate (all three indices on one finite vertex),
                 // which Vulkan never reports. (Vulkan's own rule, a NaN x making a triangle
@@ -166,27 +178,49 @@ pub fn decode_gas(options: &AccelBuildOptions, inputs: &[BuildInput], bytes: &dy
                         let base = out.data.len() as u32;
                         for &p in prims {
                             for v in tris.indices[p as usize] {
-                                out.data.extend(tris.vertices[v as usize].iter().map(|c| c.to_bits()));
+                                out.data
+                                    .extend(tris.vertices[v as usize].iter().map(|c| c.to_bits()));
                             }
                         }
                         base
                     } else {
                         NONE
                     };
-                    out.records.push([t.primitive_index_offset, remap, vertex_data, 0]);
+                    out.records
+                        .push([t.primitive_index_offset, remap, vertex_data, 0]);
                 }
                 out.partition.push(offsets);
             }
             BuildInput::CustomPrimitives(c) => {
                 let boxes = decode::aabbs(c, 0, bytes).map_err(at)?;
                 let records = c.flags.len() as u32;
-                let offsets = decode::sbt_offsets(c.sbt_index_offsets.as_ref(), boxes.len() as u32, records, bytes).map_err(at)?;
+                let offsets = decode::sbt_offsets(
+                    c.sbt_index_offsets.as_ref(),
+                    boxes.len() as u32,
+                    records,
+                    bytes,
+                )
+                .map_err(at)?;
                 for (r, all) in split_by_record(&offsets, records).iter().enumerate() {
-                    let prims: Vec<u32> = all.iter().copied().filter(|&p| usable(&boxes[p as usize])).collect();
+                    let prims: Vec<u32> = all
+                        .iter()
+                        .copied()
+                        .filter(|&p| usable(&boxes[p as usize]))
+                        .collect();
                     let packed: Vec<f32> = prims.iter().flat_map(|&p| boxes[p as usize]).collect();
                     let data_offset = push_aligned(&mut out.bytes, &f32_bytes(&packed));
-                    out.geometries.push(DecodedGeometry { data_offset, vertex_count: 0, index_offset: 0, count: prims.len() as u32, flags: c.flags[r] });
-                    let remap = remap_table(&mut out.data, &prims, records > 1 || prims.len() < all.len());
+                    out.geometries.push(DecodedGeometry {
+                        data_offset,
+                        vertex_count: 0,
+                        index_offset: 0,
+                        count: prims.len() as u32,
+                        flags: c.flags[r],
+                    });
+                    let remap = remap_table(
+                        &mut out.data,
+                        &prims,
+                        records > 1 || prims.len() < all.len(),
+                    );
                     out.records.push([c.primitive_index_offset, remap, NONE, 0]);
                 }
                 out.partition.push(offsets);
@@ -194,10 +228,29 @@ pub fn decode_gas(options: &AccelBuildOptions, inputs: &[BuildInput], bytes: &dy
             BuildInput::Spheres(s) => {
                 let spheres = decode::spheres(s, 0, bytes).map_err(at)?;
                 let records = s.flags.len() as u32;
-                let offsets = decode::sbt_offsets(s.sbt_index_offsets.as_ref(), spheres.len() as u32, records, bytes).map_err(at)?;
-                let bounds = |s: &[f32; 4]| [s[0] - s[3], s[1] - s[3], s[2] - s[3], s[0] + s[3], s[1] + s[3], s[2] + s[3]];
+                let offsets = decode::sbt_offsets(
+                    s.sbt_index_offsets.as_ref(),
+                    spheres.len() as u32,
+                    records,
+                    bytes,
+                )
+                .map_err(at)?;
+                let bounds = |s: &[f32; 4]| {
+                    [
+                        s[0] - s[3],
+                        s[1] - s[3],
+                        s[2] - s[3],
+                        s[0] + s[3],
+                        s[1] + s[3],
+                        s[2] + s[3],
+                    ]
+                };
                 for (r, all) in split_by_record(&offsets, records).iter().enumerate() {
-                    let prims: Vec<u32> = all.iter().copied().filter(|&p| usable(&bounds(&spheres[p as usize]))).collect();
+                    let prims: Vec<u32> = all
+                        .iter()
+                        .copied()
+                        .filter(|&p| usable(&bounds(&spheres[p as usize])))
+                        .collect();
                     let mut packed: Vec<f32> = Vec::with_capacity(prims.len() * 6);
                     let base = out.data.len() as u32;
                     for &p in &prims {
@@ -206,8 +259,18 @@ pub fn decode_gas(options: &AccelBuildOptions, inputs: &[BuildInput], bytes: &dy
                         out.data.extend(sphere.map(f32::to_bits));
                     }
                     let data_offset = push_aligned(&mut out.bytes, &f32_bytes(&packed));
-                    out.geometries.push(DecodedGeometry { data_offset, vertex_count: 0, index_offset: 0, count: prims.len() as u32, flags: s.flags[r] });
-                    let remap = remap_table(&mut out.data, &prims, records > 1 || prims.len() < all.len());
+                    out.geometries.push(DecodedGeometry {
+                        data_offset,
+                        vertex_count: 0,
+                        index_offset: 0,
+                        count: prims.len() as u32,
+                        flags: s.flags[r],
+                    });
+                    let remap = remap_table(
+                        &mut out.data,
+                        &prims,
+                        records > 1 || prims.len() < all.len(),
+                    );
                     out.records.push([s.primitive_index_offset, remap, base, 0]);
                 }
                 out.partition.push(offsets);
@@ -220,12 +283,15 @@ pub fn decode_gas(options: &AccelBuildOptions, inputs: &[BuildInput], bytes: &dy
                 let mut kept: Vec<u32> = Vec::with_capacity(n);
                 let base = out.data.len() as u32;
                 for (s, &first) in curves.segments.iter().enumerate() {
-                    let points: Vec<[f32; 4]> = (0..4).map(|k| curves.points[first as usize + k.min(per - 1)]).collect();
+                    let points: Vec<[f32; 4]> = (0..4)
+                        .map(|k| curves.points[first as usize + k.min(per - 1)])
+                        .collect();
                     let starts_strand = s == 0 || curves.segments[s - 1] + 1 != first;
                     let ends_strand = s + 1 == n || curves.segments[s + 1] != first + 1;
                     // Linear curves always have round ends; other bases only with end caps
                     // on; joints inside a strand are always round.
-                    let caps_on = c.curve_type == CurveType::RoundLinear || c.endcaps == CurveEndcaps::On;
+                    let caps_on =
+                        c.curve_type == CurveType::RoundLinear || c.endcaps == CurveEndcaps::On;
                     let cap_start = !starts_strand || caps_on;
                     let cap_end = !ends_strand || caps_on;
                     let bounds = curve_bounds(c.curve_type, &points[..per]);
@@ -237,15 +303,31 @@ pub fn decode_gas(options: &AccelBuildOptions, inputs: &[BuildInput], bytes: &dy
                     for p in &points {
                         out.data.extend(p.map(f32::to_bits));
                     }
-                    out.data.push(u32::from(cap_start) | (u32::from(cap_end) << 1));
+                    out.data
+                        .push(u32::from(cap_start) | (u32::from(cap_end) << 1));
                 }
                 let data_offset = push_aligned(&mut out.bytes, &f32_bytes(&packed));
-                out.geometries.push(DecodedGeometry { data_offset, vertex_count: 0, index_offset: 0, count: kept.len() as u32, flags: c.flag });
+                out.geometries.push(DecodedGeometry {
+                    data_offset,
+                    vertex_count: 0,
+                    index_offset: 0,
+                    count: kept.len() as u32,
+                    flags: c.flag,
+                });
                 let remap = remap_table(&mut out.data, &kept, kept.len() < n);
-                out.records.push([c.primitive_index_offset, remap, base, optik_api::wgsl::curve_basis(c.curve_type)]);
+                out.records.push([
+                    c.primitive_index_offset,
+                    remap,
+                    base,
+                    optik_api::wgsl::curve_basis(c.curve_type),
+                ]);
                 out.partition.push(vec![0; n]);
             }
-            BuildInput::Instances(_) => return Err(Error::invalid("instances cannot be built into a geometry acceleration structure")),
+            BuildInput::Instances(_) => {
+                return Err(Error::invalid(
+                    "instances cannot be built into a geometry acceleration structure",
+                ));
+            }
         }
     }
     if out.bytes.is_empty() {
@@ -279,7 +361,14 @@ fn curve_bounds(t: CurveType, points: &[[f32; 4]]) -> [f32; 6] {
         points.to_vec()
     };
     let r = hull.iter().map(|p| p[3].abs()).fold(0.0f32, f32::max);
-    let mut b = [f32::INFINITY, f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
+    let mut b = [
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NEG_INFINITY,
+        f32::NEG_INFINITY,
+    ];
     for p in &hull {
         for k in 0..3 {
             b[k] = b[k].min(p[k] - r);
@@ -295,7 +384,10 @@ mod tests {
 
     #[test]
     fn records_partition_primitives_in_order() {
-        assert_eq!(split_by_record(&[1, 0, 1, 2, 1], 3), vec![vec![1], vec![0, 2, 4], vec![3]]);
+        assert_eq!(
+            split_by_record(&[1, 0, 1, 2, 1], 3),
+            vec![vec![1], vec![0, 2, 4], vec![3]]
+        );
         let mut data = Vec::new();
         assert_eq!(remap_table(&mut data, &[0, 2, 4], true), 0);
         assert_eq!(remap_table(&mut data, &[0, 1], false), NONE);
@@ -314,7 +406,12 @@ mod tests {
     #[test]
     fn catmull_rom_bounds_hold_the_overshoot() {
         // A Catmull-Rom segment overshoots its middle control points' hull.
-        let pts = [[0.0, 0.0, 0.0, 0.1], [1.0, 0.0, 0.0, 0.1], [2.0, 1.0, 0.0, 0.1], [3.0, -5.0, 0.0, 0.1]];
+        let pts = [
+            [0.0, 0.0, 0.0, 0.1],
+            [1.0, 0.0, 0.0, 0.1],
+            [2.0, 1.0, 0.0, 0.1],
+            [3.0, -5.0, 0.0, 0.1],
+        ];
         let b = curve_bounds(CurveType::RoundCatmullRom, &pts);
         for i in 0..=100 {
             let u = i as f32 / 100.0;
@@ -326,7 +423,10 @@ mod tests {
             ];
             for k in 0..3 {
                 let c: f32 = (0..4).map(|j| w[j] * pts[j][k]).sum();
-                assert!(c - 0.1 >= b[k] - 1e-5 && c + 0.1 <= b[k + 3] + 1e-5, "u {u} axis {k}: {c} outside {b:?}");
+                assert!(
+                    c - 0.1 >= b[k] - 1e-5 && c + 0.1 <= b[k + 3] + 1e-5,
+                    "u {u} axis {k}: {c} outside {b:?}"
+                );
             }
         }
     }

@@ -122,7 +122,9 @@ impl AccelObject {
     /// Bytes of its Vulkan structures.
     pub fn size(&self) -> u64 {
         match self {
-            AccelObject::Gas(g) => g.parts.iter().map(|(p, _)| p.size()).sum::<u64>() + g.wrapper.structure.size(),
+            AccelObject::Gas(g) => {
+                g.parts.iter().map(|(p, _)| p.size()).sum::<u64>() + g.wrapper.structure.size()
+            }
             AccelObject::Ias(i) => i.tlas.structure.size(),
             AccelObject::Transform(t) => t.tlas.structure.size(),
         }
@@ -140,9 +142,13 @@ impl AccelObject {
     /// Its flat list (one entry per path to a bottom level).
     pub fn flat(&self) -> Vec<FlatInstance> {
         match self {
-            AccelObject::Gas(g) => {
-                g.parts.iter().map(|(p, flags)| FlatInstance::bottom(p.address, *flags, g.geometry_start, g.geometry_count)).collect()
-            }
+            AccelObject::Gas(g) => g
+                .parts
+                .iter()
+                .map(|(p, flags)| {
+                    FlatInstance::bottom(p.address, *flags, g.geometry_start, g.geometry_count)
+                })
+                .collect(),
             AccelObject::Ias(i) => i.flat.clone(),
             AccelObject::Transform(t) => t.flat.clone(),
         }
@@ -244,20 +250,32 @@ fn parts_of(kind: GasKind, decoded: &DecodedGas) -> Vec<(Vec<bool>, u32)> {
     let no_cull: Vec<bool> = decoded
         .geometries
         .iter()
-        .map(|g| kind.is_triangles() && g.flags.contains(GeometryFlags::DISABLE_TRIANGLE_FACE_CULLING))
+        .map(|g| {
+            kind.is_triangles()
+                && g.flags
+                    .contains(GeometryFlags::DISABLE_TRIANGLE_FACE_CULLING)
+        })
         .collect();
     let n = no_cull.len();
     if no_cull.iter().all(|c| *c) {
         vec![(vec![true; n], vk_flags::CULL_DISABLE)]
     } else if no_cull.iter().any(|c| *c) {
-        vec![(no_cull.iter().map(|c| !c).collect(), 0), (no_cull, vk_flags::CULL_DISABLE)]
+        vec![
+            (no_cull.iter().map(|c| !c).collect(), 0),
+            (no_cull, vk_flags::CULL_DISABLE),
+        ]
     } else {
         vec![(vec![true; n], 0)]
     }
 }
 
 /// Vulkan geometries of one part, with data at `base` (the input buffer's address).
-fn part_geometries(kind: GasKind, decoded: &DecodedGas, holds: &[bool], base: u64) -> Vec<VkGeometry> {
+fn part_geometries(
+    kind: GasKind,
+    decoded: &DecodedGas,
+    holds: &[bool],
+    base: u64,
+) -> Vec<VkGeometry> {
     decoded
         .geometries
         .iter()
@@ -274,7 +292,11 @@ fn part_geometries(kind: GasKind, decoded: &DecodedGas, holds: &[bool], base: u6
                     flags,
                 }
             } else {
-                VkGeometry::Aabbs { aabbs: base + g.data_offset, count, flags }
+                VkGeometry::Aabbs {
+                    aabbs: base + g.data_offset,
+                    count,
+                    flags,
+                }
             }
         })
         .collect()
@@ -287,7 +309,8 @@ fn activity_of(decoded: &DecodedGas) -> u64 {
     for g in &decoded.geometries {
         g.count.hash(&mut h);
         if g.vertex_count > 0 {
-            decoded.bytes[g.index_offset as usize..g.index_offset as usize + g.count as usize * 12].hash(&mut h);
+            decoded.bytes[g.index_offset as usize..g.index_offset as usize + g.count as usize * 12]
+                .hash(&mut h);
         }
     }
     h.finish()
@@ -296,35 +319,67 @@ fn activity_of(decoded: &DecodedGas) -> u64 {
 impl Inner {
     /// The acceleration structure with no instances (null handles, continuation calls).
     pub fn create_empty_tlas(&mut self) -> Result<()> {
-        let tlas = self.build_tlas(&[], vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE)?;
+        let tlas = self.build_tlas(
+            &[],
+            vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE,
+        )?;
         self.empty_tlas = Some(tlas);
         Ok(())
     }
 
     /// The union of every live structure's features (pipelines serve all of them).
     pub fn scene_features(&self) -> Option<SceneFeatures> {
-        self.accels.iter().map(|(_, a)| a.features()).reduce(SceneFeatures::union)
+        self.accels
+            .iter()
+            .map(|(_, a)| a.features())
+            .reduce(SceneFeatures::union)
     }
 
     fn instance_entries(flat: &[FlatInstance]) -> Vec<[u32; 4]> {
-        flat.iter().map(|f| [f.instance_id, f.instance_index, f.geometry_base, 0]).collect()
-    }
-
-    fn vk_instances(flat: &[FlatInstance], table_start: u32) -> Vec<vk::AccelerationStructureInstanceKHR> {
         flat.iter()
-            .enumerate()
-            .map(|(k, f)| vkas::vk_instance(&f.transform, table_start + k as u32, f.mask, f.sbt_offset, f.flags as u8, f.blas))
+            .map(|f| [f.instance_id, f.instance_index, f.geometry_base, 0])
             .collect()
     }
 
-    fn write_instances(buffer: &GpuBuffer, instances: &[vk::AccelerationStructureInstanceKHR]) -> Result<()> {
+    fn vk_instances(
+        flat: &[FlatInstance],
+        table_start: u32,
+    ) -> Vec<vk::AccelerationStructureInstanceKHR> {
+        flat.iter()
+            .enumerate()
+            .map(|(k, f)| {
+                vkas::vk_instance(
+                    &f.transform,
+                    table_start + k as u32,
+                    f.mask,
+                    f.sbt_offset,
+                    f.flags as u8,
+                    f.blas,
+                )
+            })
+            .collect()
+    }
+
+    fn write_instances(
+        buffer: &GpuBuffer,
+        instances: &[vk::AccelerationStructureInstanceKHR],
+    ) -> Result<()> {
         // SAFETY: the Vulkan instance struct is plain data of INSTANCE_SIZE bytes.
-        let bytes = unsafe { std::slice::from_raw_parts(instances.as_ptr() as *const u8, instances.len() * INSTANCE_SIZE as usize) };
+        let bytes = unsafe {
+            std::slice::from_raw_parts(
+                instances.as_ptr() as *const u8,
+                instances.len() * INSTANCE_SIZE as usize,
+            )
+        };
         buffer.write(0, bytes)
     }
 
     /// A new top level over `flat`.
-    fn build_tlas(&mut self, flat: &[FlatInstance], flags: vk::BuildAccelerationStructureFlagsKHR) -> Result<Tlas> {
+    fn build_tlas(
+        &mut self,
+        flat: &[FlatInstance],
+        flags: vk::BuildAccelerationStructureFlagsKHR,
+    ) -> Result<Tlas> {
         if flat.len() as u64 > self.ctx.info.max_instance_count {
             return Err(Error::limit(format!(
                 "the flattened instance tree has {} Vulkan instances; this device allows {}",
@@ -335,7 +390,9 @@ impl Inner {
         let table_start = self.tables.instances.insert(&Self::instance_entries(flat));
         if table_start as u64 + flat.len() as u64 > (1 << 24) {
             self.tables.instances.remove(table_start, flat.len() as u32);
-            return Err(Error::limit("more than 2^24 Vulkan instances are alive on this device (the custom index has 24 bits)"));
+            return Err(Error::limit(
+                "more than 2^24 Vulkan instances are alive on this device (the custom index has 24 bits)",
+            ));
         }
         self.tables.touch();
         let result = (|| {
@@ -347,11 +404,19 @@ impl Inner {
                 Location::HostVisible,
                 16,
             )?;
-            if let Err(e) = Self::write_instances(&instances, &Self::vk_instances(flat, table_start)) {
+            if let Err(e) =
+                Self::write_instances(&instances, &Self::vk_instances(flat, table_start))
+            {
                 instances.destroy(&self.ctx, &mut self.alloc);
                 return Err(e);
             }
-            let built = self.build_as(vk::AccelerationStructureTypeKHR::TOP_LEVEL, &[], Some((instances.address, flat.len() as u32)), flags, BuildTarget::New);
+            let built = self.build_as(
+                vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+                &[],
+                Some((instances.address, flat.len() as u32)),
+                flags,
+                BuildTarget::New,
+            );
             match built {
                 Ok(Some(structure)) => Ok(Tlas {
                     structure,
@@ -378,7 +443,13 @@ impl Inner {
     fn rebuild_tlas(&mut self, accel: Accel, flat: &[FlatInstance]) -> Result<()> {
         let (structure, address, count, table_start, flags) = {
             let t = self.accels.get(accel)?.tlas();
-            (t.structure.accel, t.instances.address, t.count, t.table_start, t.flags)
+            (
+                t.structure.accel,
+                t.instances.address,
+                t.count,
+                t.table_start,
+                t.flags,
+            )
         };
         if flat.len() as u32 != count {
             return Err(Error::invalid(format!(
@@ -386,10 +457,21 @@ impl Inner {
                 flat.len()
             )));
         }
-        self.tables.instances.write(table_start, &Self::instance_entries(flat));
+        self.tables
+            .instances
+            .write(table_start, &Self::instance_entries(flat));
         self.tables.touch();
-        Self::write_instances(&self.accels.get(accel)?.tlas().instances, &Self::vk_instances(flat, table_start))?;
-        self.build_as(vk::AccelerationStructureTypeKHR::TOP_LEVEL, &[], Some((address, count)), flags, BuildTarget::Rebuild(structure))?;
+        Self::write_instances(
+            &self.accels.get(accel)?.tlas().instances,
+            &Self::vk_instances(flat, table_start),
+        )?;
+        self.build_as(
+            vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+            &[],
+            Some((address, count)),
+            flags,
+            BuildTarget::Rebuild(structure),
+        )?;
         let reach = flat.iter().map(FlatInstance::sbt_reach).max().unwrap_or(0);
         match self.accels.get_mut(accel)? {
             AccelObject::Gas(g) => g.wrapper.sbt_reach = reach,
@@ -400,16 +482,25 @@ impl Inner {
     }
 
     /// The flat list of an instance structure's instances over its children as they are now.
-    fn flatten_instances(&self, instances: &[Instance], children: &[Option<Accel>], previous: Option<(&[u32], &[FlatInstance])>) -> Result<(Vec<FlatInstance>, Vec<u32>)> {
+    fn flatten_instances(
+        &self,
+        instances: &[Instance],
+        children: &[Option<Accel>],
+        previous: Option<(&[u32], &[FlatInstance])>,
+    ) -> Result<(Vec<FlatInstance>, Vec<u32>)> {
         let mut flat = Vec::new();
         let mut counts = Vec::with_capacity(instances.len());
         let mut at = 0usize;
         for (i, (inst, child)) in instances.iter().zip(children).enumerate() {
             let entries = match child.map(|c| self.accels.get(c)) {
-                Some(Ok(obj)) => flatten::through_instance(inst, i as u32, &obj.flat()).map_err(|e| e.context(format!("instance {i}")))?,
+                Some(Ok(obj)) => flatten::through_instance(inst, i as u32, &obj.flat())
+                    .map_err(|e| e.context(format!("instance {i}")))?,
                 // A destroyed child: its paths stay, inactive.
                 Some(Err(_)) => match previous {
-                    Some((counts, flat)) => flat[at..at + counts[i] as usize].iter().map(|f| f.inactive()).collect(),
+                    Some((counts, flat)) => flat[at..at + counts[i] as usize]
+                        .iter()
+                        .map(|f| f.inactive())
+                        .collect(),
                     None => Vec::new(),
                 },
                 None => Vec::new(),
@@ -428,7 +519,12 @@ impl Inner {
         let mut queue = vec![changed];
         let mut done = HashSet::new();
         while let Some(x) = queue.pop() {
-            let parents: Vec<Accel> = self.accels.iter().filter(|(_, o)| o.children().contains(&x)).map(|(h, _)| h).collect();
+            let parents: Vec<Accel> = self
+                .accels
+                .iter()
+                .filter(|(_, o)| o.children().contains(&x))
+                .map(|(h, _)| h)
+                .collect();
             for p in parents {
                 if !done.insert(p) {
                     continue;
@@ -444,7 +540,11 @@ impl Inner {
     fn refresh(&mut self, accel: Accel) -> Result<()> {
         let flat = match self.accels.get(accel)? {
             AccelObject::Ias(ias) => {
-                let (flat, counts) = self.flatten_instances(&ias.instances, &ias.children, Some((&ias.counts, &ias.flat)))?;
+                let (flat, counts) = self.flatten_instances(
+                    &ias.instances,
+                    &ias.children,
+                    Some((&ias.counts, &ias.flat)),
+                )?;
                 if counts != ias.counts {
                     return Err(Error::backend("a child's flat instance count changed"));
                 }
@@ -466,7 +566,9 @@ impl Inner {
     }
 
     fn check_buildable(&self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<()> {
-        let keys = validate::build_inputs(options, inputs, &self.props, &|b| self.buffers.get(b).map(|x| x.gpu.size))?;
+        let keys = validate::build_inputs(options, inputs, &self.props, &|b| {
+            self.buffers.get(b).map(|x| x.gpu.size)
+        })?;
         if keys > 1 {
             return Err(motion_unsupported());
         }
@@ -496,9 +598,13 @@ impl Inner {
         geometry::decode_gas(options, inputs, &snapshot)
     }
 
-    fn decode_instances(&mut self, ia: &InstanceArray) -> Result<(Vec<Instance>, Vec<Option<Accel>>)> {
+    fn decode_instances(
+        &mut self,
+        ia: &InstanceArray,
+    ) -> Result<(Vec<Instance>, Vec<Option<Accel>>)> {
         let downloaded = self.download_for_snapshot(&[ia.instances.buffer])?;
-        let instances = decode::instances(ia, &self.snapshot_view(downloaded, &[ia.instances.buffer])?)?;
+        let instances =
+            decode::instances(ia, &self.snapshot_view(downloaded, &[ia.instances.buffer])?)?;
         let mut children = Vec::with_capacity(instances.len());
         for (i, inst) in instances.iter().enumerate() {
             if inst.traversable_handle == 0 {
@@ -516,24 +622,41 @@ impl Inner {
         Ok((instances, children))
     }
 
-    pub fn accel_memory_usage(&mut self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<AccelBufferSizes> {
+    pub fn accel_memory_usage(
+        &mut self,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<AccelBufferSizes> {
         self.check_buildable(options, inputs)?;
         let tlas_sizes = |me: &Self, n: u32| {
-            me.build_sizes(vk::AccelerationStructureTypeKHR::TOP_LEVEL, &[], Some(n), vk_build_flags(options.flags))
+            me.build_sizes(
+                vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+                &[],
+                Some(n),
+                vk_build_flags(options.flags),
+            )
         };
         if let BuildInput::Instances(ia) = &inputs[0] {
             let (instances, children) = self.decode_instances(ia)?;
             let (flat, _) = self.flatten_instances(&instances, &children, None)?;
             let (size, build, update) = tlas_sizes(self, flat.len() as u32);
-            return Ok(AccelBufferSizes { output_size_in_bytes: size, temp_size_in_bytes: build, temp_update_size_in_bytes: update });
+            return Ok(AccelBufferSizes {
+                output_size_in_bytes: size,
+                temp_size_in_bytes: build,
+                temp_update_size_in_bytes: update,
+            });
         }
         let kind = geometry::gas_kind(inputs)?;
         let decoded = self.decode(options, inputs)?;
         let mut sizes = AccelBufferSizes::default();
         for (holds, _) in parts_of(kind, &decoded) {
             let geoms = part_geometries(kind, &decoded, &holds, 0);
-            let (size, build, update) =
-                self.build_sizes(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, &geoms, None, vk_build_flags(options.flags));
+            let (size, build, update) = self.build_sizes(
+                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                &geoms,
+                None,
+                vk_build_flags(options.flags),
+            );
             sizes.output_size_in_bytes += size;
             sizes.temp_size_in_bytes = sizes.temp_size_in_bytes.max(build);
             sizes.temp_update_size_in_bytes = sizes.temp_update_size_in_bytes.max(update);
@@ -542,9 +665,15 @@ impl Inner {
         Ok(sizes)
     }
 
-    pub fn accel_build(&mut self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<Accel> {
+    pub fn accel_build(
+        &mut self,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<Accel> {
         if options.operation == BuildOperation::Update {
-            return Err(Error::invalid("accel_build needs build_options.operation = Build; refit an existing structure with accel_update"));
+            return Err(Error::invalid(
+                "accel_build needs build_options.operation = Build; refit an existing structure with accel_update",
+            ));
         }
         self.check_buildable(options, inputs)?;
         let accel = match &inputs[0] {
@@ -583,7 +712,13 @@ impl Inner {
         let mut failure = None;
         for (holds, instance_flags) in parts_of(kind, &decoded) {
             let geoms = part_geometries(kind, &decoded, &holds, input.address);
-            match self.build_as(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, &geoms, None, flags, BuildTarget::New) {
+            match self.build_as(
+                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                &geoms,
+                None,
+                flags,
+                BuildTarget::New,
+            ) {
                 Ok(Some(part)) => {
                     parts.push((part, instance_flags));
                     part_geometries_held.push(holds);
@@ -613,16 +748,25 @@ impl Inner {
             .collect();
         let geometry_start = self.tables.geometries.insert(&records);
         self.tables.touch();
-        let flat: Vec<FlatInstance> =
-            parts.iter().map(|(p, f)| FlatInstance::bottom(p.address, *f, geometry_start, records.len() as u32)).collect();
-        let wrapper = match self.build_tlas(&flat, vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE) {
+        let flat: Vec<FlatInstance> = parts
+            .iter()
+            .map(|(p, f)| FlatInstance::bottom(p.address, *f, geometry_start, records.len() as u32))
+            .collect();
+        let wrapper = match self.build_tlas(
+            &flat,
+            vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE,
+        ) {
             Ok(w) => w,
             Err(e) => {
                 for (p, _) in parts {
                     p.destroy(&self.ctx, &mut self.alloc);
                 }
-                self.tables.data.remove(data_start, decoded.data.len() as u32);
-                self.tables.geometries.remove(geometry_start, records.len() as u32);
+                self.tables
+                    .data
+                    .remove(data_start, decoded.data.len() as u32);
+                self.tables
+                    .geometries
+                    .remove(geometry_start, records.len() as u32);
                 return Err(e);
             }
         };
@@ -645,22 +789,47 @@ impl Inner {
         })))
     }
 
-    fn build_ias(&mut self, options: &AccelBuildOptions, inputs: &[BuildInput], ia: &InstanceArray) -> Result<Accel> {
+    fn build_ias(
+        &mut self,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+        ia: &InstanceArray,
+    ) -> Result<Accel> {
         let (instances, children) = self.decode_instances(ia)?;
         let (flat, counts) = self.flatten_instances(&instances, &children, None)?;
-        let child_features: Vec<SceneFeatures> =
-            children.iter().flatten().filter_map(|c| self.accels.get(*c).ok()).map(|o| o.features()).collect();
+        let child_features: Vec<SceneFeatures> = children
+            .iter()
+            .flatten()
+            .filter_map(|c| self.accels.get(*c).ok())
+            .map(|o| o.features())
+            .collect();
         let features = SceneFeatures::of_parent(&child_features, MotionKinds::default(), false);
         let tlas = self.build_tlas(&flat, vk_build_flags(options.flags))?;
-        Ok(self.accels.insert(AccelObject::Ias(Ias { tlas, instances, children, counts, flat, options: *options, inputs: inputs.to_vec(), features })))
+        Ok(self.accels.insert(AccelObject::Ias(Ias {
+            tlas,
+            instances,
+            children,
+            counts,
+            flat,
+            options: *options,
+            inputs: inputs.to_vec(),
+            features,
+        })))
     }
 
-    pub fn accel_update(&mut self, accel: Accel, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<()> {
+    pub fn accel_update(
+        &mut self,
+        accel: Accel,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<()> {
         let (built_options, built_inputs) = match self.accels.get(accel)? {
             AccelObject::Gas(g) => (g.options, g.inputs.clone()),
             AccelObject::Ias(i) => (i.options, i.inputs.clone()),
             AccelObject::Transform(_) => {
-                return Err(Error::invalid("accel_update takes an acceleration structure; transforms are created once"));
+                return Err(Error::invalid(
+                    "accel_update takes an acceleration structure; transforms are created once",
+                ));
             }
         };
         self.check_buildable(options, inputs)?;
@@ -691,7 +860,12 @@ impl Inner {
         self.refresh_dependents(accel)
     }
 
-    fn update_gas(&mut self, accel: Accel, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<()> {
+    fn update_gas(
+        &mut self,
+        accel: Accel,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<()> {
         let decoded = self.decode(options, inputs)?;
         let (kind, parts, holds, partition, activity, flags) = match self.accels.get(accel)? {
             AccelObject::Gas(g) => (
@@ -718,7 +892,13 @@ impl Inner {
         let mut result = Ok(());
         for (structure, held) in parts.iter().zip(&holds) {
             let geoms = part_geometries(kind, &decoded, held, input.address);
-            if let Err(e) = self.build_as(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, &geoms, None, flags, BuildTarget::Update(*structure)) {
+            if let Err(e) = self.build_as(
+                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                &geoms,
+                None,
+                flags,
+                BuildTarget::Update(*structure),
+            ) {
                 result = Err(e);
                 break;
             }
@@ -740,7 +920,12 @@ impl Inner {
 
     /// Replaces a GAS's bottom levels and tables with new ones built from `decoded`, keeping
     /// its handle (its top level is built again in place, as are the top levels above it).
-    fn rebuild_gas(&mut self, accel: Accel, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<()> {
+    fn rebuild_gas(
+        &mut self,
+        accel: Accel,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<()> {
         let fresh = self.build_gas(options, inputs)?;
         let AccelObject::Gas(mut new) = self.accels.remove(fresh)? else {
             return Err(Error::backend("a geometry build made something else"));
@@ -748,13 +933,20 @@ impl Inner {
         // The new object's own top level goes; the old one stays and keeps the handle.
         let new_wrapper_handle = new.wrapper.structure.address;
         self.by_handle.remove(&new_wrapper_handle);
-        self.tables.instances.remove(new.wrapper.table_start, new.wrapper.count);
+        self.tables
+            .instances
+            .remove(new.wrapper.table_start, new.wrapper.count);
         let AccelObject::Gas(old) = self.accels.get_mut(accel)? else {
             return Err(Error::backend("not a geometry structure"));
         };
         let old_parts = std::mem::replace(&mut old.parts, std::mem::take(&mut new.parts));
         old.part_geometries = new.part_geometries.clone();
-        let (old_g, old_gn, old_d, old_dn) = (old.geometry_start, old.geometry_count, old.data_start, old.data_len);
+        let (old_g, old_gn, old_d, old_dn) = (
+            old.geometry_start,
+            old.geometry_count,
+            old.data_start,
+            old.data_len,
+        );
         old.geometry_start = new.geometry_start;
         old.geometry_count = new.geometry_count;
         old.data_start = new.data_start;
@@ -783,9 +975,18 @@ impl Inner {
                         "the acceleration structure was built without BuildFlags::ALLOW_COMPACTION, so it cannot be compacted; rebuild it with that flag",
                     ));
                 }
-                let parts: Vec<(vk::AccelerationStructureKHR, u32)> = g.parts.iter().map(|(p, f)| (p.accel, *f)).collect();
+                let parts: Vec<(vk::AccelerationStructureKHR, u32)> =
+                    g.parts.iter().map(|(p, f)| (p.accel, *f)).collect();
                 let records_range = (g.geometry_start, g.geometry_count, g.data_start, g.data_len);
-                let template = (g.part_geometries.clone(), g.kind, g.options, g.inputs.clone(), g.partition.clone(), g.activity, g.features);
+                let template = (
+                    g.part_geometries.clone(),
+                    g.kind,
+                    g.options,
+                    g.inputs.clone(),
+                    g.partition.clone(),
+                    g.activity,
+                    g.features,
+                );
                 let mut compacted = Vec::new();
                 for (p, f) in parts {
                     match self.compact_as(p) {
@@ -799,21 +1000,35 @@ impl Inner {
                     }
                 }
                 let (g_start, g_count, d_start, d_len) = records_range;
-                let data: Vec<u32> = (0..d_len).map(|k| self.tables.data_word(d_start + k)).collect();
+                let data: Vec<u32> = (0..d_len)
+                    .map(|k| self.tables.data_word(d_start + k))
+                    .collect();
                 let data_start = self.tables.data.insert(&data);
                 let records: Vec<[u32; 4]> = (0..g_count)
                     .map(|k| {
                         let r = self.tables.geometry_record(g_start + k);
-                        let rebase = |v: u32| if v == tables::NONE { v } else { v - d_start + data_start };
+                        let rebase = |v: u32| {
+                            if v == tables::NONE {
+                                v
+                            } else {
+                                v - d_start + data_start
+                            }
+                        };
                         [r[0], rebase(r[1]), rebase(r[2]), r[3]]
                     })
                     .collect();
                 let geometry_start = self.tables.geometries.insert(&records);
                 self.tables.touch();
-                let flat: Vec<FlatInstance> =
-                    compacted.iter().map(|(p, f)| FlatInstance::bottom(p.address, *f, geometry_start, g_count)).collect();
-                let wrapper = self.build_tlas(&flat, vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE)?;
-                let (part_geometries_held, kind, options, inputs, partition, activity, features) = template;
+                let flat: Vec<FlatInstance> = compacted
+                    .iter()
+                    .map(|(p, f)| FlatInstance::bottom(p.address, *f, geometry_start, g_count))
+                    .collect();
+                let wrapper = self.build_tlas(
+                    &flat,
+                    vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE,
+                )?;
+                let (part_geometries_held, kind, options, inputs, partition, activity, features) =
+                    template;
                 AccelObject::Gas(Gas {
                     parts: compacted,
                     part_geometries: part_geometries_held,
@@ -834,12 +1049,32 @@ impl Inner {
             // Top levels are small and must stay rebuildable in place (when a child goes),
             // so "compacting" one copies it at full size.
             AccelObject::Ias(i) => {
-                let (instances, children, counts, flat, options, inputs, features) =
-                    (i.instances.clone(), i.children.clone(), i.counts.clone(), i.flat.clone(), i.options, i.inputs.clone(), i.features);
+                let (instances, children, counts, flat, options, inputs, features) = (
+                    i.instances.clone(),
+                    i.children.clone(),
+                    i.counts.clone(),
+                    i.flat.clone(),
+                    i.options,
+                    i.inputs.clone(),
+                    i.features,
+                );
                 let tlas = self.build_tlas(&flat, vk_build_flags(options.flags))?;
-                AccelObject::Ias(Ias { tlas, instances, children, counts, flat, options, inputs, features })
+                AccelObject::Ias(Ias {
+                    tlas,
+                    instances,
+                    children,
+                    counts,
+                    flat,
+                    options,
+                    inputs,
+                    features,
+                })
             }
-            AccelObject::Transform(_) => return Err(Error::invalid("accel_compact takes an acceleration structure; transforms cannot be compacted")),
+            AccelObject::Transform(_) => {
+                return Err(Error::invalid(
+                    "accel_compact takes an acceleration structure; transforms cannot be compacted",
+                ));
+            }
         };
         let handle = copy.handle();
         let new = self.accels.insert(copy);
@@ -849,7 +1084,12 @@ impl Inner {
 
     pub fn create_transform(&mut self, desc: &TransformDesc) -> Result<Accel> {
         validate::transform(desc)?;
-        let TransformDesc::Static { child, object_to_world, .. } = desc else {
+        let TransformDesc::Static {
+            child,
+            object_to_world,
+            ..
+        } = desc
+        else {
             return Err(motion_unsupported());
         };
         let child_accel = match child.0 {
@@ -861,14 +1101,26 @@ impl Inner {
         let (flat, child_features) = match child_accel {
             Some(c) => {
                 let obj = self.accels.get(c)?;
-                (flatten::through_transform(object_to_world, &obj.flat()), vec![obj.features()])
+                (
+                    flatten::through_transform(object_to_world, &obj.flat()),
+                    vec![obj.features()],
+                )
             }
             None => (Vec::new(), Vec::new()),
         };
         let features = SceneFeatures::of_parent(&child_features, MotionKinds::default(), true);
-        let tlas = self.build_tlas(&flat, vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE)?;
+        let tlas = self.build_tlas(
+            &flat,
+            vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE,
+        )?;
         let handle = tlas.structure.address;
-        let accel = self.accels.insert(AccelObject::Transform(Transform { tlas, object_to_world: *object_to_world, child: child_accel, flat, features }));
+        let accel = self.accels.insert(AccelObject::Transform(Transform {
+            tlas,
+            object_to_world: *object_to_world,
+            child: child_accel,
+            flat,
+            features,
+        }));
         self.by_handle.insert(handle, accel);
         Ok(accel)
     }
@@ -881,7 +1133,9 @@ impl Inner {
         let t = obj.tlas();
         self.tables.instances.remove(t.table_start, t.count);
         if let AccelObject::Gas(g) = &obj {
-            self.tables.geometries.remove(g.geometry_start, g.geometry_count);
+            self.tables
+                .geometries
+                .remove(g.geometry_start, g.geometry_count);
             self.tables.data.remove(g.data_start, g.data_len);
         }
         self.tables.touch();

@@ -40,7 +40,8 @@ impl<T: Copy + Default> Table<T> {
             }
             _ => {
                 let s = self.items.len() as u32;
-                self.items.resize(self.items.len() + values.len(), T::default());
+                self.items
+                    .resize(self.items.len() + values.len(), T::default());
                 s
             }
         };
@@ -83,6 +84,11 @@ impl<T: Copy + Default> Table<T> {
         self.items.len()
     }
 
+    /// Whether the table has no entries.
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
+
     fn bytes(&self) -> &[u8]
     where
         T: bytemuck::Pod,
@@ -119,15 +125,28 @@ impl SceneTables {
 
     /// The device buffers (instances, geometries, data), uploaded if changed. The caller
     /// waits for launches first when [`SceneTables::needs_upload`].
-    pub fn device_buffers(&mut self, ctx: &Context, alloc: &mut Allocator, staging: impl FnOnce(&mut Allocator, &[(vk::Buffer, Vec<u8>)]) -> Result<()>) -> Result<[vk::Buffer; 3]> {
+    pub fn device_buffers(
+        &mut self,
+        ctx: &Context,
+        alloc: &mut Allocator,
+        staging: impl FnOnce(&mut Allocator, &[(vk::Buffer, Vec<u8>)]) -> Result<()>,
+    ) -> Result<[vk::Buffer; 3]> {
         if self.dirty || self.device.is_none() {
             if let Some(old) = self.device.take() {
                 for b in old {
                     b.destroy(ctx, alloc);
                 }
             }
-            let contents: [Vec<u8>; 3] = [self.instances.bytes().to_vec(), self.geometries.bytes().to_vec(), self.data.bytes().to_vec()];
-            let location = if ctx.staging { Location::DeviceLocal } else { Location::HostVisible };
+            let contents: [Vec<u8>; 3] = [
+                self.instances.bytes().to_vec(),
+                self.geometries.bytes().to_vec(),
+                self.data.bytes().to_vec(),
+            ];
+            let location = if ctx.staging {
+                Location::DeviceLocal
+            } else {
+                Location::HostVisible
+            };
             let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST;
             let mut made: Vec<GpuBuffer> = Vec::new();
             for c in &contents {
@@ -162,7 +181,10 @@ impl SceneTables {
             }
             self.dirty = false;
         }
-        let d = self.device.as_ref().map(|d| [d[0].buffer, d[1].buffer, d[2].buffer]);
+        let d = self
+            .device
+            .as_ref()
+            .map(|d| [d[0].buffer, d[1].buffer, d[2].buffer]);
         d.ok_or_else(|| optik_api::Error::backend("table buffers missing"))
     }
 
@@ -196,7 +218,11 @@ mod tests {
         assert_eq!(c, 0);
         t.remove(c, 2);
         t.remove(b, 2);
-        assert_eq!(t.insert(&[7; 5]), 0, "freed neighbours merge into one range");
+        assert_eq!(
+            t.insert(&[7; 5]),
+            0,
+            "freed neighbours merge into one range"
+        );
         assert_eq!(t.len(), 5);
     }
 }

@@ -42,7 +42,11 @@ pub enum VkGeometry {
         flags: vk::GeometryFlagsKHR,
     },
     /// Packed 24-byte AABBs.
-    Aabbs { aabbs: u64, count: u32, flags: vk::GeometryFlagsKHR },
+    Aabbs {
+        aabbs: u64,
+        count: u32,
+        flags: vk::GeometryFlagsKHR,
+    },
 }
 
 /// What a build writes.
@@ -58,14 +62,24 @@ pub enum BuildTarget {
 
 fn vk_geometry(g: &VkGeometry) -> (vk::AccelerationStructureGeometryKHR<'static>, u32) {
     match *g {
-        VkGeometry::Triangles { vertices, vertex_count, indices, triangle_count, flags } => {
+        VkGeometry::Triangles {
+            vertices,
+            vertex_count,
+            indices,
+            triangle_count,
+            flags,
+        } => {
             let tri = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
                 .vertex_format(vk::Format::R32G32B32_SFLOAT)
-                .vertex_data(vk::DeviceOrHostAddressConstKHR { device_address: vertices })
+                .vertex_data(vk::DeviceOrHostAddressConstKHR {
+                    device_address: vertices,
+                })
                 .vertex_stride(12)
                 .max_vertex(vertex_count.saturating_sub(1))
                 .index_type(vk::IndexType::UINT32)
-                .index_data(vk::DeviceOrHostAddressConstKHR { device_address: indices });
+                .index_data(vk::DeviceOrHostAddressConstKHR {
+                    device_address: indices,
+                });
             (
                 vk::AccelerationStructureGeometryKHR::default()
                     .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
@@ -74,9 +88,15 @@ fn vk_geometry(g: &VkGeometry) -> (vk::AccelerationStructureGeometryKHR<'static>
                 triangle_count,
             )
         }
-        VkGeometry::Aabbs { aabbs, count, flags } => {
+        VkGeometry::Aabbs {
+            aabbs,
+            count,
+            flags,
+        } => {
             let data = vk::AccelerationStructureGeometryAabbsDataKHR::default()
-                .data(vk::DeviceOrHostAddressConstKHR { device_address: aabbs })
+                .data(vk::DeviceOrHostAddressConstKHR {
+                    device_address: aabbs,
+                })
                 .stride(24);
             (
                 vk::AccelerationStructureGeometryKHR::default()
@@ -92,19 +112,32 @@ fn vk_geometry(g: &VkGeometry) -> (vk::AccelerationStructureGeometryKHR<'static>
 fn instances_geometry(address: u64) -> vk::AccelerationStructureGeometryKHR<'static> {
     let data = vk::AccelerationStructureGeometryInstancesDataKHR::default()
         .array_of_pointers(false)
-        .data(vk::DeviceOrHostAddressConstKHR { device_address: address });
+        .data(vk::DeviceOrHostAddressConstKHR {
+            device_address: address,
+        });
     vk::AccelerationStructureGeometryKHR::default()
         .geometry_type(vk::GeometryTypeKHR::INSTANCES)
         .geometry(vk::AccelerationStructureGeometryDataKHR { instances: data })
 }
 
 /// One instance of a top level, in Vulkan's layout.
-pub fn vk_instance(transform: &Matrix3x4, custom_index: u32, mask: u8, sbt_offset: u32, flags: u8, blas: u64) -> vk::AccelerationStructureInstanceKHR {
+pub fn vk_instance(
+    transform: &Matrix3x4,
+    custom_index: u32,
+    mask: u8,
+    sbt_offset: u32,
+    flags: u8,
+    blas: u64,
+) -> vk::AccelerationStructureInstanceKHR {
     vk::AccelerationStructureInstanceKHR {
         transform: vk::TransformMatrixKHR { matrix: *transform },
         instance_custom_index_and_mask: vk::Packed24_8::new(custom_index, mask),
-        instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(sbt_offset, flags),
-        acceleration_structure_reference: vk::AccelerationStructureReferenceKHR { device_handle: blas },
+        instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(
+            sbt_offset, flags,
+        ),
+        acceleration_structure_reference: vk::AccelerationStructureReferenceKHR {
+            device_handle: blas,
+        },
     }
 }
 
@@ -113,7 +146,13 @@ pub const INSTANCE_SIZE: u64 = std::mem::size_of::<vk::AccelerationStructureInst
 
 impl Inner {
     /// The sizes a build needs: (structure, build scratch, update scratch).
-    pub fn build_sizes(&self, ty: vk::AccelerationStructureTypeKHR, geometries: &[VkGeometry], instance_count: Option<u32>, flags: vk::BuildAccelerationStructureFlagsKHR) -> (u64, u64, u64) {
+    pub fn build_sizes(
+        &self,
+        ty: vk::AccelerationStructureTypeKHR,
+        geometries: &[VkGeometry],
+        instance_count: Option<u32>,
+        flags: vk::BuildAccelerationStructureFlagsKHR,
+    ) -> (u64, u64, u64) {
         let (geoms, counts): (Vec<_>, Vec<u32>) = match instance_count {
             Some(n) => (vec![instances_geometry(0)], vec![n]),
             None => geometries.iter().map(vk_geometry).unzip(),
@@ -126,9 +165,18 @@ impl Inner {
         let mut sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
         // SAFETY: valid build info whose geometry count matches `counts`.
         unsafe {
-            self.ctx.accel.get_acceleration_structure_build_sizes(vk::AccelerationStructureBuildTypeKHR::DEVICE, &info, &counts, &mut sizes)
+            self.ctx.accel.get_acceleration_structure_build_sizes(
+                vk::AccelerationStructureBuildTypeKHR::DEVICE,
+                &info,
+                &counts,
+                &mut sizes,
+            )
         };
-        (sizes.acceleration_structure_size, sizes.build_scratch_size, sizes.update_scratch_size)
+        (
+            sizes.acceleration_structure_size,
+            sizes.build_scratch_size,
+            sizes.update_scratch_size,
+        )
     }
 
     /// Creates an empty structure of `size` bytes.
@@ -141,19 +189,34 @@ impl Inner {
             Location::DeviceLocal,
             256,
         )?;
-        let info = vk::AccelerationStructureCreateInfoKHR::default().buffer(buffer.buffer).size(size).ty(ty);
+        let info = vk::AccelerationStructureCreateInfoKHR::default()
+            .buffer(buffer.buffer)
+            .size(size)
+            .ty(ty);
         // SAFETY: the buffer has acceleration structure storage usage and `size` bytes.
         let accel = match unsafe { self.ctx.accel.create_acceleration_structure(&info, None) } {
             Ok(a) => a,
             Err(e) => {
                 buffer.destroy(&self.ctx, &mut self.alloc);
-                return Err(crate::error::vk_error("vkCreateAccelerationStructureKHR", e));
+                return Err(crate::error::vk_error(
+                    "vkCreateAccelerationStructureKHR",
+                    e,
+                ));
             }
         };
-        let address_info = vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(accel);
+        let address_info =
+            vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(accel);
         // SAFETY: a live structure of this device.
-        let address = unsafe { self.ctx.accel.get_acceleration_structure_device_address(&address_info) };
-        Ok(AsBuffer { accel, buffer, address })
+        let address = unsafe {
+            self.ctx
+                .accel
+                .get_acceleration_structure_device_address(&address_info)
+        };
+        Ok(AsBuffer {
+            accel,
+            buffer,
+            address,
+        })
     }
 
     /// Builds, rebuilds or refits a structure of `geometries` (bottom level) or of
@@ -167,18 +230,44 @@ impl Inner {
         flags: vk::BuildAccelerationStructureFlagsKHR,
         target: BuildTarget,
     ) -> Result<Option<AsBuffer>> {
-        let (structure_size, build_scratch, update_scratch) = self.build_sizes(ty, geometries, instances.map(|(_, n)| n), flags);
+        let (structure_size, build_scratch, update_scratch) =
+            self.build_sizes(ty, geometries, instances.map(|(_, n)| n), flags);
         let (created, dst, src, scratch_size, mode) = match target {
             BuildTarget::New => {
                 let created = self.create_as(ty, structure_size)?;
                 let dst = created.accel;
-                (Some(created), dst, vk::AccelerationStructureKHR::null(), build_scratch, vk::BuildAccelerationStructureModeKHR::BUILD)
+                (
+                    Some(created),
+                    dst,
+                    vk::AccelerationStructureKHR::null(),
+                    build_scratch,
+                    vk::BuildAccelerationStructureModeKHR::BUILD,
+                )
             }
-            BuildTarget::Rebuild(a) => (None, a, vk::AccelerationStructureKHR::null(), build_scratch, vk::BuildAccelerationStructureModeKHR::BUILD),
-            BuildTarget::Update(a) => (None, a, a, update_scratch, vk::BuildAccelerationStructureModeKHR::UPDATE),
+            BuildTarget::Rebuild(a) => (
+                None,
+                a,
+                vk::AccelerationStructureKHR::null(),
+                build_scratch,
+                vk::BuildAccelerationStructureModeKHR::BUILD,
+            ),
+            BuildTarget::Update(a) => (
+                None,
+                a,
+                a,
+                update_scratch,
+                vk::BuildAccelerationStructureModeKHR::UPDATE,
+            ),
         };
         let scratch_align = self.ctx.info.min_scratch_offset_alignment.max(1) as u64;
-        let scratch = match GpuBuffer::new(&self.ctx, &mut self.alloc, scratch_size.max(16), vk::BufferUsageFlags::STORAGE_BUFFER, Location::DeviceLocal, scratch_align) {
+        let scratch = match GpuBuffer::new(
+            &self.ctx,
+            &mut self.alloc,
+            scratch_size.max(16),
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            Location::DeviceLocal,
+            scratch_align,
+        ) {
             Ok(s) => s,
             Err(e) => {
                 if let Some(c) = created {
@@ -188,14 +277,18 @@ impl Inner {
             }
         };
         if scratch.address % scratch_align != 0 {
-            return Err(Error::backend("scratch buffer address is not aligned to minAccelerationStructureScratchOffsetAlignment"));
+            return Err(Error::backend(
+                "scratch buffer address is not aligned to minAccelerationStructureScratchOffsetAlignment",
+            ));
         }
         let (geoms, counts): (Vec<_>, Vec<u32>) = match instances {
             Some((address, n)) => (vec![instances_geometry(address)], vec![n]),
             None => geometries.iter().map(vk_geometry).unzip(),
         };
-        let ranges: Vec<vk::AccelerationStructureBuildRangeInfoKHR> =
-            counts.iter().map(|&n| vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(n)).collect();
+        let ranges: Vec<vk::AccelerationStructureBuildRangeInfoKHR> = counts
+            .iter()
+            .map(|&n| vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(n))
+            .collect();
         let info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
             .ty(ty)
             .flags(flags)
@@ -203,11 +296,16 @@ impl Inner {
             .src_acceleration_structure(src)
             .dst_acceleration_structure(dst)
             .geometries(&geoms)
-            .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch.address });
+            .scratch_data(vk::DeviceOrHostAddressKHR {
+                device_address: scratch.address,
+            });
         let ctx = self.ctx.clone();
         let result = self.run_commands(|cmd| {
             // SAFETY: recording; every address points into live buffers with the right usage.
-            unsafe { ctx.accel.cmd_build_acceleration_structures(cmd, &[info], &[&ranges]) };
+            unsafe {
+                ctx.accel
+                    .cmd_build_acceleration_structures(cmd, &[info], &[&ranges])
+            };
             Ok(())
         });
         scratch.destroy(&self.ctx, &mut self.alloc);
@@ -229,7 +327,8 @@ impl Inner {
             .query_type(vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR)
             .query_count(1);
         // SAFETY: valid create info; destroyed below.
-        let pool = unsafe { ctx.device.create_query_pool(&pool_info, None) }.or_vk("vkCreateQueryPool")?;
+        let pool =
+            unsafe { ctx.device.create_query_pool(&pool_info, None) }.or_vk("vkCreateQueryPool")?;
         let queried = self.run_commands(|cmd| {
             // SAFETY: recording; the structure was built with ALLOW_COMPACTION.
             unsafe {
@@ -247,13 +346,23 @@ impl Inner {
         let mut size = [0u64; 1];
         let read = queried.and_then(|_| {
             // SAFETY: the query was written by the finished command buffer.
-            unsafe { ctx.device.get_query_pool_results(pool, 0, &mut size, vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT) }
-                .or_vk("vkGetQueryPoolResults")
+            unsafe {
+                ctx.device.get_query_pool_results(
+                    pool,
+                    0,
+                    &mut size,
+                    vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+                )
+            }
+            .or_vk("vkGetQueryPoolResults")
         });
         // SAFETY: no pending use.
         unsafe { ctx.device.destroy_query_pool(pool, None) };
         read?;
-        let compacted = self.create_as(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, size[0].max(16))?;
+        let compacted = self.create_as(
+            vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+            size[0].max(16),
+        )?;
         let dst = compacted.accel;
         let copied = self.run_commands(|cmd| {
             let info = vk::CopyAccelerationStructureInfoKHR::default()

@@ -151,7 +151,9 @@ impl StageRole {
                 // reached by a trace against the empty acceleration structure.
                 ProgramKind::ContinuationCallable => VkStage::Miss,
             },
-            StageRole::SphereIntersection | StageRole::CurveIntersection(_) => VkStage::Intersection,
+            StageRole::SphereIntersection | StageRole::CurveIntersection(_) => {
+                VkStage::Intersection
+            }
             StageRole::NullCallable => VkStage::Callable,
             StageRole::NullContinuation => VkStage::Miss,
         }
@@ -161,7 +163,9 @@ impl StageRole {
     pub fn behaves_as(&self) -> ProgramKind {
         match self {
             StageRole::Program { kind, .. } => *kind,
-            StageRole::SphereIntersection | StageRole::CurveIntersection(_) => ProgramKind::Intersection,
+            StageRole::SphereIntersection | StageRole::CurveIntersection(_) => {
+                ProgramKind::Intersection
+            }
             StageRole::NullCallable => ProgramKind::DirectCallable,
             StageRole::NullContinuation => ProgramKind::ContinuationCallable,
         }
@@ -170,7 +174,11 @@ impl StageRole {
     /// The entry point name the stage gets in its SPIR-V module.
     pub fn entry_name(&self) -> String {
         match self {
-            StageRole::Program { name, context: Some(ctx), .. } => format!("{name}.{}", ctx.code()),
+            StageRole::Program {
+                name,
+                context: Some(ctx),
+                ..
+            } => format!("{name}.{}", ctx.code()),
             StageRole::Program { name, .. } => name.clone(),
             StageRole::SphereIntersection => "optik_sphere_intersection".into(),
             StageRole::CurveIntersection(b) => format!("optik_curve_intersection_{b}"),
@@ -182,5 +190,8 @@ impl StageRole {
 
 /// The prelude's `_optik_stage` value of a program kind: its index in [`ProgramKind::ALL`].
 pub fn stage_code(kind: ProgramKind) -> u32 {
-    ProgramKind::ALL.iter().position(|k| *k == kind).unwrap_or(0) as u32
+    ProgramKind::ALL
+        .iter()
+        .position(|k| *k == kind)
+        .unwrap_or(0) as u32
 }

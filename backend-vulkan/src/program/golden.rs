@@ -10,11 +10,30 @@ use std::collections::HashMap;
 
 /// `spirv-dis` of `words`.
 fn disassemble(words: &[u32]) -> String {
-    let path = std::env::temp_dir().join(format!("optik-golden-{}-{:x}.spv", std::process::id(), words.len() ^ words.iter().fold(0u32, |a, w| a.rotate_left(5) ^ w) as usize));
-    std::fs::write(&path, words.iter().flat_map(|w| w.to_le_bytes()).collect::<Vec<u8>>()).unwrap();
-    let out = std::process::Command::new("spirv-dis").arg("--no-color").arg(&path).output().expect("spirv-dis (spirv-tools) is needed by the golden tests");
+    let path = std::env::temp_dir().join(format!(
+        "optik-golden-{}-{:x}.spv",
+        std::process::id(),
+        words.len() ^ words.iter().fold(0u32, |a, w| a.rotate_left(5) ^ w) as usize
+    ));
+    std::fs::write(
+        &path,
+        words
+            .iter()
+            .flat_map(|w| w.to_le_bytes())
+            .collect::<Vec<u8>>(),
+    )
+    .unwrap();
+    let out = std::process::Command::new("spirv-dis")
+        .arg("--no-color")
+        .arg(&path)
+        .output()
+        .expect("spirv-dis (spirv-tools) is needed by the golden tests");
     let _ = std::fs::remove_file(&path);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
@@ -22,17 +41,32 @@ fn disassemble(words: &[u32]) -> String {
 /// decorations) of the ids it uses, and numeric ids renumbered in order of appearance.
 fn function_golden(dis: &str, name: &str) -> Option<String> {
     let lines: Vec<&str> = dis.lines().map(str::trim).collect();
-    let start = lines.iter().position(|l| l.starts_with(&format!("%{name} = OpFunction ")))?;
+    let start = lines
+        .iter()
+        .position(|l| l.starts_with(&format!("%{name} = OpFunction ")))?;
     let end = start + lines[start..].iter().position(|l| *l == "OpFunctionEnd")?;
     let body = &lines[start..=end];
-    let is_numeric = |t: &str| t.len() > 1 && t.starts_with('%') && t[1..].chars().all(|c| c.is_ascii_digit());
-    let used: Vec<&str> = body.iter().flat_map(|l| l.split_whitespace()).filter(|t| is_numeric(t)).collect();
+    let is_numeric =
+        |t: &str| t.len() > 1 && t.starts_with('%') && t[1..].chars().all(|c| c.is_ascii_digit());
+    let used: Vec<&str> = body
+        .iter()
+        .flat_map(|l| l.split_whitespace())
+        .filter(|t| is_numeric(t))
+        .collect();
     let mut globals = Vec::new();
     for l in &lines[..start] {
         let defines = l.split(" = ").next().filter(|d| used.contains(d)).is_some();
         let decorates = (l.starts_with("OpDecorate ") || l.starts_with("OpMemberDecorate "))
-            && l.split_whitespace().nth(1).is_some_and(|t| used.contains(&t));
-        if (defines && (l.contains("OpVariable") || l.contains("OpTypePointer") || l.contains("OpTypeStruct") || l.contains("OpTypeArray"))) || decorates {
+            && l.split_whitespace()
+                .nth(1)
+                .is_some_and(|t| used.contains(&t));
+        if (defines
+            && (l.contains("OpVariable")
+                || l.contains("OpTypePointer")
+                || l.contains("OpTypeStruct")
+                || l.contains("OpTypeArray")))
+            || decorates
+        {
             globals.push(*l);
         }
     }
@@ -74,7 +108,10 @@ fn every_intrinsic_lowers_as_pinned() {
     let roles = user_roles(EVERYTHING);
     // The largest configuration, then the smallest for what it replaces (`_optik_ray_flags`
     // is only used when rays do not carry their flags in the state).
-    let smallest = LoweringConfig { continuation_calls: true, ..LoweringConfig::default() };
+    let smallest = LoweringConfig {
+        continuation_calls: true,
+        ..LoweringConfig::default()
+    };
     let mut dis: Vec<(String, VkStage, String)> = Vec::new();
     for config in [largest_config(), smallest] {
         for s in lower_stages(ModuleText::User(EVERYTHING), &config, &roles).unwrap() {
@@ -87,15 +124,27 @@ fn every_intrinsic_lowers_as_pinned() {
     for i in Intrinsic::ALL {
         let found = dis.iter().find_map(|(_, stage, d)| {
             // Payload access is pinned in a hit stage; the callable variant separately.
-            if matches!(i, Intrinsic::PayloadGet | Intrinsic::PayloadSet) && *stage == VkStage::Callable {
+            if matches!(i, Intrinsic::PayloadGet | Intrinsic::PayloadSet)
+                && *stage == VkStage::Callable
+            {
                 return None;
             }
             function_golden(d, i.name())
         });
-        cases.push((i.name().trim_start_matches('_').to_string(), found.unwrap_or_else(|| panic!("no stage lowers {}", i.name()))));
+        cases.push((
+            i.name().trim_start_matches('_').to_string(),
+            found.unwrap_or_else(|| panic!("no stage lowers {}", i.name())),
+        ));
     }
-    let callable = dis.iter().find(|(n, _, _)| n == "direct_callable__dc").map(|(_, _, d)| d).unwrap();
-    cases.push(("optik_payload_get_callable".into(), function_golden(callable, "_optik_payload_get").unwrap()));
+    let callable = dis
+        .iter()
+        .find(|(n, _, _)| n == "direct_callable__dc")
+        .map(|(_, _, d)| d)
+        .unwrap();
+    cases.push((
+        "optik_payload_get_callable".into(),
+        function_golden(callable, "_optik_payload_get").unwrap(),
+    ));
     let mut mismatches = Vec::new();
     for (name, text) in cases {
         let path = dir.join(format!("{name}.spvasm"));
@@ -107,8 +156,15 @@ fn every_intrinsic_lowers_as_pinned() {
         match std::fs::read_to_string(&path) {
             Ok(golden) if golden == text => {}
             Ok(golden) => mismatches.push(format!("{name}: expected\n{golden}\ngot\n{text}")),
-            Err(_) => mismatches.push(format!("{name}: no golden file {} (bless with OPTIK_BLESS=1)", path.display())),
+            Err(_) => mismatches.push(format!(
+                "{name}: no golden file {} (bless with OPTIK_BLESS=1)",
+                path.display()
+            )),
         }
     }
-    assert!(mismatches.is_empty(), "lowering changed:\n{}", mismatches.join("\n"));
+    assert!(
+        mismatches.is_empty(),
+        "lowering changed:\n{}",
+        mismatches.join("\n")
+    );
 }

@@ -143,7 +143,9 @@ impl Intrinsic {
             Intrinsic::PayloadGet => "(i: u32) -> u32",
             Intrinsic::PayloadSet => "(i: u32, value: u32)",
             Intrinsic::AttributeGet => "(i: u32) -> u32",
-            Intrinsic::ReportIntersection => "(t: f32, hit_kind: u32, attributes: RtAttributes) -> bool",
+            Intrinsic::ReportIntersection => {
+                "(t: f32, hit_kind: u32, attributes: RtAttributes) -> bool"
+            }
             Intrinsic::IgnoreIntersection | Intrinsic::TerminateRay => "()",
             Intrinsic::SbtU32 => "(i: u32) -> u32",
         }

@@ -74,38 +74,65 @@ pub fn vulkan_source(text: ModuleText, config: &LoweringConfig, roles: &[StageRo
     }
     source.push_str(&prelude::prelude(config));
     for (i, role) in roles.iter().enumerate() {
-        source.push_str(&prelude::wrapper(&format!("_optik_entry_{i}"), role, config));
+        source.push_str(&prelude::wrapper(
+            &format!("_optik_entry_{i}"),
+            role,
+            config,
+        ));
     }
     source
 }
 
 /// Lowers `roles` of one module into SPIR-V stages.
-pub fn lower_stages(text: ModuleText, config: &LoweringConfig, roles: &[StageRole]) -> Result<Vec<LoweredStage>> {
+pub fn lower_stages(
+    text: ModuleText,
+    config: &LoweringConfig,
+    roles: &[StageRole],
+) -> Result<Vec<LoweredStage>> {
     let source = vulkan_source(text, config, roles);
     let internal = |what: &str, detail: String| {
-        Error::backend(format!("internal error of the Vulkan lowering ({what}): {detail}; please report it with the WGSL module"))
+        Error::backend(format!(
+            "internal error of the Vulkan lowering ({what}): {detail}; please report it with the WGSL module"
+        ))
     };
-    let mut module = naga::front::wgsl::parse_str(&source).map_err(|e| internal("parse", e.emit_to_string(&source)))?;
+    let mut module = naga::front::wgsl::parse_str(&source)
+        .map_err(|e| internal("parse", e.emit_to_string(&source)))?;
     if config.unwinds() {
         unwind::insert_unwinding(&mut module).map_err(|e| internal("exception unwinding", e))?;
     }
-    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
-        .validate(&module)
-        .map_err(|e| internal("validation", e.emit_to_string(&source)))?;
+    let info = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::default(),
+    )
+    .validate(&module)
+    .map_err(|e| internal("validation", e.emit_to_string(&source)))?;
     let options = spv_options();
     let mut stages = Vec::with_capacity(roles.len());
     for (i, role) in roles.iter().enumerate() {
         let wrapper = format!("_optik_entry_{i}");
-        let pipeline = naga::back::spv::PipelineOptions { shader_stage: naga::ShaderStage::Compute, entry_point: wrapper.clone() };
+        let pipeline = naga::back::spv::PipelineOptions {
+            shader_stage: naga::ShaderStage::Compute,
+            entry_point: wrapper.clone(),
+        };
         let words = naga::back::spv::write_vec(&module, &info, &options, Some(&pipeline))
             .map_err(|e| internal("SPIR-V writer", e.to_string()))?;
         let entry_name = role.entry_name();
-        let shape = StageShape { wrapper: &wrapper, entry_name: &entry_name, stage: role.vk_stage(), payload_len: config.payload_len };
+        let shape = StageShape {
+            wrapper: &wrapper,
+            entry_name: &entry_name,
+            stage: role.vk_stage(),
+            payload_len: config.payload_len,
+        };
         let spirv = postpass::post_pass(&words, &shape).map_err(|e| match e {
             PostPassError::Forbidden(intrinsic, stage) => forbidden(role, intrinsic, stage),
             PostPassError::Internal(detail) => internal("post-pass", detail),
         })?;
-        stages.push(LoweredStage { role: role.clone(), entry_name, stage: role.vk_stage(), spirv });
+        stages.push(LoweredStage {
+            role: role.clone(),
+            entry_name,
+            stage: role.vk_stage(),
+            spirv,
+        });
     }
     Ok(stages)
 }

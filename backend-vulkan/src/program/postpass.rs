@@ -36,12 +36,18 @@ pub struct StageShape<'a> {
 /// for the caller to wrap (an intrinsic used where its stage forbids it is the user's, every
 /// other one is the backend's).
 pub fn post_pass(words: &[u32], shape: &StageShape) -> Result<Vec<u32>, PostPassError> {
-    let mut module = dr::load_words(words).map_err(|e| PostPassError::Internal(format!("naga's SPIR-V does not load: {e}")))?;
+    let mut module = dr::load_words(words)
+        .map_err(|e| PostPassError::Internal(format!("naga's SPIR-V does not load: {e}")))?;
     let entry_fn = rewrite_entry_point(&mut module, shape)?;
     let names = function_names(&module);
     prune_unreachable(&mut module, entry_fn);
 
-    let mut pass = Pass { b: Builder::new_from_module(module), shape, interface: Vec::new(), cache: HashMap::new() };
+    let mut pass = Pass {
+        b: Builder::new_from_module(module),
+        shape,
+        interface: Vec::new(),
+        cache: HashMap::new(),
+    };
     let intrinsics: Vec<(usize, Intrinsic)> = pass
         .b
         .module_ref()
@@ -92,7 +98,9 @@ fn rewrite_entry_point(module: &mut dr::Module, shape: &StageShape) -> Result<Wo
     let mut ep = module.entry_points.remove(position);
     module.entry_points.clear();
     let Some(Operand::IdRef(function)) = ep.operands.get(1).cloned() else {
-        return Err(PostPassError::Internal("entry point without a function".into()));
+        return Err(PostPassError::Internal(
+            "entry point without a function".into(),
+        ));
     };
     ep.operands[0] = Operand::ExecutionModel(model(shape.stage));
     ep.operands[2] = Operand::LiteralString(shape.entry_name.to_string());
@@ -103,13 +111,21 @@ fn rewrite_entry_point(module: &mut dr::Module, shape: &StageShape) -> Result<Wo
 
 /// Function id → name, from `OpName` (naga writes them with `WriterFlags::DEBUG`, pitfall 7).
 fn function_names(module: &dr::Module) -> HashMap<Word, String> {
-    let functions: HashSet<Word> = module.functions.iter().filter_map(|f| f.def.as_ref()?.result_id).collect();
+    let functions: HashSet<Word> = module
+        .functions
+        .iter()
+        .filter_map(|f| f.def.as_ref()?.result_id)
+        .collect();
     module
         .debug_names
         .iter()
         .filter(|i| i.class.opcode == Op::Name)
         .filter_map(|i| match (i.operands.first(), i.operands.get(1)) {
-            (Some(Operand::IdRef(id)), Some(Operand::LiteralString(n))) if functions.contains(id) => Some((*id, n.clone())),
+            (Some(Operand::IdRef(id)), Some(Operand::LiteralString(n)))
+                if functions.contains(id) =>
+            {
+                Some((*id, n.clone()))
+            }
             _ => None,
         })
         .collect()
@@ -150,7 +166,12 @@ fn prune_unreachable(module: &mut dr::Module, entry: Word) {
         if reachable.contains(&id_of(f)) {
             return true;
         }
-        removed_ids.extend(f.def.iter().chain(&f.parameters).filter_map(|i| i.result_id));
+        removed_ids.extend(
+            f.def
+                .iter()
+                .chain(&f.parameters)
+                .filter_map(|i| i.result_id),
+        );
         for b in &f.blocks {
             removed_ids.extend(b.label.as_ref().and_then(|l| l.result_id));
             removed_ids.extend(b.instructions.iter().filter_map(|i| i.result_id));
@@ -171,7 +192,9 @@ fn allowed(intrinsic: Intrinsic, stage: VkStage) -> bool {
     let hit = matches!(stage, S::AnyHit | S::ClosestHit);
     match intrinsic {
         I::LaunchId | I::LaunchSize | I::SbtU32 => true,
-        I::WorldRayOrigin | I::WorldRayDirection | I::RayTmin | I::RayTmax | I::RayFlags => traversal,
+        I::WorldRayOrigin | I::WorldRayDirection | I::RayTmin | I::RayTmax | I::RayFlags => {
+            traversal
+        }
         I::ObjectRayOrigin
         | I::ObjectRayDirection
         | I::PrimitiveId
@@ -182,7 +205,9 @@ fn allowed(intrinsic: Intrinsic, stage: VkStage) -> bool {
         I::HitKind | I::AttributeGet => hit,
         I::Trace => matches!(stage, S::Raygen | S::ClosestHit | S::Miss),
         I::ExecuteCallable => matches!(stage, S::Raygen | S::ClosestHit | S::Miss | S::Callable),
-        I::PayloadGet | I::PayloadSet => matches!(stage, S::AnyHit | S::ClosestHit | S::Miss | S::Callable),
+        I::PayloadGet | I::PayloadSet => {
+            matches!(stage, S::AnyHit | S::ClosestHit | S::Miss | S::Callable)
+        }
         I::ReportIntersection => stage == S::Intersection,
         I::IgnoreIntersection | I::TerminateRay => stage == S::AnyHit,
     }
@@ -223,12 +248,13 @@ impl Pass<'_> {
         let u32_ty = self.u32_type();
         let m = self.b.module_ref();
         let constant_value = |id: Word| {
-            m.types_global_values.iter().find(|i| i.result_id == Some(id) && i.class.opcode == Op::Constant).and_then(
-                |i| match i.operands.first() {
+            m.types_global_values
+                .iter()
+                .find(|i| i.result_id == Some(id) && i.class.opcode == Op::Constant)
+                .and_then(|i| match i.operands.first() {
                     Some(Operand::LiteralBit32(v)) => Some(*v),
                     _ => None,
-                },
-            )
+                })
         };
         let existing = m.types_global_values.iter().find(|i| {
             i.class.opcode == Op::TypeArray
@@ -240,12 +266,15 @@ impl Pass<'_> {
         }
         let length = self.u32_constant(len);
         let id = self.b.id();
-        self.b.module_mut().types_global_values.push(Instruction::new(
-            Op::TypeArray,
-            None,
-            Some(id),
-            vec![Operand::IdRef(u32_ty), Operand::IdRef(length)],
-        ));
+        self.b
+            .module_mut()
+            .types_global_values
+            .push(Instruction::new(
+                Op::TypeArray,
+                None,
+                Some(id),
+                vec![Operand::IdRef(u32_ty), Operand::IdRef(length)],
+            ));
         id
     }
 
@@ -260,7 +289,9 @@ impl Pass<'_> {
                 Some(Operand::IdRef(t)) => Some(*t),
                 _ => None,
             })
-            .ok_or_else(|| PostPassError::Internal(format!("id {pointer_type} is not a pointer type")))
+            .ok_or_else(|| {
+                PostPassError::Internal(format!("id {pointer_type} is not a pointer type"))
+            })
     }
 
     /// A module-scope variable, created once.
@@ -271,8 +302,14 @@ impl Pass<'_> {
         let pointer = self.b.type_pointer(None, class, ty);
         let id = self.b.variable(pointer, None, class, None);
         match var {
-            Var::Builtin(builtin) => self.b.decorate(id, Decoration::BuiltIn, [Operand::BuiltIn(builtin)]),
-            Var::Payload | Var::CallableData => self.b.decorate(id, Decoration::Location, [Operand::LiteralBit32(0)]),
+            Var::Builtin(builtin) => {
+                self.b
+                    .decorate(id, Decoration::BuiltIn, [Operand::BuiltIn(builtin)])
+            }
+            Var::Payload | Var::CallableData => {
+                self.b
+                    .decorate(id, Decoration::Location, [Operand::LiteralBit32(0)])
+            }
             _ => {}
         }
         self.cache.insert(var, id);
@@ -297,11 +334,22 @@ impl Pass<'_> {
             Some(array),
             vec![Operand::IdRef(u32_ty), Operand::IdRef(length)],
         ));
-        m.types_global_values.push(Instruction::new(Op::TypeStruct, None, Some(block), vec![Operand::IdRef(array)]));
-        self.b.decorate(array, Decoration::ArrayStride, [Operand::LiteralBit32(4)]);
+        m.types_global_values.push(Instruction::new(
+            Op::TypeStruct,
+            None,
+            Some(block),
+            vec![Operand::IdRef(array)],
+        ));
+        self.b
+            .decorate(array, Decoration::ArrayStride, [Operand::LiteralBit32(4)]);
         self.b.decorate(block, Decoration::Block, []);
-        self.b.member_decorate(block, 0, Decoration::Offset, [Operand::LiteralBit32(0)]);
-        self.variable(Var::ShaderRecord, block, StorageClass::ShaderRecordBufferKHR)
+        self.b
+            .member_decorate(block, 0, Decoration::Offset, [Operand::LiteralBit32(0)]);
+        self.variable(
+            Var::ShaderRecord,
+            block,
+            StorageClass::ShaderRecordBufferKHR,
+        )
     }
 
     fn inst(&mut self, op: Op, ty: Option<Word>, operands: Vec<Operand>) -> (Word, Instruction) {
@@ -316,9 +364,16 @@ impl Pass<'_> {
         }
         let f = &self.b.module_ref().functions[index];
         let ret_ty = f.def.as_ref().and_then(|d| d.result_type).unwrap_or(0);
-        let params: Vec<(Word, Word)> =
-            f.parameters.iter().map(|p| (p.result_id.unwrap_or(0), p.result_type.unwrap_or(0))).collect();
-        let param = |i: usize| params.get(i).copied().ok_or_else(|| PostPassError::Internal(format!("{} lacks parameter {i}", intrinsic.name())));
+        let params: Vec<(Word, Word)> = f
+            .parameters
+            .iter()
+            .map(|p| (p.result_id.unwrap_or(0), p.result_type.unwrap_or(0)))
+            .collect();
+        let param = |i: usize| {
+            params.get(i).copied().ok_or_else(|| {
+                PostPassError::Internal(format!("{} lacks parameter {i}", intrinsic.name()))
+            })
+        };
         let mut body: Vec<Instruction> = Vec::new();
         use Intrinsic as I;
         match intrinsic {
@@ -327,7 +382,12 @@ impl Pass<'_> {
                 let var = self.variable(Var::Builtin(builtin), ret_ty, StorageClass::Input);
                 let (v, load) = self.inst(Op::Load, Some(ret_ty), vec![Operand::IdRef(var)]);
                 body.push(load);
-                body.push(Instruction::new(Op::ReturnValue, None, None, vec![Operand::IdRef(v)]));
+                body.push(Instruction::new(
+                    Op::ReturnValue,
+                    None,
+                    None,
+                    vec![Operand::IdRef(v)],
+                ));
             }
             I::Trace => {
                 let (payload_param, payload_ptr_ty) = param(10)?;
@@ -335,21 +395,39 @@ impl Pass<'_> {
                 let var = self.variable(Var::Payload, payload_ty, StorageClass::RayPayloadKHR);
                 let as_ty = self.b.type_acceleration_structure_khr();
                 let (handle, _) = param(0)?;
-                let (accel, convert) =
-                    self.inst(Op::ConvertUToAccelerationStructureKHR, Some(as_ty), vec![Operand::IdRef(handle)]);
+                let (accel, convert) = self.inst(
+                    Op::ConvertUToAccelerationStructureKHR,
+                    Some(as_ty),
+                    vec![Operand::IdRef(handle)],
+                );
                 body.push(convert);
-                let (value, load) = self.inst(Op::Load, Some(payload_ty), vec![Operand::IdRef(payload_param)]);
+                let (value, load) = self.inst(
+                    Op::Load,
+                    Some(payload_ty),
+                    vec![Operand::IdRef(payload_param)],
+                );
                 body.push(load);
-                body.push(Instruction::new(Op::Store, None, None, vec![Operand::IdRef(var), Operand::IdRef(value)]));
+                body.push(Instruction::new(
+                    Op::Store,
+                    None,
+                    None,
+                    vec![Operand::IdRef(var), Operand::IdRef(value)],
+                ));
                 let mut operands = vec![Operand::IdRef(accel)];
                 for i in 1..10 {
                     operands.push(Operand::IdRef(param(i)?.0));
                 }
                 operands.push(Operand::IdRef(var));
                 body.push(Instruction::new(Op::TraceRayKHR, None, None, operands));
-                let (result, load) = self.inst(Op::Load, Some(payload_ty), vec![Operand::IdRef(var)]);
+                let (result, load) =
+                    self.inst(Op::Load, Some(payload_ty), vec![Operand::IdRef(var)]);
                 body.push(load);
-                body.push(Instruction::new(Op::Store, None, None, vec![Operand::IdRef(payload_param), Operand::IdRef(result)]));
+                body.push(Instruction::new(
+                    Op::Store,
+                    None,
+                    None,
+                    vec![Operand::IdRef(payload_param), Operand::IdRef(result)],
+                ));
                 body.push(Instruction::new(Op::Return, None, None, vec![]));
             }
             I::ExecuteCallable => {
@@ -357,9 +435,15 @@ impl Pass<'_> {
                 let (data_param, data_ptr_ty) = param(1)?;
                 let data_ty = self.pointee(data_ptr_ty)?;
                 let var = self.variable(Var::CallableData, data_ty, StorageClass::CallableDataKHR);
-                let (value, load) = self.inst(Op::Load, Some(data_ty), vec![Operand::IdRef(data_param)]);
+                let (value, load) =
+                    self.inst(Op::Load, Some(data_ty), vec![Operand::IdRef(data_param)]);
                 body.push(load);
-                body.push(Instruction::new(Op::Store, None, None, vec![Operand::IdRef(var), Operand::IdRef(value)]));
+                body.push(Instruction::new(
+                    Op::Store,
+                    None,
+                    None,
+                    vec![Operand::IdRef(var), Operand::IdRef(value)],
+                ));
                 body.push(Instruction::new(
                     Op::ExecuteCallableKHR,
                     None,
@@ -368,7 +452,12 @@ impl Pass<'_> {
                 ));
                 let (result, load) = self.inst(Op::Load, Some(data_ty), vec![Operand::IdRef(var)]);
                 body.push(load);
-                body.push(Instruction::new(Op::Store, None, None, vec![Operand::IdRef(data_param), Operand::IdRef(result)]));
+                body.push(Instruction::new(
+                    Op::Store,
+                    None,
+                    None,
+                    vec![Operand::IdRef(data_param), Operand::IdRef(result)],
+                ));
                 body.push(Instruction::new(Op::Return, None, None, vec![]));
             }
             I::PayloadGet | I::PayloadSet => {
@@ -382,16 +471,29 @@ impl Pass<'_> {
                 let u32_ty = self.u32_type();
                 let element_ptr = self.b.type_pointer(None, class, u32_ty);
                 let (i, _) = param(0)?;
-                let (ptr, chain) =
-                    self.inst(Op::AccessChain, Some(element_ptr), vec![Operand::IdRef(var), Operand::IdRef(i)]);
+                let (ptr, chain) = self.inst(
+                    Op::AccessChain,
+                    Some(element_ptr),
+                    vec![Operand::IdRef(var), Operand::IdRef(i)],
+                );
                 body.push(chain);
                 if intrinsic == I::PayloadGet {
                     let (v, load) = self.inst(Op::Load, Some(u32_ty), vec![Operand::IdRef(ptr)]);
                     body.push(load);
-                    body.push(Instruction::new(Op::ReturnValue, None, None, vec![Operand::IdRef(v)]));
+                    body.push(Instruction::new(
+                        Op::ReturnValue,
+                        None,
+                        None,
+                        vec![Operand::IdRef(v)],
+                    ));
                 } else {
                     let (value, _) = param(1)?;
-                    body.push(Instruction::new(Op::Store, None, None, vec![Operand::IdRef(ptr), Operand::IdRef(value)]));
+                    body.push(Instruction::new(
+                        Op::Store,
+                        None,
+                        None,
+                        vec![Operand::IdRef(ptr), Operand::IdRef(value)],
+                    ));
                     body.push(Instruction::new(Op::Return, None, None, vec![]));
                 }
             }
@@ -399,34 +501,68 @@ impl Pass<'_> {
                 let array = self.u32_array_type(8);
                 let var = self.variable(Var::HitAttributes, array, StorageClass::HitAttributeKHR);
                 let u32_ty = self.u32_type();
-                let element_ptr = self.b.type_pointer(None, StorageClass::HitAttributeKHR, u32_ty);
+                let element_ptr = self
+                    .b
+                    .type_pointer(None, StorageClass::HitAttributeKHR, u32_ty);
                 let (i, _) = param(0)?;
-                let (ptr, chain) =
-                    self.inst(Op::AccessChain, Some(element_ptr), vec![Operand::IdRef(var), Operand::IdRef(i)]);
+                let (ptr, chain) = self.inst(
+                    Op::AccessChain,
+                    Some(element_ptr),
+                    vec![Operand::IdRef(var), Operand::IdRef(i)],
+                );
                 body.push(chain);
                 let (v, load) = self.inst(Op::Load, Some(u32_ty), vec![Operand::IdRef(ptr)]);
                 body.push(load);
-                body.push(Instruction::new(Op::ReturnValue, None, None, vec![Operand::IdRef(v)]));
+                body.push(Instruction::new(
+                    Op::ReturnValue,
+                    None,
+                    None,
+                    vec![Operand::IdRef(v)],
+                ));
             }
             I::ReportIntersection => {
                 let (t, _) = param(0)?;
                 let (kind, _) = param(1)?;
                 let (attributes, attributes_ty) = param(2)?;
-                let var = self.variable(Var::HitAttributes, attributes_ty, StorageClass::HitAttributeKHR);
-                body.push(Instruction::new(Op::Store, None, None, vec![Operand::IdRef(var), Operand::IdRef(attributes)]));
-                let (accepted, report) =
-                    self.inst(Op::ReportIntersectionKHR, Some(ret_ty), vec![Operand::IdRef(t), Operand::IdRef(kind)]);
+                let var = self.variable(
+                    Var::HitAttributes,
+                    attributes_ty,
+                    StorageClass::HitAttributeKHR,
+                );
+                body.push(Instruction::new(
+                    Op::Store,
+                    None,
+                    None,
+                    vec![Operand::IdRef(var), Operand::IdRef(attributes)],
+                ));
+                let (accepted, report) = self.inst(
+                    Op::ReportIntersectionKHR,
+                    Some(ret_ty),
+                    vec![Operand::IdRef(t), Operand::IdRef(kind)],
+                );
                 body.push(report);
-                body.push(Instruction::new(Op::ReturnValue, None, None, vec![Operand::IdRef(accepted)]));
+                body.push(Instruction::new(
+                    Op::ReturnValue,
+                    None,
+                    None,
+                    vec![Operand::IdRef(accepted)],
+                ));
             }
             // Terminators: the function's only block ends in them, as glslang writes a GLSL
             // helper that calls ignoreIntersectionEXT.
-            I::IgnoreIntersection => body.push(Instruction::new(Op::IgnoreIntersectionKHR, None, None, vec![])),
+            I::IgnoreIntersection => body.push(Instruction::new(
+                Op::IgnoreIntersectionKHR,
+                None,
+                None,
+                vec![],
+            )),
             I::TerminateRay => body.push(Instruction::new(Op::TerminateRayKHR, None, None, vec![])),
             I::SbtU32 => {
                 let var = self.shader_record();
                 let u32_ty = self.u32_type();
-                let element_ptr = self.b.type_pointer(None, StorageClass::ShaderRecordBufferKHR, u32_ty);
+                let element_ptr =
+                    self.b
+                        .type_pointer(None, StorageClass::ShaderRecordBufferKHR, u32_ty);
                 let zero = self.u32_constant(0);
                 let (i, _) = param(0)?;
                 let (ptr, chain) = self.inst(
@@ -437,13 +573,26 @@ impl Pass<'_> {
                 body.push(chain);
                 let (v, load) = self.inst(Op::Load, Some(u32_ty), vec![Operand::IdRef(ptr)]);
                 body.push(load);
-                body.push(Instruction::new(Op::ReturnValue, None, None, vec![Operand::IdRef(v)]));
+                body.push(Instruction::new(
+                    Op::ReturnValue,
+                    None,
+                    None,
+                    vec![Operand::IdRef(v)],
+                ));
             }
-            _ => return Err(PostPassError::Internal(format!("no lowering for {}", intrinsic.name()))),
+            _ => {
+                return Err(PostPassError::Internal(format!(
+                    "no lowering for {}",
+                    intrinsic.name()
+                )));
+            }
         }
         let label = self.b.id();
         let function = &mut self.b.module_mut().functions[index];
-        function.blocks = vec![dr::Block { label: Some(Instruction::new(Op::Label, None, Some(label), vec![])), instructions: body }];
+        function.blocks = vec![dr::Block {
+            label: Some(Instruction::new(Op::Label, None, Some(label), vec![])),
+            instructions: body,
+        }];
         Ok(())
     }
 
@@ -451,7 +600,11 @@ impl Pass<'_> {
     fn finish(&mut self, entry_fn: Word) {
         let interface = std::mem::take(&mut self.interface);
         let m = self.b.module_mut();
-        if let Some(ep) = m.entry_points.iter_mut().find(|ep| ep.operands.get(1) == Some(&Operand::IdRef(entry_fn))) {
+        if let Some(ep) = m
+            .entry_points
+            .iter_mut()
+            .find(|ep| ep.operands.get(1) == Some(&Operand::IdRef(entry_fn)))
+        {
             for id in interface {
                 if !ep.operands.contains(&Operand::IdRef(id)) {
                     ep.operands.push(Operand::IdRef(id));
@@ -465,16 +618,24 @@ impl Pass<'_> {
             .flat_map(|b| &b.instructions)
             .any(|i| format!("{:?}", i.class.opcode).starts_with("RayQuery"));
         if !queries_rays {
-            m.capabilities.retain(|c| c.operands.first() != Some(&Operand::Capability(Capability::RayQueryKHR)));
-            m.extensions
-                .retain(|e| e.operands.first() != Some(&Operand::LiteralString("SPV_KHR_ray_query".into())));
+            m.capabilities.retain(|c| {
+                c.operands.first() != Some(&Operand::Capability(Capability::RayQueryKHR))
+            });
+            m.extensions.retain(|e| {
+                e.operands.first() != Some(&Operand::LiteralString("SPV_KHR_ray_query".into()))
+            });
         }
-        let has_rt = m.capabilities.iter().any(|c| c.operands.first() == Some(&Operand::Capability(Capability::RayTracingKHR)));
+        let has_rt = m
+            .capabilities
+            .iter()
+            .any(|c| c.operands.first() == Some(&Operand::Capability(Capability::RayTracingKHR)));
         if !has_rt {
             self.b.capability(Capability::RayTracingKHR);
         }
         let m = self.b.module_ref();
-        if !m.extensions.iter().any(|e| e.operands.first() == Some(&Operand::LiteralString("SPV_KHR_ray_tracing".into()))) {
+        if !m.extensions.iter().any(|e| {
+            e.operands.first() == Some(&Operand::LiteralString("SPV_KHR_ray_tracing".into()))
+        }) {
             self.b.extension("SPV_KHR_ray_tracing");
         }
     }

@@ -47,7 +47,10 @@ pub fn prelude(c: &LoweringConfig) -> String {
     let mut s = String::new();
     s.push_str("\n// ---- optik Vulkan prelude (backend-vulkan/src/program/prelude.rs) ----\n");
     s.push_str("alias RtHandle = vec2<u32>;\n");
-    s.push_str(&format!("alias RtPayload = array<u32, {}>;\n", c.payload_len.max(1)));
+    s.push_str(&format!(
+        "alias RtPayload = array<u32, {}>;\n",
+        c.payload_len.max(1)
+    ));
     s.push_str("alias RtAttributes = array<u32, 8>;\n");
     for (name, ty, value) in PRELUDE_CONSTANTS {
         s.push_str(&format!("const {name}: {ty} = {value}u;\n"));
@@ -56,14 +59,32 @@ pub fn prelude(c: &LoweringConfig) -> String {
         s.push_str(&format!("const {name}: i32 = {value}i;\n"));
     }
     for kind in ProgramKind::ALL {
-        s.push_str(&format!("const _OPTIK_STAGE_{}: u32 = {}u;\n", stage_const(kind), stage_code(kind)));
+        s.push_str(&format!(
+            "const _OPTIK_STAGE_{}: u32 = {}u;\n",
+            stage_const(kind),
+            stage_code(kind)
+        ));
     }
-    for ctx in [HitContext::Triangles, HitContext::Custom, HitContext::Sphere, HitContext::Curve] {
-        s.push_str(&format!("const _OPTIK_CTX_{}: u32 = {}u;\n", format!("{ctx:?}").to_uppercase(), ctx.code()));
+    for ctx in [
+        HitContext::Triangles,
+        HitContext::Custom,
+        HitContext::Sphere,
+        HitContext::Curve,
+    ] {
+        s.push_str(&format!(
+            "const _OPTIK_CTX_{}: u32 = {}u;\n",
+            format!("{ctx:?}").to_uppercase(),
+            ctx.code()
+        ));
     }
     s.push_str(RESOURCES);
     for i in Intrinsic::ALL {
-        s.push_str(&format!("fn {}{} {}\n", i.name(), i.signature(), i.stand_in_body()));
+        s.push_str(&format!(
+            "fn {}{} {}\n",
+            i.name(),
+            i.signature(),
+            i.stand_in_body()
+        ));
     }
     s.push_str(&HELPERS.replace("$SBT_DATA_LAST", &(SBT_DATA_WORDS - 1).to_string()));
     s.push_str(&state_functions(c));
@@ -293,7 +314,11 @@ fn _optik_exit_stage() {
 
 /// `_optik_raise(code)` when `flag` is checked, else nothing.
 fn raise_if(c: &LoweringConfig, flag: ExceptionFlags, code: &str) -> String {
-    if c.exceptions.contains(flag) { format!("_optik_raise({code});") } else { String::new() }
+    if c.exceptions.contains(flag) {
+        format!("_optik_raise({code});")
+    } else {
+        String::new()
+    }
 }
 
 /// The device functions with their Vulkan bodies, in the API prelude's order and signatures.
@@ -362,7 +387,12 @@ fn device_functions(c: &LoweringConfig) -> String {
                 continue;
             }
         };
-        s.push_str(&format!("fn {}{} {{\n    {}\n}}\n", f.name(), f.signature(), body));
+        s.push_str(&format!(
+            "fn {}{} {{\n    {}\n}}\n",
+            f.name(),
+            f.signature(),
+            body
+        ));
     }
     s
 }
@@ -396,13 +426,20 @@ fn trace_body(c: &LoweringConfig) -> String {
     let state = c.uses_state();
     let mut b = String::new();
     b.push_str("if !_optik_ray_valid(origin, direction, tmin, tmax) {\n");
-    b.push_str(&format!("        {}\n", raise_if(c, ExceptionFlags::DEBUG, "RT_EXCEPTION_CODE_INVALID_RAY")));
+    b.push_str(&format!(
+        "        {}\n",
+        raise_if(c, ExceptionFlags::DEBUG, "RT_EXCEPTION_CODE_INVALID_RAY")
+    ));
     b.push_str("        return;\n    }\n");
     b.push_str("    let depth = _optik_depth();\n");
     b.push_str(&format!("    if depth >= {}u {{\n", c.max_trace_depth));
     b.push_str(&format!(
         "        {}\n",
-        raise_if(c, ExceptionFlags::TRACE_DEPTH, "RT_EXCEPTION_CODE_TRACE_DEPTH_EXCEEDED")
+        raise_if(
+            c,
+            ExceptionFlags::TRACE_DEPTH,
+            "RT_EXCEPTION_CODE_TRACE_DEPTH_EXCEEDED"
+        )
     ));
     b.push_str("        return;\n    }\n");
     b.push_str("    var miss = miss_index & 0xFFFFu;\n");
@@ -438,18 +475,31 @@ fn direct_call_body(c: &LoweringConfig) -> String {
     b.push_str("if index >= _optik_launch.callable_count {\n");
     b.push_str(&format!(
         "        {}\n        return;\n    }}\n",
-        raise_if(c, ExceptionFlags::DEBUG, "RT_EXCEPTION_CODE_CALLABLE_INVALID_SBT")
+        raise_if(
+            c,
+            ExceptionFlags::DEBUG,
+            "RT_EXCEPTION_CODE_CALLABLE_INVALID_SBT"
+        )
     ));
     if c.guard_direct_calls {
         b.push_str("    let depth = _optik_counter(24u);\n");
-        b.push_str(&format!("    if depth >= {}u {{\n", c.max_direct_callable_depth.min(255)));
+        b.push_str(&format!(
+            "    if depth >= {}u {{\n",
+            c.max_direct_callable_depth.min(255)
+        ));
         b.push_str(&format!(
             "        {}\n        return;\n    }}\n",
-            raise_if(c, ExceptionFlags::STACK_OVERFLOW, "RT_EXCEPTION_CODE_STACK_OVERFLOW")
+            raise_if(
+                c,
+                ExceptionFlags::STACK_OVERFLOW,
+                "RT_EXCEPTION_CODE_STACK_OVERFLOW"
+            )
         ));
         b.push_str("    _optik_counter_set(24u, depth + 1u);\n");
     }
-    b.push_str(&format!("    _optik_execute_callable(index + {CALLABLE_FIRST_USER}u, args);"));
+    b.push_str(&format!(
+        "    _optik_execute_callable(index + {CALLABLE_FIRST_USER}u, args);"
+    ));
     if c.guard_direct_calls {
         b.push_str("\n    _optik_counter_set(24u, depth);");
     }
@@ -467,13 +517,24 @@ fn continuation_call_body(c: &LoweringConfig) -> String {
     b.push_str("if index >= _optik_launch.callable_count {\n");
     b.push_str(&format!(
         "        {}\n        return;\n    }}\n",
-        raise_if(c, ExceptionFlags::DEBUG, "RT_EXCEPTION_CODE_CALLABLE_INVALID_SBT")
+        raise_if(
+            c,
+            ExceptionFlags::DEBUG,
+            "RT_EXCEPTION_CODE_CALLABLE_INVALID_SBT"
+        )
     ));
     b.push_str("    let depth = _optik_counter(16u);\n");
-    b.push_str(&format!("    if depth >= {}u {{\n", c.max_continuation_callable_depth.min(255)));
+    b.push_str(&format!(
+        "    if depth >= {}u {{\n",
+        c.max_continuation_callable_depth.min(255)
+    ));
     b.push_str(&format!(
         "        {}\n        return;\n    }}\n",
-        raise_if(c, ExceptionFlags::STACK_OVERFLOW, "RT_EXCEPTION_CODE_STACK_OVERFLOW")
+        raise_if(
+            c,
+            ExceptionFlags::STACK_OVERFLOW,
+            "RT_EXCEPTION_CODE_STACK_OVERFLOW"
+        )
     ));
     b.push_str("    _optik_counter_set(16u, depth + 1u);\n");
     // Vulkan callables cannot trace: continuation callables are miss stages placed after the
@@ -492,7 +553,9 @@ fn continuation_call_body(c: &LoweringConfig) -> String {
 pub fn wrapper(entry_fn: &str, role: &StageRole, c: &LoweringConfig) -> String {
     let kind = role.behaves_as();
     let ctx = match role {
-        StageRole::Program { context: Some(ctx), .. } => *ctx,
+        StageRole::Program {
+            context: Some(ctx), ..
+        } => *ctx,
         StageRole::SphereIntersection => HitContext::Sphere,
         StageRole::CurveIntersection(_) => HitContext::Curve,
         _ => HitContext::Triangles,
@@ -504,8 +567,14 @@ pub fn wrapper(entry_fn: &str, role: &StageRole, c: &LoweringConfig) -> String {
         StageRole::NullCallable | StageRole::NullContinuation => "_optik_null_callable".into(),
     };
     let mut b = String::new();
-    b.push_str(&format!("\n@compute @workgroup_size(1)\nfn {entry_fn}() {{\n"));
-    b.push_str(&format!("    _optik_stage = {}u;\n    _optik_ctx = {}u;\n", stage_code(kind), ctx.code()));
+    b.push_str(&format!(
+        "\n@compute @workgroup_size(1)\nfn {entry_fn}() {{\n"
+    ));
+    b.push_str(&format!(
+        "    _optik_stage = {}u;\n    _optik_ctx = {}u;\n",
+        stage_code(kind),
+        ctx.code()
+    ));
     let unwinds = c.unwinds();
     match kind {
         ProgramKind::Raygen => {
@@ -537,7 +606,12 @@ pub fn wrapper(entry_fn: &str, role: &StageRole, c: &LoweringConfig) -> String {
             b.push_str(&format!("    {program}();\n"));
         }
     }
-    if unwinds && !matches!(kind, ProgramKind::AnyHit | ProgramKind::Intersection | ProgramKind::Exception) {
+    if unwinds
+        && !matches!(
+            kind,
+            ProgramKind::AnyHit | ProgramKind::Intersection | ProgramKind::Exception
+        )
+    {
         b.push_str("    _optik_exit_stage();\n");
     }
     b.push_str("}\n");
@@ -548,7 +622,11 @@ pub fn wrapper(entry_fn: &str, role: &StageRole, c: &LoweringConfig) -> String {
 /// the null callable. Compiled with the shared intersectors of `optik_api::wgsl` and the
 /// prelude, like a user module.
 pub fn internal_programs(c: &LoweringConfig, curve_basis: u32) -> String {
-    let null_body = raise_if(c, ExceptionFlags::DEBUG, "RT_EXCEPTION_CODE_CALLABLE_INVALID_SBT");
+    let null_body = raise_if(
+        c,
+        ExceptionFlags::DEBUG,
+        "RT_EXCEPTION_CODE_CALLABLE_INVALID_SBT",
+    );
     format!(
         r#"{sphere}
 {curve}

@@ -9,15 +9,30 @@ pub(crate) fn spirv_val(words: &[u32], what: &str) {
     let dir = std::env::temp_dir().join(format!("optik-spirv-val-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join(format!("{}.spv", what.replace(['/', ' ', '.', ':'], "_")));
-    std::fs::write(&path, words.iter().flat_map(|w| w.to_le_bytes()).collect::<Vec<u8>>()).unwrap();
+    std::fs::write(
+        &path,
+        words
+            .iter()
+            .flat_map(|w| w.to_le_bytes())
+            .collect::<Vec<u8>>(),
+    )
+    .unwrap();
     let out = std::process::Command::new("spirv-val")
         .args(["--target-env", "vulkan1.2"])
         .arg(&path)
         .output()
         .expect("spirv-val is needed by the Vulkan backend's tests (Debian: apt install spirv-tools; scripts/setup installs it)");
     if !out.status.success() {
-        let dis = std::process::Command::new("spirv-dis").arg(&path).output().map(|o| String::from_utf8_lossy(&o.stdout).into_owned()).unwrap_or_default();
-        panic!("spirv-val rejects {what}:\n{}{}\n{dis}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+        let dis = std::process::Command::new("spirv-dis")
+            .arg(&path)
+            .output()
+            .map(|o| String::from_utf8_lossy(&o.stdout).into_owned())
+            .unwrap_or_default();
+        panic!(
+            "spirv-val rejects {what}:\n{}{}\n{dis}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
     }
     let _ = std::fs::remove_file(&path);
 }
@@ -129,17 +144,27 @@ fn continuation_callable__cc() {
 "#;
 
 pub(crate) fn user_roles(src: &str) -> Vec<StageRole> {
-    let compiled = optik_api::frontend::compile(&ProgramSource::new("everything.wgsl", src), 4).unwrap_or_else(|e| panic!("{e}"));
+    let compiled = optik_api::frontend::compile(&ProgramSource::new("everything.wgsl", src), 4)
+        .unwrap_or_else(|e| panic!("{e}"));
     let mut roles = Vec::new();
     for p in &compiled.programs {
         let contexts: Vec<Option<HitContext>> = match p.kind {
             ProgramKind::ClosestHit | ProgramKind::AnyHit => {
-                vec![Some(HitContext::Triangles), Some(HitContext::Custom), Some(HitContext::Sphere), Some(HitContext::Curve)]
+                vec![
+                    Some(HitContext::Triangles),
+                    Some(HitContext::Custom),
+                    Some(HitContext::Sphere),
+                    Some(HitContext::Curve),
+                ]
             }
             _ => vec![None],
         };
         for context in contexts {
-            roles.push(StageRole::Program { name: p.name.clone(), kind: p.kind, context });
+            roles.push(StageRole::Program {
+                name: p.name.clone(),
+                kind: p.kind,
+                context,
+            });
         }
     }
     roles
@@ -161,7 +186,12 @@ pub(crate) fn largest_config() -> LoweringConfig {
     }
 }
 
-fn lower_and_validate(text: ModuleText, config: &LoweringConfig, roles: &[StageRole], what: &str) -> Vec<LoweredStage> {
+fn lower_and_validate(
+    text: ModuleText,
+    config: &LoweringConfig,
+    roles: &[StageRole],
+    what: &str,
+) -> Vec<LoweredStage> {
     let stages = lower_stages(text, config, roles).unwrap_or_else(|e| panic!("{what}: {e}"));
     for s in &stages {
         spirv_val(&s.spirv, &format!("{what}-{}", s.entry_name));
@@ -187,7 +217,10 @@ fn every_stage_kind_and_device_function_validates_in_the_largest_configuration()
 
 #[test]
 fn every_stage_kind_validates_in_the_smallest_configuration() {
-    let config = LoweringConfig { continuation_calls: true, ..LoweringConfig::default() };
+    let config = LoweringConfig {
+        continuation_calls: true,
+        ..LoweringConfig::default()
+    };
     let roles = user_roles(EVERYTHING);
     lower_and_validate(ModuleText::User(EVERYTHING), &config, &roles, "smallest");
 }
@@ -195,9 +228,24 @@ fn every_stage_kind_validates_in_the_smallest_configuration() {
 #[test]
 fn internal_stages_validate() {
     for basis in 0..4 {
-        let roles = [StageRole::SphereIntersection, StageRole::CurveIntersection(basis), StageRole::NullCallable, StageRole::NullContinuation];
-        lower_and_validate(ModuleText::Internal { curve_basis: basis }, &largest_config(), &roles, &format!("internal{basis}"));
-        lower_and_validate(ModuleText::Internal { curve_basis: basis }, &LoweringConfig::default(), &roles, &format!("internal-small{basis}"));
+        let roles = [
+            StageRole::SphereIntersection,
+            StageRole::CurveIntersection(basis),
+            StageRole::NullCallable,
+            StageRole::NullContinuation,
+        ];
+        lower_and_validate(
+            ModuleText::Internal { curve_basis: basis },
+            &largest_config(),
+            &roles,
+            &format!("internal{basis}"),
+        );
+        lower_and_validate(
+            ModuleText::Internal { curve_basis: basis },
+            &LoweringConfig::default(),
+            &roles,
+            &format!("internal-small{basis}"),
+        );
     }
 }
 

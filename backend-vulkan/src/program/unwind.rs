@@ -10,20 +10,31 @@ use std::collections::{HashMap, HashSet};
 
 /// The device functions that may raise: the traces and calls (whose callees may raise, and
 /// which check their arguments) and the throw.
-const RAISING: &[&str] = &["rt_trace", "rt_direct_call", "rt_continuation_call", "rt_throw_exception"];
+const RAISING: &[&str] = &[
+    "rt_trace",
+    "rt_direct_call",
+    "rt_continuation_call",
+    "rt_throw_exception",
+];
 
 /// Inserts the unwinding checks into the user's functions of `module`, which holds the
 /// Vulkan prelude (and so `_optik_unwound`).
 pub fn insert_unwinding(module: &mut Module) -> Result<(), String> {
-    let by_name: HashMap<&str, Handle<Function>> =
-        module.functions.iter().filter_map(|(h, f)| Some((f.name.as_deref()?, h))).collect();
+    let by_name: HashMap<&str, Handle<Function>> = module
+        .functions
+        .iter()
+        .filter_map(|(h, f)| Some((f.name.as_deref()?, h)))
+        .collect();
     let unwinding = module
         .global_variables
         .iter()
         .find(|(_, g)| g.name.as_deref() == Some("_optik_unwound"))
         .map(|(h, _)| h)
         .ok_or("the prelude lacks _optik_unwound")?;
-    let mut may_raise: HashSet<Handle<Function>> = RAISING.iter().filter_map(|n| by_name.get(n).copied()).collect();
+    let mut may_raise: HashSet<Handle<Function>> = RAISING
+        .iter()
+        .filter_map(|n| by_name.get(n).copied())
+        .collect();
     loop {
         let more: Vec<Handle<Function>> = module
             .functions
@@ -39,7 +50,11 @@ pub fn insert_unwinding(module: &mut Module) -> Result<(), String> {
     let user: Vec<Handle<Function>> = module
         .functions
         .iter()
-        .filter(|(_, f)| f.name.as_deref().is_some_and(|n| !n.starts_with("rt_") && !n.starts_with("_optik_")))
+        .filter(|(_, f)| {
+            f.name
+                .as_deref()
+                .is_some_and(|n| !n.starts_with("rt_") && !n.starts_with("_optik_"))
+        })
         .map(|(h, _)| h)
         .collect();
     for h in user {
@@ -55,9 +70,13 @@ fn calls_any(block: &Block, targets: &HashSet<Handle<Function>>) -> bool {
     block.iter().any(|s| match s {
         Statement::Call { function, .. } => targets.contains(function),
         Statement::Block(b) => calls_any(b, targets),
-        Statement::If { accept, reject, .. } => calls_any(accept, targets) || calls_any(reject, targets),
+        Statement::If { accept, reject, .. } => {
+            calls_any(accept, targets) || calls_any(reject, targets)
+        }
         Statement::Switch { cases, .. } => cases.iter().any(|c| calls_any(&c.body, targets)),
-        Statement::Loop { body, continuing, .. } => calls_any(body, targets) || calls_any(continuing, targets),
+        Statement::Loop {
+            body, continuing, ..
+        } => calls_any(body, targets) || calls_any(continuing, targets),
         _ => false,
     })
 }
@@ -74,10 +93,16 @@ fn unwind_block(
 ) -> Block {
     let mut out = Block::new();
     for (stmt, span) in block.span_into_iter() {
-        let recurse = |b: Block, cont: bool, f: &mut Function| unwind_block(b, f, result_ty, unwinding, may_raise, cont);
+        let recurse = |b: Block, cont: bool, f: &mut Function| {
+            unwind_block(b, f, result_ty, unwinding, may_raise, cont)
+        };
         let stmt = match stmt {
             Statement::Block(b) => Statement::Block(recurse(b, in_continuing, f)),
-            Statement::If { condition, accept, reject } => Statement::If {
+            Statement::If {
+                condition,
+                accept,
+                reject,
+            } => Statement::If {
                 condition,
                 accept: recurse(accept, in_continuing, f),
                 reject: recurse(reject, in_continuing, f),
@@ -92,14 +117,19 @@ fn unwind_block(
                     })
                     .collect(),
             },
-            Statement::Loop { body, continuing, break_if } => Statement::Loop {
+            Statement::Loop {
+                body,
+                continuing,
+                break_if,
+            } => Statement::Loop {
                 body: recurse(body, in_continuing, f),
                 continuing: recurse(continuing, true, f),
                 break_if,
             },
             other => other,
         };
-        let raises = matches!(&stmt, Statement::Call { function, .. } if may_raise.contains(function));
+        let raises =
+            matches!(&stmt, Statement::Call { function, .. } if may_raise.contains(function));
         out.push(stmt, span);
         if raises && !in_continuing {
             push_check(&mut out, f, result_ty, unwinding, span);
@@ -116,11 +146,23 @@ fn push_check(
     unwinding: Handle<naga::GlobalVariable>,
     span: Span,
 ) {
-    let pointer = f.expressions.append(Expression::GlobalVariable(unwinding), span);
+    let pointer = f
+        .expressions
+        .append(Expression::GlobalVariable(unwinding), span);
     let flag = f.expressions.append(Expression::Load { pointer }, span);
-    out.push(Statement::Emit(naga::Range::new_from_bounds(flag, flag)), span);
+    out.push(
+        Statement::Emit(naga::Range::new_from_bounds(flag, flag)),
+        span,
+    );
     let value = result_ty.map(|ty| f.expressions.append(Expression::ZeroValue(ty), span));
     let mut accept = Block::new();
     accept.push(Statement::Return { value }, span);
-    out.push(Statement::If { condition: flag, accept, reject: Block::new() }, span);
+    out.push(
+        Statement::If {
+            condition: flag,
+            accept,
+            reject: Block::new(),
+        },
+        span,
+    );
 }

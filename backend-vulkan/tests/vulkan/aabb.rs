@@ -56,7 +56,9 @@ fn miss__ms() {
 #[test]
 fn intersection_programs_report_kinds_and_attributes_through_instances() {
     let dev = device();
-    let boxes: Vec<[f32; 6]> = (0..3).map(|k| [k as f32, 0.0, 0.0, k as f32 + 1.0, 1.0, 1.0]).collect();
+    let boxes: Vec<[f32; 6]> = (0..3)
+        .map(|k| [k as f32, 0.0, 0.0, k as f32 + 1.0, 1.0, 1.0])
+        .collect();
     let gas = dev.aabbs(&boxes, GeometryFlags::NONE);
     let mut inst = Instance::new(dev.traversable_handle(gas).unwrap());
     // Move the primitives by -1 in x: world x in [-1, 2].
@@ -78,7 +80,15 @@ fn intersection_programs_report_kinds_and_attributes_through_instances() {
     table.hit.push((hg, &[]));
     let sbt = table.build(&dev);
     let n = 30;
-    let w = run_rays(&dev, pipeline, &sbt, dev.traversable_handle(ias).unwrap(), n, 4, &[]);
+    let w = run_rays(
+        &dev,
+        pipeline,
+        &sbt,
+        dev.traversable_handle(ias).unwrap(),
+        n,
+        4,
+        &[],
+    );
     let mut seen = [0u32; 3];
     for i in 0..n as usize {
         let x = -1.0 + 3.0 * (i as f32 + 0.5) / n as f32 + 1.0;
@@ -91,7 +101,10 @@ fn intersection_programs_report_kinds_and_attributes_through_instances() {
             assert_eq!(r[2], 77);
             let t = f32::from_bits(r[3]);
             let expect = 5.0 - 0.5 - (0.16 - dx * dx).sqrt();
-            assert!((t - expect).abs() < 1e-4, "ray {i}: t {t}, expected {expect}");
+            assert!(
+                (t - expect).abs() < 1e-4,
+                "ray {i}: t {t}, expected {expect}"
+            );
             seen[prim] += 1;
         } else if dx.abs() > 0.41 || prim == 1 {
             assert_eq!(r[0], 0xFF, "ray {i} at object x {x} misses (or is ignored)");

@@ -65,7 +65,15 @@ fn run(dev: &TestDevice, flags: &[u32]) -> Vec<[u32; 3]> {
     table.hit.push((hg, &[]));
     table.stride = 96;
     let sbt = table.build(dev);
-    let words = run_rays(dev, pipeline, &sbt, dev.traversable_handle(gas).unwrap(), flags.len() as u32, 3, &[]);
+    let words = run_rays(
+        dev,
+        pipeline,
+        &sbt,
+        dev.traversable_handle(gas).unwrap(),
+        flags.len() as u32,
+        3,
+        &[],
+    );
     words.chunks(3).map(|c| [c[0], c[1], c[2]]).collect()
 }
 
@@ -85,9 +93,17 @@ fn check(dev: &TestDevice) {
     // the closest hit: prim 2 at t=9, not prim 1 at t=8? Accepting 1 shortens tmax to 8, so
     // primitive 2 at t=9 is never a candidate; the order candidates come in is the driver's.
     // Whatever the order, the closest accepted hit is primitive 1 at t = 8.
-    assert_eq!(out[0][0], 2, "closest accepted hit is primitive 1: {:?}", out[0]);
+    assert_eq!(
+        out[0][0], 2,
+        "closest accepted hit is primitive 1: {:?}",
+        out[0]
+    );
     assert_eq!(f32::from_bits(out[0][2]), 8.0);
-    assert!(out[0][1] >= 2, "any-hit ran for the ignored and the accepted candidate: {:?}", out[0]);
+    assert!(
+        out[0][1] >= 2,
+        "any-hit ran for the ignored and the accepted candidate: {:?}",
+        out[0]
+    );
     // DISABLE_ANYHIT: every candidate opaque, the nearest (primitive 0 at t=7) wins.
     assert_eq!(out[1], [1, 0, 7.0f32.to_bits()]);
     assert_eq!(out[2][1], 0);
@@ -118,7 +134,10 @@ fn terminate_ends_traversal_and_accepts() {
     // Only primitives 2 and 3 in range (tmin past primitives 0 and 1): any-hit terminates on 2.
     let src = format!(
         "{RAY_HEADER}{}",
-        PROGRAMS.replace("vec3<f32>(0.25, 0.25, 10.0), vec3<f32>(0.0, 0.0, -1.0), 0.0,", "vec3<f32>(0.25, 0.25, 10.0), vec3<f32>(0.0, 0.0, -1.0), 8.5,")
+        PROGRAMS.replace(
+            "vec3<f32>(0.25, 0.25, 10.0), vec3<f32>(0.0, 0.0, -1.0), 0.0,",
+            "vec3<f32>(0.25, 0.25, 10.0), vec3<f32>(0.0, 0.0, -1.0), 8.5,"
+        )
     );
     let m = dev.module(&src);
     let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
@@ -136,7 +155,15 @@ fn terminate_ends_traversal_and_accepts() {
     table.miss.push((ms, &[]));
     table.hit.push((hg, &[]));
     let sbt = table.build(&dev);
-    let w = run_rays(&dev, pipeline, &sbt, dev.traversable_handle(gas).unwrap(), 1, 3, &[]);
+    let w = run_rays(
+        &dev,
+        pipeline,
+        &sbt,
+        dev.traversable_handle(gas).unwrap(),
+        1,
+        3,
+        &[],
+    );
     // Primitive 2 (t = 9) terminates; primitive 3 (t = 10) may or may not have been seen first,
     // but it is farther, so the committed hit is primitive 2.
     assert_eq!(w[0], 3, "{w:?}");

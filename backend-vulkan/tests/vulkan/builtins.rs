@@ -39,11 +39,22 @@ fn miss__ms() {
 }
 "#;
 
-fn run(dev: &TestDevice, gas: Accel, builtin: BuiltinIntersector, ch: &str, rays: &[[f32; 6]]) -> Vec<[u32; 6]> {
+fn run(
+    dev: &TestDevice,
+    gas: Accel,
+    builtin: BuiltinIntersector,
+    ch: &str,
+    rays: &[[f32; 6]],
+) -> Vec<[u32; 6]> {
     let m = dev.module(&format!("{RAY_HEADER}{PROGRAMS}"));
     let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
     let ms = dev.group(ProgramGroupDesc::Miss(Some(prog(m, "miss__ms"))));
-    let hg = dev.group(ProgramGroupDesc::HitGroup { closest_hit: Some(prog(m, ch)), any_hit: None, intersection: None, builtin });
+    let hg = dev.group(ProgramGroupDesc::HitGroup {
+        closest_hit: Some(prog(m, ch)),
+        any_hit: None,
+        intersection: None,
+        builtin,
+    });
     let pipeline = dev.pipeline(&[rg, ms, hg], 1);
     let words: Vec<u32> = rays.iter().flatten().map(|f| f.to_bits()).collect();
     let mut table = Table::new(rg);
@@ -53,7 +64,15 @@ fn run(dev: &TestDevice, gas: Accel, builtin: BuiltinIntersector, ch: &str, rays
     table.miss.push((ms, &[]));
     table.hit.push((hg, &[]));
     let sbt = table.build(dev);
-    let w = run_rays(dev, pipeline, &sbt, dev.traversable_handle(gas).unwrap(), rays.len() as u32, 6, &[]);
+    let w = run_rays(
+        dev,
+        pipeline,
+        &sbt,
+        dev.traversable_handle(gas).unwrap(),
+        rays.len() as u32,
+        6,
+        &[],
+    );
     w.chunks(6).map(|c| std::array::from_fn(|k| c[k])).collect()
 }
 
@@ -86,32 +105,57 @@ fn spheres_hit_at_the_analytic_distance_with_face_kinds() {
         sbt_index_offsets: None,
         primitive_index_offset: 0,
     });
-    let gas = dev.accel_build(&AccelBuildOptions::default(), &[input]).unwrap();
-    let mut rays: Vec<[f32; 6]> = (0..30).map(|i| [i as f32 * 0.1 + 0.05, 0.55, 5.0, 0.0, 0.0, -2.0]).collect();
+    let gas = dev
+        .accel_build(&AccelBuildOptions::default(), &[input])
+        .unwrap();
+    let mut rays: Vec<[f32; 6]> = (0..30)
+        .map(|i| [i as f32 * 0.1 + 0.05, 0.55, 5.0, 0.0, 0.0, -2.0])
+        .collect();
     // From inside sphere 0: the exit is a back-face hit.
     rays.push([0.5, 0.5, 0.0, 0.0, 0.0, 1.0]);
     // A tiny sphere seen from 5e4 radii away: b^2 - ac cancels every bit in f32, the
     // Hearn-Baker discriminant does not.
     rays.push([10.5, 0.5, 50.0, 0.0, 0.0, -1.0]);
-    let out = run(&dev, gas, BuiltinIntersector::Sphere, "closesthit__sphere", &rays);
-    let spheres = [([0.5, 0.5, 0.0], 0.4), ([1.5, 0.5, 0.0], 0.3), ([2.5, 0.5, 0.0], 0.2), ([10.5, 0.5, 0.0], 0.001)];
+    let out = run(
+        &dev,
+        gas,
+        BuiltinIntersector::Sphere,
+        "closesthit__sphere",
+        &rays,
+    );
+    let spheres = [
+        ([0.5, 0.5, 0.0], 0.4),
+        ([1.5, 0.5, 0.0], 0.3),
+        ([2.5, 0.5, 0.0], 0.2),
+        ([10.5, 0.5, 0.0], 0.001),
+    ];
     let mut hits = 0;
     for (i, ray) in rays.iter().enumerate().take(30) {
         let o = [ray[0], ray[1], ray[2]];
         let d = [ray[3], ray[4], ray[5]];
-        let expect = spheres.iter().enumerate().find_map(|(k, (c, r))| sphere_t(o, d, *c, *r).map(|t| (k, t, *r)));
+        let expect = spheres
+            .iter()
+            .enumerate()
+            .find_map(|(k, (c, r))| sphere_t(o, d, *c, *r).map(|t| (k, t, *r)));
         let r = out[i];
         match expect {
             Some((k, t, radius)) => {
-                let near_edge = ((ray[0] as f64 - spheres[k].0[0]).powi(2) + 0.0025).sqrt() > radius - 1e-3;
+                let near_edge =
+                    ((ray[0] as f64 - spheres[k].0[0]).powi(2) + 0.0025).sqrt() > radius - 1e-3;
                 if near_edge {
                     continue;
                 }
                 assert_eq!(r[0], k as u32 + 1, "ray {i}");
-                assert_eq!(r[1], HIT_KIND_TRIANGLE_FRONT_FACE, "entering a sphere is a front-face hit");
+                assert_eq!(
+                    r[1], HIT_KIND_TRIANGLE_FRONT_FACE,
+                    "entering a sphere is a front-face hit"
+                );
                 assert_eq!(r[5], 1);
                 let got = f32::from_bits(r[2]) as f64;
-                assert!((got - t).abs() <= 1e-5 * t, "ray {i}: t {got}, analytic {t}");
+                assert!(
+                    (got - t).abs() <= 1e-5 * t,
+                    "ray {i}: t {got}, analytic {t}"
+                );
                 assert_eq!(f32::from_bits(r[3]), spheres[k].0[0] as f32);
                 assert_eq!(f32::from_bits(r[4]) as f64, radius as f32 as f64);
                 hits += 1;
@@ -122,16 +166,28 @@ fn spheres_hit_at_the_analytic_distance_with_face_kinds() {
     assert!(hits > 10);
     let inside = out[30];
     assert_eq!(inside[0], 1);
-    assert_eq!(inside[1], HIT_KIND_TRIANGLE_BACK_FACE, "leaving a sphere is a back-face hit");
+    assert_eq!(
+        inside[1], HIT_KIND_TRIANGLE_BACK_FACE,
+        "leaving a sphere is a back-face hit"
+    );
     assert_eq!(inside[5], 0);
     assert!((f32::from_bits(inside[2]) - 0.4).abs() < 1e-6);
     let far = out[31];
-    assert_eq!(far[0], 4, "a 1e-3 sphere at distance 50 is hit (the stable discriminant)");
+    assert_eq!(
+        far[0], 4,
+        "a 1e-3 sphere at distance 50 is hit (the stable discriminant)"
+    );
     let t = f32::from_bits(far[2]) as f64;
     assert!((t - (50.0 - 0.001)).abs() < 1e-5 * 50.0, "{t}");
 }
 
-fn curve_gas(dev: &TestDevice, curve_type: CurveType, points: &[[f32; 3]], radius: f32, endcaps: CurveEndcaps) -> Accel {
+fn curve_gas(
+    dev: &TestDevice,
+    curve_type: CurveType,
+    points: &[[f32; 3]],
+    radius: f32,
+    endcaps: CurveEndcaps,
+) -> Accel {
     let flat: Vec<f32> = points.iter().flatten().copied().collect();
     let vb = dev.f32_buffer(&flat);
     let wb = dev.f32_buffer(&vec![radius; points.len()]);
@@ -152,19 +208,41 @@ fn curve_gas(dev: &TestDevice, curve_type: CurveType, points: &[[f32; 3]], radiu
         primitive_index_offset: 0,
         endcaps,
     });
-    dev.accel_build(&AccelBuildOptions::default(), &[input]).unwrap()
+    dev.accel_build(&AccelBuildOptions::default(), &[input])
+        .unwrap()
 }
 
 #[test]
 fn linear_curves_hit_the_tube_and_its_round_caps() {
     let dev = device();
-    let gas = curve_gas(&dev, CurveType::RoundLinear, &[[0.0, 0.5, 0.0], [3.0, 0.5, 0.0]], 0.2, CurveEndcaps::Default);
-    let rays = [[1.5, 0.5, 5.0, 0.0, 0.0, -1.0], [1.5, 0.6, 5.0, 0.0, 0.0, -1.0], [3.1, 0.5, 5.0, 0.0, 0.0, -1.0], [1.5, 0.8, 5.0, 0.0, 0.0, -1.0]];
-    let out = run(&dev, gas, BuiltinIntersector::Curve(CurveType::RoundLinear), "closesthit__curve", &rays);
+    let gas = curve_gas(
+        &dev,
+        CurveType::RoundLinear,
+        &[[0.0, 0.5, 0.0], [3.0, 0.5, 0.0]],
+        0.2,
+        CurveEndcaps::Default,
+    );
+    let rays = [
+        [1.5, 0.5, 5.0, 0.0, 0.0, -1.0],
+        [1.5, 0.6, 5.0, 0.0, 0.0, -1.0],
+        [3.1, 0.5, 5.0, 0.0, 0.0, -1.0],
+        [1.5, 0.8, 5.0, 0.0, 0.0, -1.0],
+    ];
+    let out = run(
+        &dev,
+        gas,
+        BuiltinIntersector::Curve(CurveType::RoundLinear),
+        "closesthit__curve",
+        &rays,
+    );
     assert_eq!(out[0][0], 1);
     assert_eq!(out[0][1], HIT_KIND_TRIANGLE_FRONT_FACE);
     assert!((f32::from_bits(out[0][2]) - 4.8).abs() < 1e-5);
-    assert!((f32::from_bits(out[0][3]) - 0.5).abs() < 1e-5, "u {}", f32::from_bits(out[0][3]));
+    assert!(
+        (f32::from_bits(out[0][3]) - 0.5).abs() < 1e-5,
+        "u {}",
+        f32::from_bits(out[0][3])
+    );
     let t1 = 5.0 - (0.04f32 - 0.01).sqrt();
     assert!((f32::from_bits(out[1][2]) - t1).abs() < 1e-5);
     assert_eq!(out[2][0], 1, "round cap at the strand end");
@@ -177,10 +255,31 @@ fn linear_curves_hit_the_tube_and_its_round_caps() {
 fn cubic_bspline_curves_within_the_stated_tolerance_and_open_ends() {
     let dev = device();
     // Collinear, evenly spaced control points: the segment is x = 1 + u, a straight tube.
-    let pts = [[0.0, 0.5, 0.0], [1.0, 0.5, 0.0], [2.0, 0.5, 0.0], [3.0, 0.5, 0.0]];
-    let open = curve_gas(&dev, CurveType::RoundCubicBSpline, &pts, 0.2, CurveEndcaps::Default);
-    let rays = [[1.5, 0.5, 5.0, 0.0, 0.0, -1.0], [1.25, 0.55, 5.0, 0.0, 0.0, -1.0], [2.1, 0.5, 5.0, 0.0, 0.0, -1.0]];
-    let out = run(&dev, open, BuiltinIntersector::Curve(CurveType::RoundCubicBSpline), "closesthit__curve", &rays);
+    let pts = [
+        [0.0, 0.5, 0.0],
+        [1.0, 0.5, 0.0],
+        [2.0, 0.5, 0.0],
+        [3.0, 0.5, 0.0],
+    ];
+    let open = curve_gas(
+        &dev,
+        CurveType::RoundCubicBSpline,
+        &pts,
+        0.2,
+        CurveEndcaps::Default,
+    );
+    let rays = [
+        [1.5, 0.5, 5.0, 0.0, 0.0, -1.0],
+        [1.25, 0.55, 5.0, 0.0, 0.0, -1.0],
+        [2.1, 0.5, 5.0, 0.0, 0.0, -1.0],
+    ];
+    let out = run(
+        &dev,
+        open,
+        BuiltinIntersector::Curve(CurveType::RoundCubicBSpline),
+        "closesthit__curve",
+        &rays,
+    );
     assert_eq!(out[0][0], 1);
     assert!((f32::from_bits(out[0][2]) - 4.8).abs() < 1e-3);
     assert!((f32::from_bits(out[0][3]) - 0.5).abs() < 1e-3);
@@ -188,7 +287,19 @@ fn cubic_bspline_curves_within_the_stated_tolerance_and_open_ends() {
     assert!((f32::from_bits(out[1][2]) - t1).abs() < 1e-3);
     assert!((f32::from_bits(out[1][3]) - 0.25).abs() < 1e-3);
     assert_eq!(out[2][0], 0, "open ends: no cap past the segment's end");
-    let capped = curve_gas(&dev, CurveType::RoundCubicBSpline, &pts, 0.2, CurveEndcaps::On);
-    let out = run(&dev, capped, BuiltinIntersector::Curve(CurveType::RoundCubicBSpline), "closesthit__curve", &rays);
+    let capped = curve_gas(
+        &dev,
+        CurveType::RoundCubicBSpline,
+        &pts,
+        0.2,
+        CurveEndcaps::On,
+    );
+    let out = run(
+        &dev,
+        capped,
+        BuiltinIntersector::Curve(CurveType::RoundCubicBSpline),
+        "closesthit__curve",
+        &rays,
+    );
     assert_eq!(out[2][0], 1, "end caps on: the round cap is hit");
 }

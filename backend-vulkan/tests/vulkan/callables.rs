@@ -75,15 +75,32 @@ fn miss__ms() {
 #[test]
 fn direct_continuation_callables_and_recursion() {
     let dev = device();
-    let tris: Vec<[f32; 3]> = (0..2).flat_map(|k| [[k as f32, 0.0, 0.0], [k as f32 + 1.0, 0.0, 0.0], [k as f32, 1.0, 0.0]]).collect();
+    let tris: Vec<[f32; 3]> = (0..2)
+        .flat_map(|k| {
+            [
+                [k as f32, 0.0, 0.0],
+                [k as f32 + 1.0, 0.0, 0.0],
+                [k as f32, 1.0, 0.0],
+            ]
+        })
+        .collect();
     let gas = dev.triangles(&tris, GeometryFlags::DISABLE_ANYHIT);
     let m = dev.module(&format!("{RAY_HEADER}{PROGRAMS}"));
     let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
     let ms = dev.group(ProgramGroupDesc::Miss(Some(prog(m, "miss__ms"))));
     let ch = dev.group(ProgramGroupDesc::closest_hit(prog(m, "closesthit__ch")));
-    let add = dev.group(ProgramGroupDesc::Callables { direct: Some(prog(m, "direct_callable__add")), continuation: None });
-    let twice = dev.group(ProgramGroupDesc::Callables { direct: Some(prog(m, "direct_callable__twice")), continuation: None });
-    let shoot = dev.group(ProgramGroupDesc::Callables { direct: None, continuation: Some(prog(m, "continuation_callable__shoot")) });
+    let add = dev.group(ProgramGroupDesc::Callables {
+        direct: Some(prog(m, "direct_callable__add")),
+        continuation: None,
+    });
+    let twice = dev.group(ProgramGroupDesc::Callables {
+        direct: Some(prog(m, "direct_callable__twice")),
+        continuation: None,
+    });
+    let shoot = dev.group(ProgramGroupDesc::Callables {
+        direct: None,
+        continuation: Some(prog(m, "continuation_callable__shoot")),
+    });
     let pipeline = dev.pipeline(&[rg, ms, ch, add, twice, shoot], 2);
     let features = dev.pipeline_features(pipeline).unwrap();
     assert!(features.direct_callables && features.continuation_callables);
@@ -92,13 +109,34 @@ fn direct_continuation_callables_and_recursion() {
     table.hit.push((ch, &[]));
     table.callables = vec![(add, &[100]), (twice, &[3]), (shoot, &[])];
     let sbt = table.build(&dev);
-    let w = run_rays(&dev, pipeline, &sbt, dev.traversable_handle(gas).unwrap(), 1, 8, &[]);
-    assert_eq!(w[0], 5 * 2 + 100 + 3, "direct callables nest and read their own records");
-    assert_eq!(w[1], 2, "the continuation callable traced and hit primitive 1");
-    assert_eq!(w[2], 2, "a continuation callable called from raygen sees the raygen's depth");
+    let w = run_rays(
+        &dev,
+        pipeline,
+        &sbt,
+        dev.traversable_handle(gas).unwrap(),
+        1,
+        8,
+        &[],
+    );
+    assert_eq!(
+        w[0],
+        5 * 2 + 100 + 3,
+        "direct callables nest and read their own records"
+    );
+    assert_eq!(
+        w[1], 2,
+        "the continuation callable traced and hit primitive 1"
+    );
+    assert_eq!(
+        w[2], 2,
+        "a continuation callable called from raygen sees the raygen's depth"
+    );
     assert_eq!(w[3], 1, "remaining depth in the primary closest-hit");
     assert_eq!(w[4], 0, "remaining depth in the secondary closest-hit");
-    assert_eq!(w[5], 2, "two closest-hits ran: the third trace was past max_trace_depth");
+    assert_eq!(
+        w[5], 2,
+        "two closest-hits ran: the third trace was past max_trace_depth"
+    );
     assert_eq!(w[6], 2, "remaining depth in raygen is max_trace_depth");
     assert_eq!(w[7], 0xBEEF, "a callable index past the table runs nothing");
 }
@@ -116,9 +154,26 @@ fn anyhit__ah() {
 "#;
     let m = dev.module(src);
     let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
-    let hg = dev.group(ProgramGroupDesc::HitGroup { closest_hit: None, any_hit: Some(prog(m, "anyhit__ah")), intersection: None, builtin: BuiltinIntersector::Triangle });
-    let dc = dev.group(ProgramGroupDesc::Callables { direct: Some(prog(m, "direct_callable__dc")), continuation: None });
-    let e = dev.create_pipeline(&PipelineCompileOptions::default(), &PipelineLinkOptions::default(), &[rg, hg, dc]).unwrap_err();
+    let hg = dev.group(ProgramGroupDesc::HitGroup {
+        closest_hit: None,
+        any_hit: Some(prog(m, "anyhit__ah")),
+        intersection: None,
+        builtin: BuiltinIntersector::Triangle,
+    });
+    let dc = dev.group(ProgramGroupDesc::Callables {
+        direct: Some(prog(m, "direct_callable__dc")),
+        continuation: None,
+    });
+    let e = dev
+        .create_pipeline(
+            &PipelineCompileOptions::default(),
+            &PipelineLinkOptions::default(),
+            &[rg, hg, dc],
+        )
+        .unwrap_err();
     assert_eq!(e.kind(), ErrorKind::Unsupported);
-    assert!(e.message().contains("rt_direct_call") && e.message().contains("any-hit"), "{e}");
+    assert!(
+        e.message().contains("rt_direct_call") && e.message().contains("any-hit"),
+        "{e}"
+    );
 }

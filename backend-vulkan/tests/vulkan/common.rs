@@ -24,25 +24,43 @@ impl Drop for TestDevice {
         drop(self.dev.take());
         let messages = self.log.take();
         if !messages.is_empty() && !std::thread::panicking() {
-            panic!("the validation layer reported {} message(s):\n{}", messages.len(), messages.join("\n"));
+            panic!(
+                "the validation layer reported {} message(s):\n{}",
+                messages.len(),
+                messages.join("\n")
+            );
         }
     }
 }
 
 /// Opens the test device: validation on, pipeline cache off, staging as asked.
 pub fn device_with(force_staging: bool) -> TestDevice {
-    let options = VulkanOptions { validation: true, device: None, force_staging, pipeline_cache: false, cache_dir: None };
-    let dev = VulkanDevice::open(&options).unwrap_or_else(|e| panic!("no Vulkan ray tracing device for the tests: {e}"));
+    let options = VulkanOptions {
+        validation: true,
+        device: None,
+        force_staging,
+        pipeline_cache: false,
+        cache_dir: None,
+    };
+    let dev = VulkanDevice::open(&options)
+        .unwrap_or_else(|e| panic!("no Vulkan ray tracing device for the tests: {e}"));
     let log = dev.validation_log();
-    TestDevice { dev: Some(dev), log }
+    TestDevice {
+        dev: Some(dev),
+        log,
+    }
 }
 
 /// A validated device with `options` (validation is forced on).
 pub fn device_with_options(mut options: VulkanOptions) -> TestDevice {
     options.validation = true;
-    let dev = VulkanDevice::open(&options).unwrap_or_else(|e| panic!("no Vulkan ray tracing device for the tests: {e}"));
+    let dev = VulkanDevice::open(&options)
+        .unwrap_or_else(|e| panic!("no Vulkan ray tracing device for the tests: {e}"));
     let log = dev.validation_log();
-    TestDevice { dev: Some(dev), log }
+    TestDevice {
+        dev: Some(dev),
+        log,
+    }
 }
 
 /// The test device with the memory layout the driver suggests.
@@ -54,7 +72,11 @@ impl TestDevice {
     /// Fails the test now if the layer has reported anything.
     pub fn assert_no_messages(&self) {
         let messages = self.log.take();
-        assert!(messages.is_empty(), "validation messages:\n{}", messages.join("\n"));
+        assert!(
+            messages.is_empty(),
+            "validation messages:\n{}",
+            messages.join("\n")
+        );
     }
 
     /// A buffer holding `data`.
@@ -85,41 +107,64 @@ impl TestDevice {
     pub fn triangles(&self, vertices: &[[f32; 3]], flags: GeometryFlags) -> Accel {
         let flat: Vec<f32> = vertices.iter().flatten().copied().collect();
         let vb = self.f32_buffer(&flat);
-        let input = BuildInput::Triangles(TriangleArray::new(BufferView::new(vb), vertices.len() as u32, flags));
-        self.accel_build(&AccelBuildOptions::default(), &[input]).unwrap()
+        let input = BuildInput::Triangles(TriangleArray::new(
+            BufferView::new(vb),
+            vertices.len() as u32,
+            flags,
+        ));
+        self.accel_build(&AccelBuildOptions::default(), &[input])
+            .unwrap()
     }
 
     /// A GAS of custom primitives with one SBT record.
     pub fn aabbs(&self, boxes: &[[f32; 6]], flags: GeometryFlags) -> Accel {
         let flat: Vec<f32> = boxes.iter().flatten().copied().collect();
         let b = self.f32_buffer(&flat);
-        let input = BuildInput::CustomPrimitives(CustomPrimitiveArray::new(BufferView::new(b), boxes.len() as u32, flags));
-        self.accel_build(&AccelBuildOptions::default(), &[input]).unwrap()
+        let input = BuildInput::CustomPrimitives(CustomPrimitiveArray::new(
+            BufferView::new(b),
+            boxes.len() as u32,
+            flags,
+        ));
+        self.accel_build(&AccelBuildOptions::default(), &[input])
+            .unwrap()
     }
 
     /// An IAS over `instances`.
     pub fn instances(&self, instances: &[Instance]) -> Accel {
         let b = self.buffer_with(bytemuck::cast_slice(instances));
-        let input = BuildInput::Instances(InstanceArray { instances: BufferView::new(b), num_instances: instances.len() as u32 });
-        self.accel_build(&AccelBuildOptions::default(), &[input]).unwrap()
+        let input = BuildInput::Instances(InstanceArray {
+            instances: BufferView::new(b),
+            num_instances: instances.len() as u32,
+        });
+        self.accel_build(&AccelBuildOptions::default(), &[input])
+            .unwrap()
     }
 
     /// Compiles `wgsl` with default options.
     pub fn module(&self, wgsl: &str) -> Module {
-        self.create_module(&ModuleCompileOptions::default(), &PipelineCompileOptions::default(), &ProgramSource::new("test.wgsl", wgsl))
-            .unwrap_or_else(|e| panic!("{e}"))
-            .0
+        self.create_module(
+            &ModuleCompileOptions::default(),
+            &PipelineCompileOptions::default(),
+            &ProgramSource::new("test.wgsl", wgsl),
+        )
+        .unwrap_or_else(|e| panic!("{e}"))
+        .0
     }
 
     /// One program group.
     pub fn group(&self, desc: ProgramGroupDesc) -> ProgramGroup {
-        self.create_program_groups(&[desc]).unwrap_or_else(|e| panic!("{e}"))[0]
+        self.create_program_groups(&[desc])
+            .unwrap_or_else(|e| panic!("{e}"))[0]
     }
 
     /// A pipeline with default compile options.
     pub fn pipeline(&self, groups: &[ProgramGroup], max_trace_depth: u32) -> Pipeline {
-        let link = PipelineLinkOptions { max_trace_depth, ..Default::default() };
-        self.create_pipeline(&PipelineCompileOptions::default(), &link, groups).unwrap_or_else(|e| panic!("{e}"))
+        let link = PipelineLinkOptions {
+            max_trace_depth,
+            ..Default::default()
+        };
+        self.create_pipeline(&PipelineCompileOptions::default(), &link, groups)
+            .unwrap_or_else(|e| panic!("{e}"))
     }
 }
 
@@ -139,15 +184,23 @@ impl SbtBuilder {
     }
 
     /// Appends records (group, data words) at `stride`; returns the region's offset.
-    pub fn records(&mut self, dev: &TestDevice, stride: u32, records: &[(ProgramGroup, &[u32])]) -> u64 {
-        while self.bytes.len() % 64 != 0 {
+    pub fn records(
+        &mut self,
+        dev: &TestDevice,
+        stride: u32,
+        records: &[(ProgramGroup, &[u32])],
+    ) -> u64 {
+        while !self.bytes.len().is_multiple_of(64) {
             self.bytes.push(0);
         }
         let offset = self.bytes.len() as u64;
         for (g, data) in records {
             let mut rec = dev.sbt_record_pack_header(*g).unwrap().to_vec();
             rec.extend(data.iter().flat_map(|w| w.to_le_bytes()));
-            assert!(rec.len() <= stride as usize, "record longer than its stride");
+            assert!(
+                rec.len() <= stride as usize,
+                "record longer than its stride"
+            );
             rec.resize(stride as usize, 0);
             self.bytes.extend(rec);
         }
@@ -172,7 +225,14 @@ pub struct Table<'a> {
 
 impl<'a> Table<'a> {
     pub fn new(raygen: ProgramGroup) -> Self {
-        Table { raygen: (raygen, &[]), miss: Vec::new(), hit: Vec::new(), callables: Vec::new(), exception: None, stride: 64 }
+        Table {
+            raygen: (raygen, &[]),
+            miss: Vec::new(),
+            hit: Vec::new(),
+            callables: Vec::new(),
+            exception: None,
+            stride: 64,
+        }
     }
 
     /// Writes the table into a buffer.
@@ -184,7 +244,14 @@ impl<'a> Table<'a> {
         let hit = b.records(dev, self.stride, &self.hit);
         let callables = b.records(dev, self.stride, &self.callables);
         let buffer = b.build(dev);
-        let region = |offset: u64, n: usize| (n > 0).then_some(SbtRegion { buffer, offset, stride: self.stride, count: n as u32 });
+        let region = |offset: u64, n: usize| {
+            (n > 0).then_some(SbtRegion {
+                buffer,
+                offset,
+                stride: self.stride,
+                count: n as u32,
+            })
+        };
         ShaderBindingTable {
             raygen: SbtRecord { buffer, offset: rg },
             exception: ex.map(|offset| SbtRecord { buffer, offset }),
@@ -203,11 +270,28 @@ pub fn params(handle: TraversableHandle, width: u32, height: u32) -> Vec<u8> {
 
 /// Runs a one-dimensional launch of `n` rays of `pipeline` with `table`, an output buffer of
 /// `words_per_ray` `u32`s per ray at binding 1 and `extra` resources; returns the words.
-pub fn run_rays(dev: &TestDevice, pipeline: Pipeline, sbt: &ShaderBindingTable, handle: TraversableHandle, n: u32, words_per_ray: u32, extra: &[Resource]) -> Vec<u32> {
-    let out = dev.create_buffer(n as u64 * words_per_ray as u64 * 4).unwrap();
+pub fn run_rays(
+    dev: &TestDevice,
+    pipeline: Pipeline,
+    sbt: &ShaderBindingTable,
+    handle: TraversableHandle,
+    n: u32,
+    words_per_ray: u32,
+    extra: &[Resource],
+) -> Vec<u32> {
+    let out = dev
+        .create_buffer(n as u64 * words_per_ray as u64 * 4)
+        .unwrap();
     let mut resources = vec![Resource::buffer(1, out)];
     resources.extend_from_slice(extra);
-    dev.launch(pipeline, &params(handle, n, 1), &resources, sbt, LaunchSize::new(n, 1, 1)).unwrap_or_else(|e| panic!("{e}"));
+    dev.launch(
+        pipeline,
+        &params(handle, n, 1),
+        &resources,
+        sbt,
+        LaunchSize::new(n, 1, 1),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     dev.read_u32(out)
 }
 

@@ -12,17 +12,33 @@ fn probe_lists_devices_with_their_properties() {
     assert!(!usable.is_empty(), "{devices:?}");
     let d = usable[0];
     assert!(d.extensions.ray_tracing_pipeline && d.extensions.acceleration_structure);
-    assert!(d.shader_group_handle_size >= 32 && d.max_ray_recursion_depth >= 1 && d.max_shader_group_stride >= 4096);
+    assert!(
+        d.shader_group_handle_size >= 32
+            && d.max_ray_recursion_depth >= 1
+            && d.max_shader_group_stride >= 4096
+    );
     let text = d.to_string();
-    for needle in ["handle size", "max recursion depth", "max stride", "max instances", "usable by optik"] {
+    for needle in [
+        "handle size",
+        "max recursion depth",
+        "max stride",
+        "max instances",
+        "usable by optik",
+    ] {
         assert!(text.contains(needle), "{needle} missing from:\n{text}");
     }
     let dev = device();
     let p = dev.properties();
     assert_eq!(p.backend, BackendKind::Vulkan);
     assert_eq!(p.max_trace_depth, d.max_ray_recursion_depth.min(31));
-    assert_eq!(p.max_launch_size, d.max_ray_dispatch_invocation_count as u64);
-    assert_eq!(p.max_sbt_record_stride, (d.max_shader_group_stride + 32 - d.shader_group_handle_size) / 16 * 16);
+    assert_eq!(
+        p.max_launch_size,
+        d.max_ray_dispatch_invocation_count as u64
+    );
+    assert_eq!(
+        p.max_sbt_record_stride,
+        (d.max_shader_group_stride + 32 - d.shader_group_handle_size) / 16 * 16
+    );
 }
 
 #[test]
@@ -56,7 +72,13 @@ fn closesthit__ch() { rt_set_payload(1u, 1u); }
 fn the_pipeline_cache_is_kept_on_disk() {
     let dir = std::env::temp_dir().join(format!("optik-vulkan-cache-test-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let options = VulkanOptions { validation: true, device: None, force_staging: false, pipeline_cache: true, cache_dir: Some(dir.clone()) };
+    let options = VulkanOptions {
+        validation: true,
+        device: None,
+        force_staging: false,
+        pipeline_cache: true,
+        cache_dir: Some(dir.clone()),
+    };
     let path = {
         let dev = device_with_options(options.clone());
         let m = dev.module("fn raygen__rg() { }");
@@ -66,7 +88,11 @@ fn the_pipeline_cache_is_kept_on_disk() {
     };
     let data = std::fs::read(&path).expect("the cache was written");
     assert!(data.len() >= 32, "a Vulkan pipeline cache header");
-    assert_eq!(u32::from_le_bytes(data[4..8].try_into().unwrap()), 1, "header version one");
+    assert_eq!(
+        u32::from_le_bytes(data[4..8].try_into().unwrap()),
+        1,
+        "header version one"
+    );
     // A second device loads it and works as before.
     let dev = device_with_options(options);
     let m = dev.module("fn raygen__rg() { }");
@@ -74,8 +100,17 @@ fn the_pipeline_cache_is_kept_on_disk() {
     dev.pipeline(&[rg], 1);
     drop(dev);
     let _ = std::fs::remove_dir_all(&dir);
-    let off = VulkanOptions { validation: true, device: None, force_staging: false, pipeline_cache: false, cache_dir: Some(std::env::temp_dir()) };
-    assert!(device_with_options(off).pipeline_cache_path().is_none(), "OPTIK_CACHE_DISABLE keeps it off disk");
+    let off = VulkanOptions {
+        validation: true,
+        device: None,
+        force_staging: false,
+        pipeline_cache: false,
+        cache_dir: Some(std::env::temp_dir()),
+    };
+    assert!(
+        device_with_options(off).pipeline_cache_path().is_none(),
+        "OPTIK_CACHE_DISABLE keeps it off disk"
+    );
 }
 
 #[test]
@@ -96,13 +131,41 @@ fn raygen__rg() {
     let m = dev.module(src);
     let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
     let p = dev.pipeline(&[rg], 0);
-    let tex = dev.create_texture(&TextureDesc { width: 2, height: 1, format: TextureFormat::R32Float }).unwrap();
-    dev.write_texture(tex, bytemuck::cast_slice(&[0.25f32, 0.75])).unwrap();
+    let tex = dev
+        .create_texture(&TextureDesc {
+            width: 2,
+            height: 1,
+            format: TextureFormat::R32Float,
+        })
+        .unwrap();
+    dev.write_texture(tex, bytemuck::cast_slice(&[0.25f32, 0.75]))
+        .unwrap();
     let sbt = Table::new(rg).build(&dev);
     let out = dev.create_buffer(8).unwrap();
-    let resources = [Resource::buffer(1, out), Resource::Texture { binding: 2, texture: tex }, Resource::Sampler { binding: 3, sampler: SamplerDesc::default() }];
-    dev.launch(p, &params(TraversableHandle::NULL, 2, 1), &resources, &sbt, LaunchSize::new(2, 1, 1)).unwrap();
-    let v: Vec<f32> = dev.read_u32(out).iter().map(|b| f32::from_bits(*b)).collect();
+    let resources = [
+        Resource::buffer(1, out),
+        Resource::Texture {
+            binding: 2,
+            texture: tex,
+        },
+        Resource::Sampler {
+            binding: 3,
+            sampler: SamplerDesc::default(),
+        },
+    ];
+    dev.launch(
+        p,
+        &params(TraversableHandle::NULL, 2, 1),
+        &resources,
+        &sbt,
+        LaunchSize::new(2, 1, 1),
+    )
+    .unwrap();
+    let v: Vec<f32> = dev
+        .read_u32(out)
+        .iter()
+        .map(|b| f32::from_bits(*b))
+        .collect();
     assert_eq!(v, vec![0.25, 0.75]);
     dev.destroy_texture(tex).unwrap();
 }

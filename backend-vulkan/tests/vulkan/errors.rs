@@ -30,12 +30,23 @@ fn setup(dev: &TestDevice) -> Setup {
     let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
     let ms = dev.group(ProgramGroupDesc::Miss(Some(prog(m, "miss__ms"))));
     let ch = dev.group(ProgramGroupDesc::closest_hit(prog(m, "closesthit__ch")));
-    Setup { pipeline: dev.pipeline(&[rg, ms, ch], 1), rg, ms, ch }
+    Setup {
+        pipeline: dev.pipeline(&[rg, ms, ch], 1),
+        rg,
+        ms,
+        ch,
+    }
 }
 
 fn launch(dev: &TestDevice, s: &Setup, sbt: &ShaderBindingTable) -> Result<()> {
     let out = dev.create_buffer(16).unwrap();
-    dev.launch(s.pipeline, &params(TraversableHandle::NULL, 1, 1), &[Resource::buffer(1, out)], sbt, LaunchSize::new(1, 1, 1))
+    dev.launch(
+        s.pipeline,
+        &params(TraversableHandle::NULL, 1, 1),
+        &[Resource::buffer(1, out)],
+        sbt,
+        LaunchSize::new(1, 1, 1),
+    )
 }
 
 #[test]
@@ -47,28 +58,47 @@ fn shader_binding_table_mistakes() {
     bad.miss.push((s.ms, &[]));
     let mut sbt = bad.build(&dev);
     let zeros = dev.create_buffer(256).unwrap();
-    sbt.miss = Some(SbtRegion { buffer: zeros, offset: 0, stride: 32, count: 1 });
+    sbt.miss = Some(SbtRegion {
+        buffer: zeros,
+        offset: 0,
+        stride: 32,
+        count: 1,
+    });
     let e = launch(&dev, &s, &sbt).unwrap_err();
-    assert!(e.message().contains("sbt.miss record 0") && e.message().contains("no record header"), "{e}");
+    assert!(
+        e.message().contains("sbt.miss record 0") && e.message().contains("no record header"),
+        "{e}"
+    );
     // A hit group's header in the miss region.
     let mut wrong = Table::new(s.rg);
     wrong.miss.push((s.ch, &[]));
     let e = launch(&dev, &s, &wrong.build(&dev)).unwrap_err();
-    assert!(e.message().contains("hit group group") && e.message().contains("miss region"), "{e}");
+    assert!(
+        e.message().contains("hit group group") && e.message().contains("miss region"),
+        "{e}"
+    );
     // A group of another pipeline.
     let m = dev.module(&format!("{RAY_HEADER}{PROGRAMS}"));
     let other = dev.group(ProgramGroupDesc::Miss(Some(prog(m, "miss__ms"))));
     let mut foreign = Table::new(s.rg);
     foreign.miss.push((other, &[]));
     let e = launch(&dev, &s, &foreign.build(&dev)).unwrap_err();
-    assert!(e.message().contains("not one of this pipeline's groups"), "{e}");
+    assert!(
+        e.message().contains("not one of this pipeline's groups"),
+        "{e}"
+    );
     // A stride the device cannot hold.
     let mut table = Table::new(s.rg);
     table.hit.push((s.ch, &[]));
     let mut sbt = table.build(&dev);
     let limit = dev.properties().max_sbt_record_stride;
     let big = dev.create_buffer(limit as u64 * 2).unwrap();
-    sbt.hitgroup = Some(SbtRegion { buffer: big, offset: 0, stride: limit + 16, count: 1 });
+    sbt.hitgroup = Some(SbtRegion {
+        buffer: big,
+        offset: 0,
+        stride: limit + 16,
+        count: 1,
+    });
     let e = launch(&dev, &s, &sbt).unwrap_err();
     assert_eq!(e.kind(), ErrorKind::LimitExceeded, "{e}");
     // A good table still works after all that.
@@ -86,17 +116,62 @@ fn launch_resource_mistakes_and_empty_launches() {
     table.miss.push((s.ms, &[]));
     let sbt = table.build(&dev);
     let p = params(TraversableHandle::NULL, 1, 1);
-    let e = dev.launch(s.pipeline, &p, &[], &sbt, LaunchSize::new(1, 1, 1)).unwrap_err();
-    assert!(e.message().contains("no resource given for binding 1"), "{e}");
-    let e = dev.launch(s.pipeline, &p[..4], &[Resource::buffer(1, dev.create_buffer(16).unwrap())], &sbt, LaunchSize::new(1, 1, 1)).unwrap_err();
+    let e = dev
+        .launch(s.pipeline, &p, &[], &sbt, LaunchSize::new(1, 1, 1))
+        .unwrap_err();
+    assert!(
+        e.message().contains("no resource given for binding 1"),
+        "{e}"
+    );
+    let e = dev
+        .launch(
+            s.pipeline,
+            &p[..4],
+            &[Resource::buffer(1, dev.create_buffer(16).unwrap())],
+            &sbt,
+            LaunchSize::new(1, 1, 1),
+        )
+        .unwrap_err();
     assert!(e.message().contains("params is 4 bytes"), "{e}");
-    let tex = dev.create_texture(&TextureDesc { width: 1, height: 1, format: TextureFormat::R32Float }).unwrap();
-    let e = dev.launch(s.pipeline, &p, &[Resource::Texture { binding: 1, texture: tex }], &sbt, LaunchSize::new(1, 1, 1)).unwrap_err();
+    let tex = dev
+        .create_texture(&TextureDesc {
+            width: 1,
+            height: 1,
+            format: TextureFormat::R32Float,
+        })
+        .unwrap();
+    let e = dev
+        .launch(
+            s.pipeline,
+            &p,
+            &[Resource::Texture {
+                binding: 1,
+                texture: tex,
+            }],
+            &sbt,
+            LaunchSize::new(1, 1, 1),
+        )
+        .unwrap_err();
     assert!(e.message().contains("storage buffer"), "{e}");
     // Zero-sized launches are no-ops.
     let out = dev.create_buffer(16).unwrap();
-    dev.launch(s.pipeline, &p, &[Resource::buffer(1, out)], &sbt, LaunchSize::new(0, 4, 1)).unwrap();
-    let e = dev.launch(s.pipeline, &p, &[Resource::buffer(1, out)], &sbt, LaunchSize::new(u32::MAX, u32::MAX, 1)).unwrap_err();
+    dev.launch(
+        s.pipeline,
+        &p,
+        &[Resource::buffer(1, out)],
+        &sbt,
+        LaunchSize::new(0, 4, 1),
+    )
+    .unwrap();
+    let e = dev
+        .launch(
+            s.pipeline,
+            &p,
+            &[Resource::buffer(1, out)],
+            &sbt,
+            LaunchSize::new(u32::MAX, u32::MAX, 1),
+        )
+        .unwrap_err();
     assert_eq!(e.kind(), ErrorKind::LimitExceeded);
 }
 
@@ -112,7 +187,10 @@ fn handles_of_destroyed_objects_and_other_devices() {
     let e = dev.write_buffer(mine, 12, &[0; 8]).unwrap_err();
     assert!(e.message().contains("outside the buffer"), "{e}");
     dev.destroy_buffer(mine).unwrap();
-    assert_eq!(dev.read_buffer(mine, 0, &mut [0; 4]).unwrap_err().kind(), ErrorKind::InvalidHandle);
+    assert_eq!(
+        dev.read_buffer(mine, 0, &mut [0; 4]).unwrap_err().kind(),
+        ErrorKind::InvalidHandle
+    );
     dev.destroy_pipeline(s.pipeline).unwrap();
     let mut table = Table::new(s.rg);
     table.miss.push((s.ms, &[]));
@@ -123,7 +201,13 @@ fn handles_of_destroyed_objects_and_other_devices() {
     inst.flags = 0;
     let ib = dev.buffer_with(bytemuck::cast_slice(&[inst]));
     let e = dev
-        .accel_build(&AccelBuildOptions::default(), &[BuildInput::Instances(InstanceArray { instances: BufferView::new(ib), num_instances: 1 })])
+        .accel_build(
+            &AccelBuildOptions::default(),
+            &[BuildInput::Instances(InstanceArray {
+                instances: BufferView::new(ib),
+                num_instances: 1,
+            })],
+        )
         .unwrap_err();
     assert!(e.message().contains("0xdeadbeef"), "{e}");
 }
@@ -135,27 +219,56 @@ fn what_the_backend_does_not_do_is_refused_with_a_reason() {
     let mut t = TriangleArray::new(BufferView::new(vb), 3, GeometryFlags::NONE);
     t.vertex_buffers.push(BufferView::new(vb));
     let motion = AccelBuildOptions {
-        motion: Some(MotionOptions { num_keys: 2, flags: MotionFlags::NONE, time_begin: 0.0, time_end: 1.0 }),
+        motion: Some(MotionOptions {
+            num_keys: 2,
+            flags: MotionFlags::NONE,
+            time_begin: 0.0,
+            time_end: 1.0,
+        }),
         ..Default::default()
     };
-    let e = dev.accel_build(&motion, &[BuildInput::Triangles(t)]).unwrap_err();
+    let e = dev
+        .accel_build(&motion, &[BuildInput::Triangles(t)])
+        .unwrap_err();
     assert_eq!(e.kind(), ErrorKind::Unsupported);
     assert!(e.message().contains("motion"), "{e}");
     let gas = dev.triangles(&[[0.0; 3]; 3], GeometryFlags::NONE);
     let desc = TransformDesc::SrtMotion {
         child: dev.traversable_handle(gas).unwrap(),
-        motion: MotionOptions { num_keys: 2, flags: MotionFlags::NONE, time_begin: 0.0, time_end: 1.0 },
+        motion: MotionOptions {
+            num_keys: 2,
+            flags: MotionFlags::NONE,
+            time_begin: 0.0,
+            time_end: 1.0,
+        },
         keys: vec![SrtData::identity(); 2],
     };
-    assert_eq!(dev.create_transform(&desc).unwrap_err().kind(), ErrorKind::Unsupported);
-    let omm = OpacityMicromapArrayDesc { micromaps: vec![], data: vec![] };
-    assert_eq!(dev.create_opacity_micromap_array(&omm).unwrap_err().kind(), ErrorKind::Unsupported);
-    assert_eq!(dev.set_accuracy(Accuracy::FAST).unwrap_err().kind(), ErrorKind::Unsupported);
+    assert_eq!(
+        dev.create_transform(&desc).unwrap_err().kind(),
+        ErrorKind::Unsupported
+    );
+    let omm = OpacityMicromapArrayDesc {
+        micromaps: vec![],
+        data: vec![],
+    };
+    assert_eq!(
+        dev.create_opacity_micromap_array(&omm).unwrap_err().kind(),
+        ErrorKind::Unsupported
+    );
+    assert_eq!(
+        dev.set_accuracy(Accuracy::FAST).unwrap_err().kind(),
+        ErrorKind::Unsupported
+    );
     dev.set_accuracy(Accuracy::ROBUST).unwrap();
-    let link = PipelineLinkOptions { max_trace_depth: 40, ..Default::default() };
+    let link = PipelineLinkOptions {
+        max_trace_depth: 40,
+        ..Default::default()
+    };
     let m = dev.module("fn raygen__rg() { }");
     let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
-    let e = dev.create_pipeline(&PipelineCompileOptions::default(), &link, &[rg]).unwrap_err();
+    let e = dev
+        .create_pipeline(&PipelineCompileOptions::default(), &link, &[rg])
+        .unwrap_err();
     assert_eq!(e.kind(), ErrorKind::LimitExceeded, "{e}");
 }
 
@@ -163,14 +276,25 @@ fn what_the_backend_does_not_do_is_refused_with_a_reason() {
 fn compile_errors_point_at_the_users_line() {
     let dev = device();
     let e = dev
-        .create_module(&ModuleCompileOptions::default(), &PipelineCompileOptions::default(), &ProgramSource::new("bad.wgsl", "fn raygen__rg() {\n    rt_get_payload(0u);\n}\n"))
+        .create_module(
+            &ModuleCompileOptions::default(),
+            &PipelineCompileOptions::default(),
+            &ProgramSource::new(
+                "bad.wgsl",
+                "fn raygen__rg() {\n    rt_get_payload(0u);\n}\n",
+            ),
+        )
         .unwrap_err();
     assert_eq!(e.kind(), ErrorKind::Compile);
     let d = &e.diagnostics()[0];
     assert_eq!((d.file.as_str(), d.line), ("bad.wgsl", 2), "{e}");
     let m = dev.module("fn raygen__rg() { }");
-    let e = dev.create_program_groups(&[ProgramGroupDesc::Miss(Some(prog(m, "miss__nothere")))]).unwrap_err();
+    let e = dev
+        .create_program_groups(&[ProgramGroupDesc::Miss(Some(prog(m, "miss__nothere")))])
+        .unwrap_err();
     assert!(e.message().contains("no program `miss__nothere`"), "{e}");
-    let e = dev.create_program_groups(&[ProgramGroupDesc::Miss(Some(prog(m, "raygen__rg")))]).unwrap_err();
+    let e = dev
+        .create_program_groups(&[ProgramGroupDesc::Miss(Some(prog(m, "raygen__rg")))])
+        .unwrap_err();
     assert!(e.message().contains("is a raygen program"), "{e}");
 }

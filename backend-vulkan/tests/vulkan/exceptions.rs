@@ -106,11 +106,22 @@ fn run(dev: &TestDevice, exceptions: Setting<ExceptionFlags>, what: &[u32]) -> V
         intersection: Some(prog(m, "intersection__is")),
         builtin: BuiltinIntersector::Triangle,
     });
-    let dc = dev.group(ProgramGroupDesc::Callables { direct: Some(prog(m, "direct_callable__dc")), continuation: None });
+    let dc = dev.group(ProgramGroupDesc::Callables {
+        direct: Some(prog(m, "direct_callable__dc")),
+        continuation: None,
+    });
     let ex = dev.group(ProgramGroupDesc::Exception(prog(m, "exception__ex")));
-    let options = PipelineCompileOptions { exception_flags: exceptions, ..Default::default() };
-    let link = PipelineLinkOptions { max_trace_depth: 1, ..Default::default() };
-    let pipeline = dev.create_pipeline(&options, &link, &[rg, ms, tri_hg, box_hg, dc, ex]).unwrap_or_else(|e| panic!("{e}"));
+    let options = PipelineCompileOptions {
+        exception_flags: exceptions,
+        ..Default::default()
+    };
+    let link = PipelineLinkOptions {
+        max_trace_depth: 1,
+        ..Default::default()
+    };
+    let pipeline = dev
+        .create_pipeline(&options, &link, &[rg, ms, tri_hg, box_hg, dc, ex])
+        .unwrap_or_else(|e| panic!("{e}"));
     let mut table = Table::new(rg);
     table.raygen = (rg, what);
     table.miss.push((ms, &[]));
@@ -119,7 +130,15 @@ fn run(dev: &TestDevice, exceptions: Setting<ExceptionFlags>, what: &[u32]) -> V
     table.exception = Some((ex, &[0xF000_0000]));
     table.stride = 96;
     let sbt = table.build(dev);
-    let w = run_rays(dev, pipeline, &sbt, dev.traversable_handle(ias).unwrap(), what.len() as u32, 4, &[]);
+    let w = run_rays(
+        dev,
+        pipeline,
+        &sbt,
+        dev.traversable_handle(ias).unwrap(),
+        what.len() as u32,
+        4,
+        &[],
+    );
     w.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect()
 }
 
@@ -133,15 +152,35 @@ fn exceptions_run_the_exception_program_and_end_the_launch_index() {
     let dev = device();
     let what: Vec<u32> = (0..9).collect();
     let out = run(&dev, Setting::Value(ExceptionFlags::ALL), &what);
-    assert_eq!(out[0], [1, 101, 7, 0], "no exception: the ray hits, raygen finishes");
+    assert_eq!(
+        out[0],
+        [1, 101, 7, 0],
+        "no exception: the ray hits, raygen finishes"
+    );
     assert_eq!(out[1], [1, 0, 0, code(11)], "throw in raygen");
-    assert_eq!(out[2], [1, 0, 0, code(22)], "throw in closest-hit: raygen's later writes are skipped");
-    assert_eq!(out[3], [1, 0, 0, code(33)], "throw in any-hit (run from the tracing stage)");
+    assert_eq!(
+        out[2],
+        [1, 0, 0, code(22)],
+        "throw in closest-hit: raygen's later writes are skipped"
+    );
+    assert_eq!(
+        out[3],
+        [1, 0, 0, code(33)],
+        "throw in any-hit (run from the tracing stage)"
+    );
     assert_eq!(out[4], [1, 0, 0, code(44)], "throw in intersection");
     assert_eq!(out[5], [1, 0, 0, code(55)], "throw in miss");
     assert_eq!(out[6], [1, 101, 0, code(66)], "throw in a direct callable");
-    assert_eq!(out[7], [1, 0, 0, code(semantics::exception::TRACE_DEPTH_EXCEEDED)], "trace past max_trace_depth");
-    assert_eq!(out[8], [1, 0, 0, code(semantics::exception::INVALID_RAY)], "negative tmin with debug exceptions");
+    assert_eq!(
+        out[7],
+        [1, 0, 0, code(semantics::exception::TRACE_DEPTH_EXCEEDED)],
+        "trace past max_trace_depth"
+    );
+    assert_eq!(
+        out[8],
+        [1, 0, 0, code(semantics::exception::INVALID_RAY)],
+        "negative tmin with debug exceptions"
+    );
 }
 
 #[test]
@@ -149,7 +188,19 @@ fn without_exception_flags_throws_are_ignored_and_invalid_rays_miss_silently() {
     let dev = device();
     let what = [2u32, 8, 7];
     let out = run(&dev, Setting::Value(ExceptionFlags::NONE), &what);
-    assert_eq!(out[0], [1, 101, 7, 0], "a throw without USER checking does nothing");
-    assert_eq!(out[1], [1, 1, 7, 0], "an invalid ray runs no program and leaves the payload");
-    assert_eq!(out[2], [1, 101, 7, 0], "a trace past max_trace_depth is skipped");
+    assert_eq!(
+        out[0],
+        [1, 101, 7, 0],
+        "a throw without USER checking does nothing"
+    );
+    assert_eq!(
+        out[1],
+        [1, 1, 7, 0],
+        "an invalid ray runs no program and leaves the payload"
+    );
+    assert_eq!(
+        out[2],
+        [1, 101, 7, 0],
+        "a trace past max_trace_depth is skipped"
+    );
 }

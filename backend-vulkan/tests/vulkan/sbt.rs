@@ -45,14 +45,21 @@ fn offsets_strides_miss_indices_and_per_primitive_records() {
     let offsets = dev.buffer_with(&[2u8, 0, 1, 0]);
     let mut input0 = TriangleArray::new(BufferView::new(vb0), 9, GeometryFlags::NONE);
     input0.flags = vec![GeometryFlags::NONE; 3];
-    input0.sbt_index_offsets = Some(SbtIndexOffsets { buffer: BufferView::new(offsets), size_in_bytes: 1, stride: 0 });
+    input0.sbt_index_offsets = Some(SbtIndexOffsets {
+        buffer: BufferView::new(offsets),
+        size_in_bytes: 1,
+        stride: 0,
+    });
     // Input 1: one triangle, one record, primitive indices offset by 10.
     let v1: Vec<f32> = tri_at(3.0).iter().flatten().copied().collect();
     let vb1 = dev.f32_buffer(&v1);
     let mut input1 = TriangleArray::new(BufferView::new(vb1), 3, GeometryFlags::NONE);
     input1.primitive_index_offset = 10;
     let gas = dev
-        .accel_build(&AccelBuildOptions::default(), &[BuildInput::Triangles(input0), BuildInput::Triangles(input1)])
+        .accel_build(
+            &AccelBuildOptions::default(),
+            &[BuildInput::Triangles(input0), BuildInput::Triangles(input1)],
+        )
         .unwrap();
 
     let m = dev.module(&format!("{RAY_HEADER}{PROGRAMS}"));
@@ -66,15 +73,39 @@ fn offsets_strides_miss_indices_and_per_primitive_records() {
     table.miss = miss_data.iter().map(|d| (ms, &d[..])).collect();
     table.hit = data.iter().map(|d| (ch, &d[..])).collect();
     let sbt = table.build(&dev);
-    let w = run_rays(&dev, pipeline, &sbt, dev.traversable_handle(gas).unwrap(), 6, 3, &[]);
+    let w = run_rays(
+        &dev,
+        pipeline,
+        &sbt,
+        dev.traversable_handle(gas).unwrap(),
+        6,
+        3,
+        &[],
+    );
     let ray = |i: usize| [w[i * 3], w[i * 3 + 1], w[i * 3 + 2]];
     // record = offset 1 + gas index × stride 2.
-    assert_eq!(ray(0), [1000 + 1 + 2 * 2, 2, 0], "primitive 0 uses its input's record 2");
+    assert_eq!(
+        ray(0),
+        [1000 + 1 + 2 * 2, 2, 0],
+        "primitive 0 uses its input's record 2"
+    );
     assert_eq!(ray(1), [1000 + 1, 0, 1]);
     assert_eq!(ray(2), [1000 + 1 + 2, 1, 2]);
-    assert_eq!(ray(3), [1000 + 1 + 3 * 2, 3, 10], "input 1 starts at SBT GAS index 3; primitive index offset 10");
-    assert_eq!(&ray(4)[..2], &[201, 7], "miss index 0x70001 selects miss record 1");
-    assert_eq!(ray(5)[0], 0xDEAD, "a miss index past the table runs no program");
+    assert_eq!(
+        ray(3),
+        [1000 + 1 + 3 * 2, 3, 10],
+        "input 1 starts at SBT GAS index 3; primitive index offset 10"
+    );
+    assert_eq!(
+        &ray(4)[..2],
+        &[201, 7],
+        "miss index 0x70001 selects miss record 1"
+    );
+    assert_eq!(
+        ray(5)[0],
+        0xDEAD,
+        "a miss index past the table runs no program"
+    );
 }
 
 #[test]
@@ -84,7 +115,16 @@ fn sbt_offsets_past_the_records_read_past_the_buffer_are_errors() {
     let offsets = dev.buffer_with(&[3u8, 0, 0, 0]);
     let mut input = TriangleArray::new(BufferView::new(vb), 3, GeometryFlags::NONE);
     input.flags = vec![GeometryFlags::NONE; 2];
-    input.sbt_index_offsets = Some(SbtIndexOffsets { buffer: BufferView::new(offsets), size_in_bytes: 1, stride: 0 });
-    let e = dev.accel_build(&AccelBuildOptions::default(), &[BuildInput::Triangles(input)]).unwrap_err();
+    input.sbt_index_offsets = Some(SbtIndexOffsets {
+        buffer: BufferView::new(offsets),
+        size_in_bytes: 1,
+        stride: 0,
+    });
+    let e = dev
+        .accel_build(
+            &AccelBuildOptions::default(),
+            &[BuildInput::Triangles(input)],
+        )
+        .unwrap_err();
     assert!(e.message().contains("sbt_index_offsets[0] is 3"), "{e}");
 }

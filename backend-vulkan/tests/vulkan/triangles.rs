@@ -42,7 +42,14 @@ fn run(dev: &TestDevice, gas: Accel, w: u32, h: u32) -> Vec<[u32; 4]> {
     let sbt = table.build(dev);
     let out = dev.create_buffer(w as u64 * h as u64 * 16).unwrap();
     let handle = dev.traversable_handle(gas).unwrap();
-    dev.launch(pipeline, &params(handle, w, h), &[Resource::buffer(1, out)], &sbt, LaunchSize::new(w, h, 1)).unwrap();
+    dev.launch(
+        pipeline,
+        &params(handle, w, h),
+        &[Resource::buffer(1, out)],
+        &sbt,
+        LaunchSize::new(w, h, 1),
+    )
+    .unwrap();
     let words = dev.read_u32(out);
     words.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect()
 }
@@ -50,7 +57,10 @@ fn run(dev: &TestDevice, gas: Accel, w: u32, h: u32) -> Vec<[u32; 4]> {
 #[test]
 fn a_triangle_hits_front_face_with_t_and_misses_outside() {
     let dev = device();
-    let gas = dev.triangles(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], GeometryFlags::DISABLE_ANYHIT);
+    let gas = dev.triangles(
+        &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        GeometryFlags::DISABLE_ANYHIT,
+    );
     let (w, h) = (16, 16);
     let out = run(&dev, gas, w, h);
     let mut hits = 0;
@@ -61,7 +71,10 @@ fn a_triangle_hits_front_face_with_t_and_misses_outside() {
             if fx + fy < 0.99 {
                 assert_eq!(r[0], 1, "pixel {x},{y} should hit");
                 assert_eq!(r[1], 0, "primitive index");
-                assert_eq!(r[2], HIT_KIND_TRIANGLE_FRONT_FACE, "counter-clockwise seen from the origin is front");
+                assert_eq!(
+                    r[2], HIT_KIND_TRIANGLE_FRONT_FACE,
+                    "counter-clockwise seen from the origin is front"
+                );
                 assert!((f32::from_bits(r[3]) - 1.0).abs() < 1e-6);
                 hits += 1;
             } else if fx + fy > 1.01 {
