@@ -40,3 +40,27 @@ impl<T> VkResultExt<T> for Result<T, vk::Result> {
         self.map_err(|e| vk_error(what, e))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn device_loss_and_memory_have_their_kinds() {
+        assert_eq!(
+            vk_error("x", vk::Result::ERROR_DEVICE_LOST).kind(),
+            ErrorKind::DeviceLost
+        );
+        assert_eq!(
+            vk_error("x", vk::Result::ERROR_OUT_OF_DEVICE_MEMORY).kind(),
+            ErrorKind::OutOfMemory
+        );
+        assert_eq!(
+            vk_error("x", vk::Result::ERROR_OUT_OF_HOST_MEMORY).kind(),
+            ErrorKind::OutOfMemory
+        );
+        let e = vk_error("vkQueueSubmit", vk::Result::ERROR_UNKNOWN);
+        assert_eq!(e.kind(), ErrorKind::Backend);
+        assert!(e.message().contains("vkQueueSubmit"));
+    }
+}

@@ -94,8 +94,31 @@ impl Inner {
         validate::sbt(table, &self.props, &sizes)?;
         let p = self.pipelines.get(pipeline)?;
         validate::launch_bindings(params, resources, &p.bindings, &sizes)?;
+        if params.len() as u64 > self.ctx.info.max_uniform_buffer_range as u64 {
+            return Err(Error::limit(format!(
+                "params is {} bytes; this device's uniform buffers (maxUniformBufferRange) hold {}; put large data in a storage buffer",
+                params.len(),
+                self.ctx.info.max_uniform_buffer_range
+            )));
+        }
         let align = self.ctx.info.min_storage_buffer_offset_alignment.max(1);
         for r in resources {
+            if let Resource::Buffer {
+                binding,
+                buffer,
+                offset,
+                size,
+            } = r
+            {
+                let total = self.buffers.get(*buffer)?.gpu.size;
+                let bound = size.unwrap_or(total.saturating_sub(*offset));
+                if bound > self.ctx.info.max_storage_buffer_range as u64 {
+                    return Err(Error::limit(format!(
+                        "the buffer at binding {binding} binds {bound} bytes; this device binds at most {} bytes per storage buffer (maxStorageBufferRange): bind a range",
+                        self.ctx.info.max_storage_buffer_range
+                    )));
+                }
+            }
             match r {
                 Resource::Buffer {
                     binding, offset, ..

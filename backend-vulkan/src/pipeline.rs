@@ -496,6 +496,7 @@ impl Inner {
         let dynamic = [vk::DynamicState::RAY_TRACING_PIPELINE_STACK_SIZE_KHR];
         let dynamic_info = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic);
         let create = vk::RayTracingPipelineCreateInfoKHR::default()
+            .flags(self.skip_flags(&features))
             .stages(&stage_infos)
             .groups(&group_infos)
             .max_pipeline_ray_recursion_depth(recursion)
@@ -583,6 +584,27 @@ impl Inner {
             sbt_cache: Vec::new(),
         };
         Ok(self.pipelines.insert(object))
+    }
+
+    /// Vulkan's skip flags for the primitive types the pipeline does not intersect (DESIGN.md
+    /// §6), where the device can skip them.
+    fn skip_flags(&self, features: &FeatureSet) -> vk::PipelineCreateFlags {
+        let mut flags = vk::PipelineCreateFlags::empty();
+        if !self.ctx.info.primitive_culling {
+            return flags;
+        }
+        if !features
+            .primitive_types
+            .contains(PrimitiveTypeFlags::TRIANGLE)
+        {
+            flags |= vk::PipelineCreateFlags::RAY_TRACING_SKIP_TRIANGLES_KHR;
+        }
+        let on_aabbs =
+            PrimitiveTypeFlags::CUSTOM | PrimitiveTypeFlags::SPHERE | PrimitiveTypeFlags::CURVES;
+        if !features.primitive_types.intersects(on_aabbs) {
+            flags |= vk::PipelineCreateFlags::RAY_TRACING_SKIP_AABBS_KHR;
+        }
+        flags
     }
 
     /// The two descriptor set layouts: the user's `@group(0)` and the backend's `@group(1)`.

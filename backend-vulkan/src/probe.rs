@@ -128,6 +128,10 @@ pub struct VulkanDeviceInfo {
     pub max_storage_buffer_range: u32,
     /// `minStorageBufferOffsetAlignment`.
     pub min_storage_buffer_offset_alignment: u64,
+    /// `maxUniformBufferRange` (the largest launch parameter block).
+    pub max_uniform_buffer_range: u32,
+    /// The `rayTraversalPrimitiveCulling` feature: pipelines can skip triangles or AABBs.
+    pub primitive_culling: bool,
     /// `maxComputeWorkGroupCount` × `maxComputeWorkGroupSize`, per dimension: the largest
     /// ray dispatch per dimension.
     pub max_launch_dimensions: [u64; 3],
@@ -327,6 +331,7 @@ pub(crate) fn device_info(
     }
 
     let mut missing = Vec::new();
+    let mut primitive_culling = false;
     if api < vk::API_VERSION_1_2 {
         missing.push(format!(
             "Vulkan 1.2 (it has {}.{})",
@@ -362,6 +367,7 @@ pub(crate) fn device_info(
             .push_next(&mut frt);
         // SAFETY: the device has 1.2 and both extensions (checked above).
         unsafe { instance.get_physical_device_features2(physical, &mut features2) };
+        primitive_culling = frt.ray_traversal_primitive_culling == vk::TRUE;
         for (name, have) in [
             ("the bufferDeviceAddress feature", f12.buffer_device_address),
             (
@@ -432,6 +438,8 @@ pub(crate) fn device_info(
         min_scratch_offset_alignment: accel.min_acceleration_structure_scratch_offset_alignment,
         max_storage_buffer_range: limits.max_storage_buffer_range,
         min_storage_buffer_offset_alignment: limits.min_storage_buffer_offset_alignment,
+        max_uniform_buffer_range: limits.max_uniform_buffer_range,
+        primitive_culling,
         max_launch_dimensions,
         device_local_heap,
         separate_device_memory,

@@ -4,7 +4,9 @@
 //! top level over bottom levels. Every traversable here keeps its *flat list*: one entry per
 //! path from it down to a bottom level, with what the path composes:
 //! - transforms multiply (outermost first);
-//! - SBT offsets add (OptiX sums instance offsets along the path), masked to Vulkan's 24 bits;
+//! - SBT offsets add (OptiX sums instance offsets along the path); 24 bits count (Vulkan's
+//!   field, `optik_api::semantics::sbt_index::INSTANCE_SBT_OFFSET_MASK`), of each offset and
+//!   of the sum;
 //! - visibility masks: a ray must pass every instance's mask on the path. That is one mask
 //!   test when the masks nest (one's bits contain the other's: the smaller one decides);
 //!   other combinations cannot be expressed by one Vulkan instance and are an error;
@@ -133,15 +135,10 @@ pub fn through_instance(
                     c.mask
                 ))
             })?;
-            let sum = inst.sbt_offset as u64 + c.sbt_offset as u64;
-            if sum > INSTANCE_SBT_OFFSET_MASK as u64 {
-                return Err(Error::limit(format!(
-                    "instance {index}: SBT offsets along a nested path add up to {sum}; Vulkan instances hold at most {INSTANCE_SBT_OFFSET_MASK}"
-                )));
-            }
+            let sum = (inst.sbt_offset & INSTANCE_SBT_OFFSET_MASK).wrapping_add(c.sbt_offset) & INSTANCE_SBT_OFFSET_MASK;
             Ok(FlatInstance {
                 transform: affine::mul(&inst.transform, &c.transform),
-                sbt_offset: sum as u32,
+                sbt_offset: sum,
                 mask,
                 flags: combine_flags(outer_flags, c.flags),
                 blas: c.blas,

@@ -112,3 +112,91 @@ fn intersection_programs_report_kinds_and_attributes_through_instances() {
     }
     assert!(seen[0] > 0 && seen[2] > 0);
 }
+
+const IDS: &str = r#"
+fn raygen__rg() {
+    let i = rt_launch_index().x;
+    var p: RtPayload;
+    p[0] = 0xFFu;
+    rt_trace(params.handle, vec3<f32>(f32(i) + 0.5, 0.5, 5.0), vec3<f32>(0.0, 0.0, -1.0), 0.0, 100.0, 0.0, 0xFFu, 0u, 0u, 1u, 0u, &p);
+    out[i] = p[0];
+}
+fn intersection__box() {
+    var a: RtAttributes;
+    rt_report_intersection(1.0, 0u, a);
+}
+fn closesthit__ch() {
+    rt_set_payload(0u, rt_primitive_index());
+}
+"#;
+
+#[test]
+fn unusable_boxes_never_hit_and_refits_that_change_them_keep_the_handle() {
+    let dev = device();
+    let boxes: Vec<f32> = (0..3)
+        .flat_map(|k| [k as f32, 0.0, 0.0, k as f32 + 1.0, 1.0, 1.0])
+        .collect();
+    let mut with_nan = boxes.clone();
+    with_nan[6] = f32::NAN;
+    let b = dev.f32_buffer(&with_nan);
+    let input = BuildInput::CustomPrimitives(CustomPrimitiveArray::new(
+        BufferView::new(b),
+        3,
+        GeometryFlags::DISABLE_ANYHIT,
+    ));
+    let options = AccelBuildOptions {
+        flags: BuildFlags::ALLOW_UPDATE,
+        ..Default::default()
+    };
+    let gas = dev
+        .accel_build(&options, std::slice::from_ref(&input))
+        .unwrap();
+    let h = dev.traversable_handle(gas).unwrap();
+    let m = dev.module(&format!("{RAY_HEADER}{IDS}"));
+    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
+    let hg = dev.group(ProgramGroupDesc::HitGroup {
+        closest_hit: Some(prog(m, "closesthit__ch")),
+        any_hit: None,
+        intersection: Some(prog(m, "intersection__box")),
+        builtin: BuiltinIntersector::Triangle,
+    });
+    let pipeline = dev.pipeline(&[rg, hg], 1);
+    let mut table = Table::new(rg);
+    table.hit.push((hg, &[]));
+    let sbt = table.build(&dev);
+    let ias = dev.instances(&[Instance::new(h)]);
+    let run = |accel: Accel| {
+        run_rays(
+            &dev,
+            pipeline,
+            &sbt,
+            dev.traversable_handle(accel).unwrap(),
+            3,
+            1,
+            &[],
+        )
+    };
+    assert_eq!(
+        run(gas),
+        vec![0, 0xFF, 2],
+        "the NaN box is left out; primitive 2 keeps its index"
+    );
+    // A refit that makes box 1 usable and box 2 unusable: the structure is rebuilt under its
+    // handle, and the instance structure over it follows.
+    let mut refit = boxes.clone();
+    refit[12] = f32::INFINITY;
+    dev.write_buffer(b, 0, bytemuck::cast_slice(&refit))
+        .unwrap();
+    dev.accel_update(
+        gas,
+        &AccelBuildOptions {
+            operation: BuildOperation::Update,
+            ..options
+        },
+        &[input],
+    )
+    .unwrap();
+    assert_eq!(dev.traversable_handle(gas).unwrap(), h);
+    assert_eq!(run(gas), vec![0, 1, 0xFF]);
+    assert_eq!(run(ias), vec![0, 1, 0xFF]);
+}

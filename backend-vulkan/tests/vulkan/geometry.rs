@@ -328,3 +328,27 @@ fn refit_and_compaction_keep_results_and_handles() {
             .contains("ALLOW_COMPACTION")
     );
 }
+
+#[test]
+fn empty_structures_and_null_children_miss() {
+    let dev = device();
+    let s = setup(&dev);
+    let empty_gas = dev.triangles(&[], GeometryFlags::NONE);
+    assert_eq!(trace(&dev, &s, empty_gas, &[0.25], 0)[0][0], 0xFFFF);
+    let empty_ias = dev.instances(&[]);
+    assert_eq!(trace(&dev, &s, empty_ias, &[0.25], 0)[0][0], 0xFFFF);
+    let null_child = dev.instances(&[Instance::new(TraversableHandle::NULL)]);
+    assert_eq!(trace(&dev, &s, null_child, &[0.25], 0)[0][0], 0xFFFF);
+    // Compacting an instance structure gives an equal copy with its own handle.
+    let gas = dev.triangles(
+        &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        GeometryFlags::DISABLE_ANYHIT,
+    );
+    let ias = dev.instances(&[Instance::new(dev.traversable_handle(gas).unwrap())]);
+    let copy = dev.accel_compact(ias).unwrap();
+    assert_ne!(
+        dev.traversable_handle(copy).unwrap(),
+        dev.traversable_handle(ias).unwrap()
+    );
+    assert_eq!(trace(&dev, &s, copy, &[0.25], 0)[0][0], 1);
+}

@@ -11,5 +11,6 @@ mod errors;
 mod exceptions;
 mod geometry;
 mod instances;
+mod rays;
 mod sbt;
 mod triangles;
