@@ -204,3 +204,95 @@ fn without_exception_flags_throws_are_ignored_and_invalid_rays_miss_silently() {
         "a trace past max_trace_depth is skipped"
     );
 }
+
+const DEEP: &str = r#"
+// Direct callable 0 calls itself until its payload counter reaches 10; continuation
+// callable 1 does the same. Each records how deep it got.
+fn raygen__rg() {
+    let i = rt_launch_index().x;
+    var a: RtPayload;
+    if i == 0u {
+        rt_direct_call(0u, &a);
+    } else {
+        rt_continuation_call(1u, &a);
+    }
+    out[i * 2u] = a[0];
+}
+fn direct_callable__again() {
+    rt_set_payload(0u, rt_get_payload(0u) + 1u);
+    if rt_get_payload(0u) < 10u {
+        var a: RtPayload;
+        a[0] = rt_get_payload(0u);
+        rt_direct_call(0u, &a);
+        rt_set_payload(0u, a[0]);
+    }
+}
+fn continuation_callable__again() {
+    rt_set_payload(0u, rt_get_payload(0u) + 1u);
+    if rt_get_payload(0u) < 10u {
+        var a: RtPayload;
+        a[0] = rt_get_payload(0u);
+        rt_continuation_call(1u, &a);
+        rt_set_payload(0u, a[0]);
+    }
+}
+fn exception__ex() {
+    out[rt_launch_index().x * 2u + 1u] = bitcast<u32>(rt_exception_code());
+}
+"#;
+
+#[test]
+fn callables_past_their_depth_overflow_the_stack() {
+    let dev = device();
+    let m = dev.module(&format!("{RAY_HEADER}{DEEP}"));
+    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
+    let calls = dev.group(ProgramGroupDesc::Callables {
+        direct: Some(prog(m, "direct_callable__again")),
+        continuation: Some(prog(m, "continuation_callable__again")),
+    });
+    let ex = dev.group(ProgramGroupDesc::Exception(prog(m, "exception__ex")));
+    let link = PipelineLinkOptions {
+        max_trace_depth: 1,
+        max_direct_callable_depth: 3,
+        max_continuation_callable_depth: 2,
+    };
+    for (flags, with_exception) in [
+        (ExceptionFlags::STACK_OVERFLOW, true),
+        (ExceptionFlags::NONE, false),
+    ] {
+        let options = PipelineCompileOptions {
+            exception_flags: Setting::Value(flags),
+            ..Default::default()
+        };
+        let groups: Vec<ProgramGroup> = if with_exception {
+            vec![rg, calls, ex]
+        } else {
+            vec![rg, calls]
+        };
+        let p = dev
+            .create_pipeline(&options, &link, &groups)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let mut table = Table::new(rg);
+        table.callables = vec![(calls, &[]), (calls, &[])];
+        if with_exception {
+            table.exception = Some((ex, &[]));
+        }
+        let sbt = table.build(&dev);
+        let w = run_rays(&dev, p, &sbt, TraversableHandle::NULL, 2, 2, &[]);
+        let overflow = semantics::exception::STACK_OVERFLOW as u32;
+        if with_exception {
+            assert_eq!(
+                w[1], overflow,
+                "direct calls past max_direct_callable_depth"
+            );
+            assert_eq!(w[0], 0, "the launch index ended");
+            assert_eq!(
+                w[3], overflow,
+                "continuation calls past max_continuation_callable_depth"
+            );
+        } else {
+            assert_eq!(w[0], 3, "the fourth nested direct call is skipped");
+            assert_eq!(w[2], 2, "the third nested continuation call is skipped");
+        }
+    }
+}

@@ -128,3 +128,44 @@ fn sbt_offsets_past_the_records_read_past_the_buffer_are_errors() {
         .unwrap_err();
     assert!(e.message().contains("sbt_index_offsets[0] is 3"), "{e}");
 }
+
+#[test]
+fn hit_indices_past_the_table_run_no_program() {
+    let dev = device();
+    let src = r#"
+fn raygen__rg() {
+    let i = rt_launch_index().x;
+    var p: RtPayload;
+    p[0] = 7u;
+    // Ray 0 selects hit record 0, ray 1 record 9 (past the single record).
+    rt_trace(params.handle, vec3<f32>(0.25, 0.25, 1.0), vec3<f32>(0.0, 0.0, -1.0), 0.0, 10.0, 0.0, 0xFFu, 0u, i * 9u, 0u, 0u, &p);
+    out[i] = p[0];
+}
+fn closesthit__ch() { rt_set_payload(0u, 1u); }
+fn miss__ms() { rt_set_payload(0u, 2u); }
+"#;
+    let gas = dev.triangles(&tri_at(0.0), GeometryFlags::DISABLE_ANYHIT);
+    let m = dev.module(&format!("{RAY_HEADER}{src}"));
+    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
+    let ms = dev.group(ProgramGroupDesc::Miss(Some(prog(m, "miss__ms"))));
+    let ch = dev.group(ProgramGroupDesc::closest_hit(prog(m, "closesthit__ch")));
+    let pipeline = dev.pipeline(&[rg, ms, ch], 1);
+    let mut table = Table::new(rg);
+    table.miss.push((ms, &[]));
+    table.hit.push((ch, &[]));
+    let sbt = table.build(&dev);
+    let w = run_rays(
+        &dev,
+        pipeline,
+        &sbt,
+        dev.traversable_handle(gas).unwrap(),
+        2,
+        1,
+        &[],
+    );
+    assert_eq!(
+        w,
+        vec![1, 7],
+        "the null record past the table: a hit, no program"
+    );
+}
