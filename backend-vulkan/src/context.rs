@@ -55,19 +55,28 @@ impl Default for VulkanOptions {
 
 /// An instance, a device with the ray tracing extensions, its queue and extension loaders.
 pub struct Context {
+    /// The Vulkan loader.
     pub entry: ash::Entry,
+    /// The instance.
     pub instance: ash::Instance,
     messenger: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     /// The validation layer's messages (empty without validation).
     pub log: Arc<MessageLog>,
+    /// The physical device in use.
     pub physical: vk::PhysicalDevice,
+    /// The logical device.
     pub device: ash::Device,
+    /// The one queue optik submits to.
     pub queue: vk::Queue,
+    /// Its family.
     pub queue_family: u32,
+    /// `VK_KHR_acceleration_structure` functions.
     pub accel: ash::khr::acceleration_structure::Device,
+    /// `VK_KHR_ray_tracing_pipeline` functions.
     pub rt: ash::khr::ray_tracing_pipeline::Device,
     /// The device's properties.
     pub info: VulkanDeviceInfo,
+    /// Memory types and heaps.
     pub memory: vk::PhysicalDeviceMemoryProperties,
     /// User buffers live in device-local memory and move through staging buffers.
     pub staging: bool,

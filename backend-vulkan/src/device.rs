@@ -28,16 +28,27 @@ pub struct UserBuffer {
 
 /// Everything a device owns, behind its lock.
 pub struct Inner {
+    /// The instance and device.
     pub ctx: Arc<Context>,
+    /// optik's properties of the device.
     pub props: DeviceProperties,
+    /// Device memory.
     pub alloc: Allocator,
+    /// The command pool.
     pub commands: Commands,
+    /// User buffers.
     pub buffers: HandleTable<Buffer, UserBuffer>,
+    /// Textures.
     pub textures: HandleTable<Texture, TextureObject>,
+    /// Samplers, one per description.
     pub samplers: HashMap<SamplerDesc, vk::Sampler>,
+    /// Compiled modules.
     pub modules: HandleTable<Module, ModuleObject>,
+    /// Program groups.
     pub groups: HandleTable<ProgramGroup, GroupObject>,
+    /// Pipelines.
     pub pipelines: HandleTable<Pipeline, PipelineObject>,
+    /// Acceleration structures and transforms.
     pub accels: HandleTable<Accel, AccelObject>,
     /// Traversable handle (a TLAS device address) → its object.
     pub by_handle: HashMap<u64, Accel>,
@@ -48,6 +59,7 @@ pub struct Inner {
     pub empty_tlas: Option<Tlas>,
     /// Launches the host has not waited for.
     pub in_flight: Vec<InFlight>,
+    /// The pipeline cache.
     pub cache: PipelineCache,
     /// Counter for buffer generations.
     pub next_generation: u64,

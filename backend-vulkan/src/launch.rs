@@ -14,6 +14,7 @@ use std::sync::Arc;
 
 /// A launch the host has not waited for, with what it holds.
 pub struct InFlight {
+    /// The submitted command buffer.
     pub submission: Submission,
     pool: vk::DescriptorPool,
     buffers: Vec<GpuBuffer>,

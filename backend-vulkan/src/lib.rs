@@ -12,19 +12,19 @@
 //! `memory`, `buffer`, `texture`, `commands`, `cache` (the on-disk pipeline cache) and
 //! `validation` (the validation layer's messages).
 
-pub mod accel;
+mod accel;
 mod buffer;
-pub mod cache;
+mod cache;
 mod commands;
 pub mod context;
 mod device;
 mod error;
-pub mod launch;
-pub mod memory;
-pub mod pipeline;
+mod launch;
+mod memory;
+mod pipeline;
 pub mod probe;
 pub mod program;
-pub mod sbt;
+mod sbt;
 mod texture;
 pub mod validation;
 

@@ -8,7 +8,7 @@
 use crate::context::Context;
 use crate::error::VkResultExt;
 use ash::vk;
-use optik_api::{Error, ErrorKind, Result};
+use optik_api::{Error, Result};
 
 /// Where a buffer lives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -26,7 +26,6 @@ const DEDICATED_ABOVE: u64 = 16 << 20;
 struct Block {
     memory: vk::DeviceMemory,
     type_index: u32,
-    size: u64,
     mapped: *mut u8,
     /// Free ranges (offset, size), sorted by offset.
     free: Vec<(u64, u64)>,
@@ -164,7 +163,6 @@ impl Allocator {
         let mut block = Block {
             memory,
             type_index,
-            size: block_size,
             mapped,
             free: vec![(0, block_size)],
             dedicated,
@@ -222,11 +220,6 @@ impl Allocator {
             unsafe { ctx.device.free_memory(b.memory, None) };
         }
     }
-
-    /// Bytes allocated from the driver.
-    pub fn reserved_bytes(&self) -> u64 {
-        self.blocks.iter().flatten().map(|b| b.size).sum()
-    }
 }
 
 fn offset_ptr(base: *mut u8, offset: u64) -> *mut u8 {
@@ -282,8 +275,6 @@ pub struct GpuBuffer {
     pub size: u64,
     /// Its device address (0 without `SHADER_DEVICE_ADDRESS` usage).
     pub address: u64,
-    /// Its location.
-    pub location: Location,
     alloc: Allocation,
 }
 
@@ -328,16 +319,10 @@ impl GpuBuffer {
             ctx.device
                 .get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(buffer))
         };
-        let location = if alloc.mapped.is_null() {
-            Location::DeviceLocal
-        } else {
-            location
-        };
         let buf = GpuBuffer {
             buffer,
             size,
             address,
-            location,
             alloc,
         };
         if let Some(p) = buf.mapped() {
@@ -379,14 +364,6 @@ impl GpuBuffer {
         unsafe { ctx.device.destroy_buffer(self.buffer, None) };
         allocator.free(ctx, self.alloc);
     }
-}
-
-/// The error for an allocation the device cannot satisfy.
-pub fn out_of_memory(what: &str, bytes: u64) -> Error {
-    Error::new(
-        ErrorKind::OutOfMemory,
-        format!("{what}: cannot allocate {bytes} bytes of device memory"),
-    )
 }
 
 #[cfg(test)]

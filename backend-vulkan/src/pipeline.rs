@@ -25,11 +25,13 @@ use std::sync::Arc;
 
 /// A compiled module.
 pub struct ModuleObject {
+    /// The front end's module: source, IR, programs, bindings.
     pub compiled: Arc<CompiledModule>,
 }
 
 /// A program group.
 pub struct GroupObject {
+    /// What the group holds.
     pub desc: ProgramGroupDesc,
 }
 
@@ -45,11 +47,15 @@ pub struct GroupHandles {
 
 /// A linked pipeline.
 pub struct PipelineObject {
+    /// The Vulkan pipeline.
     pub pipeline: vk::Pipeline,
+    /// Its layout.
     pub layout: vk::PipelineLayout,
+    /// The user's `@group(0)` and the backend's `@group(1)` set layouts.
     pub set_layouts: [vk::DescriptorSetLayout; 2],
     /// What it was compiled for.
     pub features: FeatureSet,
+    /// The lowering settings its stages were compiled with.
     pub config: LoweringConfig,
     /// The `@group(0)` bindings of its modules.
     pub bindings: Vec<BindingInfo>,
@@ -347,9 +353,7 @@ impl Inner {
         let bindings = merged_bindings(modules.values())?;
         let (plan, group_plan) = plan_stages(groups, &descs, &config);
         let stages = self.lower(&plan, &modules, &config)?;
-        self.link(
-            stages, &plan, group_plan, features, config, bindings, recursion,
-        )
+        self.link(stages, group_plan, features, config, bindings, recursion)
     }
 
     /// Lowers every planned stage, one naga pass per source.
@@ -401,7 +405,6 @@ impl Inner {
     fn link(
         &mut self,
         stages: Vec<program::LoweredStage>,
-        plan: &StagePlan,
         group_plan: GroupPlan,
         features: FeatureSet,
         config: LoweringConfig,
@@ -443,7 +446,6 @@ impl Inner {
                     .name(n)
             })
             .collect();
-        let _ = plan;
         let group_infos: Vec<vk::RayTracingShaderGroupCreateInfoKHR> = group_plan
             .groups
             .iter()

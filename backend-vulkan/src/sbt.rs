@@ -45,9 +45,13 @@ pub struct SbtKey {
 pub struct TranslatedSbt {
     key: SbtKey,
     buffer: GpuBuffer,
+    /// The raygen region.
     pub raygen: vk::StridedDeviceAddressRegionKHR,
+    /// The miss region (misses, then continuation callables).
     pub miss: vk::StridedDeviceAddressRegionKHR,
+    /// The hit group region.
     pub hit: vk::StridedDeviceAddressRegionKHR,
+    /// The callable region (exception, null, direct callables).
     pub callable: vk::StridedDeviceAddressRegionKHR,
     /// The user's miss records.
     pub miss_count: u32,

@@ -11,9 +11,12 @@ use optik_api::{
 
 /// A 2D image in shader-read layout, with its own memory.
 pub struct TextureObject {
+    /// The image.
     pub image: vk::Image,
+    /// Its view.
     pub view: vk::ImageView,
     memory: vk::DeviceMemory,
+    /// Its size and format.
     pub desc: TextureDesc,
 }
 

@@ -14,7 +14,7 @@ use super::tables::NONE;
 use optik_api::decode::{self, BufferBytes};
 use optik_api::{
     AccelBuildOptions, BuildFlags, BuildInput, CurveEndcaps, CurveType, Error, GeometryFlags,
-    PrimitiveTypeFlags, Result,
+    Result,
 };
 
 /// What kind of primitives a geometry acceleration structure holds.
@@ -34,16 +34,6 @@ impl GasKind {
     /// Whether Vulkan sees triangles (else AABBs).
     pub fn is_triangles(self) -> bool {
         self == GasKind::Triangles
-    }
-
-    /// The primitive type flag.
-    pub fn flag(self) -> PrimitiveTypeFlags {
-        match self {
-            GasKind::Triangles => PrimitiveTypeFlags::TRIANGLE,
-            GasKind::Custom => PrimitiveTypeFlags::CUSTOM,
-            GasKind::Spheres => PrimitiveTypeFlags::SPHERE,
-            GasKind::Curves(t) => optik_api::features::curve_flag(t),
-        }
     }
 }
 

@@ -33,6 +33,7 @@ use vkas::{AsBuffer, BuildTarget, INSTANCE_SIZE, VkGeometry};
 
 /// A Vulkan top level with its instance buffer and its range of the instance table.
 pub struct Tlas {
+    /// The top level.
     pub structure: AsBuffer,
     instances: GpuBuffer,
     /// Vulkan instances.

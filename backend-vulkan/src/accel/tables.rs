@@ -79,16 +79,6 @@ impl<T: Copy + Default> Table<T> {
         self.items.get(i as usize).copied().unwrap_or_default()
     }
 
-    /// Entries, including free ones.
-    pub fn len(&self) -> usize {
-        self.items.len()
-    }
-
-    /// Whether the table has no entries.
-    pub fn is_empty(&self) -> bool {
-        self.items.is_empty()
-    }
-
     fn bytes(&self) -> &[u8]
     where
         T: bytemuck::Pod,
@@ -100,8 +90,11 @@ impl<T: Copy + Default> Table<T> {
 /// The three tables and their device copies.
 #[derive(Default)]
 pub struct SceneTables {
+    /// Per Vulkan instance.
     pub instances: Table<[u32; 4]>,
+    /// Per geometry.
     pub geometries: Table<[u32; 4]>,
+    /// Remaps, vertices, spheres, curve segments.
     pub data: Table<u32>,
     device: Option<[GpuBuffer; 3]>,
     dirty: bool,
@@ -223,6 +216,6 @@ mod tests {
             0,
             "freed neighbours merge into one range"
         );
-        assert_eq!(t.len(), 5);
+        assert_eq!(t.insert(&[8]), 5, "the table grew to 5 entries only");
     }
 }

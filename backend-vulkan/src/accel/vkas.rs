@@ -9,7 +9,9 @@ use optik_api::{Error, Matrix3x4, Result};
 
 /// An acceleration structure and the buffer it lives in.
 pub struct AsBuffer {
+    /// The structure.
     pub accel: vk::AccelerationStructureKHR,
+    /// The buffer it lives in.
     pub buffer: GpuBuffer,
     /// Its device address: what instances reference, and optik's traversable handle for top
     /// levels.

@@ -169,3 +169,22 @@ fn raygen__rg() {
     assert_eq!(v, vec![0.25, 0.75]);
     dev.destroy_texture(tex).unwrap();
 }
+
+#[test]
+fn naming_a_device_that_does_not_exist_lists_the_devices() {
+    let options = VulkanOptions {
+        validation: false,
+        device: Some("no such gpu".into()),
+        force_staging: false,
+        pipeline_cache: false,
+        cache_dir: None,
+    };
+    let e = optik_vulkan::VulkanDevice::open(&options)
+        .err()
+        .expect("no device has that name");
+    assert_eq!(e.kind(), ErrorKind::InvalidArgument);
+    assert!(
+        e.message().contains("no such gpu") && e.message().contains("[0]"),
+        "{e}"
+    );
+}
