@@ -301,13 +301,15 @@ fn _optik_unwinding() -> bool {
 }
 
 // At the end of a raygen, closest-hit, miss or callable stage: runs the exception program
-// for an exception not handled yet.
+// for an exception not handled yet. The exception is marked handled first, so the stages the
+// exception program runs in (and the null callable standing in for a missing one) do not
+// run it again.
 fn _optik_exit_stage() {
     let s = _optik_slot();
-    if (_optik_state[s].z >> 16u) == 1u {
-        $RUN_EXCEPTION_PROGRAM
-        let cur = _optik_state[s];
+    let cur = _optik_state[s];
+    if (cur.z >> 16u) == 1u {
         _optik_state[s] = vec4<u32>(cur.x, cur.y, (cur.z & 0xFFFFu) | (2u << 16u), cur.w);
+        $RUN_EXCEPTION_PROGRAM
     }
 }
 "#;

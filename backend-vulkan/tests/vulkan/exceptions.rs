@@ -296,3 +296,33 @@ fn callables_past_their_depth_overflow_the_stack() {
         }
     }
 }
+
+#[test]
+fn an_exception_program_without_its_record_runs_nothing_and_ends_the_launch_index() {
+    let dev = device();
+    let src = r#"
+fn raygen__rg() {
+    out[0] = 1u;
+    rt_throw_exception(3u);
+    out[1] = 1u;
+}
+fn exception__ex() {
+    out[2] = 1u;
+}
+"#;
+    let m = dev.module(&format!("{RAY_HEADER}{src}"));
+    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
+    let ex = dev.group(ProgramGroupDesc::Exception(prog(m, "exception__ex")));
+    let options = PipelineCompileOptions {
+        exception_flags: Setting::Value(ExceptionFlags::ALL),
+        ..Default::default()
+    };
+    let p = dev
+        .create_pipeline(&options, &PipelineLinkOptions::default(), &[rg, ex])
+        .unwrap();
+    // No exception record: the null callable stands in (and raises under DEBUG, which must
+    // not run it again).
+    let sbt = Table::new(rg).build(&dev);
+    let w = run_rays(&dev, p, &sbt, TraversableHandle::NULL, 1, 3, &[]);
+    assert_eq!(w, vec![1, 0, 0]);
+}
