@@ -127,6 +127,7 @@ pub fn lower_stages(
             PostPassError::Forbidden(intrinsic, stage) => forbidden(role, intrinsic, stage),
             PostPassError::Internal(detail) => internal("post-pass", detail),
         })?;
+        dump(&entry_name, &spirv);
         stages.push(LoweredStage {
             role: role.clone(),
             entry_name,
@@ -135,6 +136,24 @@ pub fn lower_stages(
         });
     }
     Ok(stages)
+}
+
+/// Writes a lowered stage to `$OPTIK_VULKAN_DUMP_SPIRV/<entry>-<hash>.spv` when that is set,
+/// for `spirv-val` and `spirv-dis` on machines where a driver misbehaves.
+fn dump(entry_name: &str, spirv: &[u32]) {
+    let Some(dir) = std::env::var_os("OPTIK_VULKAN_DUMP_SPIRV").filter(|d| !d.is_empty()) else {
+        return;
+    };
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    spirv.hash(&mut h);
+    let dir = std::path::PathBuf::from(dir);
+    let _ = std::fs::create_dir_all(&dir);
+    let bytes: Vec<u8> = spirv.iter().flat_map(|w| w.to_le_bytes()).collect();
+    let _ = std::fs::write(
+        dir.join(format!("{entry_name}-{:016x}.spv", h.finish())),
+        bytes,
+    );
 }
 
 /// The error for a device function the Vulkan stage of a program cannot have.
