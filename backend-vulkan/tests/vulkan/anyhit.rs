@@ -38,12 +38,10 @@ fn anyhit__ah() {
 
 /// Four stacked triangles over (0.25, 0.25) at z = 3, 2, 1, 0 (primitives 0..3).
 fn stack() -> Vec<[f32; 3]> {
-    let mut v = Vec::new();
-    for (k, z) in [3.0f32, 2.0, 1.0, 0.0].iter().enumerate() {
-        let _ = k;
-        v.extend([[0.0, 0.0, *z], [1.0, 0.0, *z], [0.0, 1.0, *z]]);
-    }
-    v
+    [3.0f32, 2.0, 1.0, 0.0]
+        .iter()
+        .flat_map(|z| [[0.0, 0.0, *z], [1.0, 0.0, *z], [0.0, 1.0, *z]])
+        .collect()
 }
 
 fn run(dev: &TestDevice, flags: &[u32]) -> Vec<[u32; 3]> {
@@ -89,10 +87,9 @@ fn check(dev: &TestDevice) {
         f(RayFlags::CULL_DISABLED_ANYHIT | RayFlags::CULL_ENFORCED_ANYHIT),
     ];
     let out = run(dev, &rays);
-    // No flags: any-hit ignores primitive 0, accepts 1, terminates on 2 (accepted, so it is
-    // the closest hit: prim 2 at t=9, not prim 1 at t=8? Accepting 1 shortens tmax to 8, so
-    // primitive 2 at t=9 is never a candidate; the order candidates come in is the driver's.
-    // Whatever the order, the closest accepted hit is primitive 1 at t = 8.
+    // No flags: any-hit ignores primitive 0 (t = 7), accepts 1 (t = 8), terminates on 2
+    // (t = 9). Candidates come in the driver's order, but in every order the closest accepted
+    // hit is primitive 1 at t = 8.
     assert_eq!(
         out[0][0], 2,
         "closest accepted hit is primitive 1: {:?}",

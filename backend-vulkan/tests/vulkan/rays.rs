@@ -6,8 +6,8 @@ use crate::common::*;
 use optik_api::*;
 
 const PROGRAMS: &str = r#"
-// Ray 0 hits a box, ray 1 misses; both with time 0.25 + i, mask 0x3E | i and flags
-// 0x10100 | DISABLE_CLOSESTHIT? no: flags from the raygen record.
+// Ray 0 hits a box, ray 1 misses; ray i has time 0.25 + i, mask 0x3E | i and the flags of
+// the raygen record (with a bit Vulkan does not know, which rt_ray_flags still reports).
 fn raygen__rg() {
     let i = rt_launch_index().x;
     var p: RtPayload;
