@@ -99,6 +99,23 @@ impl Inner {
 
     /// Copies `data` into `target` at `offset` through a staging buffer, and waits.
     pub fn upload(&mut self, target: vk::Buffer, offset: u64, data: &[u8]) -> Result<()> {
+        self.upload_with(data, |device, cmd, src| {
+            let region = vk::BufferCopy {
+                src_offset: 0,
+                dst_offset: offset,
+                size: data.len() as u64,
+            };
+            // SAFETY: recording; both ranges lie inside their buffers.
+            unsafe { device.cmd_copy_buffer(cmd, src, target, &[region]) };
+        })
+    }
+
+    /// Puts `data` in a staging buffer, runs `record(device, cmd, staging)` and waits.
+    pub fn upload_with(
+        &mut self,
+        data: &[u8],
+        record: impl FnOnce(&ash::Device, vk::CommandBuffer, vk::Buffer),
+    ) -> Result<()> {
         let staging = GpuBuffer::new(
             &self.ctx,
             &mut self.alloc,
@@ -107,17 +124,11 @@ impl Inner {
             Location::HostVisible,
             16,
         )?;
+        let src = staging.buffer;
+        let ctx = self.ctx.clone();
         let result = staging.write(0, data).and_then(|_| {
-            let src = staging.buffer;
-            let ctx = self.ctx.clone();
             self.run_commands(|cmd| {
-                let region = vk::BufferCopy {
-                    src_offset: 0,
-                    dst_offset: offset,
-                    size: data.len() as u64,
-                };
-                // SAFETY: recording; both ranges lie inside their buffers.
-                unsafe { ctx.device.cmd_copy_buffer(cmd, src, target, &[region]) };
+                record(&ctx.device, cmd, src);
                 Ok(())
             })
         });

@@ -2,7 +2,6 @@
 
 use crate::device::Inner;
 use crate::error::VkResultExt;
-use crate::memory::{GpuBuffer, Location};
 use ash::vk;
 use optik_api::{
     AddressMode, Error, FilterMode, Result, SamplerDesc, Texture, TextureDesc, TextureFormat,
@@ -194,58 +193,43 @@ impl Inner {
         };
         validate::texture_data(&desc, data)?;
         self.wait_launches()?;
-        let staging = GpuBuffer::new(
-            &self.ctx,
-            &mut self.alloc,
-            data.len() as u64,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            Location::HostVisible,
-            16,
-        )?;
-        let ctx = self.ctx.clone();
-        let src = staging.buffer;
-        let result = staging.write(0, data).and_then(|_| {
-            self.run_commands(|cmd| {
-                transition(
-                    &ctx.device,
+        self.upload_with(data, |device, cmd, src| {
+            transition(
+                device,
+                cmd,
+                image,
+                vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+            );
+            let region = vk::BufferImageCopy::default()
+                .image_subresource(
+                    vk::ImageSubresourceLayers::default()
+                        .aspect_mask(vk::ImageAspectFlags::COLOR)
+                        .layer_count(1),
+                )
+                .image_extent(vk::Extent3D {
+                    width: desc.width,
+                    height: desc.height,
+                    depth: 1,
+                });
+            // SAFETY: recording; the staging buffer holds the whole image.
+            unsafe {
+                device.cmd_copy_buffer_to_image(
                     cmd,
-                    image,
-                    vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                );
-                let region = vk::BufferImageCopy::default()
-                    .image_subresource(
-                        vk::ImageSubresourceLayers::default()
-                            .aspect_mask(vk::ImageAspectFlags::COLOR)
-                            .layer_count(1),
-                    )
-                    .image_extent(vk::Extent3D {
-                        width: desc.width,
-                        height: desc.height,
-                        depth: 1,
-                    });
-                // SAFETY: recording; the staging buffer holds the whole image.
-                unsafe {
-                    ctx.device.cmd_copy_buffer_to_image(
-                        cmd,
-                        src,
-                        image,
-                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                        &[region],
-                    )
-                };
-                transition(
-                    &ctx.device,
-                    cmd,
+                    src,
                     image,
                     vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-                );
-                Ok(())
-            })
-        });
-        staging.destroy(&self.ctx, &mut self.alloc);
-        result
+                    &[region],
+                )
+            };
+            transition(
+                device,
+                cmd,
+                image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            );
+        })
     }
 
     pub fn destroy_texture(&mut self, texture: Texture) -> Result<()> {

@@ -68,6 +68,61 @@ pub struct DecodedGas {
     pub partition: Vec<Vec<u32>>,
 }
 
+/// The geometry table record of a geometry of boxes.
+struct BoxRecord {
+    flags: GeometryFlags,
+    primitive_index_offset: u32,
+    basis: u32,
+}
+
+impl DecodedGas {
+    /// Adds one geometry of boxes holding the usable ones of primitives `all` (indices in
+    /// their input); `item` gives a primitive's box and its data words (sphere centre and
+    /// radius, curve segment; none for custom primitives). The geometry's primitives are
+    /// remapped to their input indices when it holds a subset (`several_records`, or
+    /// unusable boxes left out).
+    fn push_boxes(
+        &mut self,
+        all: &[u32],
+        several_records: bool,
+        record: BoxRecord,
+        item: impl Fn(u32) -> ([f32; 6], Vec<u32>),
+    ) {
+        let items: Vec<(u32, [f32; 6], Vec<u32>)> = all
+            .iter()
+            .map(|&p| (p, item(p)))
+            .map(|(p, (b, d))| (p, b, d))
+            .filter(|(_, b, _)| usable(b))
+            .collect();
+        let packed: Vec<f32> = items.iter().flat_map(|(_, b, _)| *b).collect();
+        let data_offset = push_aligned(&mut self.bytes, &f32_bytes(&packed));
+        let base = if items.iter().any(|(_, _, d)| !d.is_empty()) {
+            let base = self.data.len() as u32;
+            for (_, _, d) in &items {
+                self.data.extend_from_slice(d);
+            }
+            base
+        } else {
+            NONE
+        };
+        self.geometries.push(DecodedGeometry {
+            data_offset,
+            vertex_count: 0,
+            index_offset: 0,
+            count: items.len() as u32,
+            flags: record.flags,
+        });
+        let prims: Vec<u32> = items.iter().map(|(p, _, _)| *p).collect();
+        let remap = remap_table(
+            &mut self.data,
+            &prims,
+            several_records || prims.len() < all.len(),
+        );
+        self.records
+            .push([record.primitive_index_offset, remap, base, record.basis]);
+    }
+}
+
 fn push_aligned(bytes: &mut Vec<u8>, data: &[u8]) -> u64 {
     while !bytes.len().is_multiple_of(16) {
         bytes.push(0);
@@ -192,26 +247,14 @@ pub fn decode_gas(
                 )
                 .map_err(at)?;
                 for (r, all) in split_by_record(&offsets, records).iter().enumerate() {
-                    let prims: Vec<u32> = all
-                        .iter()
-                        .copied()
-                        .filter(|&p| usable(&boxes[p as usize]))
-                        .collect();
-                    let packed: Vec<f32> = prims.iter().flat_map(|&p| boxes[p as usize]).collect();
-                    let data_offset = push_aligned(&mut out.bytes, &f32_bytes(&packed));
-                    out.geometries.push(DecodedGeometry {
-                        data_offset,
-                        vertex_count: 0,
-                        index_offset: 0,
-                        count: prims.len() as u32,
+                    let record = BoxRecord {
                         flags: c.flags[r],
+                        primitive_index_offset: c.primitive_index_offset,
+                        basis: 0,
+                    };
+                    out.push_boxes(all, records > 1, record, |p| {
+                        (boxes[p as usize], Vec::new())
                     });
-                    let remap = remap_table(
-                        &mut out.data,
-                        &prims,
-                        records > 1 || prims.len() < all.len(),
-                    );
-                    out.records.push([c.primitive_index_offset, remap, NONE, 0]);
                 }
                 out.partition.push(offsets);
             }
@@ -225,43 +268,26 @@ pub fn decode_gas(
                     bytes,
                 )
                 .map_err(at)?;
-                let bounds = |s: &[f32; 4]| {
-                    [
-                        s[0] - s[3],
-                        s[1] - s[3],
-                        s[2] - s[3],
-                        s[0] + s[3],
-                        s[1] + s[3],
-                        s[2] + s[3],
-                    ]
-                };
                 for (r, all) in split_by_record(&offsets, records).iter().enumerate() {
-                    let prims: Vec<u32> = all
-                        .iter()
-                        .copied()
-                        .filter(|&p| usable(&bounds(&spheres[p as usize])))
-                        .collect();
-                    let mut packed: Vec<f32> = Vec::with_capacity(prims.len() * 6);
-                    let base = out.data.len() as u32;
-                    for &p in &prims {
-                        let sphere = spheres[p as usize];
-                        packed.extend(bounds(&sphere));
-                        out.data.extend(sphere.map(f32::to_bits));
-                    }
-                    let data_offset = push_aligned(&mut out.bytes, &f32_bytes(&packed));
-                    out.geometries.push(DecodedGeometry {
-                        data_offset,
-                        vertex_count: 0,
-                        index_offset: 0,
-                        count: prims.len() as u32,
+                    let record = BoxRecord {
                         flags: s.flags[r],
+                        primitive_index_offset: s.primitive_index_offset,
+                        basis: 0,
+                    };
+                    out.push_boxes(all, records > 1, record, |p| {
+                        let [x, y, z, radius] = spheres[p as usize];
+                        (
+                            [
+                                x - radius,
+                                y - radius,
+                                z - radius,
+                                x + radius,
+                                y + radius,
+                                z + radius,
+                            ],
+                            [x, y, z, radius].map(f32::to_bits).to_vec(),
+                        )
                     });
-                    let remap = remap_table(
-                        &mut out.data,
-                        &prims,
-                        records > 1 || prims.len() < all.len(),
-                    );
-                    out.records.push([s.primitive_index_offset, remap, base, 0]);
                 }
                 out.partition.push(offsets);
             }
@@ -269,48 +295,32 @@ pub fn decode_gas(
                 let curves = decode::curves(c, 0, bytes).map_err(at)?;
                 let per = c.curve_type.control_points() as usize;
                 let n = curves.segments.len();
-                let mut packed: Vec<f32> = Vec::with_capacity(n * 6);
-                let mut kept: Vec<u32> = Vec::with_capacity(n);
-                let base = out.data.len() as u32;
-                for (s, &first) in curves.segments.iter().enumerate() {
+                // Linear curves always have round ends; other bases only with end caps on;
+                // joints inside a strand are always round.
+                let caps_on =
+                    c.curve_type == CurveType::RoundLinear || c.endcaps == CurveEndcaps::On;
+                let segment = |s: u32| {
+                    let s = s as usize;
+                    let first = curves.segments[s];
                     let points: Vec<[f32; 4]> = (0..4)
                         .map(|k| curves.points[first as usize + k.min(per - 1)])
                         .collect();
                     let starts_strand = s == 0 || curves.segments[s - 1] + 1 != first;
                     let ends_strand = s + 1 == n || curves.segments[s + 1] != first + 1;
-                    // Linear curves always have round ends; other bases only with end caps
-                    // on; joints inside a strand are always round.
-                    let caps_on =
-                        c.curve_type == CurveType::RoundLinear || c.endcaps == CurveEndcaps::On;
-                    let cap_start = !starts_strand || caps_on;
-                    let cap_end = !ends_strand || caps_on;
-                    let bounds = curve_bounds(c.curve_type, &points[..per]);
-                    if !usable(&bounds) {
-                        continue;
-                    }
-                    kept.push(s as u32);
-                    packed.extend(bounds);
-                    for p in &points {
-                        out.data.extend(p.map(f32::to_bits));
-                    }
-                    out.data
-                        .push(u32::from(cap_start) | (u32::from(cap_end) << 1));
-                }
-                let data_offset = push_aligned(&mut out.bytes, &f32_bytes(&packed));
-                out.geometries.push(DecodedGeometry {
-                    data_offset,
-                    vertex_count: 0,
-                    index_offset: 0,
-                    count: kept.len() as u32,
+                    let caps = u32::from(!starts_strand || caps_on)
+                        | (u32::from(!ends_strand || caps_on) << 1);
+                    let mut data: Vec<u32> =
+                        points.iter().flat_map(|p| p.map(f32::to_bits)).collect();
+                    data.push(caps);
+                    (curve_bounds(c.curve_type, &points[..per]), data)
+                };
+                let all: Vec<u32> = (0..n as u32).collect();
+                let record = BoxRecord {
                     flags: c.flag,
-                });
-                let remap = remap_table(&mut out.data, &kept, kept.len() < n);
-                out.records.push([
-                    c.primitive_index_offset,
-                    remap,
-                    base,
-                    optik_api::wgsl::curve_basis(c.curve_type),
-                ]);
+                    primitive_index_offset: c.primitive_index_offset,
+                    basis: optik_api::wgsl::curve_basis(c.curve_type),
+                };
+                out.push_boxes(&all, false, record, segment);
                 out.partition.push(vec![0; n]);
             }
             BuildInput::Instances(_) => {

@@ -357,6 +357,37 @@ impl Pass<'_> {
         (id, Instruction::new(op, ty, Some(id), operands))
     }
 
+    /// `%v = OpLoad ty ptr` appended to `body`.
+    fn load(&mut self, ty: Word, ptr: Word, body: &mut Vec<Instruction>) -> Word {
+        let (v, load) = self.inst(Op::Load, Some(ty), vec![Operand::IdRef(ptr)]);
+        body.push(load);
+        v
+    }
+
+    /// Copies the `ty` value `from` points to into `to`: the copy-in and copy-out of payloads
+    /// and callable data.
+    fn copy(&mut self, ty: Word, from: Word, to: Word, body: &mut Vec<Instruction>) {
+        let v = self.load(ty, from, body);
+        body.push(store(to, v));
+    }
+
+    /// A pointer to the `u32` at `indices` of `var` (storage class `class`).
+    fn element(
+        &mut self,
+        var: Word,
+        class: StorageClass,
+        indices: &[Word],
+        body: &mut Vec<Instruction>,
+    ) -> Word {
+        let u32_ty = self.u32_type();
+        let element_ptr = self.b.type_pointer(None, class, u32_ty);
+        let mut operands = vec![Operand::IdRef(var)];
+        operands.extend(indices.iter().map(|i| Operand::IdRef(*i)));
+        let (ptr, chain) = self.inst(Op::AccessChain, Some(element_ptr), operands);
+        body.push(chain);
+        ptr
+    }
+
     /// Replaces the body of function `index`, which is `intrinsic`'s stand-in.
     fn replace_body(&mut self, index: usize, intrinsic: Intrinsic) -> Result<(), PostPassError> {
         if !allowed(intrinsic, self.shape.stage) {
@@ -375,89 +406,49 @@ impl Pass<'_> {
             })
         };
         let mut body: Vec<Instruction> = Vec::new();
+        let u32_ty = self.u32_type();
         use Intrinsic as I;
         match intrinsic {
             _ if intrinsic.builtin().is_some() => {
                 let builtin = intrinsic.builtin().unwrap_or(BuiltIn::LaunchIdKHR);
                 let var = self.variable(Var::Builtin(builtin), ret_ty, StorageClass::Input);
-                let (v, load) = self.inst(Op::Load, Some(ret_ty), vec![Operand::IdRef(var)]);
-                body.push(load);
-                body.push(Instruction::new(
-                    Op::ReturnValue,
-                    None,
-                    None,
-                    vec![Operand::IdRef(v)],
-                ));
+                let v = self.load(ret_ty, var, &mut body);
+                body.push(return_value(v));
             }
             I::Trace => {
-                let (payload_param, payload_ptr_ty) = param(10)?;
+                let (payload, payload_ptr_ty) = param(10)?;
                 let payload_ty = self.pointee(payload_ptr_ty)?;
                 let var = self.variable(Var::Payload, payload_ty, StorageClass::RayPayloadKHR);
                 let as_ty = self.b.type_acceleration_structure_khr();
-                let (handle, _) = param(0)?;
                 let (accel, convert) = self.inst(
                     Op::ConvertUToAccelerationStructureKHR,
                     Some(as_ty),
-                    vec![Operand::IdRef(handle)],
+                    vec![Operand::IdRef(param(0)?.0)],
                 );
                 body.push(convert);
-                let (value, load) = self.inst(
-                    Op::Load,
-                    Some(payload_ty),
-                    vec![Operand::IdRef(payload_param)],
-                );
-                body.push(load);
-                body.push(Instruction::new(
-                    Op::Store,
-                    None,
-                    None,
-                    vec![Operand::IdRef(var), Operand::IdRef(value)],
-                ));
+                self.copy(payload_ty, payload, var, &mut body);
                 let mut operands = vec![Operand::IdRef(accel)];
                 for i in 1..10 {
                     operands.push(Operand::IdRef(param(i)?.0));
                 }
                 operands.push(Operand::IdRef(var));
                 body.push(Instruction::new(Op::TraceRayKHR, None, None, operands));
-                let (result, load) =
-                    self.inst(Op::Load, Some(payload_ty), vec![Operand::IdRef(var)]);
-                body.push(load);
-                body.push(Instruction::new(
-                    Op::Store,
-                    None,
-                    None,
-                    vec![Operand::IdRef(payload_param), Operand::IdRef(result)],
-                ));
+                self.copy(payload_ty, var, payload, &mut body);
                 body.push(Instruction::new(Op::Return, None, None, vec![]));
             }
             I::ExecuteCallable => {
-                let (index_param, _) = param(0)?;
-                let (data_param, data_ptr_ty) = param(1)?;
+                let (sbt_index, _) = param(0)?;
+                let (data, data_ptr_ty) = param(1)?;
                 let data_ty = self.pointee(data_ptr_ty)?;
                 let var = self.variable(Var::CallableData, data_ty, StorageClass::CallableDataKHR);
-                let (value, load) =
-                    self.inst(Op::Load, Some(data_ty), vec![Operand::IdRef(data_param)]);
-                body.push(load);
-                body.push(Instruction::new(
-                    Op::Store,
-                    None,
-                    None,
-                    vec![Operand::IdRef(var), Operand::IdRef(value)],
-                ));
+                self.copy(data_ty, data, var, &mut body);
                 body.push(Instruction::new(
                     Op::ExecuteCallableKHR,
                     None,
                     None,
-                    vec![Operand::IdRef(index_param), Operand::IdRef(var)],
+                    vec![Operand::IdRef(sbt_index), Operand::IdRef(var)],
                 ));
-                let (result, load) = self.inst(Op::Load, Some(data_ty), vec![Operand::IdRef(var)]);
-                body.push(load);
-                body.push(Instruction::new(
-                    Op::Store,
-                    None,
-                    None,
-                    vec![Operand::IdRef(data_param), Operand::IdRef(result)],
-                ));
+                self.copy(data_ty, var, data, &mut body);
                 body.push(Instruction::new(Op::Return, None, None, vec![]));
             }
             I::PayloadGet | I::PayloadSet => {
@@ -468,57 +459,26 @@ impl Pass<'_> {
                 };
                 let array = self.u32_array_type(self.shape.payload_len.max(1));
                 let var = self.variable(Var::Incoming, array, class);
-                let u32_ty = self.u32_type();
-                let element_ptr = self.b.type_pointer(None, class, u32_ty);
-                let (i, _) = param(0)?;
-                let (ptr, chain) = self.inst(
-                    Op::AccessChain,
-                    Some(element_ptr),
-                    vec![Operand::IdRef(var), Operand::IdRef(i)],
-                );
-                body.push(chain);
+                let ptr = self.element(var, class, &[param(0)?.0], &mut body);
                 if intrinsic == I::PayloadGet {
-                    let (v, load) = self.inst(Op::Load, Some(u32_ty), vec![Operand::IdRef(ptr)]);
-                    body.push(load);
-                    body.push(Instruction::new(
-                        Op::ReturnValue,
-                        None,
-                        None,
-                        vec![Operand::IdRef(v)],
-                    ));
+                    let v = self.load(u32_ty, ptr, &mut body);
+                    body.push(return_value(v));
                 } else {
-                    let (value, _) = param(1)?;
-                    body.push(Instruction::new(
-                        Op::Store,
-                        None,
-                        None,
-                        vec![Operand::IdRef(ptr), Operand::IdRef(value)],
-                    ));
+                    body.push(store(ptr, param(1)?.0));
                     body.push(Instruction::new(Op::Return, None, None, vec![]));
                 }
             }
             I::AttributeGet => {
                 let array = self.u32_array_type(8);
                 let var = self.variable(Var::HitAttributes, array, StorageClass::HitAttributeKHR);
-                let u32_ty = self.u32_type();
-                let element_ptr = self
-                    .b
-                    .type_pointer(None, StorageClass::HitAttributeKHR, u32_ty);
-                let (i, _) = param(0)?;
-                let (ptr, chain) = self.inst(
-                    Op::AccessChain,
-                    Some(element_ptr),
-                    vec![Operand::IdRef(var), Operand::IdRef(i)],
+                let ptr = self.element(
+                    var,
+                    StorageClass::HitAttributeKHR,
+                    &[param(0)?.0],
+                    &mut body,
                 );
-                body.push(chain);
-                let (v, load) = self.inst(Op::Load, Some(u32_ty), vec![Operand::IdRef(ptr)]);
-                body.push(load);
-                body.push(Instruction::new(
-                    Op::ReturnValue,
-                    None,
-                    None,
-                    vec![Operand::IdRef(v)],
-                ));
+                let v = self.load(u32_ty, ptr, &mut body);
+                body.push(return_value(v));
             }
             I::ReportIntersection => {
                 let (t, _) = param(0)?;
@@ -529,24 +489,14 @@ impl Pass<'_> {
                     attributes_ty,
                     StorageClass::HitAttributeKHR,
                 );
-                body.push(Instruction::new(
-                    Op::Store,
-                    None,
-                    None,
-                    vec![Operand::IdRef(var), Operand::IdRef(attributes)],
-                ));
+                body.push(store(var, attributes));
                 let (accepted, report) = self.inst(
                     Op::ReportIntersectionKHR,
                     Some(ret_ty),
                     vec![Operand::IdRef(t), Operand::IdRef(kind)],
                 );
                 body.push(report);
-                body.push(Instruction::new(
-                    Op::ReturnValue,
-                    None,
-                    None,
-                    vec![Operand::IdRef(accepted)],
-                ));
+                body.push(return_value(accepted));
             }
             // Terminators: the function's only block ends in them, as glslang writes a GLSL
             // helper that calls ignoreIntersectionEXT.
@@ -559,26 +509,15 @@ impl Pass<'_> {
             I::TerminateRay => body.push(Instruction::new(Op::TerminateRayKHR, None, None, vec![])),
             I::SbtU32 => {
                 let var = self.shader_record();
-                let u32_ty = self.u32_type();
-                let element_ptr =
-                    self.b
-                        .type_pointer(None, StorageClass::ShaderRecordBufferKHR, u32_ty);
                 let zero = self.u32_constant(0);
-                let (i, _) = param(0)?;
-                let (ptr, chain) = self.inst(
-                    Op::AccessChain,
-                    Some(element_ptr),
-                    vec![Operand::IdRef(var), Operand::IdRef(zero), Operand::IdRef(i)],
+                let ptr = self.element(
+                    var,
+                    StorageClass::ShaderRecordBufferKHR,
+                    &[zero, param(0)?.0],
+                    &mut body,
                 );
-                body.push(chain);
-                let (v, load) = self.inst(Op::Load, Some(u32_ty), vec![Operand::IdRef(ptr)]);
-                body.push(load);
-                body.push(Instruction::new(
-                    Op::ReturnValue,
-                    None,
-                    None,
-                    vec![Operand::IdRef(v)],
-                ));
+                let v = self.load(u32_ty, ptr, &mut body);
+                body.push(return_value(v));
             }
             _ => {
                 return Err(PostPassError::Internal(format!(
@@ -639,4 +578,17 @@ impl Pass<'_> {
             self.b.extension("SPV_KHR_ray_tracing");
         }
     }
+}
+
+fn store(ptr: Word, value: Word) -> Instruction {
+    Instruction::new(
+        Op::Store,
+        None,
+        None,
+        vec![Operand::IdRef(ptr), Operand::IdRef(value)],
+    )
+}
+
+fn return_value(v: Word) -> Instruction {
+    Instruction::new(Op::ReturnValue, None, None, vec![Operand::IdRef(v)])
 }

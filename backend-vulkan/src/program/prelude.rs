@@ -472,7 +472,10 @@ fn trace_body(c: &LoweringConfig) -> String {
     b
 }
 
-fn direct_call_body(c: &LoweringConfig) -> String {
+/// A callable call's body: the index checked against the user's callable records, the call
+/// nested inside a depth guard (the 8-bit counter at bit `counter` of the state's `y`, up to
+/// `max_depth`) when `guarded`, and the unwinding flag refreshed after it.
+fn call_body(c: &LoweringConfig, call: &str, guarded: Option<(u32, u32)>) -> String {
     let mut b = String::new();
     b.push_str("if index >= _optik_launch.callable_count {\n");
     b.push_str(&format!(
@@ -483,12 +486,9 @@ fn direct_call_body(c: &LoweringConfig) -> String {
             "RT_EXCEPTION_CODE_CALLABLE_INVALID_SBT"
         )
     ));
-    if c.guard_direct_calls {
-        b.push_str("    let depth = _optik_counter(24u);\n");
-        b.push_str(&format!(
-            "    if depth >= {}u {{\n",
-            c.max_direct_callable_depth.min(255)
-        ));
+    if let Some((counter, max_depth)) = guarded {
+        b.push_str(&format!("    let depth = _optik_counter({counter}u);\n"));
+        b.push_str(&format!("    if depth >= {}u {{\n", max_depth.min(255)));
         b.push_str(&format!(
             "        {}\n        return;\n    }}\n",
             raise_if(
@@ -497,13 +497,13 @@ fn direct_call_body(c: &LoweringConfig) -> String {
                 "RT_EXCEPTION_CODE_STACK_OVERFLOW"
             )
         ));
-        b.push_str("    _optik_counter_set(24u, depth + 1u);\n");
+        b.push_str(&format!(
+            "    _optik_counter_set({counter}u, depth + 1u);\n"
+        ));
     }
-    b.push_str(&format!(
-        "    _optik_execute_callable(index + {CALLABLE_FIRST_USER}u, args);"
-    ));
-    if c.guard_direct_calls {
-        b.push_str("\n    _optik_counter_set(24u, depth);");
+    b.push_str(&format!("    {call}"));
+    if let Some((counter, _)) = guarded {
+        b.push_str(&format!("\n    _optik_counter_set({counter}u, depth);"));
     }
     if c.unwinds() {
         b.push_str("\n    _optik_unwound = _optik_unwinding();");
@@ -511,43 +511,25 @@ fn direct_call_body(c: &LoweringConfig) -> String {
     b
 }
 
+fn direct_call_body(c: &LoweringConfig) -> String {
+    let call = format!("_optik_execute_callable(index + {CALLABLE_FIRST_USER}u, args);");
+    call_body(
+        c,
+        &call,
+        c.guard_direct_calls
+            .then_some((24, c.max_direct_callable_depth)),
+    )
+}
+
 fn continuation_call_body(c: &LoweringConfig) -> String {
     if !c.continuation_calls {
         return String::new();
     }
-    let mut b = String::new();
-    b.push_str("if index >= _optik_launch.callable_count {\n");
-    b.push_str(&format!(
-        "        {}\n        return;\n    }}\n",
-        raise_if(
-            c,
-            ExceptionFlags::DEBUG,
-            "RT_EXCEPTION_CODE_CALLABLE_INVALID_SBT"
-        )
-    ));
-    b.push_str("    let depth = _optik_counter(16u);\n");
-    b.push_str(&format!(
-        "    if depth >= {}u {{\n",
-        c.max_continuation_callable_depth.min(255)
-    ));
-    b.push_str(&format!(
-        "        {}\n        return;\n    }}\n",
-        raise_if(
-            c,
-            ExceptionFlags::STACK_OVERFLOW,
-            "RT_EXCEPTION_CODE_STACK_OVERFLOW"
-        )
-    ));
-    b.push_str("    _optik_counter_set(16u, depth + 1u);\n");
     // Vulkan callables cannot trace: continuation callables are miss stages placed after the
     // user's miss records (and the null miss record), reached by a ray that misses the empty
     // acceleration structure.
-    b.push_str("    _optik_trace(_optik_launch.empty_tlas, 0u, 0xFFu, 0u, 0u, _optik_launch.miss_count + 1u + index, vec3<f32>(0.0), 0.0, vec3<f32>(0.0, 0.0, 1.0), 0.0, args);\n");
-    b.push_str("    _optik_counter_set(16u, depth);");
-    if c.unwinds() {
-        b.push_str("\n    _optik_unwound = _optik_unwinding();");
-    }
-    b
+    let call = "_optik_trace(_optik_launch.empty_tlas, 0u, 0xFFu, 0u, 0u, _optik_launch.miss_count + 1u + index, vec3<f32>(0.0), 0.0, vec3<f32>(0.0, 0.0, 1.0), 0.0, args);";
+    call_body(c, call, Some((16, c.max_continuation_callable_depth)))
 }
 
 /// The compute wrapper naga writes for a stage: it sets the stage's constants, runs the

@@ -306,3 +306,26 @@ fn ray_x(i: u32) -> f32 {
     return -1.0 + 3.0 * (f32(i) + 0.5) / f32(params.n);
 }
 "#;
+
+/// A pipeline of `raygen__rg`, `miss__ms` and `closesthit__ch` (a triangle hit group) from
+/// [`RAY_HEADER`] + `programs`, with the groups for its tables.
+pub struct Basic {
+    pub pipeline: Pipeline,
+    pub rg: ProgramGroup,
+    pub ms: ProgramGroup,
+    pub ch: ProgramGroup,
+}
+
+/// Compiles and links a [`Basic`] pipeline with `max_trace_depth` 1.
+pub fn basic(dev: &TestDevice, programs: &str) -> Basic {
+    let m = dev.module(&format!("{RAY_HEADER}{programs}"));
+    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
+    let ms = dev.group(ProgramGroupDesc::Miss(Some(prog(m, "miss__ms"))));
+    let ch = dev.group(ProgramGroupDesc::closest_hit(prog(m, "closesthit__ch")));
+    Basic {
+        pipeline: dev.pipeline(&[rg, ms, ch], 1),
+        rg,
+        ms,
+        ch,
+    }
+}

@@ -18,27 +18,11 @@ fn closesthit__ch() {
 }
 "#;
 
-struct Setup {
-    pipeline: Pipeline,
-    rg: ProgramGroup,
-    ms: ProgramGroup,
-    ch: ProgramGroup,
+fn setup(dev: &TestDevice) -> Basic {
+    basic(dev, PROGRAMS)
 }
 
-fn setup(dev: &TestDevice) -> Setup {
-    let m = dev.module(&format!("{RAY_HEADER}{PROGRAMS}"));
-    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
-    let ms = dev.group(ProgramGroupDesc::Miss(Some(prog(m, "miss__ms"))));
-    let ch = dev.group(ProgramGroupDesc::closest_hit(prog(m, "closesthit__ch")));
-    Setup {
-        pipeline: dev.pipeline(&[rg, ms, ch], 1),
-        rg,
-        ms,
-        ch,
-    }
-}
-
-fn launch(dev: &TestDevice, s: &Setup, sbt: &ShaderBindingTable) -> Result<()> {
+fn launch(dev: &TestDevice, s: &Basic, sbt: &ShaderBindingTable) -> Result<()> {
     let out = dev.create_buffer(16).unwrap();
     dev.launch(
         s.pipeline,

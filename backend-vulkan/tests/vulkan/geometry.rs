@@ -37,28 +37,12 @@ fn miss__ms() {
 }
 "#;
 
-struct Setup {
-    pipeline: Pipeline,
-    rg: ProgramGroup,
-    ms: ProgramGroup,
-    ch: ProgramGroup,
-}
-
-fn setup(dev: &TestDevice) -> Setup {
-    let m = dev.module(&format!("{RAY_HEADER}{PROGRAMS}"));
-    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
-    let ms = dev.group(ProgramGroupDesc::Miss(Some(prog(m, "miss__ms"))));
-    let ch = dev.group(ProgramGroupDesc::closest_hit(prog(m, "closesthit__ch")));
-    Setup {
-        pipeline: dev.pipeline(&[rg, ms, ch], 1),
-        rg,
-        ms,
-        ch,
-    }
+fn setup(dev: &TestDevice) -> Basic {
+    basic(dev, PROGRAMS)
 }
 
 /// Traces rays at `xs` (at most 16) with ray `flags`; 14 words per ray.
-fn trace(dev: &TestDevice, s: &Setup, gas: Accel, xs: &[f32], flags: u32) -> Vec<[u32; 14]> {
+fn trace(dev: &TestDevice, s: &Basic, gas: Accel, xs: &[f32], flags: u32) -> Vec<[u32; 14]> {
     let mut words: Vec<u32> = xs.iter().map(|x| x.to_bits()).collect();
     words.resize(16, 0);
     words.push(flags);

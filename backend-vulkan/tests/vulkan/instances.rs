@@ -32,30 +32,13 @@ fn miss__ms() {
 }
 "#;
 
-struct Setup {
-    pipeline: Pipeline,
-    rg: ProgramGroup,
-    ms: ProgramGroup,
-    ch: ProgramGroup,
-}
-
-fn setup(dev: &TestDevice) -> Setup {
-    let m = dev.module(&format!("{RAY_HEADER}{PROGRAMS}"));
-    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
-    let ms = dev.group(ProgramGroupDesc::Miss(Some(prog(m, "miss__ms"))));
-    let ch = dev.group(ProgramGroupDesc::closest_hit(prog(m, "closesthit__ch")));
-    let pipeline = dev.pipeline(&[rg, ms, ch], 1);
-    Setup {
-        pipeline,
-        rg,
-        ms,
-        ch,
-    }
+fn setup(dev: &TestDevice) -> Basic {
+    basic(dev, PROGRAMS)
 }
 
 fn trace(
     dev: &TestDevice,
-    s: &Setup,
+    s: &Basic,
     handle: TraversableHandle,
     rays: &[(u32, u32)],
 ) -> Vec<[u32; 5]> {
