@@ -4,31 +4,13 @@
 //! intended change, bless with `OPTIK_BLESS=1 cargo test -p optik-vulkan --lib golden`.
 
 use super::intrinsic::Intrinsic;
-use super::tests::{EVERYTHING, largest_config, user_roles};
+use super::tests::{EVERYTHING, largest_config, spirv_tool, user_roles};
 use super::*;
 use std::collections::HashMap;
 
 /// `spirv-dis` of `words`.
-fn disassemble(words: &[u32]) -> String {
-    let path = std::env::temp_dir().join(format!(
-        "optik-golden-{}-{:x}.spv",
-        std::process::id(),
-        words.len() ^ words.iter().fold(0u32, |a, w| a.rotate_left(5) ^ w) as usize
-    ));
-    std::fs::write(
-        &path,
-        words
-            .iter()
-            .flat_map(|w| w.to_le_bytes())
-            .collect::<Vec<u8>>(),
-    )
-    .unwrap();
-    let out = std::process::Command::new("spirv-dis")
-        .arg("--no-color")
-        .arg(&path)
-        .output()
-        .expect("spirv-dis (spirv-tools) is needed by the golden tests");
-    let _ = std::fs::remove_file(&path);
+fn disassemble(words: &[u32], what: &str) -> String {
+    let out = spirv_tool("spirv-dis", &["--no-color"], words, what);
     assert!(
         out.status.success(),
         "{}",
@@ -115,7 +97,11 @@ fn every_intrinsic_lowers_as_pinned() {
     let mut dis: Vec<(String, VkStage, String)> = Vec::new();
     for config in [largest_config(), smallest] {
         for s in lower_stages(ModuleText::User(EVERYTHING), &config, &roles).unwrap() {
-            dis.push((s.entry_name.clone(), s.stage, disassemble(&s.spirv)));
+            dis.push((
+                s.entry_name.clone(),
+                s.stage,
+                disassemble(&s.spirv, &s.entry_name),
+            ));
         }
     }
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/program/golden");

@@ -4,11 +4,20 @@
 use super::*;
 use optik_api::{ExceptionFlags, ProgramSource};
 
-/// Runs `spirv-val` (Vulkan 1.2 rules) on `words`; panics with its report on failure.
-pub(crate) fn spirv_val(words: &[u32], what: &str) {
-    let dir = std::env::temp_dir().join(format!("optik-spirv-val-{}", std::process::id()));
+/// Runs a SPIRV-Tools program (`spirv-val`, `spirv-dis`) on `words` written to a temporary
+/// file named after `what`; its output.
+pub(crate) fn spirv_tool(
+    tool: &str,
+    args: &[&str],
+    words: &[u32],
+    what: &str,
+) -> std::process::Output {
+    let dir = std::env::temp_dir().join(format!("optik-spirv-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(format!("{}.spv", what.replace(['/', ' ', '.', ':'], "_")));
+    let path = dir.join(format!(
+        "{tool}-{}.spv",
+        what.replace(['/', ' ', '.', ':'], "_")
+    ));
     std::fs::write(
         &path,
         words
@@ -17,24 +26,26 @@ pub(crate) fn spirv_val(words: &[u32], what: &str) {
             .collect::<Vec<u8>>(),
     )
     .unwrap();
-    let out = std::process::Command::new("spirv-val")
-        .args(["--target-env", "vulkan1.2"])
-        .arg(&path)
-        .output()
-        .expect("spirv-val is needed by the Vulkan backend's tests (Debian: apt install spirv-tools; scripts/setup installs it)");
+    let out = std::process::Command::new(tool).args(args).arg(&path).output().unwrap_or_else(|e| {
+        panic!("{tool} is needed by the Vulkan backend's tests (Debian: apt install spirv-tools; scripts/setup installs it): {e}")
+    });
+    let _ = std::fs::remove_file(&path);
+    out
+}
+
+/// Runs `spirv-val` (Vulkan 1.2 rules) on `words`; panics with its report and the
+/// disassembly on failure.
+pub(crate) fn spirv_val(words: &[u32], what: &str) {
+    let out = spirv_tool("spirv-val", &["--target-env", "vulkan1.2"], words, what);
     if !out.status.success() {
-        let dis = std::process::Command::new("spirv-dis")
-            .arg(&path)
-            .output()
-            .map(|o| String::from_utf8_lossy(&o.stdout).into_owned())
-            .unwrap_or_default();
+        let dis =
+            String::from_utf8_lossy(&spirv_tool("spirv-dis", &[], words, what).stdout).into_owned();
         panic!(
             "spirv-val rejects {what}:\n{}{}\n{dis}",
             String::from_utf8_lossy(&out.stdout),
             String::from_utf8_lossy(&out.stderr)
         );
     }
-    let _ = std::fs::remove_file(&path);
 }
 
 /// A module with one program of every kind, each calling every device function its kind
