@@ -259,14 +259,3 @@ fn internal_stages_validate() {
         );
     }
 }
-
-#[test]
-#[ignore = "debugging aid: writes every lowered stage to $OPTIK_DUMP_DIR"]
-fn dump_stages() {
-    let dir = std::env::var("OPTIK_DUMP_DIR").expect("set OPTIK_DUMP_DIR");
-    let roles = user_roles(EVERYTHING);
-    for s in lower_stages(ModuleText::User(EVERYTHING), &largest_config(), &roles).unwrap() {
-        let bytes: Vec<u8> = s.spirv.iter().flat_map(|w| w.to_le_bytes()).collect();
-        std::fs::write(format!("{dir}/{}.spv", s.entry_name), bytes).unwrap();
-    }
-}

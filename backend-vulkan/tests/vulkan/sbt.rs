@@ -109,7 +109,7 @@ fn offsets_strides_miss_indices_and_per_primitive_records() {
 }
 
 #[test]
-fn sbt_offsets_past_the_records_read_past_the_buffer_are_errors() {
+fn per_primitive_offsets_past_the_records_are_errors() {
     let dev = device();
     let vb = dev.f32_buffer(&tri_at(0.0).iter().flatten().copied().collect::<Vec<_>>());
     let offsets = dev.buffer_with(&[3u8, 0, 0, 0]);
