@@ -1,0 +1,276 @@
+//! The JIT driver: a module's programs to machine code, and calling them.
+
+use super::abi::{Bindings, BoundResource, DeviceCalls};
+use super::cache::{self, DiskStore, ModuleKey};
+use super::host::{BufferSlot, CallContext, HostFn, ZERO_PAGE};
+use super::lower::{self, LowerError, ModuleEnv};
+use cranelift_codegen::control::ControlPlane;
+use cranelift_codegen::settings::{self, Configurable};
+use cranelift_codegen::{Context, ir, isa::OwnedTargetIsa};
+use cranelift_frontend::FunctionBuilderContext;
+use cranelift_jit::{JITBuilder, JITModule};
+use cranelift_module::{FuncId, Linkage, Module, ModuleReloc, default_libcall_names};
+use optik_api::frontend::CompiledModule;
+use optik_api::{Error, OptLevel, Result};
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// Where compiled functions are cached on disk.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub enum DiskCache {
+    /// `$OPTIK_CACHE_PATH`, `$XDG_CACHE_HOME/optik` or `~/.cache/optik`; off when
+    /// `OPTIK_CACHE_DISABLE=1`.
+    #[default]
+    FromEnvironment,
+    /// No disk cache.
+    Disabled,
+    /// This directory.
+    Directory(PathBuf),
+}
+
+/// How to compile a module.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct JitOptions {
+    /// Cranelift's optimisation level: `None` is Cranelift's `none`, the others `speed`.
+    pub opt_level: OptLevel,
+    /// The disk cache. It changes compile time only: code is the same with it on or off.
+    pub disk_cache: DiskCache,
+}
+
+/// What compiling a module did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CompileStats {
+    /// Programs compiled.
+    pub functions: usize,
+    /// Of those, how many came from the disk cache.
+    pub disk_cache_hits: usize,
+    /// Wall time of the whole compile.
+    pub time: Duration,
+}
+
+type EntryFn = unsafe extern "C" fn(*mut CallContext<'_>);
+
+/// The compiled programs of one module and the memory holding their code.
+pub(crate) struct Inner {
+    programs: HashMap<String, EntryFn>,
+    /// The binding number of each buffer-table slot (`None`: a buffer without a binding).
+    slot_bindings: Vec<Option<u32>>,
+    stats: CompileStats,
+    /// Owns the executable memory; only touched again to free it.
+    code: Mutex<Option<JITModule>>,
+}
+
+impl Drop for Inner {
+    fn drop(&mut self) {
+        if let Some(module) = self.code.get_mut().unwrap_or_else(|e| e.into_inner()).take() {
+            // SAFETY: the last `JitModule` is gone, and every `ProgramFn` borrows one, so
+            // no code of this module can run any more.
+            unsafe { module.free_memory() };
+        }
+    }
+}
+
+/// The programs of a module, compiled to native code. Cheap to clone; shared by threads.
+#[derive(Clone)]
+pub struct JitModule {
+    inner: Arc<Inner>,
+}
+
+impl std::fmt::Debug for JitModule {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut names: Vec<&String> = self.inner.programs.keys().collect();
+        names.sort();
+        f.debug_struct("JitModule").field("programs", &names).field("stats", &self.inner.stats).finish()
+    }
+}
+
+/// One compiled program. Borrows its [`JitModule`], which keeps the code alive.
+#[derive(Clone, Copy)]
+pub struct ProgramFn<'m> {
+    entry: EntryFn,
+    slot_bindings: &'m [Option<u32>],
+}
+
+impl std::fmt::Debug for ProgramFn<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ProgramFn").field("entry", &(self.entry as *const u8)).finish()
+    }
+}
+
+/// Buffers a program call binds without allocating.
+const INLINE_SLOTS: usize = 16;
+
+impl ProgramFn<'_> {
+    /// Runs the program once with `bindings`, answering device-API calls with `calls`.
+    ///
+    /// Buffer accesses are bounds-checked against the bound lengths; the runtime's part of
+    /// the contract (`abi.rs`) is that every bound pointer is valid for its length for the
+    /// duration of the call. A panic inside `calls` is resumed here after the program
+    /// returns (the program sees zeros from then on).
+    pub fn call(&self, bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
+        let slots = self.slot_bindings.len();
+        let mut inline = [BufferSlot::EMPTY; INLINE_SLOTS];
+        let mut heap = Vec::new();
+        let table: &mut [BufferSlot] = if slots <= INLINE_SLOTS {
+            &mut inline[..slots]
+        } else {
+            heap.resize(slots, BufferSlot::EMPTY);
+            &mut heap
+        };
+        for (slot, binding) in table.iter_mut().zip(self.slot_bindings) {
+            if let Some(BoundResource::Buffer(b)) = binding.and_then(|b| bindings.resources.get(b as usize)) {
+                *slot = BufferSlot { ptr: b.ptr, len: b.len };
+            }
+        }
+        let mut ctx = CallContext {
+            buffers: table.as_ptr(),
+            zero_page: ZERO_PAGE.as_ptr(),
+            calls: calls as *mut dyn DeviceCalls,
+            bindings: bindings as *const Bindings<'_>,
+            panic: None,
+        };
+        // SAFETY: `entry` is finalized code of a live module (borrowed by `self`) with the
+        // signature `extern "C" fn(*mut CallContext)`; the context and everything it points
+        // to outlive the call.
+        unsafe { (self.entry)(&mut ctx) };
+        if let Some(payload) = ctx.panic.take() {
+            std::panic::resume_unwind(payload);
+        }
+    }
+}
+
+impl JitModule {
+    /// Compiles every program of `module` (with every function it reaches), or returns
+    /// the live module already compiled from the same source and optimisation level.
+    pub fn compile(module: &CompiledModule, options: &JitOptions) -> Result<JitModule> {
+        let key = ModuleKey { source: module.full_source.clone(), opt_level: options.opt_level };
+        let inner = cache::memory_cached(key, || compile_module(module, options).map(Arc::new))?;
+        Ok(JitModule { inner })
+    }
+
+    /// Compiles without looking in (or adding to) the in-memory cache.
+    pub fn compile_uncached(module: &CompiledModule, options: &JitOptions) -> Result<JitModule> {
+        Ok(JitModule { inner: Arc::new(compile_module(module, options)?) })
+    }
+
+    /// The program named `name` (with its prefix, e.g. `closesthit__radiance`).
+    pub fn program(&self, name: &str) -> Option<ProgramFn<'_>> {
+        let entry = *self.inner.programs.get(name)?;
+        Some(ProgramFn { entry, slot_bindings: &self.inner.slot_bindings })
+    }
+
+    /// What compiling this module did.
+    pub fn stats(&self) -> CompileStats {
+        self.inner.stats
+    }
+
+    /// Whether `a` and `b` share their machine code (the in-memory cache's doing).
+    pub fn same_code(a: &JitModule, b: &JitModule) -> bool {
+        Arc::ptr_eq(&a.inner, &b.inner)
+    }
+}
+
+fn build_isa(opt_level: OptLevel) -> Result<OwnedTargetIsa> {
+    let mut flags = settings::builder();
+    let level = if opt_level == OptLevel::None { "none" } else { "speed" };
+    let set = |flags: &mut settings::Builder, name: &str, value: &str| {
+        flags.set(name, value).map_err(|e| Error::backend(format!("Cranelift setting {name}={value}: {e}")))
+    };
+    set(&mut flags, "opt_level", level)?;
+    set(&mut flags, "use_colocated_libcalls", "false")?;
+    set(&mut flags, "is_pic", "false")?;
+    set(&mut flags, "enable_verifier", if cfg!(debug_assertions) { "true" } else { "false" })?;
+    let native = cranelift_native::builder()
+        .map_err(|e| Error::unsupported(format!("the CPU JIT does not support this machine: {e}")))?;
+    native
+        .finish(settings::Flags::new(flags))
+        .map_err(|e| Error::backend(format!("Cranelift could not target this machine: {e}")))
+}
+
+fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner> {
+    let start = Instant::now();
+    let isa = build_isa(options.opt_level)?;
+    let mut builder = JITBuilder::with_isa(isa.clone(), default_libcall_names());
+    for &f in HostFn::ALL {
+        builder.symbol(f.symbol(), f.address());
+    }
+    let mut jit = JITModule::new(builder);
+    let call_conv = isa.default_call_conv();
+    let module_err = |e: cranelift_module::ModuleError| Error::backend(format!("the CPU JIT failed: {e}"));
+    let mut host_ids: HashMap<HostFn, FuncId> = HashMap::new();
+    for &f in HostFn::ALL {
+        let id = jit.declare_function(f.symbol(), Linkage::Import, &f.signature(call_conv)).map_err(module_err)?;
+        host_ids.insert(f, id);
+    }
+    let env = ModuleEnv::new(module, jit.target_config());
+    let mut store = cache::directory(&options.disk_cache).map(DiskStore::new);
+    let mut stats = CompileStats::default();
+    let mut fctx = FunctionBuilderContext::new();
+    let mut ctx = jit.make_context();
+    let mut ids = Vec::new();
+    for program in &module.programs {
+        let mut sig = ir::Signature::new(call_conv);
+        sig.params.push(ir::AbiParam::new(ir::types::I64));
+        let id = jit.declare_function(&program.name, Linkage::Local, &sig).map_err(module_err)?;
+        ctx.func.signature.call_conv = call_conv;
+        {
+            let jit = &mut jit;
+            let host_ids = &host_ids;
+            let mut import = |f: HostFn, func: &mut ir::Function| jit.declare_func_in_func(host_ids[&f], func);
+            lower::lower_program(&env, program.function, &mut ctx.func, &mut fctx, &mut import)
+                .map_err(|e| lowering_error(module, &program.name, e))?;
+        }
+        let hit = compile_function(&mut ctx, &*isa, store.as_mut(), &program.name)?;
+        let code = ctx.compiled_code().expect("compiled above");
+        let relocs: Vec<ModuleReloc> =
+            code.buffer.relocs().iter().map(|r| ModuleReloc::from_mach_reloc(r, &ctx.func, id)).collect();
+        let alignment = code.buffer.alignment as u64;
+        jit.define_function_bytes(id, alignment, code.code_buffer(), &relocs).map_err(module_err)?;
+        jit.clear_context(&mut ctx);
+        stats.functions += 1;
+        stats.disk_cache_hits += hit as usize;
+        ids.push((program.name.clone(), id));
+    }
+    jit.finalize_definitions().map_err(module_err)?;
+    let programs = ids
+        .into_iter()
+        .map(|(name, id)| {
+            let ptr = jit.get_finalized_function(id);
+            // SAFETY: the function was compiled with exactly this signature.
+            let entry: EntryFn = unsafe { std::mem::transmute::<*const u8, EntryFn>(ptr) };
+            (name, entry)
+        })
+        .collect();
+    stats.time = start.elapsed();
+    Ok(Inner { programs, slot_bindings: env.slot_bindings(), stats, code: Mutex::new(Some(jit)) })
+}
+
+/// Compiles `ctx.func`, through the disk cache when there is one; returns whether the
+/// cache had it.
+fn compile_function(
+    ctx: &mut Context,
+    isa: &dyn cranelift_codegen::isa::TargetIsa,
+    store: Option<&mut DiskStore>,
+    name: &str,
+) -> Result<bool> {
+    let mut ctrl = ControlPlane::default();
+    let failed = |e: String| Error::backend(format!("Cranelift could not compile program `{name}`: {e}"));
+    match store {
+        Some(store) => match ctx.compile_with_cache(isa, store, &mut ctrl) {
+            Ok((_, hit)) => Ok(hit),
+            Err(e) => Err(failed(format!("{:?}", e.inner))),
+        },
+        None => match ctx.compile(isa, &mut ctrl) {
+            Ok(_) => Ok(false),
+            Err(e) => Err(failed(format!("{:?}", e.inner))),
+        },
+    }
+}
+
+/// A lowering failure as a compile error at the user's line.
+fn lowering_error(module: &CompiledModule, program: &str, e: LowerError) -> Error {
+    let message = format!("{} (while compiling program `{program}` for the CPU backend)", e.message);
+    Error::compile(vec![module.diagnostic(e.span, message)])
+}
