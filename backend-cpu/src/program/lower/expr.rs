@@ -217,6 +217,43 @@ impl<'m> Lowerer<'m, '_> {
                 let x = self.global_expr(value)?;
                 vec![x[0]; size as usize]
             }
+            // Overrides' initialisers are not folded by the front end (their inputs are
+            // not known there): the operators they may use, component-wise.
+            Expression::Unary { op, expr } => {
+                let leaf = leaf_of(self.env.info[expr].inner_with(&module.types))?;
+                let v = self.global_expr(expr)?;
+                v.into_iter().map(|x| self.unary(op, leaf, x)).collect()
+            }
+            Expression::Binary { op, left, right } => {
+                let leaf = leaf_of(self.env.info[left].inner_with(&module.types))?;
+                let (a, c) = (self.global_expr(left)?, self.global_expr(right)?);
+                let n = a.len().max(c.len());
+                (0..n)
+                    .map(|i| {
+                        let x = if a.len() == 1 { a[0] } else { a[i] };
+                        let y = if c.len() == 1 { c[0] } else { c[i] };
+                        self.scalar_binary(op, leaf, x, y)
+                    })
+                    .collect()
+            }
+            Expression::Select { condition, accept, reject } => {
+                let c = self.global_expr(condition)?;
+                let (a, r) = (self.global_expr(accept)?, self.global_expr(reject)?);
+                (0..a.len())
+                    .map(|i| self.b.ins().select(if c.len() == 1 { c[0] } else { c[i] }, a[i], r[i]))
+                    .collect()
+            }
+            Expression::As { expr, kind, convert } => {
+                let from = leaf_of(self.env.info[expr].inner_with(&module.types))?;
+                let to = match kind {
+                    ScalarKind::Bool => Leaf::Bool,
+                    ScalarKind::Float => Leaf::F32,
+                    ScalarKind::Sint => Leaf::I32,
+                    _ => Leaf::U32,
+                };
+                let v = self.global_expr(expr)?;
+                v.into_iter().map(|x| self.convert(x, from, to, convert.is_some())).collect()
+            }
             ref other => {
                 let span = module.global_expressions.get_span(h);
                 return Err(LowerError {

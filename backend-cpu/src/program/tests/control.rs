@@ -1,0 +1,185 @@
+//! Control flow, calls, composite values, local and private variables.
+
+use super::*;
+
+const CONTROL: &str = r#"
+@group(0) @binding(1) var<storage, read> input: array<i32>;
+@group(0) @binding(2) var<storage, read_write> out: array<i32>;
+
+var<private> calls: i32 = 100;
+var<private> hist: array<i32, 4>;
+
+struct Pair { a: i32, b: vec2<i32> }
+
+fn classify(x: i32) -> i32 {
+    calls += 1;
+    switch x & 7 {
+        case 0, 1: { return 10; }
+        case 2: { if x > 0 { return 20; } }
+        case 3, default: { return 30 + (x & 7); }
+    }
+    return -2;
+}
+
+fn bump(p: ptr<function, Pair>, by: i32) {
+    (*p).a += by;
+    (*p).b[by & 1] += 1;
+}
+
+fn early(x: i32) -> i32 {
+    var acc = 0;
+    loop {
+        if acc > 50 { return acc; }
+        acc += x & 15;
+        continuing {
+            acc += 1;
+            break if acc > 40;
+        }
+    }
+    return -acc;
+}
+
+fn raygen__control() {
+    let n = arrayLength(&input);
+    for (var i = 0u; i < n; i++) {
+        let x = input[i];
+        var sum = 0;
+        for (var k = 0; k < 10; k++) {
+            if k == 3 { continue; }
+            if k * (x & 3) > 12 { break; }
+            sum += k;
+        }
+        var w = 0;
+        while w < (x & 31) { w += 3; }
+        var local: array<i32, 8>;
+        for (var k = 0; k < 8; k++) { local[k] = x * k; }
+        var p = Pair(x, vec2<i32>(1, 2));
+        bump(&p, x);
+        hist[u32(x) & 3u] += 1;
+        var m = mat3x3<f32>(1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0);
+        let ci = u32(x) % 3u;
+        let ri = (u32(x) / 3u) % 3u;
+        m[ci][ri] = f32(x);
+        var v = vec4<i32>(x, 2, 3, 4);
+        v[u32(x) & 7u] = 9;
+        let o = i * 12u;
+        out[o + 0u] = sum;
+        out[o + 1u] = w;
+        out[o + 2u] = classify(x);
+        out[o + 3u] = local[u32(x) & 15u] + local[3];
+        out[o + 4u] = p.a * 3 + p.b.x * 5 + p.b.y * 7;
+        out[o + 5u] = early(x);
+        out[o + 6u] = i32(m[ci][ri]) + i32(m[ri][ci]) * 3 + i32(m[2].z);
+        out[o + 7u] = v.x + v.y * 3 + v.z * 5 + v.w * 7;
+        out[o + 8u] = calls;
+        out[o + 9u] = hist[0] + hist[1] * 10 + hist[2] * 100 + hist[3] * 1000;
+        let arr = array<i32, 3>(x, x + 1, x + 2);
+        out[o + 10u] = arr[u32(x) & 3u] + vec3<i32>(7, 8, 9)[u32(x) % 5u];
+        out[o + 11u] = select(1, 2, any(vec2<bool>(x > 0, x < -5))) + select(10, 20, all(vec3<bool>(x > 0, true, x != 7)));
+    }
+}
+"#;
+
+fn classify(x: i32, calls: &mut i32) -> i32 {
+    *calls += 1;
+    match x & 7 {
+        0 | 1 => 10,
+        2 if x > 0 => 20,
+        2 => -2,
+        other => 30 + other,
+    }
+}
+
+fn early(x: i32) -> i32 {
+    let mut acc = 0;
+    loop {
+        if acc > 50 {
+            return acc;
+        }
+        acc += x & 15;
+        acc += 1;
+        if acc > 40 {
+            break;
+        }
+    }
+    -acc
+}
+
+/// One invocation of the program over all inputs: private state carries across
+/// iterations of the loop (it is one invocation) but not across invocations.
+fn reference(input: &[i32]) -> Vec<i32> {
+    let mut calls = 100;
+    let mut hist = [0i32; 4];
+    let mut out = Vec::new();
+    for &x in input {
+        let mut sum = 0;
+        for k in 0..10 {
+            if k == 3 {
+                continue;
+            }
+            if k * (x & 3) > 12 {
+                break;
+            }
+            sum += k;
+        }
+        let mut w = 0;
+        while w < (x & 31) {
+            w += 3;
+        }
+        let local: Vec<i32> = (0..8).map(|k| x.wrapping_mul(k)).collect();
+        let (mut pa, mut pb) = (x, [1, 2]);
+        pa = pa.wrapping_add(x);
+        pb[(x & 1) as usize] += 1;
+        hist[(x as u32 & 3) as usize] += 1;
+        let mut m = [[1.0f32, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 9.0]];
+        let ci = (x as u32 % 3) as usize;
+        let ri = ((x as u32 / 3) % 3) as usize;
+        m[ci][ri] = x as f32;
+        let mut v = [x, 2, 3, 4];
+        v[((x as u32 & 7) as usize).min(3)] = 9;
+        let class = classify(x, &mut calls);
+        out.push(sum);
+        out.push(w);
+        out.push(class);
+        out.push(local[((x as u32 & 15) as usize).min(7)].wrapping_add(local[3]));
+        out.push(pa.wrapping_mul(3).wrapping_add(pb[0] * 5).wrapping_add(pb[1] * 7));
+        out.push(early(x));
+        out.push((m[ci][ri] as i32).wrapping_add((m[ri][ci] as i32).wrapping_mul(3)).wrapping_add(m[2][2] as i32));
+        out.push(v[0].wrapping_add(v[1] * 3).wrapping_add(v[2] * 5).wrapping_add(v[3] * 7));
+        out.push(calls);
+        out.push(hist[0] + hist[1] * 10 + hist[2] * 100 + hist[3] * 1000);
+        let arr = [x, x.wrapping_add(1), x.wrapping_add(2)];
+        out.push(arr[((x as u32 & 3) as usize).min(2)].wrapping_add([7, 8, 9][((x as u32 % 5) as usize).min(2)]));
+        out.push(if x > 0 || x < -5 { 2 } else { 1 } + if x > 0 && x != 7 { 20 } else { 10 });
+    }
+    out
+}
+
+#[test]
+fn control_flow_and_composites_match_rust() {
+    let module = jit(CONTROL);
+    let mut rng = Rng(5);
+    let input: Vec<i32> = (0..2000).map(|_| rng.int() as i32 % 1000).collect();
+    let words: Vec<u32> = input.iter().map(|&x| x as u32).collect();
+    let mut buffers = Buffers::new(vec![words, vec![0; input.len() * 12]]);
+    buffers.run(&module, "raygen__control", &mut Mock::default());
+    let got: Vec<i32> = buffers.words[1].iter().map(|&w| w as i32).collect();
+    let want = reference(&input);
+    for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+        assert_eq!(g, w, "input {} (x = {}), result {}", i / 12, input[i / 12], i % 12);
+    }
+}
+
+#[test]
+fn private_globals_start_over_at_every_invocation() {
+    let module = jit(CONTROL);
+    let input = vec![5u32, 6];
+    let mut buffers = Buffers::new(vec![input, vec![0; 24]]);
+    buffers.run(&module, "raygen__control", &mut Mock::default());
+    let first = buffers.words[1].clone();
+    buffers.run(&module, "raygen__control", &mut Mock::default());
+    assert_eq!(buffers.words[1], first, "a second invocation sees fresh privates");
+    // Within one invocation the counter counts both calls of `classify`.
+    assert_eq!((first[8], first[12 + 8]), (101, 102));
+    assert_eq!((first[9], first[12 + 9]), (10, 110));
+}
