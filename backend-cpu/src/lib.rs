@@ -10,5 +10,7 @@ pub mod program;
 
 /// Opens a device of this backend.
 pub fn open() -> optik_api::Result<Box<dyn optik_api::Device>> {
-    Err(optik_api::Error::unsupported("the cpu backend is not implemented yet"))
+    Err(optik_api::Error::unsupported(
+        "the cpu backend is not implemented yet",
+    ))
 }

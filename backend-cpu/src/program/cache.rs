@@ -41,7 +41,11 @@ pub(crate) fn memory_cached(
     compile: impl FnOnce() -> optik_api::Result<Arc<Inner>>,
 ) -> optik_api::Result<Arc<Inner>> {
     let lock = || MODULES.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(live) = lock().get_or_insert_with(HashMap::new).get(&key).and_then(Weak::upgrade) {
+    if let Some(live) = lock()
+        .get_or_insert_with(HashMap::new)
+        .get(&key)
+        .and_then(Weak::upgrade)
+    {
         return Ok(live);
     }
     // Compiled outside the lock, so modules compile in parallel; if two threads compiled
@@ -66,7 +70,11 @@ pub(crate) fn directory(setting: &DiskCache) -> Option<PathBuf> {
             if std::env::var("OPTIK_CACHE_DISABLE").is_ok_and(|v| v == "1") {
                 return None;
             }
-            let env = |name: &str| std::env::var_os(name).filter(|v| !v.is_empty()).map(PathBuf::from);
+            let env = |name: &str| {
+                std::env::var_os(name)
+                    .filter(|v| !v.is_empty())
+                    .map(PathBuf::from)
+            };
             match (env("OPTIK_CACHE_PATH"), env("XDG_CACHE_HOME"), env("HOME")) {
                 (Some(path), _, _) => path,
                 (None, Some(xdg), _) => xdg.join("optik"),
@@ -101,7 +109,9 @@ impl DiskStore {
 
 /// FNV-1a, 64 bits: catches torn writes and bit rot (not an adversary).
 fn checksum(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3))
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
+    })
 }
 
 /// The payload of a cache file, if it is whole.
@@ -152,9 +162,15 @@ mod tests {
         let mut bytes = std::fs::read(&path).unwrap();
         *bytes.last_mut().unwrap() ^= 1;
         std::fs::write(&path, &bytes).unwrap();
-        assert!(store.get(&[1, 2, 3]).is_none(), "a flipped bit must be a miss");
+        assert!(
+            store.get(&[1, 2, 3]).is_none(),
+            "a flipped bit must be a miss"
+        );
         std::fs::write(&path, &bytes[..HEADER + 2]).unwrap();
-        assert!(store.get(&[1, 2, 3]).is_none(), "a torn file must be a miss");
+        assert!(
+            store.get(&[1, 2, 3]).is_none(),
+            "a torn file must be a miss"
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

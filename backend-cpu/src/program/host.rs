@@ -30,7 +30,10 @@ pub(crate) struct BufferSlot {
 
 impl BufferSlot {
     /// An unbound slot: every access to it is out of bounds, so it is never dereferenced.
-    pub const EMPTY: BufferSlot = BufferSlot { ptr: std::ptr::null_mut(), len: 0 };
+    pub const EMPTY: BufferSlot = BufferSlot {
+        ptr: std::ptr::null_mut(),
+        len: 0,
+    };
 }
 
 /// Bytes of [`ZERO_PAGE`]: the largest value one load may read from a buffer.
@@ -175,7 +178,11 @@ unsafe extern "C" fn rt_report_intersection(
 ) -> u32 {
     // SAFETY: compiled code passes a stack slot holding the 8 attribute words.
     let attributes: [u32; 8] = unsafe { attributes.cast::<[u32; 8]>().read_unaligned() };
-    unsafe { with_calls(ctx, false, |c| c.report_intersection(t, hit_kind, &attributes)) as u32 }
+    unsafe {
+        with_calls(ctx, false, |c| {
+            c.report_intersection(t, hit_kind, &attributes)
+        }) as u32
+    }
 }
 
 unsafe extern "C" fn rt_ignore_intersection(ctx: *mut CallContext<'_>) {
@@ -235,7 +242,12 @@ unsafe extern "C" fn rt_trace(
     }
 }
 
-unsafe extern "C" fn rt_direct_call(ctx: *mut CallContext<'_>, index: u32, args: *mut u32, len: u32) {
+unsafe extern "C" fn rt_direct_call(
+    ctx: *mut CallContext<'_>,
+    index: u32,
+    args: *mut u32,
+    len: u32,
+) {
     // SAFETY: as for `rt_trace`'s payload.
     let args = unsafe { std::slice::from_raw_parts_mut(args, len as usize) };
     unsafe { with_calls(ctx, (), |c| c.direct_call(index, args)) }
@@ -258,7 +270,11 @@ unsafe extern "C" fn rt_continuation_call(
 /// `ctx` is the live context of the current program call.
 unsafe fn resource<'a>(ctx: *mut CallContext<'a>, binding: u32) -> BoundResource {
     let bindings = unsafe { &*(*ctx).bindings };
-    bindings.resources.get(binding as usize).copied().unwrap_or(BoundResource::None)
+    bindings
+        .resources
+        .get(binding as usize)
+        .copied()
+        .unwrap_or(BoundResource::None)
 }
 
 /// `textureSampleLevel(t, s, uv, level[, offset])`.
@@ -302,7 +318,12 @@ unsafe extern "C" fn optik_texture_load(
 }
 
 /// `textureDimensions(t[, level])`.
-unsafe extern "C" fn optik_texture_size(ctx: *mut CallContext<'_>, texture: u32, level: u32, out: *mut u32) {
+unsafe extern "C" fn optik_texture_size(
+    ctx: *mut CallContext<'_>,
+    texture: u32,
+    level: u32,
+    out: *mut u32,
+) {
     let size = match unsafe { resource(ctx, texture) } {
         BoundResource::Texture(t) => texture::size(&t, level),
         _ => [0, 0],
@@ -555,8 +576,10 @@ impl HostFn {
     pub fn signature(self, call_conv: CallConv) -> Signature {
         let shape = self.shape();
         let mut sig = Signature::new(call_conv);
-        sig.params.extend(shape.params.iter().map(|&t| AbiParam::new(t)));
-        sig.returns.extend(shape.returns.iter().map(|&t| AbiParam::new(t)));
+        sig.params
+            .extend(shape.params.iter().map(|&t| AbiParam::new(t)));
+        sig.returns
+            .extend(shape.returns.iter().map(|&t| AbiParam::new(t)));
         sig
     }
 }

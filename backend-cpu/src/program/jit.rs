@@ -64,7 +64,12 @@ pub(crate) struct Inner {
 
 impl Drop for Inner {
     fn drop(&mut self) {
-        if let Some(module) = self.code.get_mut().unwrap_or_else(|e| e.into_inner()).take() {
+        if let Some(module) = self
+            .code
+            .get_mut()
+            .unwrap_or_else(|e| e.into_inner())
+            .take()
+        {
             // SAFETY: the last `JitModule` is gone, and every `ProgramFn` borrows one, so
             // no code of this module can run any more.
             unsafe { module.free_memory() };
@@ -82,7 +87,10 @@ impl std::fmt::Debug for JitModule {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let mut names: Vec<&String> = self.inner.programs.keys().collect();
         names.sort();
-        f.debug_struct("JitModule").field("programs", &names).field("stats", &self.inner.stats).finish()
+        f.debug_struct("JitModule")
+            .field("programs", &names)
+            .field("stats", &self.inner.stats)
+            .finish()
     }
 }
 
@@ -95,7 +103,9 @@ pub struct ProgramFn<'m> {
 
 impl std::fmt::Debug for ProgramFn<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("ProgramFn").field("entry", &(self.entry as *const u8)).finish()
+        f.debug_struct("ProgramFn")
+            .field("entry", &(self.entry as *const u8))
+            .finish()
     }
 }
 
@@ -120,8 +130,13 @@ impl ProgramFn<'_> {
             &mut heap
         };
         for (slot, binding) in table.iter_mut().zip(self.slot_bindings) {
-            if let Some(BoundResource::Buffer(b)) = binding.and_then(|b| bindings.resources.get(b as usize)) {
-                *slot = BufferSlot { ptr: b.ptr, len: b.len };
+            if let Some(BoundResource::Buffer(b)) =
+                binding.and_then(|b| bindings.resources.get(b as usize))
+            {
+                *slot = BufferSlot {
+                    ptr: b.ptr,
+                    len: b.len,
+                };
             }
         }
         let mut ctx = CallContext {
@@ -145,20 +160,28 @@ impl JitModule {
     /// Compiles every program of `module` (with every function it reaches), or returns
     /// the live module already compiled from the same source and optimisation level.
     pub fn compile(module: &CompiledModule, options: &JitOptions) -> Result<JitModule> {
-        let key = ModuleKey { source: module.full_source.clone(), opt_level: options.opt_level };
+        let key = ModuleKey {
+            source: module.full_source.clone(),
+            opt_level: options.opt_level,
+        };
         let inner = cache::memory_cached(key, || compile_module(module, options).map(Arc::new))?;
         Ok(JitModule { inner })
     }
 
     /// Compiles without looking in (or adding to) the in-memory cache.
     pub fn compile_uncached(module: &CompiledModule, options: &JitOptions) -> Result<JitModule> {
-        Ok(JitModule { inner: Arc::new(compile_module(module, options)?) })
+        Ok(JitModule {
+            inner: Arc::new(compile_module(module, options)?),
+        })
     }
 
     /// The program named `name` (with its prefix, e.g. `closesthit__radiance`).
     pub fn program(&self, name: &str) -> Option<ProgramFn<'_>> {
         let entry = *self.inner.programs.get(name)?;
-        Some(ProgramFn { entry, slot_bindings: &self.inner.slot_bindings })
+        Some(ProgramFn {
+            entry,
+            slot_bindings: &self.inner.slot_bindings,
+        })
     }
 
     /// What compiling this module did.
@@ -174,16 +197,31 @@ impl JitModule {
 
 fn build_isa(opt_level: OptLevel) -> Result<OwnedTargetIsa> {
     let mut flags = settings::builder();
-    let level = if opt_level == OptLevel::None { "none" } else { "speed" };
+    let level = if opt_level == OptLevel::None {
+        "none"
+    } else {
+        "speed"
+    };
     let set = |flags: &mut settings::Builder, name: &str, value: &str| {
-        flags.set(name, value).map_err(|e| Error::backend(format!("Cranelift setting {name}={value}: {e}")))
+        flags
+            .set(name, value)
+            .map_err(|e| Error::backend(format!("Cranelift setting {name}={value}: {e}")))
     };
     set(&mut flags, "opt_level", level)?;
     set(&mut flags, "use_colocated_libcalls", "false")?;
     set(&mut flags, "is_pic", "false")?;
-    set(&mut flags, "enable_verifier", if cfg!(debug_assertions) { "true" } else { "false" })?;
-    let native = cranelift_native::builder()
-        .map_err(|e| Error::unsupported(format!("the CPU JIT does not support this machine: {e}")))?;
+    set(
+        &mut flags,
+        "enable_verifier",
+        if cfg!(debug_assertions) {
+            "true"
+        } else {
+            "false"
+        },
+    )?;
+    let native = cranelift_native::builder().map_err(|e| {
+        Error::unsupported(format!("the CPU JIT does not support this machine: {e}"))
+    })?;
     native
         .finish(settings::Flags::new(flags))
         .map_err(|e| Error::backend(format!("Cranelift could not target this machine: {e}")))
@@ -198,10 +236,13 @@ fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner
     }
     let mut jit = JITModule::new(builder);
     let call_conv = isa.default_call_conv();
-    let module_err = |e: cranelift_module::ModuleError| Error::backend(format!("the CPU JIT failed: {e}"));
+    let module_err =
+        |e: cranelift_module::ModuleError| Error::backend(format!("the CPU JIT failed: {e}"));
     let mut host_ids: HashMap<HostFn, FuncId> = HashMap::new();
     for &f in HostFn::ALL {
-        let id = jit.declare_function(f.symbol(), Linkage::Import, &f.signature(call_conv)).map_err(module_err)?;
+        let id = jit
+            .declare_function(f.symbol(), Linkage::Import, &f.signature(call_conv))
+            .map_err(module_err)?;
         host_ids.insert(f, id);
     }
     let env = ModuleEnv::new(module, jit.target_config());
@@ -213,21 +254,35 @@ fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner
     for program in &module.programs {
         let mut sig = ir::Signature::new(call_conv);
         sig.params.push(ir::AbiParam::new(ir::types::I64));
-        let id = jit.declare_function(&program.name, Linkage::Local, &sig).map_err(module_err)?;
+        let id = jit
+            .declare_function(&program.name, Linkage::Local, &sig)
+            .map_err(module_err)?;
         ctx.func.signature.call_conv = call_conv;
         {
             let jit = &mut jit;
             let host_ids = &host_ids;
-            let mut import = |f: HostFn, func: &mut ir::Function| jit.declare_func_in_func(host_ids[&f], func);
-            lower::lower_program(&env, program.function, &mut ctx.func, &mut fctx, &mut import)
-                .map_err(|e| lowering_error(module, &program.name, e))?;
+            let mut import =
+                |f: HostFn, func: &mut ir::Function| jit.declare_func_in_func(host_ids[&f], func);
+            lower::lower_program(
+                &env,
+                program.function,
+                &mut ctx.func,
+                &mut fctx,
+                &mut import,
+            )
+            .map_err(|e| lowering_error(module, &program.name, e))?;
         }
         let hit = compile_function(&mut ctx, &*isa, store.as_mut(), &program.name)?;
         let code = ctx.compiled_code().expect("compiled above");
-        let relocs: Vec<ModuleReloc> =
-            code.buffer.relocs().iter().map(|r| ModuleReloc::from_mach_reloc(r, &ctx.func, id)).collect();
+        let relocs: Vec<ModuleReloc> = code
+            .buffer
+            .relocs()
+            .iter()
+            .map(|r| ModuleReloc::from_mach_reloc(r, &ctx.func, id))
+            .collect();
         let alignment = code.buffer.alignment as u64;
-        jit.define_function_bytes(id, alignment, code.code_buffer(), &relocs).map_err(module_err)?;
+        jit.define_function_bytes(id, alignment, code.code_buffer(), &relocs)
+            .map_err(module_err)?;
         jit.clear_context(&mut ctx);
         stats.functions += 1;
         stats.disk_cache_hits += hit as usize;
@@ -244,7 +299,12 @@ fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner
         })
         .collect();
     stats.time = start.elapsed();
-    Ok(Inner { programs, slot_bindings: env.slot_bindings(), stats, code: Mutex::new(Some(jit)) })
+    Ok(Inner {
+        programs,
+        slot_bindings: env.slot_bindings(),
+        stats,
+        code: Mutex::new(Some(jit)),
+    })
 }
 
 /// Compiles `ctx.func`, through the disk cache when there is one; returns whether the
@@ -256,7 +316,8 @@ fn compile_function(
     name: &str,
 ) -> Result<bool> {
     let mut ctrl = ControlPlane::default();
-    let failed = |e: String| Error::backend(format!("Cranelift could not compile program `{name}`: {e}"));
+    let failed =
+        |e: String| Error::backend(format!("Cranelift could not compile program `{name}`: {e}"));
     match store {
         Some(store) => match ctx.compile_with_cache(isa, store, &mut ctrl) {
             Ok((_, hit)) => Ok(hit),
@@ -271,6 +332,9 @@ fn compile_function(
 
 /// A lowering failure as a compile error at the user's line.
 fn lowering_error(module: &CompiledModule, program: &str, e: LowerError) -> Error {
-    let message = format!("{} (while compiling program `{program}` for the CPU backend)", e.message);
+    let message = format!(
+        "{} (while compiling program `{program}` for the CPU backend)",
+        e.message
+    );
     Error::compile(vec![module.diagnostic(e.span, message)])
 }

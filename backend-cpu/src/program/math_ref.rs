@@ -40,12 +40,16 @@ fn unorm(x: f32, scale: f32) -> u32 {
 
 /// `pack4x8snorm`.
 pub fn pack4x8snorm(v: [f32; 4]) -> u32 {
-    v.iter().enumerate().fold(0, |acc, (i, &x)| acc | ((snorm(x, 127.0) as u32 & 0xff) << (8 * i)))
+    v.iter().enumerate().fold(0, |acc, (i, &x)| {
+        acc | ((snorm(x, 127.0) as u32 & 0xff) << (8 * i))
+    })
 }
 
 /// `pack4x8unorm` (the compiled version is inline; this is the reference).
 pub fn pack4x8unorm(v: [f32; 4]) -> u32 {
-    v.iter().enumerate().fold(0, |acc, (i, &x)| acc | ((unorm(x, 255.0) & 0xff) << (8 * i)))
+    v.iter().enumerate().fold(0, |acc, (i, &x)| {
+        acc | ((unorm(x, 255.0) & 0xff) << (8 * i))
+    })
 }
 
 /// `pack2x16snorm`.
@@ -65,12 +69,16 @@ pub fn pack2x16float(v: [f32; 2]) -> u32 {
 
 /// `pack4xI8`: the low 8 bits of each component.
 pub fn pack4xi8(v: [i32; 4]) -> u32 {
-    v.iter().enumerate().fold(0, |acc, (i, &x)| acc | ((x as u32 & 0xff) << (8 * i)))
+    v.iter()
+        .enumerate()
+        .fold(0, |acc, (i, &x)| acc | ((x as u32 & 0xff) << (8 * i)))
 }
 
 /// `pack4xU8`.
 pub fn pack4xu8(v: [u32; 4]) -> u32 {
-    v.iter().enumerate().fold(0, |acc, (i, &x)| acc | ((x & 0xff) << (8 * i)))
+    v.iter()
+        .enumerate()
+        .fold(0, |acc, (i, &x)| acc | ((x & 0xff) << (8 * i)))
 }
 
 /// `pack4xI8Clamp`: each component clamped to [-128, 127] first.

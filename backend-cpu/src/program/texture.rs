@@ -60,7 +60,11 @@ pub unsafe fn sample_level(
     match s.filter {
         FilterMode::Nearest => {
             let [x, y] = std::array::from_fn(|a| {
-                address((uv[a] * size[a] as f32).floor() as i64 + offset[a] as i64, size[a], mode)
+                address(
+                    (uv[a] * size[a] as f32).floor() as i64 + offset[a] as i64,
+                    size[a],
+                    mode,
+                )
             });
             unsafe { texel(t, x, y) }
         }
@@ -71,8 +75,14 @@ pub unsafe fn sample_level(
             let i0: [i64; 2] = std::array::from_fn(|a| base[a] as i64 + offset[a] as i64);
             let [x0, y0] = std::array::from_fn(|a| address(i0[a], size[a], mode));
             let [x1, y1] = std::array::from_fn(|a| address(i0[a] + 1, size[a], mode));
-            let (t00, t10, t01, t11) =
-                unsafe { (texel(t, x0, y0), texel(t, x1, y0), texel(t, x0, y1), texel(t, x1, y1)) };
+            let (t00, t10, t01, t11) = unsafe {
+                (
+                    texel(t, x0, y0),
+                    texel(t, x1, y0),
+                    texel(t, x0, y1),
+                    texel(t, x1, y1),
+                )
+            };
             lerp(lerp(t00, t10, frac[0]), lerp(t01, t11, frac[0]), frac[1])
         }
     }

@@ -8,7 +8,7 @@
 //! then jump to the program's exit, whichever inlined helper they are in.
 
 use super::place::Place;
-use super::{LResult, Lowered, LowerError, Lowerer};
+use super::{LResult, LowerError, Lowered, Lowerer};
 use crate::program::host::HostFn;
 use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::types::{F32, I32};
@@ -77,13 +77,19 @@ impl Lowerer<'_, '_> {
                 let attributes = self.values(args[2])?;
                 let at = self.scratch_addr();
                 for (i, &a) in attributes.iter().enumerate() {
-                    self.b.ins().store(MemFlagsData::trusted(), a, at, 4 * i as i32);
+                    self.b
+                        .ins()
+                        .store(MemFlagsData::trusted(), a, at, 4 * i as i32);
                 }
                 let r = self.call_host(HostFn::report_intersection, &[ctx, t, kind, at])[0];
                 Some(vec![self.b.ins().icmp_imm_u(IntCC::NotEqual, r, 0)])
             }
             D::IgnoreIntersection | D::TerminateRay => {
-                let f = if df == D::TerminateRay { HostFn::terminate_ray } else { HostFn::ignore_intersection };
+                let f = if df == D::TerminateRay {
+                    HostFn::terminate_ray
+                } else {
+                    HostFn::ignore_intersection
+                };
                 self.call_host(f, &[ctx]);
                 None
             }
@@ -105,18 +111,29 @@ impl Lowerer<'_, '_> {
             }
             D::DirectCall | D::ContinuationCall => {
                 let index = self.scalar(args[0])?;
-                let f = if df == D::DirectCall { HostFn::direct_call } else { HostFn::continuation_call };
+                let f = if df == D::DirectCall {
+                    HostFn::direct_call
+                } else {
+                    HostFn::continuation_call
+                };
                 self.with_payload(args[1], |s, ptr, len| {
                     s.call_host(f, &[ctx, index, ptr, len]);
                 })?;
                 None
             }
-            D::OffsetRay => return Err(LowerError::unspanned("internal: rt_offset_ray is compiled as WGSL")),
+            D::OffsetRay => {
+                return Err(LowerError::unspanned(
+                    "internal: rt_offset_ray is compiled as WGSL",
+                ));
+            }
         };
         if let (Some(r), Some(v)) = (result, value) {
             self.frame_mut().cache[r.index()] = Some(Lowered::Value(v));
         }
-        if matches!(df, D::IgnoreIntersection | D::TerminateRay | D::ThrowException) {
+        if matches!(
+            df,
+            D::IgnoreIntersection | D::TerminateRay | D::ThrowException
+        ) {
             // The program ends here, from however deep an inlined helper.
             let exit = self.exit;
             self.b.ins().jump(exit, &[]);
@@ -130,14 +147,23 @@ impl Lowerer<'_, '_> {
         let out = self.scratch_addr();
         let ctx = self.ctx;
         self.call_host(f, &[ctx, out]);
-        (0..n).map(|i| self.b.ins().load(ty, MemFlagsData::trusted(), out, 4 * i as i32)).collect()
+        (0..n)
+            .map(|i| {
+                self.b
+                    .ins()
+                    .load(ty, MemFlagsData::trusted(), out, 4 * i as i32)
+            })
+            .collect()
     }
 
     /// A row-major 3×4 matrix from the host as WGSL's `mat4x3<f32>`: column `j` is
     /// `(m[j], m[4 + j], m[8 + j])`.
     fn matrix_4x3(&mut self, f: HostFn) -> Vec<Value> {
         let row_major = self.host_out(f, F32, 12);
-        (0..4).flat_map(|j| (0..3).map(move |r| r * 4 + j)).map(|i| row_major[i]).collect()
+        (0..4)
+            .flat_map(|j| (0..3).map(move |r| r * 4 + j))
+            .map(|i| row_major[i])
+            .collect()
     }
 
     /// Runs `call` with the address and length (i32) of the `RtPayload` that `pointer`
@@ -149,8 +175,14 @@ impl Lowerer<'_, '_> {
         call: impl FnOnce(&mut Self, Value, Value),
     ) -> LResult<()> {
         let pointee = self.pointee(pointer)?;
-        let TypeInner::Array { size: naga::ArraySize::Constant(n), .. } = pointee else {
-            return Err(LowerError::unspanned("the payload argument must point to an RtPayload array"));
+        let TypeInner::Array {
+            size: naga::ArraySize::Constant(n),
+            ..
+        } = pointee
+        else {
+            return Err(LowerError::unspanned(
+                "the payload argument must point to an RtPayload array",
+            ));
         };
         let len = self.b.ins().iconst(I32, n.get() as i64);
         match self.place(pointer)? {
@@ -162,11 +194,17 @@ impl Lowerer<'_, '_> {
                 let values = self.load(&place, &pointee)?;
                 let at = self.scratch_addr();
                 for (i, &v) in values.iter().enumerate() {
-                    self.b.ins().store(MemFlagsData::trusted(), v, at, 4 * i as i32);
+                    self.b
+                        .ins()
+                        .store(MemFlagsData::trusted(), v, at, 4 * i as i32);
                 }
                 call(self, at, len);
                 let back: Vec<Value> = (0..values.len())
-                    .map(|i| self.b.ins().load(I32, MemFlagsData::trusted(), at, 4 * i as i32))
+                    .map(|i| {
+                        self.b
+                            .ins()
+                            .load(I32, MemFlagsData::trusted(), at, 4 * i as i32)
+                    })
                     .collect();
                 self.store(&place, &pointee, &back)?;
             }
@@ -230,12 +268,25 @@ impl Lowerer<'_, '_> {
                 let tex = self.b.ins().iconst(I32, tex as i64);
                 let smp = self.b.ins().iconst(I32, smp as i64);
                 let out = self.scratch_addr();
-                self.call_host(HostFn::texture_sample, &[ctx, tex, smp, uv[0], uv[1], level, off[0], off[1], out]);
-                Ok((0..4).map(|i| self.b.ins().load(F32, MemFlagsData::trusted(), out, 4 * i)).collect())
+                self.call_host(
+                    HostFn::texture_sample,
+                    &[ctx, tex, smp, uv[0], uv[1], level, off[0], off[1], out],
+                );
+                Ok((0..4)
+                    .map(|i| self.b.ins().load(F32, MemFlagsData::trusted(), out, 4 * i))
+                    .collect())
             }
-            Expression::ImageLoad { image, coordinate, array_index, sample, level } => {
+            Expression::ImageLoad {
+                image,
+                coordinate,
+                array_index,
+                sample,
+                level,
+            } => {
                 if array_index.is_some() || sample.is_some() {
-                    return Err(LowerError::unspanned("only texture_2d<f32> loads are supported"));
+                    return Err(LowerError::unspanned(
+                        "only texture_2d<f32> loads are supported",
+                    ));
                 }
                 let tex = self.resource(image)?;
                 let xy = self.values(coordinate)?;
@@ -246,7 +297,9 @@ impl Lowerer<'_, '_> {
                 let tex = self.b.ins().iconst(I32, tex as i64);
                 let out = self.scratch_addr();
                 self.call_host(HostFn::texture_load, &[ctx, tex, xy[0], xy[1], level, out]);
-                Ok((0..4).map(|i| self.b.ins().load(F32, MemFlagsData::trusted(), out, 4 * i)).collect())
+                Ok((0..4)
+                    .map(|i| self.b.ins().load(F32, MemFlagsData::trusted(), out, 4 * i))
+                    .collect())
             }
             Expression::ImageQuery { image, query } => match query {
                 naga::ImageQuery::Size { level } => {
@@ -258,11 +311,15 @@ impl Lowerer<'_, '_> {
                     let tex = self.b.ins().iconst(I32, tex as i64);
                     let out = self.scratch_addr();
                     self.call_host(HostFn::texture_size, &[ctx, tex, level, out]);
-                    Ok((0..2).map(|i| self.b.ins().load(I32, MemFlagsData::trusted(), out, 4 * i)).collect())
+                    Ok((0..2)
+                        .map(|i| self.b.ins().load(I32, MemFlagsData::trusted(), out, 4 * i))
+                        .collect())
                 }
                 // Textures have one mip level.
                 naga::ImageQuery::NumLevels => Ok(vec![self.b.ins().iconst(I32, 1)]),
-                other => Err(LowerError::unspanned(format!("the texture query {other:?} is not supported"))),
+                other => Err(LowerError::unspanned(format!(
+                    "the texture query {other:?} is not supported"
+                ))),
             },
             _ => Err(LowerError::unspanned("internal: not a texture expression")),
         }

@@ -7,7 +7,7 @@
 
 use super::place::{Index, MemPlace, Place};
 use super::types::Leaf;
-use super::{LResult, Lowered, LowerError, Lowerer};
+use super::{LResult, LowerError, Lowered, Lowerer};
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
 use cranelift_codegen::ir::types::{F32, I8, I32, I64};
 use cranelift_codegen::ir::{InstBuilder, MemFlagsData, StackSlotData, StackSlotKind, Value};
@@ -19,7 +19,9 @@ pub(super) fn leaf_of(inner: &TypeInner) -> LResult<Leaf> {
         TypeInner::Scalar(s) | TypeInner::Atomic(s) => Leaf::of(s),
         TypeInner::Vector { scalar, .. } | TypeInner::Matrix { scalar, .. } => Leaf::of(scalar),
         TypeInner::ValuePointer { scalar, .. } => Leaf::of(scalar),
-        _ => Err(LowerError::unspanned(format!("expected a scalar, vector or matrix, found {inner:?}"))),
+        _ => Err(LowerError::unspanned(format!(
+            "expected a scalar, vector or matrix, found {inner:?}"
+        ))),
     }
 }
 
@@ -45,7 +47,9 @@ impl<'m> Lowerer<'m, '_> {
     pub(super) fn values(&mut self, h: Handle<Expression>) -> LResult<Vec<Value>> {
         match self.expr(h)? {
             Lowered::Value(v) => Ok(v),
-            _ => Err(LowerError::unspanned("expected a value, found a pointer or resource")),
+            _ => Err(LowerError::unspanned(
+                "expected a value, found a pointer or resource",
+            )),
         }
     }
 
@@ -60,23 +64,37 @@ impl<'m> Lowerer<'m, '_> {
     /// The one leaf of a scalar expression.
     pub(super) fn scalar(&mut self, h: Handle<Expression>) -> LResult<Value> {
         let v = self.values(h)?;
-        v.first().copied().ok_or_else(|| LowerError::unspanned("expected a scalar"))
+        v.first()
+            .copied()
+            .ok_or_else(|| LowerError::unspanned("expected a scalar"))
     }
 
     /// The type a pointer expression points to.
     pub(super) fn pointee(&self, pointer: Handle<Expression>) -> LResult<TypeInner> {
         match self.type_of(pointer) {
             TypeInner::Pointer { base, .. } => Ok(self.env.module.types[*base].inner.clone()),
-            TypeInner::ValuePointer { size: Some(size), scalar, .. } => {
-                Ok(TypeInner::Vector { size: *size, scalar: *scalar })
-            }
-            TypeInner::ValuePointer { size: None, scalar, .. } => Ok(TypeInner::Scalar(*scalar)),
-            other => Err(LowerError::unspanned(format!("expected a pointer type, found {other:?}"))),
+            TypeInner::ValuePointer {
+                size: Some(size),
+                scalar,
+                ..
+            } => Ok(TypeInner::Vector {
+                size: *size,
+                scalar: *scalar,
+            }),
+            TypeInner::ValuePointer {
+                size: None, scalar, ..
+            } => Ok(TypeInner::Scalar(*scalar)),
+            other => Err(LowerError::unspanned(format!(
+                "expected a pointer type, found {other:?}"
+            ))),
         }
     }
 
     fn is_pointer(&self, h: Handle<Expression>) -> bool {
-        matches!(self.type_of(h), TypeInner::Pointer { .. } | TypeInner::ValuePointer { .. })
+        matches!(
+            self.type_of(h),
+            TypeInner::Pointer { .. } | TypeInner::ValuePointer { .. }
+        )
     }
 
     fn lower_expr(&mut self, h: Handle<Expression>) -> LResult<Lowered> {
@@ -104,9 +122,18 @@ impl<'m> Lowerer<'m, '_> {
                 let x = self.scalar(v)?;
                 value(vec![x; size as usize])
             }
-            Expression::Swizzle { size, vector, pattern } => {
+            Expression::Swizzle {
+                size,
+                vector,
+                pattern,
+            } => {
                 let v = self.values(vector)?;
-                value(pattern[..size as usize].iter().map(|&c| v[c as usize]).collect())
+                value(
+                    pattern[..size as usize]
+                        .iter()
+                        .map(|&c| v[c as usize])
+                        .collect(),
+                )
             }
             Expression::FunctionArgument(i) => Ok(self.frame().args[i as usize].clone()),
             Expression::GlobalVariable(g) => self.global_variable(g),
@@ -127,7 +154,11 @@ impl<'m> Lowerer<'m, '_> {
                 value(v.into_iter().map(|x| self.unary(op, leaf, x)).collect())
             }
             Expression::Binary { op, left, right } => value(self.binary(op, left, right)?),
-            Expression::Select { condition, accept, reject } => {
+            Expression::Select {
+                condition,
+                accept,
+                reject,
+            } => {
                 let c = self.values(condition)?;
                 let a = self.values(accept)?;
                 let r = self.values(reject)?;
@@ -146,10 +177,18 @@ impl<'m> Lowerer<'m, '_> {
                 let v = self.values(argument)?;
                 value(vec![self.relational(fun, &v)])
             }
-            Expression::Math { fun, arg, arg1, arg2, arg3 } => {
-                value(self.math(fun, arg, arg1, arg2, arg3)?)
-            }
-            Expression::As { expr, kind, convert } => {
+            Expression::Math {
+                fun,
+                arg,
+                arg1,
+                arg2,
+                arg3,
+            } => value(self.math(fun, arg, arg1, arg2, arg3)?),
+            Expression::As {
+                expr,
+                kind,
+                convert,
+            } => {
                 let from = leaf_of(self.type_of(expr))?;
                 let v = self.values(expr)?;
                 let to = match (kind, convert) {
@@ -163,15 +202,21 @@ impl<'m> Lowerer<'m, '_> {
                         )));
                     }
                 };
-                value(v.into_iter().map(|x| self.convert(x, from, to, convert.is_some())).collect())
+                value(
+                    v.into_iter()
+                        .map(|x| self.convert(x, from, to, convert.is_some()))
+                        .collect(),
+                )
             }
-            Expression::CallResult(_) | Expression::AtomicResult { .. } => Err(LowerError::unspanned(
-                "internal: a call or atomic result used before its statement",
-            )),
+            Expression::CallResult(_) | Expression::AtomicResult { .. } => {
+                Err(LowerError::unspanned(
+                    "internal: a call or atomic result used before its statement",
+                ))
+            }
             Expression::ArrayLength(pointer) => value(vec![self.array_length(pointer)?]),
-            Expression::ImageSample { .. } | Expression::ImageLoad { .. } | Expression::ImageQuery { .. } => {
-                value(self.image(&function.expressions[h])?)
-            }
+            Expression::ImageSample { .. }
+            | Expression::ImageLoad { .. }
+            | Expression::ImageQuery { .. } => value(self.image(&function.expressions[h])?),
             ref other => Err(LowerError::unspanned(format!(
                 "the CPU JIT cannot lower the expression `{}`",
                 expression_name(other)
@@ -236,14 +281,26 @@ impl<'m> Lowerer<'m, '_> {
                     })
                     .collect()
             }
-            Expression::Select { condition, accept, reject } => {
+            Expression::Select {
+                condition,
+                accept,
+                reject,
+            } => {
                 let c = self.global_expr(condition)?;
                 let (a, r) = (self.global_expr(accept)?, self.global_expr(reject)?);
                 (0..a.len())
-                    .map(|i| self.b.ins().select(if c.len() == 1 { c[0] } else { c[i] }, a[i], r[i]))
+                    .map(|i| {
+                        self.b
+                            .ins()
+                            .select(if c.len() == 1 { c[0] } else { c[i] }, a[i], r[i])
+                    })
                     .collect()
             }
-            Expression::As { expr, kind, convert } => {
+            Expression::As {
+                expr,
+                kind,
+                convert,
+            } => {
                 let from = leaf_of(self.env.info[expr].inner_with(&module.types))?;
                 let to = match kind {
                     ScalarKind::Bool => Leaf::Bool,
@@ -252,7 +309,9 @@ impl<'m> Lowerer<'m, '_> {
                     _ => Leaf::U32,
                 };
                 let v = self.global_expr(expr)?;
-                v.into_iter().map(|x| self.convert(x, from, to, convert.is_some())).collect()
+                v.into_iter()
+                    .map(|x| self.convert(x, from, to, convert.is_some()))
+                    .collect()
             }
             ref other => {
                 let span = module.global_expressions.get_span(h);
@@ -288,7 +347,9 @@ impl<'m> Lowerer<'m, '_> {
         match var.space {
             naga::AddressSpace::Handle => match &var.binding {
                 Some(b) => Ok(Lowered::Resource(b.binding)),
-                None => Err(LowerError::unspanned("a texture or sampler without a binding")),
+                None => Err(LowerError::unspanned(
+                    "a texture or sampler without a binding",
+                )),
             },
             naga::AddressSpace::Uniform | naga::AddressSpace::Storage { .. } => {
                 let (base, len) = self.buffers[&g];
@@ -299,9 +360,16 @@ impl<'m> Lowerer<'m, '_> {
                     checked: Some(super::place::Checked { len, guard: None }),
                 })))
             }
-            naga::AddressSpace::Private => self.privates.get(&g).cloned().map(Lowered::Place).ok_or_else(|| {
-                LowerError::unspanned("internal: a private global the program was not found to use")
-            }),
+            naga::AddressSpace::Private => self
+                .privates
+                .get(&g)
+                .cloned()
+                .map(Lowered::Place)
+                .ok_or_else(|| {
+                    LowerError::unspanned(
+                        "internal: a private global the program was not found to use",
+                    )
+                }),
             space => Err(LowerError::unspanned(format!(
                 "global `{}` in address space {space:?} is not supported by the CPU JIT",
                 var.name.as_deref().unwrap_or("?")
@@ -310,7 +378,12 @@ impl<'m> Lowerer<'m, '_> {
     }
 
     /// `base[index]` on a pointer (a place) or a value.
-    fn access(&mut self, h: Handle<Expression>, base: Handle<Expression>, index: Index) -> LResult<Lowered> {
+    fn access(
+        &mut self,
+        h: Handle<Expression>,
+        base: Handle<Expression>,
+        index: Index,
+    ) -> LResult<Lowered> {
         let _ = h;
         if self.is_pointer(base) {
             let place = self.place(base)?;
@@ -320,15 +393,22 @@ impl<'m> Lowerer<'m, '_> {
         let ty = self.type_of(base).clone();
         let leaves = self.values(base)?;
         let types = self.env.types;
-        let step = types.step(&ty, match index {
-            Index::Const(k) => Some(k),
-            Index::Dynamic(_) => None,
-        })?;
+        let step = types.step(
+            &ty,
+            match index {
+                Index::Const(k) => Some(k),
+                Index::Dynamic(_) => None,
+            },
+        )?;
         let width = types.leaf_count(&step.child)? as usize;
         let i = match (step.member, index) {
-            (Some((leaf, _)), _) => return Ok(Lowered::Value(leaves[leaf as usize..][..width].to_vec())),
+            (Some((leaf, _)), _) => {
+                return Ok(Lowered::Value(leaves[leaf as usize..][..width].to_vec()));
+            }
             (None, Index::Const(k)) => {
-                return Ok(Lowered::Value(leaves[k as usize * width..][..width].to_vec()));
+                return Ok(Lowered::Value(
+                    leaves[k as usize * width..][..width].to_vec(),
+                ));
             }
             (None, Index::Dynamic(i)) => i,
         };
@@ -337,8 +417,9 @@ impl<'m> Lowerer<'m, '_> {
             // A select chain over the elements, index clamped (naga's `Restrict`).
             let last = self.b.ins().iconst(I32, count as i64 - 1);
             let i = self.b.ins().umin(i, last);
-            let hits: Vec<Value> =
-                (1..count).map(|j| self.b.ins().icmp_imm_u(IntCC::Equal, i, j as i64)).collect();
+            let hits: Vec<Value> = (1..count)
+                .map(|j| self.b.ins().icmp_imm_u(IntCC::Equal, i, j as i64))
+                .collect();
             let out = (0..width)
                 .map(|k| {
                     let mut acc = leaves[k];
@@ -352,9 +433,18 @@ impl<'m> Lowerer<'m, '_> {
         }
         // A large array value: spill it to the stack and index the copy.
         let size = types.size(&ty);
-        let slot = self.b.create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, size, 4));
+        let slot = self.b.create_sized_stack_slot(StackSlotData::new(
+            StackSlotKind::ExplicitSlot,
+            size,
+            4,
+        ));
         let addr = self.b.ins().stack_addr(I64, slot, 0);
-        let spilled = Place::Memory(MemPlace { base: addr, offset: 0, dynamic: None, checked: None });
+        let spilled = Place::Memory(MemPlace {
+            base: addr,
+            offset: 0,
+            dynamic: None,
+            checked: None,
+        });
         self.store(&spilled, &ty, &leaves)?;
         let element = self.step_place(&spilled, &ty, Index::Dynamic(i))?;
         Ok(Lowered::Value(self.load(&element, &step.child)?))
@@ -370,7 +460,12 @@ impl<'m> Lowerer<'m, '_> {
         }
     }
 
-    fn binary(&mut self, op: B, left: Handle<Expression>, right: Handle<Expression>) -> LResult<Vec<Value>> {
+    fn binary(
+        &mut self,
+        op: B,
+        left: Handle<Expression>,
+        right: Handle<Expression>,
+    ) -> LResult<Vec<Value>> {
         let lt = self.type_of(left).clone();
         let rt = self.type_of(right).clone();
         let a = self.values(left)?;
@@ -383,8 +478,19 @@ impl<'m> Lowerer<'m, '_> {
                 (TypeInner::Vector { .. }, TypeInner::Matrix { columns, rows, .. }) => {
                     return Ok(self.vec_mat(&a, &c, *columns as usize, *rows as usize));
                 }
-                (TypeInner::Matrix { columns: k, rows, .. }, TypeInner::Matrix { columns, .. }) => {
-                    return Ok(self.mat_mat(&a, *k as usize, *rows as usize, &c, *columns as usize));
+                (
+                    TypeInner::Matrix {
+                        columns: k, rows, ..
+                    },
+                    TypeInner::Matrix { columns, .. },
+                ) => {
+                    return Ok(self.mat_mat(
+                        &a,
+                        *k as usize,
+                        *rows as usize,
+                        &c,
+                        *columns as usize,
+                    ));
                 }
                 _ => {}
             }
@@ -413,7 +519,11 @@ impl<'m> Lowerer<'m, '_> {
             (B::Divide, Leaf::F32) => ins.fdiv(x, y),
             (B::Divide, _) => {
                 let d = self.safe_divisor(leaf, x, y);
-                if leaf.is_signed() { self.b.ins().sdiv(x, d) } else { self.b.ins().udiv(x, d) }
+                if leaf.is_signed() {
+                    self.b.ins().sdiv(x, d)
+                } else {
+                    self.b.ins().udiv(x, d)
+                }
             }
             (B::Modulo, Leaf::F32) => {
                 // WGSL's float `%` truncates: x - y * trunc(x / y).
@@ -424,7 +534,11 @@ impl<'m> Lowerer<'m, '_> {
             }
             (B::Modulo, _) => {
                 let d = self.safe_divisor(leaf, x, y);
-                if leaf.is_signed() { self.b.ins().srem(x, d) } else { self.b.ins().urem(x, d) }
+                if leaf.is_signed() {
+                    self.b.ins().srem(x, d)
+                } else {
+                    self.b.ins().urem(x, d)
+                }
             }
             (B::Equal, Leaf::F32) => ins.fcmp(FloatCC::Equal, x, y),
             (B::NotEqual, Leaf::F32) => ins.fcmp(FloatCC::NotEqual, x, y),
@@ -458,7 +572,10 @@ impl<'m> Lowerer<'m, '_> {
         let one = self.b.ins().iconst(I32, 1);
         let zero = self.b.ins().icmp_imm_u(IntCC::Equal, y, 0);
         let bad = if leaf.is_signed() {
-            let min = self.b.ins().icmp_imm_u(IntCC::Equal, x, i32::MIN as u32 as i64);
+            let min = self
+                .b
+                .ins()
+                .icmp_imm_u(IntCC::Equal, x, i32::MIN as u32 as i64);
             let minus_one = self.b.ins().icmp_imm_u(IntCC::Equal, y, u32::MAX as i64);
             let overflow = self.b.ins().band(min, minus_one);
             self.b.ins().bor(zero, overflow)
@@ -484,12 +601,23 @@ impl<'m> Lowerer<'m, '_> {
 
     /// `v * m`: `r[c] = dot(v, m[c])`.
     fn vec_mat(&mut self, v: &[Value], m: &[Value], columns: usize, rows: usize) -> Vec<Value> {
-        (0..columns).map(|c| self.dot(v, &m[c * rows..][..rows], Leaf::F32)).collect()
+        (0..columns)
+            .map(|c| self.dot(v, &m[c * rows..][..rows], Leaf::F32))
+            .collect()
     }
 
     /// `a * b` for `a` with `k` columns of `rows` and `b` with `columns` columns of `k`.
-    fn mat_mat(&mut self, a: &[Value], k: usize, rows: usize, b: &[Value], columns: usize) -> Vec<Value> {
-        (0..columns).flat_map(|c| self.mat_vec(a, k, rows, &b[c * k..][..k])).collect()
+    fn mat_mat(
+        &mut self,
+        a: &[Value],
+        k: usize,
+        rows: usize,
+        b: &[Value],
+        columns: usize,
+    ) -> Vec<Value> {
+        (0..columns)
+            .flat_map(|c| self.mat_vec(a, k, rows, &b[c * k..][..k]))
+            .collect()
     }
 
     /// `dot(a, b)` summed left to right.
@@ -505,7 +633,9 @@ impl<'m> Lowerer<'m, '_> {
     fn relational(&mut self, fun: naga::RelationalFunction, v: &[Value]) -> Value {
         use naga::RelationalFunction as R;
         match fun {
-            R::All => v[1..].iter().fold(v[0], |acc, &x| self.b.ins().band(acc, x)),
+            R::All => v[1..]
+                .iter()
+                .fold(v[0], |acc, &x| self.b.ins().band(acc, x)),
             R::Any => v[1..].iter().fold(v[0], |acc, &x| self.b.ins().bor(acc, x)),
             R::IsNan => self.b.ins().fcmp(FloatCC::Unordered, v[0], v[0]),
             R::IsInf => {
@@ -547,13 +677,21 @@ impl<'m> Lowerer<'m, '_> {
     /// `arrayLength(p)`: whole elements of the runtime-sized array in the bound bytes.
     fn array_length(&mut self, pointer: Handle<Expression>) -> LResult<Value> {
         let Place::Memory(m) = self.place(pointer)? else {
-            return Err(LowerError::unspanned("arrayLength of a value held in registers"));
+            return Err(LowerError::unspanned(
+                "arrayLength of a value held in registers",
+            ));
         };
-        let (TypeInner::Array { stride, .. }, Some(checked)) = (self.pointee(pointer)?, m.checked) else {
-            return Err(LowerError::unspanned("arrayLength of something other than a buffer's runtime-sized array"));
+        let (TypeInner::Array { stride, .. }, Some(checked)) = (self.pointee(pointer)?, m.checked)
+        else {
+            return Err(LowerError::unspanned(
+                "arrayLength of something other than a buffer's runtime-sized array",
+            ));
         };
         let offset = self.b.ins().iconst(I64, m.offset);
-        let after = self.b.ins().icmp(IntCC::UnsignedGreaterThan, checked.len, offset);
+        let after = self
+            .b
+            .ins()
+            .icmp(IntCC::UnsignedGreaterThan, checked.len, offset);
         let rest = self.b.ins().isub(checked.len, offset);
         let none = self.b.ins().iconst(I64, 0);
         let past = self.b.ins().select(after, rest, none);
@@ -568,5 +706,9 @@ impl<'m> Lowerer<'m, '_> {
 /// The name of an expression kind for error messages.
 pub(super) fn expression_name(e: &Expression) -> String {
     let debug = format!("{e:?}");
-    debug.split([' ', '(', '{']).next().unwrap_or("?").to_string()
+    debug
+        .split([' ', '(', '{'])
+        .next()
+        .unwrap_or("?")
+        .to_string()
 }

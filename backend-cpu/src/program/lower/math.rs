@@ -89,9 +89,15 @@ impl Lowerer<'_, '_> {
             M::Log => self.host_map(HostFn::ln, &a),
             M::Log2 => self.host_map(HostFn::log2, &a),
             M::QuantizeToF16 => self.host_map(HostFn::quantize_f16, &a),
-            M::Atan2 => (0..n).map(|i| self.call_host(HostFn::atan2, &[a[i], b[i]])[0]).collect(),
-            M::Pow => (0..n).map(|i| self.call_host(HostFn::pow, &[a[i], b[i]])[0]).collect(),
-            M::Ldexp => (0..n).map(|i| self.call_host(HostFn::ldexp, &[a[i], at(&b, i)])[0]).collect(),
+            M::Atan2 => (0..n)
+                .map(|i| self.call_host(HostFn::atan2, &[a[i], b[i]])[0])
+                .collect(),
+            M::Pow => (0..n)
+                .map(|i| self.call_host(HostFn::pow, &[a[i], b[i]])[0])
+                .collect(),
+            M::Ldexp => (0..n)
+                .map(|i| self.call_host(HostFn::ldexp, &[a[i], at(&b, i)])[0])
+                .collect(),
             M::Radians => {
                 let k = f32c(self, 0.017_453_292_f32);
                 a.iter().map(|&x| self.b.ins().fmul(x, k)).collect()
@@ -114,7 +120,8 @@ impl Lowerer<'_, '_> {
                 .collect(),
             M::Modf => {
                 let whole: Vec<Value> = a.iter().map(|&x| self.b.ins().trunc(x)).collect();
-                let mut out: Vec<Value> = (0..n).map(|i| self.b.ins().fsub(a[i], whole[i])).collect();
+                let mut out: Vec<Value> =
+                    (0..n).map(|i| self.b.ins().fsub(a[i], whole[i])).collect();
                 out.extend(whole);
                 out
             }
@@ -224,14 +231,18 @@ impl Lowerer<'_, '_> {
                     return Err(LowerError::unspanned("transpose of a non-matrix"));
                 };
                 let (cols, rows) = (columns as usize, rows as usize);
-                (0..rows).flat_map(|r| (0..cols).map(move |c| c * rows + r)).map(|i| a[i]).collect()
+                (0..rows)
+                    .flat_map(|r| (0..cols).map(move |c| c * rows + r))
+                    .map(|i| a[i])
+                    .collect()
             }
             M::Determinant => {
                 let TypeInner::Matrix { columns, .. } = ty else {
                     return Err(LowerError::unspanned("determinant of a non-matrix"));
                 };
                 let size = columns as usize;
-                let m: Vec<Vec<Value>> = (0..size).map(|c| a[c * size..][..size].to_vec()).collect();
+                let m: Vec<Vec<Value>> =
+                    (0..size).map(|c| a[c * size..][..size].to_vec()).collect();
                 vec![self.determinant(&m)]
             }
             M::CountTrailingZeros => a.iter().map(|&x| self.b.ins().ctz(x)).collect(),
@@ -248,10 +259,16 @@ impl Lowerer<'_, '_> {
                 })
                 .collect(),
             M::FirstLeadingBit => a.iter().map(|&x| self.first_leading_bit(leaf, x)).collect(),
-            M::ExtractBits => (0..n).map(|i| self.extract_bits(leaf, a[i], b[0], c[0])).collect(),
+            M::ExtractBits => (0..n)
+                .map(|i| self.extract_bits(leaf, a[i], b[0], c[0]))
+                .collect(),
             M::InsertBits => {
-                let d = self.values(arg3.ok_or_else(|| LowerError::unspanned("insertBits needs 4 arguments"))?)?;
-                (0..n).map(|i| self.insert_bits(a[i], b[i], c[0], d[0])).collect()
+                let d = self.values(
+                    arg3.ok_or_else(|| LowerError::unspanned("insertBits needs 4 arguments"))?,
+                )?;
+                (0..n)
+                    .map(|i| self.insert_bits(a[i], b[i], c[0], d[0]))
+                    .collect()
             }
             M::Pack4x8unorm => vec![self.pack4x8unorm(&a)],
             M::Pack4x8snorm => self.call_host(HostFn::pack4x8snorm, &a),
@@ -272,7 +289,9 @@ impl Lowerer<'_, '_> {
             M::Dot4I8Packed => self.call_host(HostFn::dot4i8packed, &[a[0], b[0]]),
             M::Dot4U8Packed => self.call_host(HostFn::dot4u8packed, &[a[0], b[0]]),
             M::Outer | M::Inverse => {
-                return Err(LowerError::unspanned(format!("the CPU JIT does not implement {fun:?}")));
+                return Err(LowerError::unspanned(format!(
+                    "the CPU JIT does not implement {fun:?}"
+                )));
             }
         })
     }
@@ -371,8 +390,10 @@ impl Lowerer<'_, '_> {
         }
         let mut acc: Option<Value> = None;
         for c in 0..n {
-            let minor: Vec<Vec<Value>> =
-                (0..n).filter(|&k| k != c).map(|k| m[k][1..].to_vec()).collect();
+            let minor: Vec<Vec<Value>> = (0..n)
+                .filter(|&k| k != c)
+                .map(|k| m[k][1..].to_vec())
+                .collect();
             let d = self.determinant(&minor);
             let term = self.b.ins().fmul(m[c][0], d);
             acc = Some(match acc {
@@ -468,9 +489,21 @@ impl Lowerer<'_, '_> {
     }
 
     /// Calls an unpacking host function that writes `n` leaves of `ty` to scratch.
-    fn unpack(&mut self, f: HostFn, x: Value, ty: cranelift_codegen::ir::Type, n: usize) -> Vec<Value> {
+    fn unpack(
+        &mut self,
+        f: HostFn,
+        x: Value,
+        ty: cranelift_codegen::ir::Type,
+        n: usize,
+    ) -> Vec<Value> {
         let out = self.scratch_addr();
         self.call_host(f, &[x, out]);
-        (0..n).map(|i| self.b.ins().load(ty, MemFlagsData::trusted(), out, 4 * i as i32)).collect()
+        (0..n)
+            .map(|i| {
+                self.b
+                    .ins()
+                    .load(ty, MemFlagsData::trusted(), out, 4 * i as i32)
+            })
+            .collect()
     }
 }

@@ -43,7 +43,10 @@ pub(crate) struct LowerError {
 impl LowerError {
     /// An error whose span a caller fills in.
     pub fn unspanned(message: impl Into<String>) -> Self {
-        Self { span: naga::Span::UNDEFINED, message: message.into() }
+        Self {
+            span: naga::Span::UNDEFINED,
+            message: message.into(),
+        }
     }
 
     /// This error at `span`, unless it already has a span.
@@ -79,7 +82,10 @@ impl<'m> ModuleEnv<'m> {
             .collect();
         let mut buffer_slots = HashMap::new();
         for (handle, var) in module.global_variables.iter() {
-            if matches!(var.space, naga::AddressSpace::Uniform | naga::AddressSpace::Storage { .. }) {
+            if matches!(
+                var.space,
+                naga::AddressSpace::Uniform | naga::AddressSpace::Storage { .. }
+            ) {
                 let slot = buffer_slots.len() as u32;
                 buffer_slots.insert(handle, slot);
             }
@@ -87,7 +93,9 @@ impl<'m> ModuleEnv<'m> {
         Self {
             module,
             info: &compiled.info,
-            types: Types { arena: &module.types },
+            types: Types {
+                arena: &module.types,
+            },
             device_fns,
             buffer_slots,
             frontend,
@@ -98,7 +106,10 @@ impl<'m> ModuleEnv<'m> {
     pub fn slot_bindings(&self) -> Vec<Option<u32>> {
         let mut slots = vec![None; self.buffer_slots.len()];
         for (&g, &slot) in &self.buffer_slots {
-            slots[slot as usize] = self.module.global_variables[g].binding.as_ref().map(|b| b.binding);
+            slots[slot as usize] = self.module.global_variables[g]
+                .binding
+                .as_ref()
+                .map(|b| b.binding);
         }
         slots
     }
@@ -171,8 +182,12 @@ pub(crate) fn lower_program<'m>(
     b.seal_block(entry);
     let ctx = b.block_params(entry)[0];
     let table_flags = MemFlagsData::trusted().with_readonly();
-    let table = b.ins().load(I64, table_flags, ctx, CallContext::BUFFERS_OFFSET);
-    let zero_page = b.ins().load(I64, table_flags, ctx, CallContext::ZERO_PAGE_OFFSET);
+    let table = b
+        .ins()
+        .load(I64, table_flags, ctx, CallContext::BUFFERS_OFFSET);
+    let zero_page = b
+        .ins()
+        .load(I64, table_flags, ctx, CallContext::ZERO_PAGE_OFFSET);
     let mut buffers = HashMap::new();
     for (&global, &slot) in &env.buffer_slots {
         let at = (slot * 16) as i32;
@@ -180,8 +195,11 @@ pub(crate) fn lower_program<'m>(
         let len = b.ins().load(I64, table_flags, table, at + 8);
         buffers.insert(global, (base, len));
     }
-    let scratch =
-        b.create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, SCRATCH_BYTES, 4));
+    let scratch = b.create_sized_stack_slot(StackSlotData::new(
+        StackSlotKind::ExplicitSlot,
+        SCRATCH_BYTES,
+        4,
+    ));
     let exit = b.create_block();
     let mut lowerer = Lowerer {
         env,
@@ -275,7 +293,10 @@ impl<'m, 'b> Lowerer<'m, 'b> {
             if var.space != naga::AddressSpace::Private {
                 continue;
             }
-            if !reachable.iter().any(|&f| !self.env.info[f][handle].is_empty()) {
+            if !reachable
+                .iter()
+                .any(|&f| !self.env.info[f][handle].is_empty())
+            {
                 continue;
             }
             let span = module.global_variables.get_span(handle);
@@ -284,14 +305,21 @@ impl<'m, 'b> Lowerer<'m, 'b> {
                 Some(e) => Some(self.global_expr(e).map_err(|e| e.or_span(span))?),
                 None => None,
             };
-            let place = self.new_variable(inner, init).map_err(|e| e.or_span(span))?;
+            let place = self
+                .new_variable(inner, init)
+                .map_err(|e| e.or_span(span))?;
             self.privates.insert(handle, place);
         }
         Ok(())
     }
 
     /// Enters an inlined function (or the program) with its arguments.
-    fn push_frame(&mut self, function: Handle<Function>, args: Vec<Lowered>, ret: Option<Block>) -> LResult<()> {
+    fn push_frame(
+        &mut self,
+        function: Handle<Function>,
+        args: Vec<Lowered>,
+        ret: Option<Block>,
+    ) -> LResult<()> {
         let f = &self.env.module.functions[function];
         self.frames.push(Frame {
             function: f,
@@ -308,7 +336,9 @@ impl<'m, 'b> Lowerer<'m, 'b> {
                 Some(e) => Some(self.values(e).map_err(|e| e.or_span(span))?),
                 None => None,
             };
-            let place = self.new_variable(inner, init).map_err(|e| e.or_span(span))?;
+            let place = self
+                .new_variable(inner, init)
+                .map_err(|e| e.or_span(span))?;
             self.frame_mut().locals.insert(handle, place);
         }
         Ok(())
@@ -336,7 +366,9 @@ fn collect_calls(block: &naga::Block, out: &mut Vec<Handle<Function>>) {
                     collect_calls(&c.body, out);
                 }
             }
-            naga::Statement::Loop { body, continuing, .. } => {
+            naga::Statement::Loop {
+                body, continuing, ..
+            } => {
                 collect_calls(body, out);
                 collect_calls(continuing, out);
             }

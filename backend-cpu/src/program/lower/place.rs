@@ -21,7 +21,9 @@ use super::{LResult, LowerError, Lowerer};
 use crate::program::host::ZERO_PAGE_BYTES;
 use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::types::{I8, I32, I64};
-use cranelift_codegen::ir::{AtomicRmwOp, InstBuilder, MemFlagsData, StackSlotData, StackSlotKind, Value};
+use cranelift_codegen::ir::{
+    AtomicRmwOp, InstBuilder, MemFlagsData, StackSlotData, StackSlotKind, Value,
+};
 use cranelift_frontend::Variable;
 use naga::TypeInner;
 use std::rc::Rc;
@@ -91,11 +93,19 @@ fn buffer_flags() -> MemFlagsData {
 
 impl Lowerer<'_, '_> {
     /// A new function or private variable of type `inner`, set to `init` or zero.
-    pub(super) fn new_variable(&mut self, inner: &TypeInner, init: Option<Vec<Value>>) -> LResult<Place> {
+    pub(super) fn new_variable(
+        &mut self,
+        inner: &TypeInner,
+        init: Option<Vec<Value>>,
+    ) -> LResult<Place> {
         let types = self.env.types;
         let layout = types.layout(inner)?;
         if types.is_register_type(inner) {
-            let vars: Vec<Variable> = layout.leaves.iter().map(|(_, l)| self.b.declare_var(l.clif())).collect();
+            let vars: Vec<Variable> = layout
+                .leaves
+                .iter()
+                .map(|(_, l)| self.b.declare_var(l.clif()))
+                .collect();
             let values = match init {
                 Some(v) => v,
                 None => self.zeros(&layout),
@@ -103,12 +113,25 @@ impl Lowerer<'_, '_> {
             for (var, v) in vars.iter().zip(values) {
                 self.b.def_var(*var, v);
             }
-            return Ok(Place::Vars(VarPlace { vars: vars.into(), leaf: 0, dynamic: None }));
+            return Ok(Place::Vars(VarPlace {
+                vars: vars.into(),
+                leaf: 0,
+                dynamic: None,
+            }));
         }
         let size = types.size(inner).max(4);
-        let slot = self.b.create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, size, 4));
+        let slot = self.b.create_sized_stack_slot(StackSlotData::new(
+            StackSlotKind::ExplicitSlot,
+            size,
+            4,
+        ));
         let base = self.b.ins().stack_addr(I64, slot, 0);
-        let place = MemPlace { base, offset: 0, dynamic: None, checked: None };
+        let place = MemPlace {
+            base,
+            offset: 0,
+            dynamic: None,
+            checked: None,
+        };
         match init {
             Some(values) => self.store_memory(&place, &layout, &values),
             None => self.zero_memory(base, size),
@@ -143,12 +166,20 @@ impl Lowerer<'_, '_> {
     }
 
     /// The place one index further into `place`, which points to a `pointee`.
-    pub(super) fn step_place(&mut self, place: &Place, pointee: &TypeInner, index: Index) -> LResult<Place> {
+    pub(super) fn step_place(
+        &mut self,
+        place: &Place,
+        pointee: &TypeInner,
+        index: Index,
+    ) -> LResult<Place> {
         let types = self.env.types;
-        let step = types.step(pointee, match index {
-            Index::Const(k) => Some(k),
-            Index::Dynamic(_) => None,
-        })?;
+        let step = types.step(
+            pointee,
+            match index {
+                Index::Const(k) => Some(k),
+                Index::Dynamic(_) => None,
+            },
+        )?;
         match place {
             Place::Vars(v) => {
                 let mut v = v.clone();
@@ -165,8 +196,12 @@ impl Lowerer<'_, '_> {
                     }
                     return Ok(Place::Vars(v));
                 }
-                let Index::Dynamic(i) = index else { unreachable!("constant indices handled above") };
-                let count = step.count.ok_or_else(|| LowerError::unspanned("a runtime-sized array in a variable"))?;
+                let Index::Dynamic(i) = index else {
+                    unreachable!("constant indices handled above")
+                };
+                let count = step
+                    .count
+                    .ok_or_else(|| LowerError::unspanned("a runtime-sized array in a variable"))?;
                 let clamped = self.clamp_index(i, count);
                 let scaled = self.b.ins().imul_imm_u(clamped, step.leaf_stride as i64);
                 let (start, starts): (Value, Vec<u32>) = match &v.dynamic {
@@ -174,8 +209,10 @@ impl Lowerer<'_, '_> {
                     None => (self.b.ins().iconst(I32, v.leaf as i64), vec![v.leaf]),
                 };
                 let index = self.b.ins().iadd(start, scaled);
-                let candidates =
-                    starts.iter().flat_map(|s| (0..count).map(move |j| s + j * step.leaf_stride)).collect();
+                let candidates = starts
+                    .iter()
+                    .flat_map(|s| (0..count).map(move |j| s + j * step.leaf_stride))
+                    .collect();
                 v.dynamic = Some(DynLeaf { index, candidates });
                 Ok(Place::Vars(v))
             }
@@ -194,7 +231,9 @@ impl Lowerer<'_, '_> {
                             (Some(_), _) => i,
                             (None, Some(count)) => self.clamp_index(i, count),
                             (None, None) => {
-                                return Err(LowerError::unspanned("a runtime-sized array outside a buffer"));
+                                return Err(LowerError::unspanned(
+                                    "a runtime-sized array outside a buffer",
+                                ));
                             }
                         };
                         let wide = self.b.ins().uextend(I64, i);
@@ -205,7 +244,11 @@ impl Lowerer<'_, '_> {
                         });
                         match step.count {
                             Some(count) if m.checked.is_some() => {
-                                let inside = self.b.ins().icmp_imm_u(IntCC::UnsignedLessThan, i, count as i64);
+                                let inside = self.b.ins().icmp_imm_u(
+                                    IntCC::UnsignedLessThan,
+                                    i,
+                                    count as i64,
+                                );
                                 self.add_guard(&mut m, inside);
                             }
                             None => self.check_runtime_element(&mut m, step.byte_stride),
@@ -229,7 +272,10 @@ impl Lowerer<'_, '_> {
     fn check_runtime_element(&mut self, m: &mut MemPlace, stride: u32) {
         let Some(checked) = m.checked else { return };
         let end = self.end_offset(m, stride);
-        let inside = self.b.ins().icmp(IntCC::UnsignedLessThanOrEqual, end, checked.len);
+        let inside = self
+            .b
+            .ins()
+            .icmp(IntCC::UnsignedLessThanOrEqual, end, checked.len);
         self.add_guard(m, inside);
     }
 
@@ -255,7 +301,10 @@ impl Lowerer<'_, '_> {
     fn in_bounds(&mut self, m: &MemPlace, size: u32) -> Option<Value> {
         let checked = m.checked?;
         let end = self.end_offset(m, size);
-        let fits = self.b.ins().icmp(IntCC::UnsignedLessThanOrEqual, end, checked.len);
+        let fits = self
+            .b
+            .ins()
+            .icmp(IntCC::UnsignedLessThanOrEqual, end, checked.len);
         Some(match checked.guard {
             Some(g) => self.b.ins().band(g, fits),
             None => fits,
@@ -284,7 +333,11 @@ impl Lowerer<'_, '_> {
             Place::Memory(m) => {
                 let size = self.env.types.size(pointee);
                 let mut addr = self.base_plus_dynamic(m);
-                let flags = if m.checked.is_some() { buffer_flags() } else { stack_flags() };
+                let flags = if m.checked.is_some() {
+                    buffer_flags()
+                } else {
+                    stack_flags()
+                };
                 if let Some(ok) = self.in_bounds(m, size) {
                     if size > ZERO_PAGE_BYTES {
                         return Err(LowerError::unspanned(format!(
@@ -314,7 +367,9 @@ impl Lowerer<'_, '_> {
 
     fn load_vars(&mut self, v: &VarPlace, n: usize) -> Vec<Value> {
         match &v.dynamic {
-            None => (0..n).map(|k| self.b.use_var(v.vars[v.leaf as usize + k])).collect(),
+            None => (0..n)
+                .map(|k| self.b.use_var(v.vars[v.leaf as usize + k]))
+                .collect(),
             Some(d) => {
                 let hits: Vec<(u32, Value)> = d
                     .candidates
@@ -336,7 +391,12 @@ impl Lowerer<'_, '_> {
     }
 
     /// Stores `values` (of type `pointee`) at `place`.
-    pub(super) fn store(&mut self, place: &Place, pointee: &TypeInner, values: &[Value]) -> LResult<()> {
+    pub(super) fn store(
+        &mut self,
+        place: &Place,
+        pointee: &TypeInner,
+        values: &[Value],
+    ) -> LResult<()> {
         let layout = self.env.types.layout(pointee)?;
         match place {
             Place::Vars(v) => {
@@ -383,7 +443,11 @@ impl Lowerer<'_, '_> {
 
     fn store_memory(&mut self, m: &MemPlace, layout: &Layout, values: &[Value]) {
         let addr = self.base_plus_dynamic(m);
-        let flags = if m.checked.is_some() { buffer_flags() } else { stack_flags() };
+        let flags = if m.checked.is_some() {
+            buffer_flags()
+        } else {
+            stack_flags()
+        };
         for (&(off, _), &x) in layout.leaves.iter().zip(values) {
             let at = m.offset + off as i64;
             if layout.atomic {
@@ -416,7 +480,9 @@ impl Lowerer<'_, '_> {
         if let Some(ok) = ok {
             let zero = self.b.ins().iconst(I32, 0);
             let no = self.b.ins().iconst(I8, 0);
-            self.b.ins().brif(ok, body, &[], after, &[zero.into(), no.into()]);
+            self.b
+                .ins()
+                .brif(ok, body, &[], after, &[zero.into(), no.into()]);
         } else {
             self.b.ins().jump(body, &[]);
         }

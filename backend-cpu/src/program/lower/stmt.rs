@@ -14,7 +14,7 @@
 //!   whose parameters are the result's leaves.
 
 use super::expr::leaf_of;
-use super::{LResult, Lowered, LowerError, Lowerer, Target};
+use super::{LResult, LowerError, Lowered, Lowerer, Target};
 use cranelift_codegen::ir::{BlockArg, InstBuilder, Value};
 use cranelift_frontend::Switch;
 use naga::{Expression, Handle, Statement};
@@ -37,9 +37,17 @@ impl<'m> Lowerer<'m, '_> {
                 }
             }
             Statement::Block(b) => self.block(b)?,
-            Statement::If { condition, accept, reject } => {
+            Statement::If {
+                condition,
+                accept,
+                reject,
+            } => {
                 let c = self.scalar(*condition)?;
-                let (then, other, merge) = (self.b.create_block(), self.b.create_block(), self.b.create_block());
+                let (then, other, merge) = (
+                    self.b.create_block(),
+                    self.b.create_block(),
+                    self.b.create_block(),
+                );
                 self.b.ins().brif(c, then, &[], other, &[]);
                 self.b.seal_block(then);
                 self.b.seal_block(other);
@@ -53,11 +61,22 @@ impl<'m> Lowerer<'m, '_> {
                 self.b.switch_to_block(merge);
             }
             Statement::Switch { selector, cases } => self.switch(*selector, cases)?,
-            Statement::Loop { body, continuing, break_if } => {
-                let (header, cont, exit) = (self.b.create_block(), self.b.create_block(), self.b.create_block());
+            Statement::Loop {
+                body,
+                continuing,
+                break_if,
+            } => {
+                let (header, cont, exit) = (
+                    self.b.create_block(),
+                    self.b.create_block(),
+                    self.b.create_block(),
+                );
                 self.b.ins().jump(header, &[]);
                 self.b.switch_to_block(header);
-                self.targets.push(Target::Loop { continuing: cont, exit });
+                self.targets.push(Target::Loop {
+                    continuing: cont,
+                    exit,
+                });
                 self.block(body)?;
                 self.b.ins().jump(cont, &[]);
                 self.b.seal_block(cont);
@@ -90,7 +109,8 @@ impl<'m> Lowerer<'m, '_> {
                     Target::Loop { continuing, .. } => Some(*continuing),
                     Target::Switch { .. } => None,
                 });
-                let cont = cont.ok_or_else(|| LowerError::unspanned("`continue` outside a loop"))?;
+                let cont =
+                    cont.ok_or_else(|| LowerError::unspanned("`continue` outside a loop"))?;
                 self.b.ins().jump(cont, &[]);
                 self.start_dead_block();
             }
@@ -117,14 +137,23 @@ impl<'m> Lowerer<'m, '_> {
                 let values = self.values(*value)?;
                 self.store(&place, &pointee, &values)?;
             }
-            Statement::Call { function, arguments, result } => {
+            Statement::Call {
+                function,
+                arguments,
+                result,
+            } => {
                 if let Some(&df) = self.env.device_fns.get(function) {
                     self.device_call(df, arguments, *result)?;
                 } else {
                     self.inline_call(*function, arguments, *result)?;
                 }
             }
-            Statement::Atomic { pointer, fun, value, result } => {
+            Statement::Atomic {
+                pointer,
+                fun,
+                value,
+                result,
+            } => {
                 let place = self.place(*pointer)?;
                 let signed = leaf_of(&self.pointee(*pointer)?)?.is_signed();
                 let v = self.scalar(*value)?;
@@ -147,7 +176,11 @@ impl<'m> Lowerer<'m, '_> {
         Ok(())
     }
 
-    fn switch(&mut self, selector: Handle<Expression>, cases: &'m [naga::SwitchCase]) -> LResult<()> {
+    fn switch(
+        &mut self,
+        selector: Handle<Expression>,
+        cases: &'m [naga::SwitchCase],
+    ) -> LResult<()> {
         let value = self.scalar(selector)?;
         let blocks: Vec<_> = cases.iter().map(|_| self.b.create_block()).collect();
         let exit = self.b.create_block();
@@ -167,7 +200,11 @@ impl<'m> Lowerer<'m, '_> {
             self.b.seal_block(blocks[i]);
             self.b.switch_to_block(blocks[i]);
             self.block(&case.body)?;
-            let next = if case.fall_through { blocks.get(i + 1).copied().unwrap_or(exit) } else { exit };
+            let next = if case.fall_through {
+                blocks.get(i + 1).copied().unwrap_or(exit)
+            } else {
+                exit
+            };
             self.b.ins().jump(next, &[]);
         }
         self.targets.pop();
@@ -189,7 +226,11 @@ impl<'m> Lowerer<'m, '_> {
             args.push(self.expr(a)?);
         }
         let result_types = match &function.result {
-            Some(r) => self.env.types.layout(&self.env.module.types[r.ty].inner)?.clif_types(),
+            Some(r) => self
+                .env
+                .types
+                .layout(&self.env.module.types[r.ty].inner)?
+                .clif_types(),
             None => Vec::new(),
         };
         let cont = self.b.create_block();
@@ -202,7 +243,11 @@ impl<'m> Lowerer<'m, '_> {
         lowered?;
         // Falling off the end: a function without a result returns; one with a result
         // cannot get here (every path returned), so this block is unreachable.
-        let zeros: Vec<BlockArg> = result_types.iter().map(|&t| self.zero_of(t)).map(BlockArg::from).collect();
+        let zeros: Vec<BlockArg> = result_types
+            .iter()
+            .map(|&t| self.zero_of(t))
+            .map(BlockArg::from)
+            .collect();
         self.b.ins().jump(cont, &zeros);
         self.b.seal_block(cont);
         self.b.switch_to_block(cont);
@@ -214,12 +259,20 @@ impl<'m> Lowerer<'m, '_> {
     }
 
     fn zero_of(&mut self, t: cranelift_codegen::ir::Type) -> Value {
-        if t.is_float() { self.b.ins().f32const(0.0) } else { self.b.ins().iconst(t, 0) }
+        if t.is_float() {
+            self.b.ins().f32const(0.0)
+        } else {
+            self.b.ins().iconst(t, 0)
+        }
     }
 }
 
 /// The name of a statement kind for error messages.
 fn statement_name(s: &Statement) -> String {
     let debug = format!("{s:?}");
-    debug.split([' ', '(', '{']).next().unwrap_or("?").to_string()
+    debug
+        .split([' ', '(', '{'])
+        .next()
+        .unwrap_or("?")
+        .to_string()
 }

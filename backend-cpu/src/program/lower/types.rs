@@ -38,8 +38,7 @@ impl Leaf {
             (ScalarKind::Bool, _) => Ok(Leaf::Bool),
             _ => Err(LowerError::unspanned(format!(
                 "scalar type {:?} of {} bytes is not supported by the CPU JIT (f32, i32, u32 and bool are)",
-                scalar.kind,
-                scalar.width
+                scalar.kind, scalar.width
             ))),
         }
     }
@@ -104,9 +103,11 @@ impl<'a> Types<'a> {
             TypeInner::Scalar(_) | TypeInner::Atomic(_) => 1,
             TypeInner::Vector { size, .. } => size as u32,
             TypeInner::Matrix { columns, rows, .. } => columns as u32 * rows as u32,
-            TypeInner::Array { base, size: ArraySize::Constant(n), .. } => {
-                n.get() * self.leaf_count(&self.arena[base].inner)?
-            }
+            TypeInner::Array {
+                base,
+                size: ArraySize::Constant(n),
+                ..
+            } => n.get() * self.leaf_count(&self.arena[base].inner)?,
             TypeInner::Struct { ref members, .. } => {
                 let mut n = 0;
                 for m in members {
@@ -123,9 +124,9 @@ impl<'a> Types<'a> {
     pub fn is_register_type(&self, inner: &TypeInner) -> bool {
         match *inner {
             TypeInner::Scalar(_) | TypeInner::Vector { .. } | TypeInner::Matrix { .. } => true,
-            TypeInner::Struct { ref members, .. } => {
-                members.iter().all(|m| self.is_register_type(&self.arena[m.ty].inner))
-            }
+            TypeInner::Struct { ref members, .. } => members
+                .iter()
+                .all(|m| self.is_register_type(&self.arena[m.ty].inner)),
             _ => false,
         }
     }
@@ -135,10 +136,16 @@ impl<'a> Types<'a> {
         match *inner {
             TypeInner::Scalar(s) | TypeInner::Atomic(s) => s.width.max(1) as u32,
             TypeInner::Vector { size, scalar } => size as u32 * scalar.width.max(1) as u32,
-            TypeInner::Matrix { columns, rows, scalar } => {
-                columns as u32 * column_stride(rows, scalar)
-            }
-            TypeInner::Array { stride, size: ArraySize::Constant(n), .. } => stride * n.get(),
+            TypeInner::Matrix {
+                columns,
+                rows,
+                scalar,
+            } => columns as u32 * column_stride(rows, scalar),
+            TypeInner::Array {
+                stride,
+                size: ArraySize::Constant(n),
+                ..
+            } => stride * n.get(),
             TypeInner::Array { stride, .. } => stride,
             TypeInner::Struct { span, .. } => span,
             _ => 0,
@@ -158,7 +165,11 @@ impl<'a> Types<'a> {
                     out.leaves.push((offset + 4 * i, leaf));
                 }
             }
-            TypeInner::Matrix { columns, rows, scalar } => {
+            TypeInner::Matrix {
+                columns,
+                rows,
+                scalar,
+            } => {
                 let leaf = Leaf::of(scalar)?;
                 let stride = column_stride(rows, scalar);
                 for c in 0..columns as u32 {
@@ -167,7 +178,11 @@ impl<'a> Types<'a> {
                     }
                 }
             }
-            TypeInner::Array { base, size: ArraySize::Constant(n), stride } => {
+            TypeInner::Array {
+                base,
+                size: ArraySize::Constant(n),
+                stride,
+            } => {
                 let base = &self.arena[base].inner;
                 for i in 0..n.get() {
                     self.push_leaves(base, offset + i * stride, out)?;
@@ -194,8 +209,14 @@ impl<'a> Types<'a> {
             _types: std::marker::PhantomData,
         };
         Ok(match *inner {
-            TypeInner::Vector { size, scalar } => step(TypeInner::Scalar(scalar), 1, 4, Some(size as u32)),
-            TypeInner::Matrix { columns, rows, scalar } => step(
+            TypeInner::Vector { size, scalar } => {
+                step(TypeInner::Scalar(scalar), 1, 4, Some(size as u32))
+            }
+            TypeInner::Matrix {
+                columns,
+                rows,
+                scalar,
+            } => step(
                 TypeInner::Vector { size: rows, scalar },
                 rows as u32,
                 column_stride(rows, scalar),
@@ -229,7 +250,12 @@ impl<'a> Types<'a> {
                 for m in &members[..index as usize] {
                     leaf += self.leaf_count(&self.arena[m.ty].inner)?;
                 }
-                let mut s = step(self.arena[member.ty].inner.clone(), 0, 0, Some(members.len() as u32));
+                let mut s = step(
+                    self.arena[member.ty].inner.clone(),
+                    0,
+                    0,
+                    Some(members.len() as u32),
+                );
                 s.member = Some((leaf, member.offset));
                 s
             }
@@ -248,5 +274,7 @@ pub(crate) fn column_stride(rows: naga::VectorSize, scalar: Scalar) -> u32 {
 }
 
 fn unsupported_type(inner: &TypeInner) -> LowerError {
-    LowerError::unspanned(format!("values of type {inner:?} are not supported by the CPU JIT"))
+    LowerError::unspanned(format!(
+        "values of type {inner:?} are not supported by the CPU JIT"
+    ))
 }

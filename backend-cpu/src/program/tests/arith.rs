@@ -55,20 +55,36 @@ fn raygen__ints() {
 "#;
 
 fn div(x: i32, y: i32) -> i32 {
-    if y == 0 || (x == i32::MIN && y == -1) { x } else { x / y }
+    if y == 0 || (x == i32::MIN && y == -1) {
+        x
+    } else {
+        x / y
+    }
 }
 
 fn rem(x: i32, y: i32) -> i32 {
-    if y == 0 || (x == i32::MIN && y == -1) { 0 } else { x % y }
+    if y == 0 || (x == i32::MIN && y == -1) {
+        0
+    } else {
+        x % y
+    }
 }
 
 fn first_leading_u(x: u32) -> u32 {
-    if x == 0 { u32::MAX } else { 31 - x.leading_zeros() }
+    if x == 0 {
+        u32::MAX
+    } else {
+        31 - x.leading_zeros()
+    }
 }
 
 fn first_leading_i(x: i32) -> i32 {
     let v = if x < 0 { !x } else { x } as u32;
-    if v == 0 { -1 } else { 31 - v.leading_zeros() as i32 }
+    if v == 0 {
+        -1
+    } else {
+        31 - v.leading_zeros() as i32
+    }
 }
 
 fn bit_range(offset: u32, count: u32) -> (u32, u32) {
@@ -78,17 +94,29 @@ fn bit_range(offset: u32, count: u32) -> (u32, u32) {
 
 fn extract_u(e: u32, offset: u32, count: u32) -> u32 {
     let (o, c) = bit_range(offset, count);
-    if c == 0 { 0 } else { (e << (32 - o - c)) >> (32 - c) }
+    if c == 0 {
+        0
+    } else {
+        (e << (32 - o - c)) >> (32 - c)
+    }
 }
 
 fn extract_i(e: i32, offset: u32, count: u32) -> i32 {
     let (o, c) = bit_range(offset, count);
-    if c == 0 { 0 } else { (e << (32 - o - c)) >> (32 - c) }
+    if c == 0 {
+        0
+    } else {
+        (e << (32 - o - c)) >> (32 - c)
+    }
 }
 
 fn insert(e: u32, new: u32, offset: u32, count: u32) -> u32 {
     let (o, c) = bit_range(offset, count);
-    let mask = if c == 0 { 0 } else { (u32::MAX >> (32 - c)) << (o & 31) };
+    let mask = if c == 0 {
+        0
+    } else {
+        (u32::MAX >> (32 - c)) << (o & 31)
+    };
     (e & !mask) | (new.wrapping_shl(o) & mask)
 }
 
@@ -129,14 +157,22 @@ fn reference(x: i32, y: i32) -> [u32; 24] {
         ux.reverse_bits(),
         first_leading_u(ux),
         first_leading_i(x) as u32,
-        if ux == 0 { u32::MAX } else { ux.trailing_zeros() },
+        if ux == 0 {
+            u32::MAX
+        } else {
+            ux.trailing_zeros()
+        },
         extract_i(x, uy & 63, (uy >> 8) & 63) as u32,
         extract_u(ux, uy & 63, (uy >> 8) & 63),
         insert(ux, !ux, uy & 63, (uy >> 8) & 63),
         (sign as u32) ^ (ux & uy) ^ (ux | uy.wrapping_shl(3)),
-        (x.count_ones() as i32).wrapping_add(x.reverse_bits()).wrapping_add(x.leading_zeros() as i32) as u32,
+        (x.count_ones() as i32)
+            .wrapping_add(x.reverse_bits())
+            .wrapping_add(x.leading_zeros() as i32) as u32,
         div(y, x) as u32,
-        ux.wrapping_mul(uy).wrapping_add(uy.wrapping_mul(ux)).wrapping_add(3u32.wrapping_mul(ux)),
+        ux.wrapping_mul(uy)
+            .wrapping_add(uy.wrapping_mul(ux))
+            .wrapping_add(3u32.wrapping_mul(ux)),
     ]
 }
 
@@ -146,14 +182,23 @@ fn integer_operations_match_rust_bit_for_bit() {
     let mut rng = Rng(0x1234_5678);
     let n = 4000;
     let (a, b): (Vec<u32>, Vec<u32>) = (0..n).map(|_| (rng.int(), rng.int())).unzip();
-    let out = run(&module, "raygen__ints", vec![a.clone(), b.clone(), vec![0; n * 24]]);
+    let out = run(
+        &module,
+        "raygen__ints",
+        vec![a.clone(), b.clone(), vec![0; n * 24]],
+    );
     let mut mismatches = 0;
     for i in 0..n {
         let want = reference(a[i] as i32, b[i] as i32);
         for (j, &w) in want.iter().enumerate() {
             if out[2][i * 24 + j] != w {
                 if mismatches < 10 {
-                    eprintln!("x={} y={} result {j}: jit {:#x}, rust {w:#x}", a[i] as i32, b[i] as i32, out[2][i * 24 + j]);
+                    eprintln!(
+                        "x={} y={} result {j}: jit {:#x}, rust {w:#x}",
+                        a[i] as i32,
+                        b[i] as i32,
+                        out[2][i * 24 + j]
+                    );
                 }
                 mismatches += 1;
             }
@@ -166,10 +211,33 @@ fn integer_operations_match_rust_bit_for_bit() {
 fn the_traps_of_integer_division_are_defined() {
     // The cases Cranelift's sdiv/srem trap on, one by one.
     let module = jit(INTS);
-    let cases = [(i32::MIN, -1), (5, 0), (i32::MIN, 0), (0, 0), (-7, 2), (7, -2)];
+    let cases = [
+        (i32::MIN, -1),
+        (5, 0),
+        (i32::MIN, 0),
+        (0, 0),
+        (-7, 2),
+        (7, -2),
+    ];
     let a = cases.iter().map(|c| c.0 as u32).collect();
     let b = cases.iter().map(|c| c.1 as u32).collect();
-    let out = run(&module, "raygen__ints", vec![a, b, vec![0; cases.len() * 24]]);
-    let got: Vec<(i32, i32)> = (0..cases.len()).map(|i| (out[2][i * 24] as i32, out[2][i * 24 + 1] as i32)).collect();
-    assert_eq!(got, vec![(i32::MIN, 0), (5, 0), (i32::MIN, 0), (0, 0), (-3, -1), (-3, 1)]);
+    let out = run(
+        &module,
+        "raygen__ints",
+        vec![a, b, vec![0; cases.len() * 24]],
+    );
+    let got: Vec<(i32, i32)> = (0..cases.len())
+        .map(|i| (out[2][i * 24] as i32, out[2][i * 24 + 1] as i32))
+        .collect();
+    assert_eq!(
+        got,
+        vec![
+            (i32::MIN, 0),
+            (5, 0),
+            (i32::MIN, 0),
+            (0, 0),
+            (-3, -1),
+            (-3, 1)
+        ]
+    );
 }

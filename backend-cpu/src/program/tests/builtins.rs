@@ -110,7 +110,9 @@ fn det3(m: [V3; 3]) -> f32 {
 fn det4(m: [[f32; 4]; 4]) -> f32 {
     let minor = |c: usize| {
         let k: Vec<usize> = (0..4).filter(|&k| k != c).collect();
-        det3(std::array::from_fn(|i| [m[k[i]][1], m[k[i]][2], m[k[i]][3]]))
+        det3(std::array::from_fn(|i| {
+            [m[k[i]][1], m[k[i]][2], m[k[i]][3]]
+        }))
     };
     m[0][0] * minor(0) - m[1][0] * minor(1) + m[2][0] * minor(2) - m[3][0] * minor(3)
 }
@@ -122,7 +124,11 @@ fn reference(x: f32, y: f32) -> Vec<u32> {
     let f = |v: f32| v.to_bits();
     let v = [x, y, 1.5];
     let w = [y, -0.5, x];
-    let c = [v[1] * w[2] - v[2] * w[1], v[2] * w[0] - v[0] * w[2], v[0] * w[1] - v[1] * w[0]];
+    let c = [
+        v[1] * w[2] - v[2] * w[1],
+        v[2] * w[0] - v[0] * w[2],
+        v[0] * w[1] - v[1] * w[0],
+    ];
     let nv = normalize(w);
     let k = 2.0 * dot(nv, v);
     let r = [v[0] - k * nv[0], v[1] - k * nv[1], v[2] - k * nv[2]];
@@ -130,7 +136,13 @@ fn reference(x: f32, y: f32) -> Vec<u32> {
     let nvv = normalize(v);
     let d = dot(nvv, nv);
     let kk = 1.0 - 0.75 * 0.75 * (1.0 - d * d);
-    let refr = |i: usize| if kk < 0.0 { 0.0 } else { 0.75 * nv[i] - (0.75 * d + kk.sqrt()) * nvv[i] };
+    let refr = |i: usize| {
+        if kk < 0.0 {
+            0.0
+        } else {
+            0.75 * nv[i] - (0.75 * d + kk.sqrt()) * nvv[i]
+        }
+    };
     let whole = x.trunc();
     let (fr, ex) = m::frexp(y);
     let bits = x.to_bits();
@@ -142,7 +154,12 @@ fn reference(x: f32, y: f32) -> Vec<u32> {
     let ui = m::unpack4xi8(bits);
     let uu = m::unpack4xu8(ybits);
     let m3 = [v, w, [1.0, x, 2.0]];
-    let m4 = [[x, 1.0, 2.0, 3.0], [y, x, 0.5, 1.0], [1.0, 2.0, y, x], [0.25, x, y, 4.0]];
+    let m4 = [
+        [x, 1.0, 2.0, 3.0],
+        [y, x, 0.5, 1.0],
+        [1.0, 2.0, y, x],
+        [0.25, x, y, 4.0],
+    ];
     // transpose(mat2x3(v, w)) is a mat3x2 whose column c is (v[c], w[c]).
     let mv = mat_vec(m3, w);
     let vm = [dot(v, m3[0]), dot(v, m3[1]), dot(v, m3[2])];
@@ -182,8 +199,12 @@ fn reference(x: f32, y: f32) -> Vec<u32> {
         f(u2[0] + u2[1] * 2.0),
         (m::dot4i8packed(bits, ybits) as u32) ^ m::dot4u8packed(bits, ybits),
         m::pack4xi8([sat_i(x), sat_i(y), -3, 300]) ^ m::pack4xu8([x as u32, y as u32, 3, 300]),
-        m::pack4xi8_clamp([sat_i(x), sat_i(y), -3, 300]) ^ m::pack4xu8_clamp([x as u32, y as u32, 3, 300]),
-        (ui[0].wrapping_add(ui[1] * 3).wrapping_add(ui[2] * 5).wrapping_add(ui[3] * 7) as u32)
+        m::pack4xi8_clamp([sat_i(x), sat_i(y), -3, 300])
+            ^ m::pack4xu8_clamp([x as u32, y as u32, 3, 300]),
+        (ui[0]
+            .wrapping_add(ui[1] * 3)
+            .wrapping_add(ui[2] * 5)
+            .wrapping_add(ui[3] * 7) as u32)
             ^ (uu[0] + uu[1] * 3 + uu[2] * 5 + uu[3] * 7),
         f(det3(m3)),
         f(det2([[x, y], [1.0, 2.0]]) + det4(m4)),
@@ -200,14 +221,21 @@ fn built_ins_match_rust_bit_for_bit() {
     let n = 3000;
     let (a, b): (Vec<f32>, Vec<f32>) = (0..n).map(|_| (rng.float(), rng.float())).unzip();
     let words = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
-    let out = run(&module, "raygen__builtins", vec![words(&a), words(&b), vec![0; n * 40]]);
+    let out = run(
+        &module,
+        "raygen__builtins",
+        vec![words(&a), words(&b), vec![0; n * 40]],
+    );
     let mut mismatches = 0;
     for i in 0..n {
         for (j, &w) in reference(a[i], b[i]).iter().enumerate() {
             let got = out[2][i * 40 + j];
             if !same(got, w) {
                 if mismatches < 10 {
-                    eprintln!("x={:e} y={:e} result {j}: jit {got:#x}, rust {w:#x}", a[i], b[i]);
+                    eprintln!(
+                        "x={:e} y={:e} result {j}: jit {got:#x}, rust {w:#x}",
+                        a[i], b[i]
+                    );
                 }
                 mismatches += 1;
             }

@@ -14,7 +14,10 @@ fn miss__b() { out[0] = bitcast<u32>(sin(f32(out[1]))); }
 
 fn results(module: &JitModule) -> Vec<Vec<u32>> {
     let start: Vec<u32> = (0..64).map(|i| i * 7).collect();
-    ["raygen__a", "miss__b"].iter().map(|p| run(module, p, vec![start.clone()]).remove(0)).collect()
+    ["raygen__a", "miss__b"]
+        .iter()
+        .map(|p| run(module, p, vec![start.clone()]).remove(0))
+        .collect()
 }
 
 #[test]
@@ -22,8 +25,18 @@ fn the_same_source_compiles_once_in_memory() {
     let a = jit(PROGRAM);
     let b = jit(PROGRAM);
     assert!(JitModule::same_code(&a, &b));
-    let other = JitModule::compile(&front(PROGRAM), &JitOptions { opt_level: optik_api::OptLevel::None, ..options() }).unwrap();
-    assert!(!JitModule::same_code(&a, &other), "another optimisation level is another module");
+    let other = JitModule::compile(
+        &front(PROGRAM),
+        &JitOptions {
+            opt_level: optik_api::OptLevel::None,
+            ..options()
+        },
+    )
+    .unwrap();
+    assert!(
+        !JitModule::same_code(&a, &other),
+        "another optimisation level is another module"
+    );
     assert_eq!(results(&a), results(&other));
 }
 
@@ -32,11 +45,21 @@ fn disk_cache_cold_warm_and_off_give_the_same_results() {
     let dir = std::env::temp_dir().join(format!("optik-jit-cache-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let module = front(PROGRAM);
-    let with_dir = JitOptions { disk_cache: DiskCache::Directory(dir.clone()), ..JitOptions::default() };
+    let with_dir = JitOptions {
+        disk_cache: DiskCache::Directory(dir.clone()),
+        ..JitOptions::default()
+    };
     let cold = JitModule::compile_uncached(&module, &with_dir).unwrap();
-    assert_eq!((cold.stats().functions, cold.stats().disk_cache_hits), (2, 0));
+    assert_eq!(
+        (cold.stats().functions, cold.stats().disk_cache_hits),
+        (2, 0)
+    );
     let warm = JitModule::compile_uncached(&module, &with_dir).unwrap();
-    assert_eq!((warm.stats().functions, warm.stats().disk_cache_hits), (2, 2), "both programs come from disk");
+    assert_eq!(
+        (warm.stats().functions, warm.stats().disk_cache_hits),
+        (2, 2),
+        "both programs come from disk"
+    );
     let off = JitModule::compile_uncached(&module, &options()).unwrap();
     assert_eq!(off.stats().disk_cache_hits, 0);
     let want = results(&off);

@@ -142,15 +142,32 @@ fn reference(input: &[i32]) -> Vec<i32> {
         out.push(w);
         out.push(class);
         out.push(local[((x as u32 & 15) as usize).min(7)].wrapping_add(local[3]));
-        out.push(pa.wrapping_mul(3).wrapping_add(pb[0] * 5).wrapping_add(pb[1] * 7));
+        out.push(
+            pa.wrapping_mul(3)
+                .wrapping_add(pb[0] * 5)
+                .wrapping_add(pb[1] * 7),
+        );
         out.push(early(x));
-        out.push((m[ci][ri] as i32).wrapping_add((m[ri][ci] as i32).wrapping_mul(3)).wrapping_add(m[2][2] as i32));
-        out.push(v[0].wrapping_add(v[1] * 3).wrapping_add(v[2] * 5).wrapping_add(v[3] * 7));
+        out.push(
+            (m[ci][ri] as i32)
+                .wrapping_add((m[ri][ci] as i32).wrapping_mul(3))
+                .wrapping_add(m[2][2] as i32),
+        );
+        out.push(
+            v[0].wrapping_add(v[1] * 3)
+                .wrapping_add(v[2] * 5)
+                .wrapping_add(v[3] * 7),
+        );
         out.push(calls);
         out.push(hist[0] + hist[1] * 10 + hist[2] * 100 + hist[3] * 1000);
         let arr = [x, x.wrapping_add(1), x.wrapping_add(2)];
-        out.push(arr[((x as u32 & 3) as usize).min(2)].wrapping_add([7, 8, 9][((x as u32 % 5) as usize).min(2)]));
-        out.push(if x > 0 || x < -5 { 2 } else { 1 } + if x > 0 && x != 7 { 20 } else { 10 });
+        out.push(
+            arr[((x as u32 & 3) as usize).min(2)]
+                .wrapping_add([7, 8, 9][((x as u32 % 5) as usize).min(2)]),
+        );
+        out.push(
+            if !(-5..=0).contains(&x) { 2 } else { 1 } + if x > 0 && x != 7 { 20 } else { 10 },
+        );
     }
     out
 }
@@ -166,7 +183,14 @@ fn control_flow_and_composites_match_rust() {
     let got: Vec<i32> = buffers.words[1].iter().map(|&w| w as i32).collect();
     let want = reference(&input);
     for (i, (g, w)) in got.iter().zip(&want).enumerate() {
-        assert_eq!(g, w, "input {} (x = {}), result {}", i / 12, input[i / 12], i % 12);
+        assert_eq!(
+            g,
+            w,
+            "input {} (x = {}), result {}",
+            i / 12,
+            input[i / 12],
+            i % 12
+        );
     }
 }
 
@@ -178,7 +202,10 @@ fn private_globals_start_over_at_every_invocation() {
     buffers.run(&module, "raygen__control", &mut Mock::default());
     let first = buffers.words[1].clone();
     buffers.run(&module, "raygen__control", &mut Mock::default());
-    assert_eq!(buffers.words[1], first, "a second invocation sees fresh privates");
+    assert_eq!(
+        buffers.words[1], first,
+        "a second invocation sees fresh privates"
+    );
     // Within one invocation the counter counts both calls of `classify`.
     assert_eq!((first[8], first[12 + 8]), (101, 102));
     assert_eq!((first[9], first[12 + 9]), (10, 110));

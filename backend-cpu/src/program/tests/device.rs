@@ -123,12 +123,19 @@ fn bits(v: &[f32]) -> Vec<u32> {
 fn every_getter_reaches_device_calls() {
     let module = jit(DEVICE);
     let mut buffers = Buffers::new(vec![vec![0; 54]]);
-    let mut mock = Mock { payload: vec![0, 555, 0, 0], trace_adds: 10, ..Mock::default() };
+    let mut mock = Mock {
+        payload: vec![0, 555, 0, 0],
+        trace_adds: 10,
+        ..Mock::default()
+    };
     buffers.run(&module, "closesthit__all", &mut mock);
     let out = &buffers.words[0];
     assert_eq!(out[0], 3 + 40 + 500);
     assert_eq!(out[1], 640 + 480 + 1);
-    assert_eq!(out[2..14], bits(&[1.0, 2.0, 3.0, 0.0, 0.0, -1.0, 4.0, 5.0, 6.0, 0.0, -1.0, 0.0])[..]);
+    assert_eq!(
+        out[2..14],
+        bits(&[1.0, 2.0, 3.0, 0.0, 0.0, -1.0, 4.0, 5.0, 6.0, 0.0, -1.0, 0.0])[..]
+    );
     assert_eq!(out[14..17], bits(&[0.001, 1e30, 0.25])[..]);
     assert_eq!(out[17..25], [0x11, 0xfe, 42, 7, 1234, 9, 0xfe, 1]);
     assert_eq!(out[25..27], bits(&[0.25, 0.5])[..]);
@@ -137,13 +144,20 @@ fn every_getter_reaches_device_calls() {
     // Column j of object-to-world is (m[j], m[4 + j], m[8 + j]) of the row-major 3x4.
     assert_eq!(out[34..40], bits(&[1.0, 5.0, 9.0, 4.0, 8.0, 12.0])[..]);
     // world-to-object * (1, 0, 0, 1) = column 0 + column 3.
-    assert_eq!(out[40..43], bits(&[-1.0 + -4.0, -5.0 + -8.0, -9.0 + -12.0])[..]);
+    assert_eq!(
+        out[40..43],
+        bits(&[-1.0 + -4.0, -5.0 + -8.0, -9.0 + -12.0])[..]
+    );
     assert_eq!(out[43], 1003);
     assert_eq!(out[44], f32::from_bits(1002).to_bits());
     assert_eq!(out[45], 555);
     assert_eq!(out[46], 105);
     assert_eq!(out[47], 5);
-    assert_eq!(out[48..51], [15, 16, 10], "rt_trace's payload comes back updated");
+    assert_eq!(
+        out[48..51],
+        [15, 16, 10],
+        "rt_trace's payload comes back updated"
+    );
     assert_eq!(out[51..53], [14, 42], "callables update their arguments");
     assert_eq!(out[53], 0.75f32.to_bits());
     assert_eq!(
@@ -176,7 +190,10 @@ fn exception_code_and_report_intersection() {
     buffers.run(&module, "intersection__report", &mut mock);
     assert_eq!(buffers.words[0][0], 1, "the mock accepts t < 10 only");
     let attrs = [1, 2, 3, 4, 5, 6, 7, 8];
-    assert_eq!(mock.events, vec![Event::Report(2.5, 3, attrs), Event::Report(20.0, 4, attrs)]);
+    assert_eq!(
+        mock.events,
+        vec![Event::Report(2.5, 3, attrs), Event::Report(20.0, 4, attrs)]
+    );
 }
 
 #[test]
@@ -207,8 +224,15 @@ fn terminators_end_the_program_from_inside_helpers() {
 fn offset_ray(p: [f32; 3], n: [f32; 3]) -> [f32; 3] {
     std::array::from_fn(|i| {
         let of = (256.0 * n[i]) as i32;
-        let moved = f32::from_bits((p[i].to_bits() as i32).wrapping_add(if p[i] < 0.0 { -of } else { of }) as u32);
-        if p[i].abs() < 1.0 / 32.0 { p[i] + (1.0 / 65536.0) * n[i] } else { moved }
+        let moved =
+            f32::from_bits(
+                (p[i].to_bits() as i32).wrapping_add(if p[i] < 0.0 { -of } else { of }) as u32,
+            );
+        if p[i].abs() < 1.0 / 32.0 {
+            p[i] + (1.0 / 65536.0) * n[i]
+        } else {
+            moved
+        }
     })
 }
 
@@ -219,7 +243,11 @@ fn offset_ray_runs_the_prelude_body() {
     let mut words = Vec::new();
     let mut inputs = Vec::new();
     for _ in 0..500 {
-        let p = [rng.float() * 0.01, rng.float(), (rng.next_u32() % 100) as f32 * 0.001];
+        let p = [
+            rng.float() * 0.01,
+            rng.float(),
+            (rng.next_u32() % 100) as f32 * 0.001,
+        ];
         let nx = rng.float().clamp(-4.0, 4.0);
         words.extend(bits(&[p[0], p[1], p[2], nx, 0.0, 0.0]));
         inputs.push((p, nx));
@@ -231,7 +259,10 @@ fn offset_ray_runs_the_prelude_body() {
         let n = n.map(|c| c / len);
         let want = offset_ray(*p, n);
         for k in 0..3 {
-            assert!(super::float::same(out[0][i * 6 + k], want[k].to_bits()), "{p:?} {n:?}: {k}");
+            assert!(
+                super::float::same(out[0][i * 6 + k], want[k].to_bits()),
+                "{p:?} {n:?}: {k}"
+            );
         }
     }
 }
@@ -243,47 +274,121 @@ fn a_panic_in_device_calls_reaches_the_caller() {
         fn launch_index(&self) -> [u32; 3] {
             panic!("launch index exploded")
         }
-        fn launch_dimensions(&self) -> [u32; 3] { [0; 3] }
-        fn trace(&mut self, _: [u32; 2], _: [f32; 3], _: [f32; 3], _: f32, _: f32, _: f32, _: u32, _: u32, _: u32, _: u32, _: u32, _: &mut [u32]) {}
-        fn get_payload(&self, _: u32) -> u32 { 0 }
+        fn launch_dimensions(&self) -> [u32; 3] {
+            [0; 3]
+        }
+        fn trace(
+            &mut self,
+            _: [u32; 2],
+            _: [f32; 3],
+            _: [f32; 3],
+            _: f32,
+            _: f32,
+            _: f32,
+            _: u32,
+            _: u32,
+            _: u32,
+            _: u32,
+            _: u32,
+            _: &mut [u32],
+        ) {
+        }
+        fn get_payload(&self, _: u32) -> u32 {
+            0
+        }
         fn set_payload(&mut self, _: u32, _: u32) {}
-        fn get_attribute(&self, _: u32) -> u32 { 0 }
-        fn report_intersection(&mut self, _: f32, _: u32, _: &[u32; 8]) -> bool { false }
+        fn get_attribute(&self, _: u32) -> u32 {
+            0
+        }
+        fn report_intersection(&mut self, _: f32, _: u32, _: &[u32; 8]) -> bool {
+            false
+        }
         fn ignore_intersection(&mut self) {}
         fn terminate_ray(&mut self) {}
-        fn world_ray_origin(&self) -> [f32; 3] { [0.0; 3] }
-        fn world_ray_direction(&self) -> [f32; 3] { [0.0; 3] }
-        fn object_ray_origin(&self) -> [f32; 3] { [0.0; 3] }
-        fn object_ray_direction(&self) -> [f32; 3] { [0.0; 3] }
-        fn ray_tmin(&self) -> f32 { 0.0 }
-        fn ray_tmax(&self) -> f32 { 0.0 }
-        fn ray_time(&self) -> f32 { 0.0 }
-        fn ray_flags(&self) -> u32 { 0 }
-        fn ray_mask(&self) -> u32 { 0 }
-        fn primitive_index(&self) -> u32 { 0 }
-        fn sbt_gas_index(&self) -> u32 { 0 }
-        fn instance_id(&self) -> u32 { 0 }
-        fn instance_index(&self) -> u32 { 0 }
-        fn hit_kind(&self) -> u32 { 0 }
-        fn is_front_face_hit(&self) -> bool { false }
-        fn triangle_barycentrics(&self) -> [f32; 2] { [0.0; 2] }
-        fn triangle_vertices(&self) -> [[f32; 3]; 3] { [[0.0; 3]; 3] }
-        fn sphere(&self) -> [f32; 4] { [0.0; 4] }
-        fn curve_parameter(&self) -> f32 { 0.0 }
-        fn object_to_world(&self) -> [f32; 12] { [0.0; 12] }
-        fn world_to_object(&self) -> [f32; 12] { [0.0; 12] }
-        fn sbt_data_u32(&self, _: u32) -> u32 { 0 }
+        fn world_ray_origin(&self) -> [f32; 3] {
+            [0.0; 3]
+        }
+        fn world_ray_direction(&self) -> [f32; 3] {
+            [0.0; 3]
+        }
+        fn object_ray_origin(&self) -> [f32; 3] {
+            [0.0; 3]
+        }
+        fn object_ray_direction(&self) -> [f32; 3] {
+            [0.0; 3]
+        }
+        fn ray_tmin(&self) -> f32 {
+            0.0
+        }
+        fn ray_tmax(&self) -> f32 {
+            0.0
+        }
+        fn ray_time(&self) -> f32 {
+            0.0
+        }
+        fn ray_flags(&self) -> u32 {
+            0
+        }
+        fn ray_mask(&self) -> u32 {
+            0
+        }
+        fn primitive_index(&self) -> u32 {
+            0
+        }
+        fn sbt_gas_index(&self) -> u32 {
+            0
+        }
+        fn instance_id(&self) -> u32 {
+            0
+        }
+        fn instance_index(&self) -> u32 {
+            0
+        }
+        fn hit_kind(&self) -> u32 {
+            0
+        }
+        fn is_front_face_hit(&self) -> bool {
+            false
+        }
+        fn triangle_barycentrics(&self) -> [f32; 2] {
+            [0.0; 2]
+        }
+        fn triangle_vertices(&self) -> [[f32; 3]; 3] {
+            [[0.0; 3]; 3]
+        }
+        fn sphere(&self) -> [f32; 4] {
+            [0.0; 4]
+        }
+        fn curve_parameter(&self) -> f32 {
+            0.0
+        }
+        fn object_to_world(&self) -> [f32; 12] {
+            [0.0; 12]
+        }
+        fn world_to_object(&self) -> [f32; 12] {
+            [0.0; 12]
+        }
+        fn sbt_data_u32(&self, _: u32) -> u32 {
+            0
+        }
         fn direct_call(&mut self, _: u32, _: &mut [u32]) {}
         fn continuation_call(&mut self, _: u32, _: &mut [u32]) {}
         fn throw_exception(&mut self, _: u32) {}
-        fn exception_code(&self) -> i32 { 0 }
-        fn remaining_trace_depth(&self) -> u32 { 0 }
+        fn exception_code(&self) -> i32 {
+            0
+        }
+        fn remaining_trace_depth(&self) -> u32 {
+            0
+        }
     }
     let module = jit(DEVICE);
     let mut buffers = Buffers::new(vec![vec![0; 54]]);
     let caught = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         buffers.run(&module, "closesthit__all", &mut Panicking);
     }));
-    let message = caught.expect_err("the panic comes back").downcast::<&str>().map(|s| *s);
+    let message = caught
+        .expect_err("the panic comes back")
+        .downcast::<&str>()
+        .map(|s| *s);
     assert_eq!(message.ok(), Some("launch index exploded"));
 }

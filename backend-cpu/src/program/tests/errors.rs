@@ -21,7 +21,10 @@ fn raygen__gather() {
     assert_eq!(e.kind(), ErrorKind::Compile);
     let d = &e.diagnostics()[0];
     assert_eq!((d.file.as_str(), d.line), ("test.wgsl", 5), "{e}");
-    assert!(d.message.contains("textureGather") && d.message.contains("raygen__gather"), "{e}");
+    assert!(
+        d.message.contains("textureGather") && d.message.contains("raygen__gather"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -42,14 +45,16 @@ fn raygen__o() {
 
 #[test]
 fn overrides_take_their_defaults() {
-    let module = jit("@group(0) @binding(1) var<storage, read_write> out: array<f32>;
+    let module = jit(
+        "@group(0) @binding(1) var<storage, read_write> out: array<f32>;
 override gain: f32 = 2.5;
 override twice = gain * 2.0;
 fn raygen__o() {
     out[0] = gain;
     out[1] = twice;
 }
-");
+",
+    );
     let out = run(&module, "raygen__o", vec![vec![0; 2]]);
     assert_eq!(out[0], vec![2.5f32.to_bits(), 5.0f32.to_bits()]);
 }

@@ -46,7 +46,12 @@ fn out_of_bounds_reads_give_zero_and_writes_are_dropped() {
     mesh.push(99);
     let idx = vec![0, 2, 3, 1, u32::MAX, 4, 0x8000_0000];
     let n = idx.len();
-    let mut buffers = Buffers::new(vec![mesh, idx.clone(), vec![0; 3 + 3 * n], vec![50, 51, 52, 53]]);
+    let mut buffers = Buffers::new(vec![
+        mesh,
+        idx.clone(),
+        vec![0; 3 + 3 * n],
+        vec![50, 51, 52, 53],
+    ]);
     buffers.params = vec![f(2.0), 5, 6, 7];
     buffers.run(&module, "raygen__buffers", &mut Mock::default());
     let out = &buffers.words[2];
@@ -55,32 +60,57 @@ fn out_of_bounds_reads_give_zero_and_writes_are_dropped() {
     assert_eq!(out[2], 13);
     let mut fixed = [50u32, 51, 52, 53];
     for (i, &k) in idx.iter().enumerate() {
-        let (nx, nz) = if k < 3 { (f((k as f32 + 0.5) * 2.0), f(-(k as f32))) } else { (0, 0) };
+        let (nx, nz) = if k < 3 {
+            (f((k as f32 + 0.5) * 2.0), f(-(k as f32)))
+        } else {
+            (0, 0)
+        };
         let fx = fixed.get(k as usize).copied().unwrap_or(0);
         let header = [10, 11, 12, 13].get(k as usize).copied().unwrap_or(0);
         assert_eq!(out[3 + 3 * i], nx, "normal x at index {k}");
         assert_eq!(out[4 + 3 * i], nz, "normal z at index {k}");
-        assert_eq!(out[5 + 3 * i], fx + header, "fixed array and vector at index {k}");
+        assert_eq!(
+            out[5 + 3 * i],
+            fx + header,
+            "fixed array and vector at index {k}"
+        );
         if let Some(slot) = fixed.get_mut(k as usize) {
             *slot = k;
         }
     }
-    assert_eq!(buffers.words[3], fixed.to_vec(), "in-bounds writes land, others are dropped");
+    assert_eq!(
+        buffers.words[3],
+        fixed.to_vec(),
+        "in-bounds writes land, others are dropped"
+    );
 }
 
 #[test]
 fn a_buffer_smaller_than_its_type_reads_zero_past_its_end() {
     let module = jit(BUFFERS);
     // `fixed` is declared as 4 words but only 2 are bound; params bound empty.
-    let mut buffers = Buffers::new(vec![vec![1, 2, 3, 4], vec![0, 1, 2, 3], vec![0; 15], vec![5, 6, 7, 8]]);
+    let mut buffers = Buffers::new(vec![
+        vec![1, 2, 3, 4],
+        vec![0, 1, 2, 3],
+        vec![0; 15],
+        vec![5, 6, 7, 8],
+    ]);
     buffers.bound[3] = 8;
     buffers.run(&module, "raygen__buffers", &mut Mock::default());
     let out = &buffers.words[2];
     assert_eq!(out[0], 0, "a mesh of 16 bytes has no normals");
     assert_eq!(out[1], 0, "unbound params read as zero");
     let fixed_reads: Vec<u32> = (0..4).map(|i| out[5 + 3 * i]).collect();
-    assert_eq!(fixed_reads, vec![5 + 1, 6 + 2, 3, 4], "words 2 and 3 are past the bound length");
-    assert_eq!(buffers.words[3], vec![0, 1, 7, 8], "writes past the bound length are dropped");
+    assert_eq!(
+        fixed_reads,
+        vec![5 + 1, 6 + 2, 3, 4],
+        "words 2 and 3 are past the bound length"
+    );
+    assert_eq!(
+        buffers.words[3],
+        vec![0, 1, 7, 8],
+        "writes past the bound length are dropped"
+    );
 }
 
 const ATOMICS: &str = r#"
@@ -121,7 +151,10 @@ fn atomics_update_buffers_and_return_the_old_value() {
     buffers.run(&module, "raygen__atomics", &mut Mock::default());
     assert_eq!(buffers.words[0], vec![15, 9, 7, 5, 2, 7, 5, 42, 30, 4, 77]);
     assert_eq!(buffers.words[1], vec![(-5i32) as u32, 2]);
-    assert_eq!(buffers.words[2], vec![10, 10, 5, 5, 3, 3, 3, 1, 1003, 4, 2, 2, 15, 1, 0]);
+    assert_eq!(
+        buffers.words[2],
+        vec![10, 10, 5, 5, 3, 3, 3, 1, 1003, 4, 2, 2, 15, 1, 0]
+    );
 }
 
 #[test]
@@ -137,14 +170,31 @@ fn atomics_are_atomic_across_threads() {
                 let mut out = vec![0u32; 15];
                 let mut params = vec![0u32; 1];
                 let resources = [
-                    BoundResource::Buffer(BoundBuffer { ptr: params.as_mut_ptr().cast(), len: 0 }),
-                    BoundResource::Buffer(BoundBuffer { ptr: ptr as *mut u8, len }),
-                    BoundResource::Buffer(BoundBuffer { ptr: signed.as_mut_ptr().cast(), len: 8 }),
-                    BoundResource::Buffer(BoundBuffer { ptr: out.as_mut_ptr().cast(), len: 60 }),
+                    BoundResource::Buffer(BoundBuffer {
+                        ptr: params.as_mut_ptr().cast(),
+                        len: 0,
+                    }),
+                    BoundResource::Buffer(BoundBuffer {
+                        ptr: ptr as *mut u8,
+                        len,
+                    }),
+                    BoundResource::Buffer(BoundBuffer {
+                        ptr: signed.as_mut_ptr().cast(),
+                        len: 8,
+                    }),
+                    BoundResource::Buffer(BoundBuffer {
+                        ptr: out.as_mut_ptr().cast(),
+                        len: 60,
+                    }),
                 ];
                 let f = module.program("raygen__atomics").unwrap();
                 for _ in 0..1000 {
-                    f.call(&Bindings { resources: &resources }, &mut Mock::default());
+                    f.call(
+                        &Bindings {
+                            resources: &resources,
+                        },
+                        &mut Mock::default(),
+                    );
                 }
             });
         }

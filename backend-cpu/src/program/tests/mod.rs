@@ -27,7 +27,10 @@ pub fn front(wgsl: &str) -> CompiledModule {
 
 /// Options without the disk cache (tests of the cache set their own directory).
 pub fn options() -> JitOptions {
-    JitOptions { disk_cache: DiskCache::Disabled, ..JitOptions::default() }
+    JitOptions {
+        disk_cache: DiskCache::Disabled,
+        ..JitOptions::default()
+    }
 }
 
 /// Compiles `wgsl`.
@@ -47,20 +50,34 @@ impl Buffers {
     /// Buffers with these contents, bound whole, and no params.
     pub fn new(words: Vec<Vec<u32>>) -> Self {
         let bound = words.iter().map(|w| w.len() * 4).collect();
-        Self { words, bound, params: Vec::new() }
+        Self {
+            words,
+            bound,
+            params: Vec::new(),
+        }
     }
 
     /// Runs `program` of `module` once with these buffers.
     pub fn run(&mut self, module: &JitModule, program: &str, calls: &mut dyn DeviceCalls) {
-        let f = module.program(program).unwrap_or_else(|| panic!("no program {program}"));
+        let f = module
+            .program(program)
+            .unwrap_or_else(|| panic!("no program {program}"));
         let mut resources = vec![BoundResource::Buffer(BoundBuffer {
             ptr: self.params.as_mut_ptr().cast(),
             len: self.params.len() * 4,
         })];
         for (w, &len) in self.words.iter_mut().zip(&self.bound) {
-            resources.push(BoundResource::Buffer(BoundBuffer { ptr: w.as_mut_ptr().cast(), len }));
+            resources.push(BoundResource::Buffer(BoundBuffer {
+                ptr: w.as_mut_ptr().cast(),
+                len,
+            }));
         }
-        f.call(&Bindings { resources: &resources }, calls);
+        f.call(
+            &Bindings {
+                resources: &resources,
+            },
+            calls,
+        );
     }
 }
 
@@ -84,9 +101,24 @@ impl Rng {
 
     /// Integers with a third of them from the edge cases.
     pub fn int(&mut self) -> u32 {
-        const EDGES: [u32; 10] = [0, 1, u32::MAX, 0x8000_0000, 0x7fff_ffff, 7, (-7i32) as u32, 31, 32, 33];
+        const EDGES: [u32; 10] = [
+            0,
+            1,
+            u32::MAX,
+            0x8000_0000,
+            0x7fff_ffff,
+            7,
+            (-7i32) as u32,
+            31,
+            32,
+            33,
+        ];
         let r = self.next_u32();
-        if r % 3 == 0 { EDGES[(r / 3) as usize % EDGES.len()] } else { self.next_u32() }
+        if r.is_multiple_of(3) {
+            EDGES[(r / 3) as usize % EDGES.len()]
+        } else {
+            self.next_u32()
+        }
     }
 
     /// Floats with a third of them from the edge cases.
@@ -108,7 +140,7 @@ impl Rng {
             2.5,
         ];
         let r = self.next_u32();
-        if r % 3 == 0 {
+        if r.is_multiple_of(3) {
             EDGES[(r / 3) as usize % EDGES.len()]
         } else {
             (self.next_u32() as i32 as f32) / 1e8
@@ -119,7 +151,16 @@ impl Rng {
 /// What a [`Mock`] was asked, in order.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Event {
-    Trace { handle: [u32; 2], origin: [f32; 3], direction: [f32; 3], tmin: f32, tmax: f32, time: f32, words: [u32; 5], payload: Vec<u32> },
+    Trace {
+        handle: [u32; 2],
+        origin: [f32; 3],
+        direction: [f32; 3],
+        tmin: f32,
+        tmax: f32,
+        time: f32,
+        words: [u32; 5],
+        payload: Vec<u32>,
+    },
     SetPayload(u32, u32),
     Report(f32, u32, [u32; 8]),
     Ignore,
@@ -138,7 +179,9 @@ pub struct Mock {
     pub trace_adds: u32,
 }
 
-pub const OBJECT_TO_WORLD: [f32; 12] = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0];
+pub const OBJECT_TO_WORLD: [f32; 12] = [
+    1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0,
+];
 
 impl DeviceCalls for Mock {
     fn launch_index(&self) -> [u32; 3] {
@@ -266,7 +309,8 @@ impl DeviceCalls for Mock {
         args[0] = args[0].wrapping_mul(2);
     }
     fn continuation_call(&mut self, index: u32, args: &mut [u32]) {
-        self.events.push(Event::ContinuationCall(index, args.to_vec()));
+        self.events
+            .push(Event::ContinuationCall(index, args.to_vec()));
         args[0] = args[0].wrapping_mul(3);
     }
     fn throw_exception(&mut self, code: u32) {
