@@ -272,7 +272,20 @@ fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner
             )
             .map_err(|e| lowering_error(module, &program.name, e))?;
         }
+        let dump = std::env::var_os("OPTIK_JIT_DUMP").map(PathBuf::from);
+        if let Some(dir) = &dump {
+            // A debugging aid: the CLIF of every program, and its machine code after.
+            let _ = std::fs::write(
+                dir.join(format!("{}.clif", program.name)),
+                ctx.func.display().to_string(),
+            );
+            ctx.set_disasm(true);
+        }
         let hit = compile_function(&mut ctx, &*isa, store.as_mut(), &program.name)?;
+        if let (Some(dir), Some(vcode)) = (&dump, ctx.compiled_code().and_then(|c| c.vcode.clone()))
+        {
+            let _ = std::fs::write(dir.join(format!("{}.s", program.name)), vcode);
+        }
         let code = ctx.compiled_code().expect("compiled above");
         let relocs: Vec<ModuleReloc> = code
             .buffer

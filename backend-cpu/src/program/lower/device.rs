@@ -136,7 +136,7 @@ impl Lowerer<'_, '_> {
         ) {
             // The program ends here, from however deep an inlined helper.
             let exit = self.exit;
-            self.b.ins().jump(exit, &[]);
+            self.goto(exit, &[]);
             self.start_dead_block();
         }
         Ok(())

@@ -40,6 +40,7 @@ impl<'m> Lowerer<'m, '_> {
         let span = self.frame().function.expressions.get_span(h);
         let l = self.lower_expr(h).map_err(|e| e.or_span(span))?;
         self.frame_mut().cache[h.index()] = Some(l);
+        self.lowered_exprs += 1;
         Ok(())
     }
 
@@ -145,9 +146,9 @@ impl<'m> Lowerer<'m, '_> {
             }
             Expression::Access { base, index } => {
                 let i = self.scalar(index)?;
-                self.access(h, base, Index::Dynamic(i))
+                self.access(base, Index::Dynamic(i))
             }
-            Expression::AccessIndex { base, index } => self.access(h, base, Index::Const(index)),
+            Expression::AccessIndex { base, index } => self.access(base, Index::Const(index)),
             Expression::Unary { op, expr } => {
                 let leaf = leaf_of(self.type_of(expr))?;
                 let v = self.values(expr)?;
@@ -168,7 +169,7 @@ impl<'m> Lowerer<'m, '_> {
                         .enumerate()
                         .map(|(i, (&a, &r))| {
                             let c = if c.len() == 1 { c[0] } else { c[i] };
-                            self.b.ins().select(c, a, r)
+                            self.select(c, a, r)
                         })
                         .collect(),
                 )
@@ -357,7 +358,11 @@ impl<'m> Lowerer<'m, '_> {
                     base,
                     offset: 0,
                     dynamic: None,
-                    checked: Some(super::place::Checked { len, guard: None }),
+                    checked: Some(super::place::Checked {
+                        len,
+                        guard: None,
+                        proven: false,
+                    }),
                 })))
             }
             naga::AddressSpace::Private => self
@@ -378,13 +383,7 @@ impl<'m> Lowerer<'m, '_> {
     }
 
     /// `base[index]` on a pointer (a place) or a value.
-    fn access(
-        &mut self,
-        h: Handle<Expression>,
-        base: Handle<Expression>,
-        index: Index,
-    ) -> LResult<Lowered> {
-        let _ = h;
+    fn access(&mut self, base: Handle<Expression>, index: Index) -> LResult<Lowered> {
         if self.is_pointer(base) {
             let place = self.place(base)?;
             let pointee = self.pointee(base)?;
@@ -410,13 +409,19 @@ impl<'m> Lowerer<'m, '_> {
                     leaves[k as usize * width..][..width].to_vec(),
                 ));
             }
-            (None, Index::Dynamic(i)) => i,
+            (None, Index::Dynamic(i)) => match self.int_konst(i) {
+                Some(k) => {
+                    let k = k.min(step.count.unwrap_or(1).saturating_sub(1)) as usize;
+                    return Ok(Lowered::Value(leaves[k * width..][..width].to_vec()));
+                }
+                None => i,
+            },
         };
         let count = step.count.unwrap_or(1);
         if count <= 16 {
             // A select chain over the elements, index clamped (naga's `Restrict`).
             let last = self.b.ins().iconst(I32, count as i64 - 1);
-            let i = self.b.ins().umin(i, last);
+            let i = self.umin(i, last);
             let hits: Vec<Value> = (1..count)
                 .map(|j| self.b.ins().icmp_imm_u(IntCC::Equal, i, j as i64))
                 .collect();
@@ -451,6 +456,22 @@ impl<'m> Lowerer<'m, '_> {
     }
 
     fn unary(&mut self, op: UnaryOperator, leaf: Leaf, x: Value) -> Value {
+        match (self.konst(x), op, leaf) {
+            (Some(super::fold::Konst::Float(f)), UnaryOperator::Negate, _) => {
+                return self.b.ins().f32const(-f);
+            }
+            (Some(super::fold::Konst::Int(i)), UnaryOperator::Negate, _) => {
+                return self.int(i.wrapping_neg());
+            }
+            (Some(super::fold::Konst::Int(i)), UnaryOperator::LogicalNot, _)
+            | (Some(super::fold::Konst::Int(i)), UnaryOperator::BitwiseNot, Leaf::Bool) => {
+                return self.boolean(i == 0);
+            }
+            (Some(super::fold::Konst::Int(i)), UnaryOperator::BitwiseNot, _) => {
+                return self.int(!i);
+            }
+            _ => {}
+        }
         match (op, leaf) {
             (UnaryOperator::Negate, Leaf::F32) => self.b.ins().fneg(x),
             (UnaryOperator::Negate, _) => self.b.ins().ineg(x),
@@ -508,6 +529,9 @@ impl<'m> Lowerer<'m, '_> {
 
     /// One WGSL binary operation on scalars of kind `leaf`.
     pub(super) fn scalar_binary(&mut self, op: B, leaf: Leaf, x: Value, y: Value) -> Value {
+        if let Some(folded) = self.fold_binary(op, leaf, x, y) {
+            return folded;
+        }
         let ins = self.b.ins();
         match (op, leaf) {
             (B::Add, Leaf::F32) => ins.fadd(x, y),
@@ -648,6 +672,11 @@ impl<'m> Lowerer<'m, '_> {
 
     /// A WGSL conversion (`convert`) or bitcast of one leaf.
     fn convert(&mut self, x: Value, from: Leaf, to: Leaf, convert: bool) -> Value {
+        if from != to {
+            if let Some(folded) = self.fold_convert(x, from, to, convert) {
+                return folded;
+            }
+        }
         let ins = self.b.ins();
         match (from, to, convert) {
             (a, b, _) if a == b => x,

@@ -14,6 +14,7 @@
 
 mod device;
 mod expr;
+mod fold;
 mod math;
 mod place;
 mod stmt;
@@ -22,7 +23,7 @@ pub(crate) mod types;
 use super::host::{CallContext, HostFn};
 use cranelift_codegen::ir::types::I64;
 use cranelift_codegen::ir::{
-    self, AbiParam, Block, FuncRef, InstBuilder, MemFlagsData, StackSlot, StackSlotData,
+    self, AbiParam, Block, BlockArg, FuncRef, InstBuilder, MemFlagsData, StackSlot, StackSlotData,
     StackSlotKind, Value,
 };
 use cranelift_codegen::isa::TargetFrontendConfig;
@@ -128,8 +129,17 @@ pub(crate) enum Lowered {
 
 /// Where `break` and `continue` go.
 enum Target {
-    Loop { continuing: Block, exit: Block },
-    Switch { exit: Block },
+    Loop {
+        continuing: Block,
+        exit: Block,
+        /// For a copy of an unrolled loop: the nesting of runtime control flow at its start,
+        /// and whether a `break` under runtime control flow was seen (the trip count is
+        /// then not a constant and unrolling stops).
+        unrolled: Option<(u32, bool)>,
+    },
+    Switch {
+        exit: Block,
+    },
 }
 
 /// One inlined function body.
@@ -160,11 +170,21 @@ pub(crate) struct Lowerer<'m, 'b> {
     frames: Vec<Frame<'m>>,
     /// Stack memory for host calls' results and arguments passed by pointer.
     scratch: StackSlot,
+    /// Whether the current block can be reached (lowering goes on in unreachable blocks
+    /// after `break`, `return`, ...; they are dropped by Cranelift).
+    live: bool,
+    /// Blocks a reachable block jumps to.
+    live_blocks: HashSet<Block>,
+    /// How many runtime (not constant-folded) branches enclose the current statement.
+    runtime_depth: u32,
+    /// Expressions lowered so far: bounds the code loop unrolling may add.
+    lowered_exprs: usize,
 }
 
-/// Bytes of the scratch slot: the largest host-call result (`rt_object_to_world`, 48
-/// bytes) or argument block (a 32-register payload spilled from registers, 128 bytes).
-const SCRATCH_BYTES: u32 = 128;
+/// Bytes of the scratch slot: at least the largest host-call result (`rt_object_to_world`,
+/// 48 bytes) or argument block (a 32-register payload spilled from registers, 128 bytes);
+/// also where out-of-bounds buffer stores of up to this many bytes go.
+pub(super) const SCRATCH_BYTES: u32 = 256;
 
 /// Lowers the program `function` of `env` into `func` (whose signature is set here).
 pub(crate) fn lower_program<'m>(
@@ -214,15 +234,19 @@ pub(crate) fn lower_program<'m>(
         targets: Vec::new(),
         frames: Vec::new(),
         scratch,
+        live: true,
+        live_blocks: HashSet::new(),
+        runtime_depth: 0,
+        lowered_exprs: 0,
     };
     lowerer.init_privates(function)?;
     let body = &env.module.functions[function];
     lowerer.push_frame(function, Vec::new(), None)?;
     lowerer.block(&body.body)?;
     lowerer.frames.pop();
-    lowerer.b.ins().jump(exit, &[]);
+    lowerer.goto(exit, &[]);
     lowerer.b.seal_block(exit);
-    lowerer.b.switch_to_block(exit);
+    lowerer.enter(exit);
     lowerer.b.ins().return_(&[]);
     lowerer.b.seal_all_blocks();
     let frontend = env.frontend;
@@ -266,6 +290,29 @@ impl<'m, 'b> Lowerer<'m, 'b> {
         let dead = self.b.create_block();
         self.b.switch_to_block(dead);
         self.b.seal_block(dead);
+        self.live = false;
+    }
+
+    /// Jumps to `target`, which is reachable if the current block is.
+    fn goto(&mut self, target: Block, args: &[BlockArg]) {
+        if self.live {
+            self.live_blocks.insert(target);
+        }
+        self.b.ins().jump(target, args);
+    }
+
+    /// Branches on `c` to `then` or `other` (without block arguments).
+    fn branch(&mut self, c: Value, then: Block, other: Block) {
+        if self.live {
+            self.live_blocks.extend([then, other]);
+        }
+        self.b.ins().brif(c, then, &[], other, &[]);
+    }
+
+    /// Continues lowering in `block`.
+    fn enter(&mut self, block: Block) {
+        self.b.switch_to_block(block);
+        self.live = self.live_blocks.contains(&block);
     }
 
     /// The functions a program reaches (itself included).

@@ -1,7 +1,7 @@
 //! Places: what a pointer expression lowers to, and loads, stores and atomics through them.
 //!
-//! - Variables whose type holds no array (scalars, vectors, matrices, structs of those) live
-//!   in Cranelift `Variable`s, one per leaf, which gives register allocation for free
+//! - Variables whose type holds no array (scalars, vectors, matrices, structs of those), or
+//!   only small arrays, live in Cranelift `Variable`s, one per leaf, which gives register allocation for free
 //!   (Cranelift has no mem2reg). A runtime index into one (a vector component, a matrix
 //!   column, `m[i][j]`) is an absolute leaf index with the list of leaves it may name;
 //!   loads and stores through it become `select` chains.
@@ -13,8 +13,8 @@
 //!   element, so every access stays inside the variable;
 //! - uniform and storage buffers: `ReadZeroSkipWrite`: an index past its array (or vector)
 //!   or an access past the bound length makes a load read zero and a store or atomic do
-//!   nothing (an atomic then returns zero). Loads read from a static zero page instead of
-//!   branching; stores and atomics branch around the access.
+//!   nothing (an atomic then returns zero). Loads read from a static zero page and stores
+//!   write a scratch slot instead of branching; atomics branch around the access.
 
 use super::types::{Layout, Leaf};
 use super::{LResult, LowerError, Lowerer};
@@ -71,6 +71,9 @@ pub(crate) struct Checked {
     pub len: Value,
     /// Whether every runtime index so far is inside its array (i8), if any was checked.
     pub guard: Option<Value>,
+    /// Whether `guard` already proves the whole access lies inside the buffer (it checked
+    /// an element of a runtime-sized array, and everything deeper lies inside that element).
+    pub proven: bool,
 }
 
 /// One level of indexing.
@@ -80,6 +83,11 @@ pub(crate) enum Index {
     /// A runtime index (i32 or u32 bits; negative i32 counts as huge).
     Dynamic(Value),
 }
+
+/// Variables with arrays of up to this many leaves in all are held in registers too: with
+/// constant indices (unrolled loops) they cost nothing; a runtime index costs a `select`
+/// per candidate element, still cheaper than a stack round trip at this size.
+const MAX_ARRAY_LEAVES: u32 = 16;
 
 fn stack_flags() -> MemFlagsData {
     MemFlagsData::trusted()
@@ -100,7 +108,9 @@ impl Lowerer<'_, '_> {
     ) -> LResult<Place> {
         let types = self.env.types;
         let layout = types.layout(inner)?;
-        if types.is_register_type(inner) {
+        if types.is_register_type(inner)
+            || types.leaf_count(inner).is_ok_and(|n| n <= MAX_ARRAY_LEAVES)
+        {
             let vars: Vec<Variable> = layout
                 .leaves
                 .iter()
@@ -158,7 +168,7 @@ impl Lowerer<'_, '_> {
                 self.b.ins().store(stack_flags(), zero, base, at as i32);
             }
         } else {
-            let zero = self.b.ins().iconst(I32, 0);
+            let zero = self.b.ins().iconst(I8, 0);
             let len = self.b.ins().iconst(I64, size as i64);
             let frontend = self.env.frontend;
             self.b.call_memset(frontend, base, zero, len);
@@ -173,6 +183,7 @@ impl Lowerer<'_, '_> {
         index: Index,
     ) -> LResult<Place> {
         let types = self.env.types;
+        let index = self.constant_index(place, pointee, index);
         let step = types.step(
             pointee,
             match index {
@@ -264,7 +275,42 @@ impl Lowerer<'_, '_> {
     /// `min(i, count - 1)` as u32: naga's `Restrict` policy.
     fn clamp_index(&mut self, i: Value, count: u32) -> Value {
         let last = self.b.ins().iconst(I32, count.saturating_sub(1) as i64);
-        self.b.ins().umin(i, last)
+        self.umin(i, last)
+    }
+
+    /// A runtime index that folded to a constant, as a constant index where that means
+    /// the same: clamped in function and private memory; in buffers, only when in bounds
+    /// (an out-of-bounds constant keeps the runtime path, whose guard is then false).
+    fn constant_index(&self, place: &Place, pointee: &TypeInner, index: Index) -> Index {
+        let Index::Dynamic(v) = index else {
+            return index;
+        };
+        let Some(k) = self.int_konst(v) else {
+            return index;
+        };
+        let count = match *pointee {
+            TypeInner::Vector { size, .. } => Some(size as u32),
+            TypeInner::Matrix { columns, .. } => Some(columns as u32),
+            TypeInner::Array {
+                size: naga::ArraySize::Constant(n),
+                ..
+            } => Some(n.get()),
+            TypeInner::Array { .. } => None,
+            _ => return index,
+        };
+        let checked = matches!(
+            place,
+            Place::Memory(MemPlace {
+                checked: Some(_),
+                ..
+            })
+        );
+        match (count, checked) {
+            (Some(n), false) => Index::Const(k.min(n.saturating_sub(1))),
+            (Some(n), true) if k < n => Index::Const(k),
+            (None, true) => Index::Const(k),
+            _ => index,
+        }
     }
 
     /// Guards an element of a runtime-sized array: it must end inside the buffer (the
@@ -300,6 +346,9 @@ impl Lowerer<'_, '_> {
     /// Whether an access of `size` bytes at `m` is in bounds (i8), for checked places.
     fn in_bounds(&mut self, m: &MemPlace, size: u32) -> Option<Value> {
         let checked = m.checked?;
+        if let (true, Some(guard)) = (checked.proven, checked.guard) {
+            return Some(guard);
+        }
         let end = self.end_offset(m, size);
         let fits = self
             .b
@@ -319,6 +368,24 @@ impl Lowerer<'_, '_> {
         }
     }
 
+    /// `m` with its static offset small enough for instruction immediates (a constant index
+    /// far into a runtime-sized array moves it to the dynamic part).
+    fn small_offset(&mut self, m: &MemPlace) -> MemPlace {
+        if m.offset < (1 << 30) {
+            return m.clone();
+        }
+        let offset = self.b.ins().iconst(I64, m.offset);
+        let dynamic = match m.dynamic {
+            Some(d) => self.b.ins().iadd(d, offset),
+            None => offset,
+        };
+        MemPlace {
+            dynamic: Some(dynamic),
+            offset: 0,
+            ..m.clone()
+        }
+    }
+
     /// The full address of a memory place.
     pub(super) fn address(&mut self, m: &MemPlace) -> Value {
         let base = self.base_plus_dynamic(m);
@@ -331,6 +398,7 @@ impl Lowerer<'_, '_> {
         match place {
             Place::Vars(v) => Ok(self.load_vars(v, layout.len())),
             Place::Memory(m) => {
+                let m = &self.small_offset(m);
                 let size = self.env.types.size(pointee);
                 let mut addr = self.base_plus_dynamic(m);
                 let flags = if m.checked.is_some() {
@@ -421,19 +489,37 @@ impl Lowerer<'_, '_> {
                 Ok(())
             }
             Place::Memory(m) => {
+                let m = &self.small_offset(m);
                 let size = self.env.types.size(pointee);
                 match self.in_bounds(m, size) {
                     None => self.store_memory(m, &layout, values),
+                    Some(ok) if size <= super::SCRATCH_BYTES && !layout.atomic => {
+                        // Out of bounds: write the scratch slot instead. No branch, so
+                        // Cranelift does not duplicate the stored value's computation
+                        // into both paths.
+                        let addr = self.base_plus_dynamic(m);
+                        let scratch = self.scratch_addr();
+                        let sink = self.b.ins().iadd_imm_s(scratch, -m.offset);
+                        let addr = self.b.ins().select(ok, addr, sink);
+                        for (&(off, _), &x) in layout.leaves.iter().zip(values) {
+                            self.b.ins().store(
+                                buffer_flags(),
+                                x,
+                                addr,
+                                (m.offset + off as i64) as i32,
+                            );
+                        }
+                    }
                     Some(ok) => {
                         let store = self.b.create_block();
                         let after = self.b.create_block();
-                        self.b.ins().brif(ok, store, &[], after, &[]);
+                        self.branch(ok, store, after);
                         self.b.seal_block(store);
-                        self.b.switch_to_block(store);
+                        self.enter(store);
                         self.store_memory(m, &layout, values);
-                        self.b.ins().jump(after, &[]);
+                        self.goto(after, &[]);
                         self.b.seal_block(after);
-                        self.b.switch_to_block(after);
+                        self.enter(after);
                     }
                 }
                 Ok(())
@@ -477,6 +563,9 @@ impl Lowerer<'_, '_> {
         let (body, after) = (self.b.create_block(), self.b.create_block());
         let old = self.b.append_block_param(after, I32);
         let exchanged = self.b.append_block_param(after, I8);
+        if self.live {
+            self.live_blocks.extend([body, after]);
+        }
         if let Some(ok) = ok {
             let zero = self.b.ins().iconst(I32, 0);
             let no = self.b.ins().iconst(I8, 0);
@@ -487,7 +576,7 @@ impl Lowerer<'_, '_> {
             self.b.ins().jump(body, &[]);
         }
         self.b.seal_block(body);
-        self.b.switch_to_block(body);
+        self.enter(body);
         let addr = self.address(m);
         let flags = buffer_flags();
         let (result, did) = match (fun, compare) {
@@ -514,9 +603,9 @@ impl Lowerer<'_, '_> {
                 (old, self.b.ins().iconst(I8, 0))
             }
         };
-        self.b.ins().jump(after, &[result.into(), did.into()]);
+        self.goto(after, &[result.into(), did.into()]);
         self.b.seal_block(after);
-        self.b.switch_to_block(after);
+        self.enter(after);
         Ok(match compare {
             Some(_) => vec![old, exchanged],
             None => vec![old],

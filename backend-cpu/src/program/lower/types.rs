@@ -69,7 +69,7 @@ impl Layout {
 }
 
 /// How one level of indexing steps into a composite type.
-pub(crate) struct Step<'a> {
+pub(crate) struct Step {
     /// The element's type.
     pub child: TypeInner,
     /// Leaves per element.
@@ -80,7 +80,6 @@ pub(crate) struct Step<'a> {
     pub count: Option<u32>,
     /// For a struct member access: its leaf and byte offsets (strides do not apply).
     pub member: Option<(u32, u32)>,
-    _types: std::marker::PhantomData<&'a ()>,
 }
 
 /// Types of one module, for layouts and indexing.
@@ -199,14 +198,13 @@ impl<'a> Types<'a> {
     }
 
     /// Stepping into `inner` by a constant index (`Some`) or a dynamic one (`None`).
-    pub fn step(&self, inner: &TypeInner, index: Option<u32>) -> LResult<Step<'a>> {
+    pub fn step(&self, inner: &TypeInner, index: Option<u32>) -> LResult<Step> {
         let step = |child: TypeInner, leaf_stride, byte_stride, count| Step {
             child,
             leaf_stride,
             byte_stride,
             count,
             member: None,
-            _types: std::marker::PhantomData,
         };
         Ok(match *inner {
             TypeInner::Vector { size, scalar } => {

@@ -210,3 +210,78 @@ fn private_globals_start_over_at_every_invocation() {
     assert_eq!((first[8], first[12 + 8]), (101, 102));
     assert_eq!((first[9], first[12 + 9]), (10, 110));
 }
+
+const MEMORY_LOCALS: &str = r#"
+@group(0) @binding(1) var<storage, read_write> out: array<u32>;
+
+struct Bag { flags: array<bool, 4>, v: array<vec3<f32>, 3>, m: mat2x2<f32> }
+
+fn total(p: ptr<function, array<u32, 8>>, upto: u32) -> u32 {
+    var s = 0u;
+    for (var i = 0u; i < upto; i++) { s += (*p)[i]; }
+    (*p)[upto] = 1000u;
+    return s;
+}
+
+fn raygen__locals() {
+    let n = arrayLength(&out) / 8u;
+    for (var i = 0u; i < n; i++) {
+        var big: array<u32, 300>;
+        big[i * 37u] = i + 1u;
+        var small: array<u32, 8>;
+        for (var k = 0u; k < 8u; k++) { small[k] = k * i; }
+        var bag: Bag;
+        bag.flags[i & 3u] = true;
+        bag.v[i % 3u][(i + 1u) % 3u] = f32(i);
+        bag.m[i & 1u][(i >> 1u) & 1u] = 2.0;
+        let o = i * 8u;
+        out[o] = big[i * 37u] + big[299] + big[(i * 37u + 1u) % 300u];
+        out[o + 1u] = total(&small, i & 7u);
+        out[o + 2u] = small[i & 7u];
+        out[o + 3u] = select(0u, 1u, bag.flags[0]) | select(0u, 2u, bag.flags[1]) | select(0u, 4u, bag.flags[2]) | select(0u, 8u, bag.flags[3]);
+        out[o + 4u] = u32(bag.v[0].y + bag.v[1].z * 10.0 + bag.v[2].x * 100.0);
+        out[o + 5u] = u32(bag.m[0][0] + bag.m[0][1] * 10.0 + bag.m[1][0] * 100.0 + bag.m[1][1] * 1000.0);
+        out[o + 6u] = u32(!bag.flags[i & 3u]) + u32(all(vec2<bool>(bag.flags[i & 3u], true)));
+    }
+}
+"#;
+
+#[test]
+fn locals_in_memory_arrays_of_bools_and_pointer_arguments() {
+    let module = jit(MEMORY_LOCALS);
+    let n = 12u32;
+    let out = run(&module, "raygen__locals", vec![vec![0; n as usize * 8]]).remove(0);
+    for i in 0..n {
+        let o = (i * 8) as usize;
+        let big_index = (i * 37).min(299);
+        let neighbour = if (i * 37 + 1) % 300 == big_index {
+            i + 1
+        } else {
+            0
+        };
+        let last = if big_index == 299 { i + 1 } else { 0 };
+        assert_eq!(out[o], (i + 1) + last + neighbour, "big array at {i}");
+        let upto = i & 7;
+        assert_eq!(
+            out[o + 1],
+            (0..upto).map(|k| k * i).sum::<u32>(),
+            "total at {i}"
+        );
+        assert_eq!(out[o + 2], 1000, "written through the pointer");
+        assert_eq!(out[o + 3], 1 << (i & 3), "bool array at {i}");
+        let mut v = [[0.0f32; 3]; 3];
+        v[(i % 3) as usize][((i + 1) % 3) as usize] = i as f32;
+        assert_eq!(
+            out[o + 4],
+            (v[0][1] + v[1][2] * 10.0 + v[2][0] * 100.0) as u32,
+            "vec3 array at {i}"
+        );
+        let mut m = [[0.0f32; 2]; 2];
+        m[(i & 1) as usize][((i >> 1) & 1) as usize] = 2.0;
+        assert_eq!(
+            out[o + 5],
+            (m[0][0] + m[0][1] * 10.0 + m[1][0] * 100.0 + m[1][1] * 1000.0) as u32
+        );
+        assert_eq!(out[o + 6], 1);
+    }
+}
