@@ -75,6 +75,13 @@ fn closesthit__shade() {
     rt_set_payload(1u, shaded);
 }
 
+fn miss__empty() {}
+
+fn miss__launch_index() {
+    let li = rt_launch_index();
+    image[li.x & 7u] = li.y;
+}
+
 fn raygen__loops() {
     let li = rt_launch_index();
     let n = arrayLength(&data);
@@ -345,8 +352,27 @@ fn compile() -> JitModule {
     JitModule::compile(&module, &options).expect("JIT")
 }
 
+/// `miss__empty` in Rust: the cost of the call boundary alone.
+#[inline(never)]
+fn empty_rust(_: &Bindings<'_>, _: &mut dyn DeviceCalls) {}
+
+/// `miss__launch_index` in Rust: one device call and one buffer store.
+#[inline(never)]
+fn launch_index_rust(bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
+    let image: &mut [u32] = unsafe { words(bindings, 2) };
+    let li = calls.launch_index();
+    if let Some(px) = image.get_mut((li[0] & 7) as usize) {
+        *px = li[1];
+    }
+}
+
 type Pair = (&'static str, &'static str, fn(&Bindings<'_>, &mut dyn DeviceCalls));
-const PROGRAMS: [Pair; 2] = [("closest_hit", "closesthit__shade", shade_rust), ("loops", "raygen__loops", loops_rust)];
+const PROGRAMS: [Pair; 4] = [
+    ("closest_hit", "closesthit__shade", shade_rust),
+    ("loops", "raygen__loops", loops_rust),
+    ("empty", "miss__empty", empty_rust),
+    ("one_call", "miss__launch_index", launch_index_rust),
+];
 
 /// Both versions give the same outputs, bit for bit.
 fn check(jit: &JitModule) {

@@ -293,20 +293,31 @@ impl<'m, 'b> Lowerer<'m, 'b> {
         self.live = false;
     }
 
-    /// Jumps to `target`, which is reachable if the current block is.
+    /// Jumps to `target`, which is reachable if the current block is. An unreachable block
+    /// ends in a trap instead: a jump from it would give `target` a predecessor, and
+    /// variables would need block parameters there, hiding constants from folding.
     fn goto(&mut self, target: Block, args: &[BlockArg]) {
         if self.live {
             self.live_blocks.insert(target);
+            self.b.ins().jump(target, args);
+        } else {
+            self.end_dead_block();
         }
-        self.b.ins().jump(target, args);
     }
 
     /// Branches on `c` to `then` or `other` (without block arguments).
     fn branch(&mut self, c: Value, then: Block, other: Block) {
         if self.live {
             self.live_blocks.extend([then, other]);
+            self.b.ins().brif(c, then, &[], other, &[]);
+        } else {
+            self.end_dead_block();
         }
-        self.b.ins().brif(c, then, &[], other, &[]);
+    }
+
+    /// Ends an unreachable block.
+    fn end_dead_block(&mut self) {
+        self.b.ins().trap(ir::TrapCode::unwrap_user(1));
     }
 
     /// Continues lowering in `block`.

@@ -563,16 +563,17 @@ impl Lowerer<'_, '_> {
         let (body, after) = (self.b.create_block(), self.b.create_block());
         let old = self.b.append_block_param(after, I32);
         let exchanged = self.b.append_block_param(after, I8);
-        if self.live {
+        if !self.live {
+            self.end_dead_block();
+        } else if let Some(ok) = ok {
             self.live_blocks.extend([body, after]);
-        }
-        if let Some(ok) = ok {
             let zero = self.b.ins().iconst(I32, 0);
             let no = self.b.ins().iconst(I8, 0);
             self.b
                 .ins()
                 .brif(ok, body, &[], after, &[zero.into(), no.into()]);
         } else {
+            self.live_blocks.insert(body);
             self.b.ins().jump(body, &[]);
         }
         self.b.seal_block(body);

@@ -178,10 +178,11 @@ impl<'m> Lowerer<'m, '_> {
                 naga::SwitchValue::Default => default = block,
             }
         }
-        dispatch.emit(&mut self.b, value, default);
         if self.live {
-            self.live_blocks
-                .extend(blocks.iter().copied().chain([default]));
+            dispatch.emit(&mut self.b, value, default);
+            self.live_blocks.extend(blocks.iter().copied().chain([default]));
+        } else {
+            self.end_dead_block();
         }
         self.targets.push(Target::Switch { exit });
         self.runtime_depth += 1;
