@@ -339,6 +339,18 @@ impl Scene {
         }
     }
 
+    /// Runs a compiled program over the whole batch with bindings prepared once, as the
+    /// runtime does per launch.
+    fn run_prepared(&mut self, jit: &JitModule, program: &str) {
+        let f = jit.program(program).expect("program");
+        let resources = self.resources();
+        let bindings = Bindings { resources: &resources };
+        let prepared = jit.prepare(&bindings);
+        for hit in &mut self.hits {
+            f.call_prepared(black_box(&prepared), hit);
+        }
+    }
+
     /// Everything a run writes, as bits.
     fn outputs(&self) -> Vec<u32> {
         let payloads = self.hits.iter().flat_map(|h| h.payload);
@@ -383,6 +395,9 @@ fn check(jit: &JitModule) {
         let mut r = Scene::new();
         r.run(&|b, c| rust(b, c));
         assert_eq!(a.outputs(), r.outputs(), "{name}: JIT and Rust disagree");
+        let mut p = Scene::new();
+        p.run_prepared(jit, program);
+        assert_eq!(p.outputs(), r.outputs(), "{name}: prepared JIT and Rust disagree");
     }
 }
 
@@ -394,19 +409,20 @@ fn bench(c: &mut Criterion) {
         let f = jit.program(program).expect("program");
         let mut scene = Scene::new();
         group.bench_function(format!("{name}/jit"), |b| b.iter(|| scene.run(&|bd, c| f.call(bd, c))));
+        group.bench_function(format!("{name}/jit_prepared"), |b| b.iter(|| scene.run_prepared(&jit, program)));
         group.bench_function(format!("{name}/rust"), |b| b.iter(|| scene.run(&|bd, c| rust(bd, c))));
     }
     group.finish();
     summary(&jit);
 }
 
-/// Nanoseconds per call, best of `rounds` batches.
-fn per_call(scene: &mut Scene, f: &dyn Fn(&Bindings<'_>, &mut dyn DeviceCalls), rounds: usize) -> f64 {
+/// Nanoseconds per call, best of `rounds` batches of 20 runs of the scene.
+fn per_call(rounds: usize, mut run: impl FnMut()) -> f64 {
     (0..rounds)
         .map(|_| {
             let start = Instant::now();
             for _ in 0..20 {
-                scene.run(f);
+                run();
             }
             start.elapsed().as_secs_f64() * 1e9 / (20 * BATCH) as f64
         })
@@ -414,13 +430,18 @@ fn per_call(scene: &mut Scene, f: &dyn Fn(&Bindings<'_>, &mut dyn DeviceCalls), 
 }
 
 fn summary(jit: &JitModule) {
-    println!("\nJIT / Rust, ns per call (best of 30 batches of {BATCH} x 20):");
+    println!("\nns per call (best of 30 batches of {BATCH} x 20); ratios to Rust:");
     for (name, program, rust) in PROGRAMS {
         let f = jit.program(program).expect("program");
         let mut scene = Scene::new();
-        let j = per_call(&mut scene, &|b, c| f.call(b, c), 30);
-        let r = per_call(&mut scene, &|b, c| rust(b, c), 30);
-        println!("  {name:12} jit {j:7.2}  rust {r:7.2}  ratio {:.3}", j / r);
+        let j = per_call(30, || scene.run(&|b, c| f.call(b, c)));
+        let p = per_call(30, || scene.run_prepared(jit, program));
+        let r = per_call(30, || scene.run(&|b, c| rust(b, c)));
+        println!(
+            "  {name:12} rust {r:7.2}  jit {j:7.2} (ratio {:.3})  jit prepared {p:7.2} (ratio {:.3})",
+            j / r,
+            p / r
+        );
     }
     println!("  compile: {:?}", jit.stats());
 }

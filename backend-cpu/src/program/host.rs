@@ -7,9 +7,10 @@
 //!
 //! Device functions (`rt_*`) go through the `DeviceCalls` trait object the runtime passed to
 //! [`ProgramFn::call`](super::ProgramFn::call); the context holds it as a raw fat pointer
-//! that only Rust reads. A panic inside a `DeviceCalls` method is caught here (it must not
-//! unwind through machine code without unwind tables), parked in the context, and resumed
-//! when the program returns; until then the trampolines answer zeros.
+//! that only Rust reads. A panic inside a `DeviceCalls` method unwinds through the program
+//! to the caller on Linux, where programs have unwind tables (`unwind.rs`); elsewhere it
+//! is caught in the trampoline, parked in the context and resumed when the program
+//! returns (the trampolines answer zeros until then).
 
 use super::abi::{Bindings, BoundResource, DeviceCalls};
 use super::texture;
@@ -17,7 +18,6 @@ use cranelift_codegen::ir::types::{F32, I32, I64};
 use cranelift_codegen::ir::{AbiParam, Signature, Type};
 use cranelift_codegen::isa::CallConv;
 use std::any::Any;
-use std::panic::{AssertUnwindSafe, catch_unwind};
 
 /// A buffer as compiled code sees it: first byte and length. The table of these is the
 /// first field of [`CallContext`].
@@ -64,18 +64,35 @@ impl CallContext<'_> {
 const _: () = assert!(std::mem::offset_of!(CallContext<'static>, buffers) == 0);
 const _: () = assert!(std::mem::offset_of!(CallContext<'static>, zero_page) == 8);
 
-/// Runs `f` on the context's `DeviceCalls`, unless an earlier call panicked; a panic is
-/// parked in the context and `default` returned.
+/// Runs `f` on the context's `DeviceCalls`. On Linux compiled code has unwind tables
+/// (`unwind.rs`), so a panic in `f` unwinds through it to the caller of `ProgramFn::call`.
 ///
 /// # Safety
 /// `ctx` is the live context of the current program call.
+#[cfg(target_os = "linux")]
+unsafe fn with_calls<R>(
+    ctx: *mut CallContext<'_>,
+    _default: R,
+    f: impl FnOnce(&mut dyn DeviceCalls) -> R,
+) -> R {
+    // SAFETY: the caller passes the context `ProgramFn::call` created for this call; its
+    // `calls` pointer comes from a `&mut dyn DeviceCalls` borrowed for the whole call.
+    f(unsafe { &mut *(*ctx).calls })
+}
+
+/// Runs `f` on the context's `DeviceCalls`, unless an earlier call panicked. Where compiled
+/// code has no unwind tables, a panic is caught here, parked in the context and resumed by
+/// `ProgramFn::call` after the program returns; until then calls answer `default`.
+///
+/// # Safety
+/// `ctx` is the live context of the current program call.
+#[cfg(not(target_os = "linux"))]
 unsafe fn with_calls<R>(
     ctx: *mut CallContext<'_>,
     default: R,
     f: impl FnOnce(&mut dyn DeviceCalls) -> R,
 ) -> R {
-    // SAFETY: the caller passes the context `ProgramFn::call` created for this call; its
-    // `calls` pointer comes from a `&mut dyn DeviceCalls` borrowed for the whole call.
+    // SAFETY: as above.
     let ctx = unsafe { &mut *ctx };
     if ctx.panic.is_some() {
         return default;
@@ -102,7 +119,7 @@ unsafe fn write_out<T: Copy, const N: usize>(out: *mut T, values: [T; N]) {
 
 macro_rules! vec_getter {
     ($name:ident, $method:ident, $t:ty, $n:literal) => {
-        unsafe extern "C" fn $name(ctx: *mut CallContext<'_>, out: *mut $t) {
+        unsafe extern "C-unwind" fn $name(ctx: *mut CallContext<'_>, out: *mut $t) {
             let v = unsafe { with_calls(ctx, [<$t>::default(); $n], |c| c.$method()) };
             unsafe { write_out(out, v) };
         }
@@ -111,7 +128,7 @@ macro_rules! vec_getter {
 
 macro_rules! scalar_getter {
     ($name:ident, $method:ident, $t:ty) => {
-        unsafe extern "C" fn $name(ctx: *mut CallContext<'_>) -> $t {
+        unsafe extern "C-unwind" fn $name(ctx: *mut CallContext<'_>) -> $t {
             unsafe { with_calls(ctx, <$t>::default(), |c| c.$method()) }
         }
     };
@@ -141,36 +158,36 @@ scalar_getter!(rt_curve_parameter, curve_parameter, f32);
 scalar_getter!(rt_exception_code, exception_code, i32);
 scalar_getter!(rt_remaining_trace_depth, remaining_trace_depth, u32);
 
-unsafe extern "C" fn rt_triangle_vertices(ctx: *mut CallContext<'_>, out: *mut f32) {
+unsafe extern "C-unwind" fn rt_triangle_vertices(ctx: *mut CallContext<'_>, out: *mut f32) {
     let v = unsafe { with_calls(ctx, [[0.0; 3]; 3], |c| c.triangle_vertices()) };
     unsafe { write_out(out, v.concat().try_into().unwrap_or([0.0; 9])) };
 }
 
-unsafe extern "C" fn rt_is_front_face_hit(ctx: *mut CallContext<'_>) -> u32 {
+unsafe extern "C-unwind" fn rt_is_front_face_hit(ctx: *mut CallContext<'_>) -> u32 {
     unsafe { with_calls(ctx, false, |c| c.is_front_face_hit()) as u32 }
 }
 
-unsafe extern "C" fn rt_get_payload(ctx: *mut CallContext<'_>, i: u32) -> u32 {
+unsafe extern "C-unwind" fn rt_get_payload(ctx: *mut CallContext<'_>, i: u32) -> u32 {
     unsafe { with_calls(ctx, 0, |c| c.get_payload(i)) }
 }
 
-unsafe extern "C" fn rt_set_payload(ctx: *mut CallContext<'_>, i: u32, v: u32) {
+unsafe extern "C-unwind" fn rt_set_payload(ctx: *mut CallContext<'_>, i: u32, v: u32) {
     unsafe { with_calls(ctx, (), |c| c.set_payload(i, v)) }
 }
 
-unsafe extern "C" fn rt_get_attribute(ctx: *mut CallContext<'_>, i: u32) -> u32 {
+unsafe extern "C-unwind" fn rt_get_attribute(ctx: *mut CallContext<'_>, i: u32) -> u32 {
     unsafe { with_calls(ctx, 0, |c| c.get_attribute(i)) }
 }
 
-unsafe extern "C" fn rt_sbt_data_u32(ctx: *mut CallContext<'_>, i: u32) -> u32 {
+unsafe extern "C-unwind" fn rt_sbt_data_u32(ctx: *mut CallContext<'_>, i: u32) -> u32 {
     unsafe { with_calls(ctx, 0, |c| c.sbt_data_u32(i)) }
 }
 
-unsafe extern "C" fn rt_sbt_data_f32(ctx: *mut CallContext<'_>, i: u32) -> f32 {
+unsafe extern "C-unwind" fn rt_sbt_data_f32(ctx: *mut CallContext<'_>, i: u32) -> f32 {
     unsafe { with_calls(ctx, 0.0, |c| c.sbt_data_f32(i)) }
 }
 
-unsafe extern "C" fn rt_report_intersection(
+unsafe extern "C-unwind" fn rt_report_intersection(
     ctx: *mut CallContext<'_>,
     t: f32,
     hit_kind: u32,
@@ -185,21 +202,21 @@ unsafe extern "C" fn rt_report_intersection(
     }
 }
 
-unsafe extern "C" fn rt_ignore_intersection(ctx: *mut CallContext<'_>) {
+unsafe extern "C-unwind" fn rt_ignore_intersection(ctx: *mut CallContext<'_>) {
     unsafe { with_calls(ctx, (), |c| c.ignore_intersection()) }
 }
 
-unsafe extern "C" fn rt_terminate_ray(ctx: *mut CallContext<'_>) {
+unsafe extern "C-unwind" fn rt_terminate_ray(ctx: *mut CallContext<'_>) {
     unsafe { with_calls(ctx, (), |c| c.terminate_ray()) }
 }
 
-unsafe extern "C" fn rt_throw_exception(ctx: *mut CallContext<'_>, code: u32) {
+unsafe extern "C-unwind" fn rt_throw_exception(ctx: *mut CallContext<'_>, code: u32) {
     unsafe { with_calls(ctx, (), |c| c.throw_exception(code)) }
 }
 
 /// `rt_trace`: the payload is the caller's `RtPayload` array in its own memory.
 #[allow(clippy::too_many_arguments)]
-unsafe extern "C" fn rt_trace(
+unsafe extern "C-unwind" fn rt_trace(
     ctx: *mut CallContext<'_>,
     handle_lo: u32,
     handle_hi: u32,
@@ -242,7 +259,7 @@ unsafe extern "C" fn rt_trace(
     }
 }
 
-unsafe extern "C" fn rt_direct_call(
+unsafe extern "C-unwind" fn rt_direct_call(
     ctx: *mut CallContext<'_>,
     index: u32,
     args: *mut u32,
@@ -253,7 +270,7 @@ unsafe extern "C" fn rt_direct_call(
     unsafe { with_calls(ctx, (), |c| c.direct_call(index, args)) }
 }
 
-unsafe extern "C" fn rt_continuation_call(
+unsafe extern "C-unwind" fn rt_continuation_call(
     ctx: *mut CallContext<'_>,
     index: u32,
     args: *mut u32,

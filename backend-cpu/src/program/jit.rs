@@ -58,12 +58,17 @@ pub(crate) struct Inner {
     /// The binding number of each buffer-table slot (`None`: a buffer without a binding).
     slot_bindings: Vec<Option<u32>>,
     stats: CompileStats,
+    /// The unwind tables of the code; dropped (deregistered) before the code is freed.
+    #[cfg(target_os = "linux")]
+    unwind: Option<super::unwind::UnwindRegistration>,
     /// Owns the executable memory; only touched again to free it.
     code: Mutex<Option<JITModule>>,
 }
 
 impl Drop for Inner {
     fn drop(&mut self) {
+        #[cfg(target_os = "linux")]
+        drop(self.unwind.take());
         if let Some(module) = self
             .code
             .get_mut()
@@ -112,43 +117,86 @@ impl std::fmt::Debug for ProgramFn<'_> {
 /// Buffers a program call binds without allocating.
 const INLINE_SLOTS: usize = 16;
 
+/// A launch's bindings laid out for one module's code: the buffer table programs read.
+/// Preparing once per launch (or per thread) and calling with
+/// [`ProgramFn::call_prepared`] saves rebuilding it at every program call.
+pub struct PreparedBindings<'a> {
+    bindings: &'a Bindings<'a>,
+    table: Vec<BufferSlot>,
+    /// The slot layout the table was built for (borrowed from its module), to catch a
+    /// mix-up of modules.
+    layout: &'a [Option<u32>],
+}
+
+// The table holds the same raw buffer pointers as `Bindings`, shared the same way.
+unsafe impl Send for PreparedBindings<'_> {}
+unsafe impl Sync for PreparedBindings<'_> {}
+
+/// The buffer table for `slot_bindings` from `bindings`.
+fn buffer_table(slot_bindings: &[Option<u32>], bindings: &Bindings<'_>) -> Vec<BufferSlot> {
+    slot_bindings
+        .iter()
+        .map(
+            |binding| match binding.and_then(|b| bindings.resources.get(b as usize)) {
+                Some(BoundResource::Buffer(b)) => BufferSlot {
+                    ptr: b.ptr,
+                    len: b.len,
+                },
+                _ => BufferSlot::EMPTY,
+            },
+        )
+        .collect()
+}
+
 impl ProgramFn<'_> {
     /// Runs the program once with `bindings`, answering device-API calls with `calls`.
     ///
     /// Buffer accesses are bounds-checked against the bound lengths; the runtime's part of
     /// the contract (`abi.rs`) is that every bound pointer is valid for its length for the
-    /// duration of the call. A panic inside `calls` is resumed here after the program
-    /// returns (the program sees zeros from then on).
+    /// duration of the call. A panic inside `calls` propagates to the caller.
     pub fn call(&self, bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
         let slots = self.slot_bindings.len();
         let mut inline = [BufferSlot::EMPTY; INLINE_SLOTS];
-        let mut heap = Vec::new();
-        let table: &mut [BufferSlot] = if slots <= INLINE_SLOTS {
-            &mut inline[..slots]
-        } else {
-            heap.resize(slots, BufferSlot::EMPTY);
-            &mut heap
-        };
-        for (slot, binding) in table.iter_mut().zip(self.slot_bindings) {
-            if let Some(BoundResource::Buffer(b)) =
-                binding.and_then(|b| bindings.resources.get(b as usize))
-            {
-                *slot = BufferSlot {
-                    ptr: b.ptr,
-                    len: b.len,
-                };
+        if slots <= INLINE_SLOTS {
+            for (slot, binding) in inline.iter_mut().zip(self.slot_bindings) {
+                if let Some(BoundResource::Buffer(b)) =
+                    binding.and_then(|b| bindings.resources.get(b as usize))
+                {
+                    *slot = BufferSlot {
+                        ptr: b.ptr,
+                        len: b.len,
+                    };
+                }
             }
+            self.run(inline.as_ptr(), bindings, calls);
+        } else {
+            let table = buffer_table(self.slot_bindings, bindings);
+            self.run(table.as_ptr(), bindings, calls);
         }
+    }
+
+    /// Runs the program once with bindings prepared by [`JitModule::prepare`] (of this
+    /// program's module; bindings prepared for another module are laid out again here).
+    #[inline]
+    pub fn call_prepared(&self, prepared: &PreparedBindings<'_>, calls: &mut dyn DeviceCalls) {
+        if std::ptr::eq(prepared.layout, self.slot_bindings) {
+            self.run(prepared.table.as_ptr(), prepared.bindings, calls);
+        } else {
+            self.call(prepared.bindings, calls);
+        }
+    }
+
+    fn run(&self, table: *const BufferSlot, bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
         let mut ctx = CallContext {
-            buffers: table.as_ptr(),
+            buffers: table,
             zero_page: ZERO_PAGE.as_ptr(),
             calls: calls as *mut dyn DeviceCalls,
             bindings: bindings as *const Bindings<'_>,
             panic: None,
         };
         // SAFETY: `entry` is finalized code of a live module (borrowed by `self`) with the
-        // signature `extern "C" fn(*mut CallContext)`; the context and everything it points
-        // to outlive the call.
+        // signature `extern "C" fn(*mut CallContext)`; the context, the buffer table (as
+        // long as the module's slots) and what they point to outlive the call.
         unsafe { (self.entry)(&mut ctx) };
         if let Some(payload) = ctx.panic.take() {
             std::panic::resume_unwind(payload);
@@ -182,6 +230,15 @@ impl JitModule {
             entry,
             slot_bindings: &self.inner.slot_bindings,
         })
+    }
+
+    /// `bindings` laid out for this module's programs (see [`PreparedBindings`]).
+    pub fn prepare<'a>(&'a self, bindings: &'a Bindings<'a>) -> PreparedBindings<'a> {
+        PreparedBindings {
+            bindings,
+            table: buffer_table(&self.inner.slot_bindings, bindings),
+            layout: &self.inner.slot_bindings,
+        }
     }
 
     /// What compiling this module did.
@@ -287,6 +344,9 @@ fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner
             let _ = std::fs::write(dir.join(format!("{}.s", program.name)), vcode);
         }
         let code = ctx.compiled_code().expect("compiled above");
+        let unwind_info = code.create_unwind_info(&*isa).map_err(|e| {
+            Error::backend(format!("unwind information for `{}`: {e}", program.name))
+        })?;
         let relocs: Vec<ModuleReloc> = code
             .buffer
             .relocs()
@@ -299,23 +359,33 @@ fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner
         jit.clear_context(&mut ctx);
         stats.functions += 1;
         stats.disk_cache_hits += hit as usize;
-        ids.push((program.name.clone(), id));
+        ids.push((program.name.clone(), id, unwind_info));
     }
     jit.finalize_definitions().map_err(module_err)?;
-    let programs = ids
-        .into_iter()
-        .map(|(name, id)| {
-            let ptr = jit.get_finalized_function(id);
-            // SAFETY: the function was compiled with exactly this signature.
-            let entry: EntryFn = unsafe { std::mem::transmute::<*const u8, EntryFn>(ptr) };
-            (name, entry)
-        })
-        .collect();
+    let mut programs = HashMap::new();
+    let mut frames = Vec::new();
+    for (name, id, unwind_info) in ids {
+        let ptr = jit.get_finalized_function(id);
+        // SAFETY: the function was compiled with exactly this signature.
+        let entry: EntryFn = unsafe { std::mem::transmute::<*const u8, EntryFn>(ptr) };
+        programs.insert(name, entry);
+        frames.extend(unwind_info.map(|info| (ptr as usize, info)));
+    }
+    #[cfg(target_os = "linux")]
+    let unwind = Some(
+        super::unwind::UnwindRegistration::new(&*isa, &frames).map_err(|e| {
+            Error::backend(format!("the CPU JIT could not register unwind tables: {e}"))
+        })?,
+    );
+    #[cfg(not(target_os = "linux"))]
+    let _ = frames;
     stats.time = start.elapsed();
     Ok(Inner {
         programs,
         slot_bindings: env.slot_bindings(),
         stats,
+        #[cfg(target_os = "linux")]
+        unwind,
         code: Mutex::new(Some(jit)),
     })
 }

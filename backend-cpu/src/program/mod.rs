@@ -23,7 +23,8 @@
 //!
 //! Layout: `lower/` turns naga IR into Cranelift IR, `jit.rs` drives Cranelift and calls
 //! programs, `host.rs` holds what compiled code calls out to, `math_ref.rs` the built-ins
-//! computed in Rust, `texture.rs` the sampler, `cache.rs` the caches.
+//! computed in Rust, `texture.rs` the sampler, `cache.rs` the caches, `unwind.rs` the
+//! unwind tables that let panics in `DeviceCalls` pass through programs.
 
 pub mod abi;
 #[cfg(feature = "jit")]
@@ -38,9 +39,11 @@ mod lower;
 pub mod math_ref;
 #[cfg(feature = "jit")]
 pub mod texture;
+#[cfg(all(feature = "jit", target_os = "linux"))]
+mod unwind;
 
 #[cfg(feature = "jit")]
-pub use jit::{CompileStats, DiskCache, JitModule, JitOptions, ProgramFn};
+pub use jit::{CompileStats, DiskCache, JitModule, JitOptions, PreparedBindings, ProgramFn};
 
 #[cfg(all(test, feature = "jit"))]
 mod tests;

@@ -672,10 +672,10 @@ impl<'m> Lowerer<'m, '_> {
 
     /// A WGSL conversion (`convert`) or bitcast of one leaf.
     fn convert(&mut self, x: Value, from: Leaf, to: Leaf, convert: bool) -> Value {
-        if from != to {
-            if let Some(folded) = self.fold_convert(x, from, to, convert) {
-                return folded;
-            }
+        if from != to
+            && let Some(folded) = self.fold_convert(x, from, to, convert)
+        {
+            return folded;
         }
         let ins = self.b.ins();
         match (from, to, convert) {

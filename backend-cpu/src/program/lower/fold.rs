@@ -12,7 +12,7 @@
 
 use super::Lowerer;
 use super::types::Leaf;
-use cranelift_codegen::ir::types::{F32, I8, I32};
+use cranelift_codegen::ir::types::{I8, I32};
 use cranelift_codegen::ir::{InstBuilder, InstructionData, Opcode, Value};
 use naga::BinaryOperator as B;
 
@@ -151,8 +151,6 @@ impl Lowerer<'_, '_> {
             (Konst::Int(i), Leaf::F32, true) => {
                 let f = if from == Leaf::I32 {
                     i as i32 as f32
-                } else if from == Leaf::Bool {
-                    i as f32
                 } else {
                     i as f32
                 };
@@ -167,11 +165,5 @@ impl Lowerer<'_, '_> {
             (Konst::Float(f), Leaf::I32 | Leaf::U32, false) => self.int(f.to_bits()),
             (Konst::Float(f), Leaf::F32, _) => self.b.ins().f32const(f),
         })
-    }
-
-    /// Whether a Cranelift type is the f32 leaf type (for folding dispatch).
-    #[allow(dead_code)]
-    fn is_f32(&self, v: Value) -> bool {
-        self.b.func.dfg.value_type(v) == F32
     }
 }

@@ -201,7 +201,8 @@ pub(crate) fn lower_program<'m>(
     b.switch_to_block(entry);
     b.seal_block(entry);
     let ctx = b.block_params(entry)[0];
-    let table_flags = MemFlagsData::trusted().with_readonly();
+    // Read-only for the call and movable: loads of slots a path does not use disappear.
+    let table_flags = MemFlagsData::trusted().with_readonly().with_can_move();
     let table = b
         .ins()
         .load(I64, table_flags, ctx, CallContext::BUFFERS_OFFSET);

@@ -180,7 +180,8 @@ impl<'m> Lowerer<'m, '_> {
         }
         if self.live {
             dispatch.emit(&mut self.b, value, default);
-            self.live_blocks.extend(blocks.iter().copied().chain([default]));
+            self.live_blocks
+                .extend(blocks.iter().copied().chain([default]));
         } else {
             self.end_dead_block();
         }

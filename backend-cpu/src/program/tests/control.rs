@@ -285,3 +285,101 @@ fn locals_in_memory_arrays_of_bools_and_pointer_arguments() {
         assert_eq!(out[o + 6], 1);
     }
 }
+
+const UNROLLING: &str = r#"
+@group(0) @binding(1) var<storage, read_write> out: array<u32>;
+
+fn raygen__unroll() {
+    // More iterations than are unrolled: the copies hand over to a real loop.
+    var long = 0u;
+    for (var i = 0u; i < 1000u; i++) { long += i * i; }
+    // A counted loop whose exit depends on a buffer value after a few iterations.
+    var early = 0u;
+    for (var i = 0u; i < 8u; i++) {
+        if i == out[0] { break; }
+        early += i + 1u;
+    }
+    // Nested counted loops over a small array, and `break if`.
+    var a: array<u32, 6>;
+    for (var r = 0u; r < 3u; r++) {
+        for (var k = 0u; k < 6u; k++) { a[k] = a[k] * 3u + a[(k + r) % 6u] + k; }
+    }
+    var n = 0u;
+    loop {
+        n += 2u;
+        continuing { break if n >= 11u; }
+    }
+    out[1] = long;
+    out[2] = early;
+    out[3] = a[0] ^ (a[1] << 1u) ^ (a[2] << 2u) ^ (a[3] << 3u) ^ (a[4] << 4u) ^ (a[5] << 5u);
+    out[4] = n;
+}
+"#;
+
+#[test]
+fn unrolled_loops_compute_what_loops_do() {
+    let module = jit(UNROLLING);
+    let long = (0..1000u32).fold(0u32, |acc, i| acc.wrapping_add(i * i));
+    let mut a = [0u32; 6];
+    for r in 0..3 {
+        for k in 0..6 {
+            a[k] = a[k]
+                .wrapping_mul(3)
+                .wrapping_add(a[(k + r) % 6])
+                .wrapping_add(k as u32);
+        }
+    }
+    let mixed = a[0] ^ (a[1] << 1) ^ (a[2] << 2) ^ (a[3] << 3) ^ (a[4] << 4) ^ (a[5] << 5);
+    for stop in [0u32, 3, 7, 100] {
+        let out = run(&module, "raygen__unroll", vec![vec![stop, 0, 0, 0, 0]]).remove(0);
+        let early: u32 = (0..8u32.min(stop)).map(|i| i + 1).sum();
+        assert_eq!(out[1..], [long, early, mixed, 12], "stop at {stop}");
+    }
+}
+
+#[test]
+fn prepared_bindings_give_the_same_results_and_survive_a_module_mix_up() {
+    let module = jit(CONTROL);
+    let other = jit(UNROLLING);
+    let mut rng = Rng(11);
+    let mut input: Vec<u32> = (0..50).map(|_| rng.int() % 1000).collect();
+    let mut direct = vec![0u32; 50 * 12];
+    let mut prepared_out = vec![0u32; 50 * 12];
+    let mut params: Vec<u32> = Vec::new();
+    let mut bind = |out: &mut Vec<u32>, input: &mut Vec<u32>| {
+        [
+            BoundResource::Buffer(BoundBuffer {
+                ptr: params.as_mut_ptr().cast(),
+                len: 0,
+            }),
+            BoundResource::Buffer(BoundBuffer {
+                ptr: input.as_mut_ptr().cast(),
+                len: input.len() * 4,
+            }),
+            BoundResource::Buffer(BoundBuffer {
+                ptr: out.as_mut_ptr().cast(),
+                len: out.len() * 4,
+            }),
+        ]
+    };
+    let f = module.program("raygen__control").unwrap();
+    let resources = bind(&mut direct, &mut input);
+    f.call(
+        &Bindings {
+            resources: &resources,
+        },
+        &mut Mock::default(),
+    );
+    let resources = bind(&mut prepared_out, &mut input);
+    let bindings = Bindings {
+        resources: &resources,
+    };
+    let prepared = module.prepare(&bindings);
+    f.call_prepared(&prepared, &mut Mock::default());
+    assert_eq!(prepared_out, direct);
+    // Bindings prepared for another module's layout are laid out again, not misread.
+    prepared_out.iter_mut().for_each(|w| *w = 0);
+    let wrong = other.prepare(&bindings);
+    f.call_prepared(&wrong, &mut Mock::default());
+    assert_eq!(prepared_out, direct);
+}
