@@ -12,7 +12,7 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use optik_api::ProgramSource;
-use optik_cpu::program::abi::{Bindings, BoundBuffer, BoundResource, DeviceCalls};
+use optik_cpu::program::abi::{Bindings, BoundBuffer, BoundResource, DeviceCalls, DeviceState};
 use optik_cpu::program::{DiskCache, JitModule, JitOptions};
 use std::hint::black_box;
 use std::time::Instant;
@@ -109,21 +109,19 @@ fn raygen__loops() {
 }
 "#;
 
-/// The state a hit program reads, set per call.
+/// The state a hit program reads, set per call; offered to programs as memory
+/// (`DeviceCalls::state`) when `offer` is set.
 #[derive(Default)]
 struct Hit {
-    launch: [u32; 3],
-    prim: u32,
-    bary: [f32; 2],
-    dir: [f32; 3],
-    tmax: f32,
+    s: DeviceState,
     payload: [u32; 4],
+    offer: bool,
 }
 
 #[rustfmt::skip]
 impl DeviceCalls for Hit {
-    fn launch_index(&self) -> [u32; 3] { self.launch }
-    fn launch_dimensions(&self) -> [u32; 3] { [WIDTH, WIDTH, 1] }
+    fn launch_index(&self) -> [u32; 3] { self.s.launch_index }
+    fn launch_dimensions(&self) -> [u32; 3] { self.s.launch_dimensions }
     fn trace(&mut self, _: [u32; 2], _: [f32; 3], _: [f32; 3], _: f32, _: f32, _: f32, _: u32, _: u32, _: u32, _: u32, _: u32, _: &mut [u32]) {}
     fn get_payload(&self, i: u32) -> u32 { self.payload[i as usize % 4] }
     fn set_payload(&mut self, i: u32, v: u32) { self.payload[i as usize % 4] = v; }
@@ -131,33 +129,36 @@ impl DeviceCalls for Hit {
     fn report_intersection(&mut self, _: f32, _: u32, _: &[u32; 8]) -> bool { false }
     fn ignore_intersection(&mut self) {}
     fn terminate_ray(&mut self) {}
-    fn world_ray_origin(&self) -> [f32; 3] { [0.0; 3] }
-    fn world_ray_direction(&self) -> [f32; 3] { self.dir }
-    fn object_ray_origin(&self) -> [f32; 3] { [0.0; 3] }
-    fn object_ray_direction(&self) -> [f32; 3] { self.dir }
-    fn ray_tmin(&self) -> f32 { 0.0 }
-    fn ray_tmax(&self) -> f32 { self.tmax }
-    fn ray_time(&self) -> f32 { 0.0 }
-    fn ray_flags(&self) -> u32 { 0 }
-    fn ray_mask(&self) -> u32 { 0xff }
-    fn primitive_index(&self) -> u32 { self.prim }
-    fn sbt_gas_index(&self) -> u32 { 0 }
-    fn instance_id(&self) -> u32 { 0 }
-    fn instance_index(&self) -> u32 { 0 }
-    fn hit_kind(&self) -> u32 { 0xfe }
-    fn is_front_face_hit(&self) -> bool { true }
-    fn triangle_barycentrics(&self) -> [f32; 2] { self.bary }
+    fn world_ray_origin(&self) -> [f32; 3] { self.s.world_ray_origin }
+    fn world_ray_direction(&self) -> [f32; 3] { self.s.world_ray_direction }
+    fn object_ray_origin(&self) -> [f32; 3] { self.s.object_ray_origin }
+    fn object_ray_direction(&self) -> [f32; 3] { self.s.object_ray_direction }
+    fn ray_tmin(&self) -> f32 { self.s.ray_tmin }
+    fn ray_tmax(&self) -> f32 { self.s.ray_tmax }
+    fn ray_time(&self) -> f32 { self.s.ray_time }
+    fn ray_flags(&self) -> u32 { self.s.ray_flags }
+    fn ray_mask(&self) -> u32 { self.s.ray_mask }
+    fn primitive_index(&self) -> u32 { self.s.primitive_index }
+    fn sbt_gas_index(&self) -> u32 { self.s.sbt_gas_index }
+    fn instance_id(&self) -> u32 { self.s.instance_id }
+    fn instance_index(&self) -> u32 { self.s.instance_index }
+    fn hit_kind(&self) -> u32 { self.s.hit_kind }
+    fn is_front_face_hit(&self) -> bool { self.s.hit_kind == 0xfe }
+    fn triangle_barycentrics(&self) -> [f32; 2] { self.s.triangle_barycentrics }
     fn triangle_vertices(&self) -> [[f32; 3]; 3] { [[0.0; 3]; 3] }
     fn sphere(&self) -> [f32; 4] { [0.0; 4] }
     fn curve_parameter(&self) -> f32 { 0.0 }
-    fn object_to_world(&self) -> [f32; 12] { [0.0; 12] }
-    fn world_to_object(&self) -> [f32; 12] { [0.0; 12] }
+    fn object_to_world(&self) -> [f32; 12] { self.s.object_to_world }
+    fn world_to_object(&self) -> [f32; 12] { self.s.world_to_object }
     fn sbt_data_u32(&self, _: u32) -> u32 { 0 }
     fn direct_call(&mut self, _: u32, _: &mut [u32]) {}
     fn continuation_call(&mut self, _: u32, _: &mut [u32]) {}
     fn throw_exception(&mut self, _: u32) {}
     fn exception_code(&self) -> i32 { 0 }
-    fn remaining_trace_depth(&self) -> u32 { 1 }
+    fn remaining_trace_depth(&self) -> u32 { self.s.remaining_trace_depth }
+    fn state(&self) -> *const DeviceState {
+        if self.offer { &self.s } else { std::ptr::null() }
+    }
 }
 
 const WIDTH: u32 = 64;
@@ -200,7 +201,11 @@ fn shade_rust(bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
     let normals: &[f32] = unsafe { words(bindings, 1) };
     let image: &mut [u32] = unsafe { words(bindings, 2) };
     let p = |i: usize| params.get(i).copied().unwrap_or(0);
-    let light = [f32::from_bits(p(0)), f32::from_bits(p(1)), f32::from_bits(p(2))];
+    let light = [
+        f32::from_bits(p(0)),
+        f32::from_bits(p(1)),
+        f32::from_bits(p(2)),
+    ];
     let (fog_k, shininess, width) = (f32::from_bits(p(3)), f32::from_bits(p(4)), p(5));
     let mut shaded = 0u32;
     let prim = calls.primitive_index();
@@ -208,11 +213,22 @@ fn shade_rust(bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
     let dir = calls.world_ray_direction();
     let t = calls.ray_tmax();
     let vertex = |v: u32| -> V3 {
-        std::array::from_fn(|k| normals.get(v.wrapping_mul(3).wrapping_add(k as u32) as usize).copied().unwrap_or(0.0))
+        std::array::from_fn(|k| {
+            normals
+                .get(v.wrapping_mul(3).wrapping_add(k as u32) as usize)
+                .copied()
+                .unwrap_or(0.0)
+        })
     };
-    let (n0, n1, n2) = (vertex(prim.wrapping_mul(3)), vertex(prim.wrapping_mul(3) + 1), vertex(prim.wrapping_mul(3) + 2));
+    let (n0, n1, n2) = (
+        vertex(prim.wrapping_mul(3)),
+        vertex(prim.wrapping_mul(3) + 1),
+        vertex(prim.wrapping_mul(3) + 2),
+    );
     let w = 1.0 - bary[0] - bary[1];
-    let mut n = normalize(std::array::from_fn(|k| n0[k] * w + n1[k] * bary[0] + n2[k] * bary[1]));
+    let mut n = normalize(std::array::from_fn(|k| {
+        n0[k] * w + n1[k] * bary[0] + n2[k] * bary[1]
+    }));
     if dot(n, dir) > 0.0 {
         n = n.map(|x| -x);
     }
@@ -220,7 +236,11 @@ fn shade_rust(bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
     h = ((h >> ((h >> 28) + 4)) ^ h).wrapping_mul(277803737);
     let h = (h >> 22) ^ h;
     let inv255 = (1.0f64 / 255.0) as f32;
-    let base = [(h & 255) as f32 * inv255, ((h >> 8) & 255) as f32 * inv255, ((h >> 16) & 255) as f32 * inv255];
+    let base = [
+        (h & 255) as f32 * inv255,
+        ((h >> 8) & 255) as f32 * inv255,
+        ((h >> 16) & 255) as f32 * inv255,
+    ];
     let l = normalize(light);
     let diffuse = fmax(dot(n, l), 0.0);
     let hv = normalize([l[0] - dir[0], l[1] - dir[1], l[2] - dir[2]]);
@@ -299,16 +319,27 @@ impl Scene {
             .map(|i| {
                 let (u, v) = (rnd(), rnd());
                 Hit {
-                    launch: [i as u32 % WIDTH, i as u32 / WIDTH, 0],
-                    prim: (rnd() * TRIANGLES as f32) as u32,
-                    bary: [u * 0.5, v * 0.5],
-                    dir: normalize([rnd() - 0.5, rnd() - 0.5, -1.0]),
-                    tmax: rnd() * 20.0,
+                    s: DeviceState {
+                        present: u32::MAX,
+                        launch_index: [i as u32 % WIDTH, i as u32 / WIDTH, 0],
+                        launch_dimensions: [WIDTH, WIDTH, 1],
+                        primitive_index: (rnd() * TRIANGLES as f32) as u32,
+                        triangle_barycentrics: [u * 0.5, v * 0.5],
+                        world_ray_direction: normalize([rnd() - 0.5, rnd() - 0.5, -1.0]),
+                        ray_tmax: rnd() * 20.0,
+                        hit_kind: 0xfe,
+                        ..DeviceState::default()
+                    },
                     payload: [0; 4],
+                    offer: false,
                 }
             })
             .collect();
-        let params = [0.3f32, 0.8, 0.5, 0.05, 32.0].iter().map(|x| x.to_bits()).chain([WIDTH, 0, 0]).collect();
+        let params = [0.3f32, 0.8, 0.5, 0.05, 32.0]
+            .iter()
+            .map(|x| x.to_bits())
+            .chain([WIDTH, 0, 0])
+            .collect();
         Scene {
             params,
             normals,
@@ -333,10 +364,18 @@ impl Scene {
     /// Runs `f` over the whole batch of hits.
     fn run(&mut self, f: &dyn Fn(&Bindings<'_>, &mut dyn DeviceCalls)) {
         let resources = self.resources();
-        let bindings = Bindings { resources: &resources };
+        let bindings = Bindings {
+            resources: &resources,
+        };
         for hit in &mut self.hits {
             f(black_box(&bindings), hit);
         }
+    }
+
+    /// Whether the hits offer their state to programs as memory.
+    fn offer_state(mut self, offer: bool) -> Self {
+        self.hits.iter_mut().for_each(|h| h.offer = offer);
+        self
     }
 
     /// Runs a compiled program over the whole batch with bindings prepared once, as the
@@ -344,7 +383,9 @@ impl Scene {
     fn run_prepared(&mut self, jit: &JitModule, program: &str) {
         let f = jit.program(program).expect("program");
         let resources = self.resources();
-        let bindings = Bindings { resources: &resources };
+        let bindings = Bindings {
+            resources: &resources,
+        };
         let prepared = jit.prepare(&bindings);
         for hit in &mut self.hits {
             f.call_prepared(black_box(&prepared), hit);
@@ -354,13 +395,22 @@ impl Scene {
     /// Everything a run writes, as bits.
     fn outputs(&self) -> Vec<u32> {
         let payloads = self.hits.iter().flat_map(|h| h.payload);
-        self.image.iter().copied().chain(self.results.iter().map(|r| r.to_bits())).chain(payloads).collect()
+        self.image
+            .iter()
+            .copied()
+            .chain(self.results.iter().map(|r| r.to_bits()))
+            .chain(payloads)
+            .collect()
     }
 }
 
 fn compile() -> JitModule {
-    let module = optik_api::frontend::compile(&ProgramSource::new("bench.wgsl", SHADER), 4).expect("front end");
-    let options = JitOptions { disk_cache: DiskCache::Disabled, ..JitOptions::default() };
+    let module = optik_api::frontend::compile(&ProgramSource::new("bench.wgsl", SHADER), 4)
+        .expect("front end");
+    let options = JitOptions {
+        disk_cache: DiskCache::Disabled,
+        ..JitOptions::default()
+    };
     JitModule::compile(&module, &options).expect("JIT")
 }
 
@@ -378,7 +428,11 @@ fn launch_index_rust(bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
     }
 }
 
-type Pair = (&'static str, &'static str, fn(&Bindings<'_>, &mut dyn DeviceCalls));
+type Pair = (
+    &'static str,
+    &'static str,
+    fn(&Bindings<'_>, &mut dyn DeviceCalls),
+);
 const PROGRAMS: [Pair; 4] = [
     ("closest_hit", "closesthit__shade", shade_rust),
     ("loops", "raygen__loops", loops_rust),
@@ -397,7 +451,11 @@ fn check(jit: &JitModule) {
         assert_eq!(a.outputs(), r.outputs(), "{name}: JIT and Rust disagree");
         let mut p = Scene::new();
         p.run_prepared(jit, program);
-        assert_eq!(p.outputs(), r.outputs(), "{name}: prepared JIT and Rust disagree");
+        assert_eq!(
+            p.outputs(),
+            r.outputs(),
+            "{name}: prepared JIT and Rust disagree"
+        );
     }
 }
 
@@ -408,9 +466,15 @@ fn bench(c: &mut Criterion) {
     for (name, program, rust) in PROGRAMS {
         let f = jit.program(program).expect("program");
         let mut scene = Scene::new();
-        group.bench_function(format!("{name}/jit"), |b| b.iter(|| scene.run(&|bd, c| f.call(bd, c))));
-        group.bench_function(format!("{name}/jit_prepared"), |b| b.iter(|| scene.run_prepared(&jit, program)));
-        group.bench_function(format!("{name}/rust"), |b| b.iter(|| scene.run(&|bd, c| rust(bd, c))));
+        group.bench_function(format!("{name}/jit"), |b| {
+            b.iter(|| scene.run(&|bd, c| f.call(bd, c)))
+        });
+        group.bench_function(format!("{name}/jit_prepared"), |b| {
+            b.iter(|| scene.run_prepared(&jit, program))
+        });
+        group.bench_function(format!("{name}/rust"), |b| {
+            b.iter(|| scene.run(&|bd, c| rust(bd, c)))
+        });
     }
     group.finish();
     summary(&jit);
@@ -430,17 +494,24 @@ fn per_call(rounds: usize, mut run: impl FnMut()) -> f64 {
 }
 
 fn summary(jit: &JitModule) {
-    println!("\nns per call (best of 30 batches of {BATCH} x 20); ratios to Rust:");
+    println!("\nns per call (best of 30 batches of {BATCH} x 20) and ratio to Rust:");
+    println!(
+        "  {:12} {:>7}  {:>15}  {:>15}  {:>15}",
+        "", "rust", "jit", "jit prepared", "+ state"
+    );
     for (name, program, rust) in PROGRAMS {
         let f = jit.program(program).expect("program");
         let mut scene = Scene::new();
+        let r = per_call(30, || scene.run(&|b, c| rust(b, c)));
         let j = per_call(30, || scene.run(&|b, c| f.call(b, c)));
         let p = per_call(30, || scene.run_prepared(jit, program));
-        let r = per_call(30, || scene.run(&|b, c| rust(b, c)));
+        let mut offered = Scene::new().offer_state(true);
+        let st = per_call(30, || offered.run_prepared(jit, program));
         println!(
-            "  {name:12} rust {r:7.2}  jit {j:7.2} (ratio {:.3})  jit prepared {p:7.2} (ratio {:.3})",
+            "  {name:12} {r:7.2}  {j:7.2} ({:.3})  {p:7.2} ({:.3})  {st:7.2} ({:.3})",
             j / r,
-            p / r
+            p / r,
+            st / r
         );
     }
     println!("  compile: {:?}", jit.stats());

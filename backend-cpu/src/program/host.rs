@@ -42,13 +42,14 @@ pub(crate) const ZERO_PAGE_BYTES: u32 = 1 << 16;
 /// Out-of-bounds buffer loads read here instead (and so return zeros) without a branch.
 pub(crate) static ZERO_PAGE: [u8; ZERO_PAGE_BYTES as usize] = [0; ZERO_PAGE_BYTES as usize];
 
-/// What a program invocation receives. Compiled code reads the first two fields (at byte
-/// offsets [`CallContext::BUFFERS_OFFSET`] and [`CallContext::ZERO_PAGE_OFFSET`]) and passes
-/// the context's address to every host function.
+/// What a program invocation receives. Compiled code reads the first three fields (at the
+/// byte offsets below) and passes the context's address to every host function.
 #[repr(C)]
 pub(crate) struct CallContext<'a> {
     pub buffers: *const BufferSlot,
     pub zero_page: *const u8,
+    /// The runtime's [`DeviceState`](super::abi::DeviceState), or an empty one; never null.
+    pub state: *const super::abi::DeviceState,
     pub calls: *mut (dyn DeviceCalls + 'a),
     pub bindings: *const Bindings<'a>,
     pub panic: Option<Box<dyn Any + Send>>,
@@ -59,10 +60,13 @@ impl CallContext<'_> {
     pub const BUFFERS_OFFSET: i32 = 0;
     /// Byte offset of `zero_page`.
     pub const ZERO_PAGE_OFFSET: i32 = 8;
+    /// Byte offset of `state`.
+    pub const STATE_OFFSET: i32 = 16;
 }
 
 const _: () = assert!(std::mem::offset_of!(CallContext<'static>, buffers) == 0);
 const _: () = assert!(std::mem::offset_of!(CallContext<'static>, zero_page) == 8);
+const _: () = assert!(std::mem::offset_of!(CallContext<'static>, state) == 16);
 
 /// Runs `f` on the context's `DeviceCalls`. On Linux compiled code has unwind tables
 /// (`unwind.rs`), so a panic in `f` unwinds through it to the caller of `ProgramFn::call`.

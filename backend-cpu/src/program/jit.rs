@@ -1,6 +1,6 @@
 //! The JIT driver: a module's programs to machine code, and calling them.
 
-use super::abi::{Bindings, BoundResource, DeviceCalls};
+use super::abi::{Bindings, BoundResource, DeviceCalls, DeviceState};
 use super::cache::{self, DiskStore, ModuleKey};
 use super::host::{BufferSlot, CallContext, HostFn, ZERO_PAGE};
 use super::lower::{self, LowerError, ModuleEnv};
@@ -187,9 +187,15 @@ impl ProgramFn<'_> {
     }
 
     fn run(&self, table: *const BufferSlot, bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
+        let state = calls.state();
         let mut ctx = CallContext {
             buffers: table,
             zero_page: ZERO_PAGE.as_ptr(),
+            state: if state.is_null() {
+                &DeviceState::EMPTY
+            } else {
+                state
+            },
             calls: calls as *mut dyn DeviceCalls,
             bindings: bindings as *const Bindings<'_>,
             panic: None,

@@ -1,7 +1,8 @@
 //! Device functions (`rt_*` prelude stubs) and texture built-ins: calls out to Rust.
 //!
 //! Every device function becomes a call of its trampoline in `host.rs` with the call
-//! context first. Results wider than a scalar come back through the scratch slot.
+//! context first; getters whose value the runtime offers in its `DeviceState` read it
+//! from there when present (a load instead of a call). Results wider than a scalar come back through the scratch slot.
 //! `rt_trace`, `rt_direct_call` and `rt_continuation_call` pass the address and length of
 //! the caller's `RtPayload`; the runtime copies in and out. The terminators
 //! (`rt_ignore_intersection`, `rt_terminate_ray`, `rt_throw_exception`) call the host and
@@ -9,10 +10,11 @@
 
 use super::place::Place;
 use super::{LResult, LowerError, Lowered, Lowerer};
-use crate::program::host::HostFn;
+use crate::program::abi::DeviceState;
+use crate::program::host::{CallContext, HostFn};
 use cranelift_codegen::ir::condcodes::IntCC;
-use cranelift_codegen::ir::types::{F32, I32};
-use cranelift_codegen::ir::{InstBuilder, MemFlagsData, Type, Value};
+use cranelift_codegen::ir::types::{F32, I32, I64};
+use cranelift_codegen::ir::{BlockArg, InstBuilder, MemFlagsData, Type, Value};
 use naga::{Expression, Handle, TypeInner};
 use optik_api::frontend::DeviceFunction as D;
 
@@ -27,30 +29,38 @@ impl Lowerer<'_, '_> {
         let ctx = self.ctx;
         let scalar = |s: &mut Self, f: HostFn| s.call_host(f, &[ctx])[0];
         let value: Option<Vec<Value>> = match df {
-            D::LaunchIndex => Some(self.host_out(HostFn::launch_index, I32, 3)),
-            D::LaunchDimensions => Some(self.host_out(HostFn::launch_dimensions, I32, 3)),
-            D::WorldRayOrigin => Some(self.host_out(HostFn::world_ray_origin, F32, 3)),
-            D::WorldRayDirection => Some(self.host_out(HostFn::world_ray_direction, F32, 3)),
-            D::ObjectRayOrigin => Some(self.host_out(HostFn::object_ray_origin, F32, 3)),
-            D::ObjectRayDirection => Some(self.host_out(HostFn::object_ray_direction, F32, 3)),
-            D::TriangleBarycentrics => Some(self.host_out(HostFn::triangle_barycentrics, F32, 2)),
+            D::LaunchIndex
+            | D::LaunchDimensions
+            | D::WorldRayOrigin
+            | D::WorldRayDirection
+            | D::ObjectRayOrigin
+            | D::ObjectRayDirection
+            | D::RayTmin
+            | D::RayTmax
+            | D::RayTime
+            | D::RayFlags
+            | D::RayMask
+            | D::PrimitiveIndex
+            | D::SbtGasIndex
+            | D::InstanceId
+            | D::InstanceIndex
+            | D::HitKind
+            | D::TriangleBarycentrics
+            | D::ObjectToWorld
+            | D::WorldToObject
+            | D::RemainingTraceDepth => {
+                let (bit, offset, ty, n) =
+                    state_field(df).expect("every getter listed has a field");
+                let v = self.from_state(bit, offset, ty, n, |s| s.getter_call(df));
+                Some(match df {
+                    D::ObjectToWorld | D::WorldToObject => columns_4x3(&v),
+                    _ => v,
+                })
+            }
             D::TriangleVertices => Some(self.host_out(HostFn::triangle_vertices, F32, 9)),
             D::Sphere => Some(self.host_out(HostFn::sphere, F32, 4)),
-            D::ObjectToWorld => Some(self.matrix_4x3(HostFn::object_to_world)),
-            D::WorldToObject => Some(self.matrix_4x3(HostFn::world_to_object)),
-            D::RayTmin => Some(vec![scalar(self, HostFn::ray_tmin)]),
-            D::RayTmax => Some(vec![scalar(self, HostFn::ray_tmax)]),
-            D::RayTime => Some(vec![scalar(self, HostFn::ray_time)]),
-            D::RayFlags => Some(vec![scalar(self, HostFn::ray_flags)]),
-            D::RayMask => Some(vec![scalar(self, HostFn::ray_mask)]),
-            D::PrimitiveIndex => Some(vec![scalar(self, HostFn::primitive_index)]),
-            D::SbtGasIndex => Some(vec![scalar(self, HostFn::sbt_gas_index)]),
-            D::InstanceId => Some(vec![scalar(self, HostFn::instance_id)]),
-            D::InstanceIndex => Some(vec![scalar(self, HostFn::instance_index)]),
-            D::HitKind => Some(vec![scalar(self, HostFn::hit_kind)]),
             D::CurveParameter => Some(vec![scalar(self, HostFn::curve_parameter)]),
             D::ExceptionCode => Some(vec![scalar(self, HostFn::exception_code)]),
-            D::RemainingTraceDepth => Some(vec![scalar(self, HostFn::remaining_trace_depth)]),
             D::IsFrontFaceHit => {
                 let r = scalar(self, HostFn::is_front_face_hit);
                 Some(vec![self.b.ins().icmp_imm_u(IntCC::NotEqual, r, 0)])
@@ -142,6 +152,88 @@ impl Lowerer<'_, '_> {
         Ok(())
     }
 
+    /// A getter the runtime may answer from its `DeviceState`: the field's leaves when the
+    /// state has `bit`, else `call`'s result (a branch on a bit of memory the runtime
+    /// sets once per invocation, so it predicts well).
+    fn from_state(
+        &mut self,
+        bit: u32,
+        offset: usize,
+        ty: Type,
+        n: usize,
+        call: impl FnOnce(&mut Self) -> Vec<Value>,
+    ) -> Vec<Value> {
+        if !self.live {
+            return call(self);
+        }
+        // The pointer is fixed for the call; the fields are not (report_intersection
+        // updates tmax), so they are loaded where used.
+        let pointer_flags = MemFlagsData::trusted().with_readonly().with_can_move();
+        let state = self
+            .b
+            .ins()
+            .load(I64, pointer_flags, self.ctx, CallContext::STATE_OFFSET);
+        let present = self.b.ins().load(I32, MemFlagsData::trusted(), state, 0);
+        let has = self.b.ins().band_imm_u(present, bit as i64);
+        let (fast, slow, merge) = (
+            self.b.create_block(),
+            self.b.create_block(),
+            self.b.create_block(),
+        );
+        for _ in 0..n {
+            self.b.append_block_param(merge, ty);
+        }
+        self.live_blocks.extend([fast, slow, merge]);
+        self.b.ins().brif(has, fast, &[], slow, &[]);
+        self.b.seal_block(fast);
+        self.b.seal_block(slow);
+        self.b.switch_to_block(fast);
+        let loaded: Vec<BlockArg> = (0..n)
+            .map(|i| {
+                self.b
+                    .ins()
+                    .load(ty, MemFlagsData::trusted(), state, (offset + 4 * i) as i32)
+                    .into()
+            })
+            .collect();
+        self.b.ins().jump(merge, &loaded);
+        self.b.switch_to_block(slow);
+        let called: Vec<BlockArg> = call(self).into_iter().map(BlockArg::from).collect();
+        self.b.ins().jump(merge, &called);
+        self.b.seal_block(merge);
+        self.b.switch_to_block(merge);
+        self.b.block_params(merge).to_vec()
+    }
+
+    /// A getter through its `DeviceCalls` method (matrices row-major, as the host has them).
+    fn getter_call(&mut self, df: D) -> Vec<Value> {
+        let ctx = self.ctx;
+        let (f, ty, n) = match df {
+            D::LaunchIndex => (HostFn::launch_index, I32, 3),
+            D::LaunchDimensions => (HostFn::launch_dimensions, I32, 3),
+            D::WorldRayOrigin => (HostFn::world_ray_origin, F32, 3),
+            D::WorldRayDirection => (HostFn::world_ray_direction, F32, 3),
+            D::ObjectRayOrigin => (HostFn::object_ray_origin, F32, 3),
+            D::ObjectRayDirection => (HostFn::object_ray_direction, F32, 3),
+            D::TriangleBarycentrics => (HostFn::triangle_barycentrics, F32, 2),
+            D::ObjectToWorld => (HostFn::object_to_world, F32, 12),
+            D::WorldToObject => (HostFn::world_to_object, F32, 12),
+            D::RayTmin => return self.call_host(HostFn::ray_tmin, &[ctx]),
+            D::RayTmax => return self.call_host(HostFn::ray_tmax, &[ctx]),
+            D::RayTime => return self.call_host(HostFn::ray_time, &[ctx]),
+            D::RayFlags => return self.call_host(HostFn::ray_flags, &[ctx]),
+            D::RayMask => return self.call_host(HostFn::ray_mask, &[ctx]),
+            D::PrimitiveIndex => return self.call_host(HostFn::primitive_index, &[ctx]),
+            D::SbtGasIndex => return self.call_host(HostFn::sbt_gas_index, &[ctx]),
+            D::InstanceId => return self.call_host(HostFn::instance_id, &[ctx]),
+            D::InstanceIndex => return self.call_host(HostFn::instance_index, &[ctx]),
+            D::HitKind => return self.call_host(HostFn::hit_kind, &[ctx]),
+            D::RemainingTraceDepth => return self.call_host(HostFn::remaining_trace_depth, &[ctx]),
+            other => unreachable!("{other:?} has no DeviceState field"),
+        };
+        self.host_out(f, ty, n)
+    }
+
     /// Calls `f(ctx, scratch)` and loads `n` leaves of `ty` from scratch.
     fn host_out(&mut self, f: HostFn, ty: Type, n: usize) -> Vec<Value> {
         let out = self.scratch_addr();
@@ -153,16 +245,6 @@ impl Lowerer<'_, '_> {
                     .ins()
                     .load(ty, MemFlagsData::trusted(), out, 4 * i as i32)
             })
-            .collect()
-    }
-
-    /// A row-major 3×4 matrix from the host as WGSL's `mat4x3<f32>`: column `j` is
-    /// `(m[j], m[4 + j], m[8 + j])`.
-    fn matrix_4x3(&mut self, f: HostFn) -> Vec<Value> {
-        let row_major = self.host_out(f, F32, 12);
-        (0..4)
-            .flat_map(|j| (0..3).map(move |r| r * 4 + j))
-            .map(|i| row_major[i])
             .collect()
     }
 
@@ -324,4 +406,47 @@ impl Lowerer<'_, '_> {
             _ => Err(LowerError::unspanned("internal: not a texture expression")),
         }
     }
+}
+
+/// A row-major 3×4 matrix (as the host has it) as WGSL's `mat4x3<f32>`: column `j` is
+/// `(m[j], m[4 + j], m[8 + j])`.
+fn columns_4x3(row_major: &[Value]) -> Vec<Value> {
+    (0..4)
+        .flat_map(|j| (0..3).map(move |r| r * 4 + j))
+        .map(|i| row_major[i])
+        .collect()
+}
+
+/// The `DeviceState` field of a getter: (present bit, byte offset, leaf type, leaves).
+fn state_field(df: D) -> Option<(u32, usize, Type, usize)> {
+    use std::mem::offset_of;
+    type S = DeviceState;
+    Some(match df {
+        D::LaunchIndex => (S::LAUNCH_INDEX, offset_of!(S, launch_index), I32, 3),
+        D::LaunchDimensions => (
+            S::LAUNCH_DIMENSIONS,
+            offset_of!(S, launch_dimensions),
+            I32,
+            3,
+        ),
+        D::WorldRayOrigin => (S::WORLD_RAY, offset_of!(S, world_ray_origin), F32, 3),
+        D::WorldRayDirection => (S::WORLD_RAY, offset_of!(S, world_ray_direction), F32, 3),
+        D::ObjectRayOrigin => (S::OBJECT_RAY, offset_of!(S, object_ray_origin), F32, 3),
+        D::ObjectRayDirection => (S::OBJECT_RAY, offset_of!(S, object_ray_direction), F32, 3),
+        D::RayTmin => (S::RAY, offset_of!(S, ray_tmin), F32, 1),
+        D::RayTmax => (S::RAY, offset_of!(S, ray_tmax), F32, 1),
+        D::RayTime => (S::RAY, offset_of!(S, ray_time), F32, 1),
+        D::RayFlags => (S::RAY, offset_of!(S, ray_flags), I32, 1),
+        D::RayMask => (S::RAY, offset_of!(S, ray_mask), I32, 1),
+        D::PrimitiveIndex => (S::PRIMITIVE, offset_of!(S, primitive_index), I32, 1),
+        D::SbtGasIndex => (S::PRIMITIVE, offset_of!(S, sbt_gas_index), I32, 1),
+        D::InstanceId => (S::PRIMITIVE, offset_of!(S, instance_id), I32, 1),
+        D::InstanceIndex => (S::PRIMITIVE, offset_of!(S, instance_index), I32, 1),
+        D::HitKind => (S::HIT, offset_of!(S, hit_kind), I32, 1),
+        D::TriangleBarycentrics => (S::HIT, offset_of!(S, triangle_barycentrics), F32, 2),
+        D::ObjectToWorld => (S::TRANSFORMS, offset_of!(S, object_to_world), F32, 12),
+        D::WorldToObject => (S::TRANSFORMS, offset_of!(S, world_to_object), F32, 12),
+        D::RemainingTraceDepth => (S::TRACE_DEPTH, offset_of!(S, remaining_trace_depth), I32, 1),
+        _ => return None,
+    })
 }

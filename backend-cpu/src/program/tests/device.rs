@@ -55,6 +55,15 @@ fn closesthit__all() {
     f(53u, rt_curve_parameter());
 }
 
+fn intersection__tmax() {
+    let before = rt_ray_tmax();
+    let attrs = RtAttributes(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
+    let hit = rt_report_intersection(2.5, 1u, attrs);
+    out[0] = bitcast<u32>(before);
+    out[1] = bitcast<u32>(rt_ray_tmax());
+    out[2] = select(0u, 1u, hit);
+}
+
 fn exception__code() {
     out[0] = bitcast<u32>(rt_exception_code());
 }
@@ -391,4 +400,107 @@ fn a_panic_in_device_calls_reaches_the_caller() {
         .downcast::<&str>()
         .map(|s| *s);
     assert_eq!(message.ok(), Some("launch index exploded"));
+}
+
+/// A state whose every value differs from what the mock's methods return.
+fn offered_state(present: u32) -> DeviceState {
+    DeviceState {
+        present,
+        launch_index: [7, 8, 9],
+        launch_dimensions: [10, 20, 30],
+        world_ray_origin: [-1.0, -2.0, -3.0],
+        world_ray_direction: [0.5, 0.5, 0.0],
+        object_ray_origin: [-4.0, -5.0, -6.0],
+        object_ray_direction: [0.0, 0.0, 1.0],
+        ray_tmin: 0.5,
+        ray_tmax: 50.0,
+        ray_time: 0.75,
+        ray_flags: 0x22,
+        ray_mask: 0x0f,
+        primitive_index: 4242,
+        sbt_gas_index: 77,
+        instance_id: 55,
+        instance_index: 66,
+        hit_kind: 0xff,
+        triangle_barycentrics: [0.125, 0.375],
+        object_to_world: std::array::from_fn(|i| 100.0 + i as f32),
+        world_to_object: std::array::from_fn(|i| 200.0 + i as f32),
+        remaining_trace_depth: 3,
+    }
+}
+
+#[test]
+fn getters_read_the_offered_state_where_present() {
+    let module = jit(DEVICE);
+    let all = DeviceState::LAUNCH_INDEX
+        | DeviceState::LAUNCH_DIMENSIONS
+        | DeviceState::WORLD_RAY
+        | DeviceState::OBJECT_RAY
+        | DeviceState::RAY
+        | DeviceState::PRIMITIVE
+        | DeviceState::HIT
+        | DeviceState::TRANSFORMS
+        | DeviceState::TRACE_DEPTH;
+    let mut buffers = Buffers::new(vec![vec![0; 54]]);
+    let mut mock = Mock {
+        state: Some(Box::new(offered_state(all))),
+        ..Mock::default()
+    };
+    buffers.run(&module, "closesthit__all", &mut mock);
+    let out = buffers.words[0].clone();
+    assert_eq!(out[0], 7 + 80 + 900);
+    assert_eq!(out[1], 60);
+    assert_eq!(
+        out[2..14],
+        bits(&[
+            -1.0, -2.0, -3.0, 0.5, 0.5, 0.0, -4.0, -5.0, -6.0, 0.0, 0.0, 1.0
+        ])[..]
+    );
+    assert_eq!(out[14..17], bits(&[0.5, 50.0, 0.75])[..]);
+    assert_eq!(out[17..24], [0x22, 0x0f, 4242, 77, 55, 66, 0xff]);
+    assert_eq!(out[25..27], bits(&[0.125, 0.375])[..]);
+    // Columns 0 and 3 of the row-major 3x4 [100, 101, ...].
+    assert_eq!(
+        out[34..40],
+        bits(&[100.0, 104.0, 108.0, 103.0, 107.0, 111.0])[..]
+    );
+    assert_eq!(out[47], 3);
+    // Not in the state: still the methods.
+    assert_eq!(out[24], 1, "is_front_face_hit");
+    assert_eq!(out[27..30], bits(&[1.0, 2.0, 3.0])[..], "triangle vertices");
+    assert_eq!(out[43], 1003, "sbt data");
+
+    // Only some groups present: the others come from the methods.
+    let mut buffers = Buffers::new(vec![vec![0; 54]]);
+    let mut mock = Mock {
+        state: Some(Box::new(offered_state(
+            DeviceState::PRIMITIVE | DeviceState::RAY,
+        ))),
+        ..Mock::default()
+    };
+    buffers.run(&module, "closesthit__all", &mut mock);
+    let partial = &buffers.words[0];
+    assert_eq!(partial[0], 3 + 40 + 500, "launch index from the method");
+    assert_eq!(partial[19], 4242, "primitive index from the state");
+    assert_eq!(partial[14..17], bits(&[0.5, 50.0, 0.75])[..]);
+    assert_eq!(
+        partial[25..27],
+        bits(&[0.25, 0.5])[..],
+        "barycentrics from the method"
+    );
+}
+
+#[test]
+fn state_updates_made_by_calls_are_seen_afterwards() {
+    let module = jit(DEVICE);
+    let mut buffers = Buffers::new(vec![vec![0; 3]]);
+    let mut mock = Mock {
+        state: Some(Box::new(offered_state(DeviceState::RAY))),
+        ..Mock::default()
+    };
+    buffers.run(&module, "intersection__tmax", &mut mock);
+    assert_eq!(
+        buffers.words[0],
+        vec![50.0f32.to_bits(), 2.5f32.to_bits(), 1]
+    );
 }

@@ -11,7 +11,7 @@ mod float;
 mod memory;
 mod texture;
 
-use super::abi::{Bindings, BoundBuffer, BoundResource, DeviceCalls};
+use super::abi::{Bindings, BoundBuffer, BoundResource, DeviceCalls, DeviceState};
 use super::{DiskCache, JitModule, JitOptions};
 use optik_api::ProgramSource;
 use optik_api::frontend::CompiledModule;
@@ -177,6 +177,8 @@ pub struct Mock {
     pub payload: Vec<u32>,
     /// What `rt_trace` writes into the payload (added to each register).
     pub trace_adds: u32,
+    /// Values offered as memory (`DeviceCalls::state`), if any.
+    pub state: Option<Box<DeviceState>>,
 }
 
 pub const OBJECT_TO_WORLD: [f32; 12] = [
@@ -230,7 +232,11 @@ impl DeviceCalls for Mock {
     }
     fn report_intersection(&mut self, t: f32, hit_kind: u32, attributes: &[u32; 8]) -> bool {
         self.events.push(Event::Report(t, hit_kind, *attributes));
-        t < 10.0
+        let accepted = t < 10.0;
+        if let (true, Some(state)) = (accepted, &mut self.state) {
+            state.ray_tmax = t;
+        }
+        accepted
     }
     fn ignore_intersection(&mut self) {
         self.events.push(Event::Ignore);
@@ -321,5 +327,10 @@ impl DeviceCalls for Mock {
     }
     fn remaining_trace_depth(&self) -> u32 {
         5
+    }
+    fn state(&self) -> *const DeviceState {
+        self.state
+            .as_deref()
+            .map_or(std::ptr::null(), |s| s as *const DeviceState)
     }
 }
