@@ -51,7 +51,7 @@ impl Lowerer<'_, '_> {
             | D::RemainingTraceDepth => {
                 let (bit, offset, ty, n) =
                     state_field(df).expect("every getter listed has a field");
-                let v = self.from_state(bit, offset, ty, n, |s| s.getter_call(df));
+                let v = self.state_or_call(bit, offset, ty, n, |s| s.getter_call(df));
                 Some(match df {
                     D::ObjectToWorld | D::WorldToObject => columns_4x3(&v),
                     _ => v,
@@ -155,7 +155,7 @@ impl Lowerer<'_, '_> {
     /// A getter the runtime may answer from its `DeviceState`: the field's leaves when the
     /// state has `bit`, else `call`'s result (a branch on a bit of memory the runtime
     /// sets once per invocation, so it predicts well).
-    fn from_state(
+    fn state_or_call(
         &mut self,
         bit: u32,
         offset: usize,
