@@ -63,18 +63,22 @@ pub(crate) fn memory_cached(
 
 /// The disk cache directory `setting` selects, created; `None` when off or unusable.
 pub(crate) fn directory(setting: &DiskCache) -> Option<PathBuf> {
+    directory_in(setting, |name| std::env::var_os(name))
+}
+
+/// [`directory`] with the environment given as a lookup.
+fn directory_in(
+    setting: &DiskCache,
+    var: impl Fn(&str) -> Option<std::ffi::OsString>,
+) -> Option<PathBuf> {
     let root = match setting {
         DiskCache::Disabled => return None,
         DiskCache::Directory(dir) => dir.clone(),
         DiskCache::FromEnvironment => {
-            if std::env::var("OPTIK_CACHE_DISABLE").is_ok_and(|v| v == "1") {
+            if var("OPTIK_CACHE_DISABLE").is_some_and(|v| v == "1") {
                 return None;
             }
-            let env = |name: &str| {
-                std::env::var_os(name)
-                    .filter(|v| !v.is_empty())
-                    .map(PathBuf::from)
-            };
+            let env = |name: &str| var(name).filter(|v| !v.is_empty()).map(PathBuf::from);
             match (env("OPTIK_CACHE_PATH"), env("XDG_CACHE_HOME"), env("HOME")) {
                 (Some(path), _, _) => path,
                 (None, Some(xdg), _) => xdg.join("optik"),
@@ -180,6 +184,27 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("optik-cache-dir-{}", std::process::id()));
         let chosen = directory(&DiskCache::Directory(dir.clone())).unwrap();
         assert!(chosen.starts_with(&dir) && chosen.is_dir());
+
+        let base = dir.to_str().unwrap().to_string();
+        let from_env = |vars: &[(&str, &str)]| {
+            let vars: Vec<(String, String)> = vars
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect();
+            directory_in(&DiskCache::FromEnvironment, move |name| {
+                vars.iter().find(|(k, _)| k == name).map(|(_, v)| v.into())
+            })
+        };
+        let own = from_env(&[("OPTIK_CACHE_PATH", &base), ("HOME", "/nonexistent")]);
+        assert!(
+            own.unwrap().starts_with(&dir),
+            "OPTIK_CACHE_PATH comes first"
+        );
+        let xdg = from_env(&[("XDG_CACHE_HOME", &base)]);
+        assert!(xdg.unwrap().starts_with(dir.join("optik")));
+        let off = from_env(&[("OPTIK_CACHE_DISABLE", "1"), ("OPTIK_CACHE_PATH", &base)]);
+        assert_eq!(off, None, "OPTIK_CACHE_DISABLE=1 turns the cache off");
+        assert_eq!(from_env(&[]), None, "no directory to use");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

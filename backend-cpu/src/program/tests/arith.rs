@@ -241,3 +241,112 @@ fn the_traps_of_integer_division_are_defined() {
         ]
     );
 }
+
+const FOLDING: &str = r#"
+@group(0) @binding(1) var<storage, read> inp: array<u32>;
+@group(0) @binding(2) var<storage, read_write> folded: array<u32>;
+@group(0) @binding(3) var<storage, read_write> runtime: array<u32>;
+
+const A = array<u32, 14>(0u, 1u, 4294967295u, 2147483648u, 2147483647u, 7u, 4294967289u, 31u, 32u, 33u, 5u, 1065353216u, 2143289344u, 2139095040u);
+const B = array<u32, 14>(0u, 4294967295u, 4294967295u, 4294967295u, 0u, 2u, 3u, 32u, 33u, 7u, 0u, 3212836864u, 1065353216u, 4286578688u);
+const K: u32 = 22u;
+
+fn ops(x: u32, y: u32, o: u32, dst: ptr<function, array<u32, 22>>) {
+    let sx = bitcast<i32>(x);
+    let sy = bitcast<i32>(y);
+    let fx = bitcast<f32>(x);
+    let fy = bitcast<f32>(y);
+    (*dst)[0] = bitcast<u32>(sx / sy);
+    (*dst)[1] = bitcast<u32>(sx % sy);
+    (*dst)[2] = x / y;
+    (*dst)[3] = x % y;
+    (*dst)[4] = bitcast<u32>(sx >> y) ^ (x >> y) ^ (x << y);
+    (*dst)[5] = select(0u, 1u, sx < sy) | select(0u, 2u, x < y) | select(0u, 4u, fx < fy) | select(0u, 8u, fx == fy) | select(0u, 16u, fx != fy) | select(0u, 32u, fx >= fy);
+    (*dst)[6] = bitcast<u32>(fx + fy);
+    (*dst)[7] = bitcast<u32>(fx * fy);
+    (*dst)[8] = bitcast<u32>(fx / fy);
+    (*dst)[9] = bitcast<u32>(fx % fy);
+    (*dst)[10] = bitcast<u32>(i32(fx));
+    (*dst)[11] = u32(fx);
+    (*dst)[12] = bitcast<u32>(f32(sx)) ^ bitcast<u32>(f32(y));
+    (*dst)[13] = bitcast<u32>(-sx) ^ ~y;
+    (*dst)[14] = bitcast<u32>(-fx);
+    (*dst)[15] = select(0u, 1u, bool(x)) | select(0u, 2u, bool(fy)) | select(0u, 4u, !bool(y));
+    (*dst)[16] = x * y + (x - y);
+    (*dst)[17] = bitcast<u32>(sx * sy - sy);
+    (*dst)[18] = u32(f32(x) > 1e9) + u32(x >= y) * 2u + u32(sx <= sy) * 4u + u32(sx > sy) * 8u;
+    (*dst)[19] = (x & y) | ((x ^ y) << 1u);
+    (*dst)[20] = bitcast<u32>(select(fx, fy, x > y));
+    (*dst)[21] = bitcast<u32>(fx - fy);
+}
+
+fn raygen__fold() {
+    // Unrolled: every operand is a constant and every operation folds while lowering.
+    for (var i = 0u; i < 14u; i++) {
+        var r: array<u32, 22>;
+        ops(A[i], B[i], i * K, &r);
+        for (var k = 0u; k < K; k++) { folded[i * K + k] = r[k]; }
+    }
+    // The same values from a buffer: every operation is an instruction.
+    let n = arrayLength(&inp) / 2u;
+    for (var i = 0u; i < n; i++) {
+        var r: array<u32, 22>;
+        ops(inp[2u * i], inp[2u * i + 1u], i * K, &r);
+        for (var k = 0u; k < K; k++) { runtime[i * K + k] = r[k]; }
+    }
+}
+"#;
+
+#[test]
+fn constant_folding_computes_what_the_instructions_do() {
+    const A: [u32; 14] = [
+        0,
+        1,
+        u32::MAX,
+        0x8000_0000,
+        0x7fff_ffff,
+        7,
+        (-7i32) as u32,
+        31,
+        32,
+        33,
+        5,
+        0x3f80_0000,
+        0x7fc0_0000,
+        0x7f80_0000,
+    ];
+    const B: [u32; 14] = [
+        0,
+        u32::MAX,
+        u32::MAX,
+        u32::MAX,
+        0,
+        2,
+        3,
+        32,
+        33,
+        7,
+        0,
+        0xbf80_0000,
+        0x3f80_0000,
+        0xff80_0000,
+    ];
+    let module = jit(FOLDING);
+    let inp: Vec<u32> = A.iter().zip(&B).flat_map(|(&a, &b)| [a, b]).collect();
+    let out = run(
+        &module,
+        "raygen__fold",
+        vec![inp, vec![0; 14 * 22], vec![0; 14 * 22]],
+    );
+    for i in 0..14 {
+        for k in 0..22 {
+            let (f, r) = (out[1][i * 22 + k], out[2][i * 22 + k]);
+            assert!(
+                super::float::same(f, r),
+                "a={:#x} b={:#x} result {k}: folded {f:#x}, computed {r:#x}",
+                A[i],
+                B[i]
+            );
+        }
+    }
+}

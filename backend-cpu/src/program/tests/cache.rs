@@ -67,3 +67,13 @@ fn disk_cache_cold_warm_and_off_give_the_same_results() {
     assert_eq!(results(&warm), want);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn modules_and_programs_are_shareable_between_threads() {
+    fn send_sync<T: Send + Sync>() {}
+    fn copy<T: Copy>() {}
+    send_sync::<JitModule>();
+    send_sync::<crate::program::ProgramFn<'static>>();
+    send_sync::<crate::program::PreparedBindings<'static>>();
+    copy::<crate::program::ProgramFn<'static>>();
+}
