@@ -1,6 +1,6 @@
 //! The contract between JIT-compiled programs and the CPU runtime.
 //!
-//! A compiled program is called with a [`ProgramCall`]: the resources it may touch and a
+//! A compiled program is called (`ProgramFn::call`) with the resources it may touch and a
 //! `&mut dyn DeviceCalls` that answers every device-API function (DESIGN.md §3) for the
 //! current ray, hit and launch index. The JIT lowers each prelude stub (`rt_*`) to a call
 //! of the matching [`DeviceCalls`] method (through `extern "C"` trampolines); the runtime

@@ -6,6 +6,11 @@
 //! (each with everything it calls, inlined) and caches the result in memory and, per
 //! function, on disk (`cache`).
 //!
+//! Fast paths for the runtime, both optional: [`JitModule::prepare`] lays a launch's
+//! bindings out once for [`ProgramFn::call_prepared`] (instead of at every call), and a
+//! `DeviceCalls` that returns an [`abi::DeviceState`] from `state()` has its getters read
+//! as memory instead of called (a few nanoseconds each).
+//!
 //! WGSL semantics where the language leaves a choice, the same on every path:
 //! - Bounds (naga's policies): indices into arrays, vectors and matrices in function or
 //!   private memory are clamped to the last element (`Restrict`); accesses to uniform and

@@ -44,7 +44,7 @@ fn lerp(a: [f32; 4], b: [f32; 4], f: f32) -> [f32; 4] {
 /// `textureSampleLevel(t, s, uv, level, offset)`.
 ///
 /// # Safety
-/// As for [`texel`].
+/// `t.ptr` is valid for `width * height` texels of `t.format`.
 pub unsafe fn sample_level(
     t: &BoundTexture,
     s: &SamplerDesc,
@@ -91,7 +91,7 @@ pub unsafe fn sample_level(
 /// `textureLoad(t, coords, level)`.
 ///
 /// # Safety
-/// As for [`texel`].
+/// `t.ptr` is valid for `width * height` texels of `t.format`.
 pub unsafe fn load(t: &BoundTexture, coords: [i32; 2], level: i32) -> [f32; 4] {
     let inside = level == 0
         && !t.ptr.is_null()
