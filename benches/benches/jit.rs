@@ -472,6 +472,10 @@ fn bench(c: &mut Criterion) {
         group.bench_function(format!("{name}/jit_prepared"), |b| {
             b.iter(|| scene.run_prepared(&jit, program))
         });
+        let mut offered = Scene::new().offer_state(true);
+        group.bench_function(format!("{name}/jit_prepared_state"), |b| {
+            b.iter(|| offered.run_prepared(&jit, program))
+        });
         group.bench_function(format!("{name}/rust"), |b| {
             b.iter(|| scene.run(&|bd, c| rust(bd, c)))
         });
