@@ -54,7 +54,8 @@ type EntryFn = unsafe extern "C" fn(*mut CallContext<'_>);
 
 /// The compiled programs of one module and the memory holding their code.
 pub(crate) struct Inner {
-    programs: HashMap<String, EntryFn>,
+    /// Entry points, and whether each reads `DeviceState` fields.
+    programs: HashMap<String, (EntryFn, bool)>,
     /// The binding number of each buffer-table slot (`None`: a buffer without a binding).
     slot_bindings: Vec<Option<u32>>,
     stats: CompileStats,
@@ -103,6 +104,9 @@ impl std::fmt::Debug for JitModule {
 #[derive(Clone, Copy)]
 pub struct ProgramFn<'m> {
     entry: EntryFn,
+    /// Whether the program (or a helper) calls a getter `DeviceState` can answer; only
+    /// then is `DeviceCalls::state` asked for.
+    reads_state: bool,
     slot_bindings: &'m [Option<u32>],
 }
 
@@ -187,7 +191,11 @@ impl ProgramFn<'_> {
     }
 
     fn run(&self, table: *const BufferSlot, bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
-        let state = calls.state();
+        let state = if self.reads_state {
+            calls.state()
+        } else {
+            std::ptr::null()
+        };
         let mut ctx = CallContext {
             buffers: table,
             zero_page: ZERO_PAGE.as_ptr(),
@@ -231,9 +239,10 @@ impl JitModule {
 
     /// The program named `name` (with its prefix, e.g. `closesthit__radiance`).
     pub fn program(&self, name: &str) -> Option<ProgramFn<'_>> {
-        let entry = *self.inner.programs.get(name)?;
+        let (entry, reads_state) = *self.inner.programs.get(name)?;
         Some(ProgramFn {
             entry,
+            reads_state,
             slot_bindings: &self.inner.slot_bindings,
         })
     }
@@ -365,16 +374,20 @@ fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner
         jit.clear_context(&mut ctx);
         stats.functions += 1;
         stats.disk_cache_hits += hit as usize;
-        ids.push((program.name.clone(), id, unwind_info));
+        let reads_state = program
+            .device_functions
+            .iter()
+            .any(|&f| lower::reads_state(f));
+        ids.push((program.name.clone(), id, unwind_info, reads_state));
     }
     jit.finalize_definitions().map_err(module_err)?;
     let mut programs = HashMap::new();
     let mut frames = Vec::new();
-    for (name, id, unwind_info) in ids {
+    for (name, id, unwind_info, reads_state) in ids {
         let ptr = jit.get_finalized_function(id);
         // SAFETY: the function was compiled with exactly this signature.
         let entry: EntryFn = unsafe { std::mem::transmute::<*const u8, EntryFn>(ptr) };
-        programs.insert(name, entry);
+        programs.insert(name, (entry, reads_state));
         frames.extend(unwind_info.map(|info| (ptr as usize, info)));
     }
     #[cfg(target_os = "linux")]

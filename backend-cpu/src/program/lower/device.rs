@@ -417,6 +417,11 @@ fn columns_4x3(row_major: &[Value]) -> Vec<Value> {
         .collect()
 }
 
+/// Whether a device function is a getter the runtime's `DeviceState` can answer.
+pub(crate) fn reads_state(df: D) -> bool {
+    state_field(df).is_some()
+}
+
 /// The `DeviceState` field of a getter: (present bit, byte offset, leaf type, leaves).
 fn state_field(df: D) -> Option<(u32, usize, Type, usize)> {
     use std::mem::offset_of;

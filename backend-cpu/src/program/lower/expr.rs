@@ -716,15 +716,7 @@ impl<'m> Lowerer<'m, '_> {
                 "arrayLength of something other than a buffer's runtime-sized array",
             ));
         };
-        let offset = self.b.ins().iconst(I64, m.offset);
-        let after = self
-            .b
-            .ins()
-            .icmp(IntCC::UnsignedGreaterThan, checked.len, offset);
-        let rest = self.b.ins().isub(checked.len, offset);
-        let none = self.b.ins().iconst(I64, 0);
-        let past = self.b.ins().select(after, rest, none);
-        let count = self.b.ins().udiv_imm_u(past, stride as i64);
+        let count = self.runtime_count(checked.len, m.offset, stride);
         // Clamped to u32 (a bound length over 4 GiB of elements).
         let max = self.b.ins().iconst(I64, u32::MAX as i64);
         let count = self.b.ins().umin(count, max);

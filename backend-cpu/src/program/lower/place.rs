@@ -249,6 +249,19 @@ impl Lowerer<'_, '_> {
                         };
                         let wide = self.b.ins().uextend(I64, i);
                         let bytes = self.b.ins().imul_imm_u(wide, step.byte_stride as i64);
+                        if let (None, None, Some(checked)) = (step.count, m.dynamic, m.checked) {
+                            // An element of a runtime-sized array at a fixed offset (the usual
+                            // case): `i < arrayLength`, whose count is computed once per
+                            // function (Cranelift merges the equal computations).
+                            let count = self.runtime_count(checked.len, m.offset, step.byte_stride);
+                            let inside = self.b.ins().icmp(IntCC::UnsignedLessThan, wide, count);
+                            m.dynamic = Some(bytes);
+                            self.add_guard(&mut m, inside);
+                            if let Some(checked) = &mut m.checked {
+                                checked.proven = true;
+                            }
+                            return Ok(Place::Memory(m));
+                        }
                         m.dynamic = Some(match m.dynamic {
                             Some(d) => self.b.ins().iadd(d, bytes),
                             None => bytes,
@@ -323,6 +336,17 @@ impl Lowerer<'_, '_> {
             .ins()
             .icmp(IntCC::UnsignedLessThanOrEqual, end, checked.len);
         self.add_guard(m, inside);
+    }
+
+    /// Whole elements of `stride` bytes between byte `offset` and the bound length `len`
+    /// (i64): `arrayLength` of a runtime-sized array at `offset`.
+    pub(super) fn runtime_count(&mut self, len: Value, offset: i64, stride: u32) -> Value {
+        let offset = self.b.ins().iconst(I64, offset);
+        let after = self.b.ins().icmp(IntCC::UnsignedGreaterThan, len, offset);
+        let rest = self.b.ins().isub(len, offset);
+        let none = self.b.ins().iconst(I64, 0);
+        let past = self.b.ins().select(after, rest, none);
+        self.b.ins().udiv_imm_u(past, stride as i64)
     }
 
     fn add_guard(&mut self, m: &mut MemPlace, inside: Value) {
