@@ -3,7 +3,8 @@
 //! A compiled program is called (`ProgramFn::call`) with the resources it may touch and a
 //! `&mut dyn DeviceCalls` that answers every device-API function (DESIGN.md §3) for the
 //! current ray, hit and launch index. The JIT lowers each prelude stub (`rt_*`) to a call
-//! of the matching [`DeviceCalls`] method (through `extern "C"` trampolines); the runtime
+//! of the matching [`DeviceCalls`] method (through `extern "C-unwind"` trampolines), or to a
+//! load from the runtime's [`DeviceState`] when it offers one; the runtime
 //! (`launch` and `traverse`) implements the trait. Tests implement it too, which is how the
 //! JIT is tested without traversal and traversal without the JIT.
 //!

@@ -14,7 +14,8 @@
 //!
 //! The directory is `$OPTIK_CACHE_PATH`, else `$XDG_CACHE_HOME/optik`, else
 //! `~/.cache/optik` (a `cranelift-<version>` folder inside it); `OPTIK_CACHE_DISABLE=1`
-//! turns the disk cache off, as OptiX's `OPTIX_CACHE_*` variables do.
+//! turns the disk cache off, as OptiX's `OPTIX_CACHE_*` variables do. Nothing evicts
+//! entries yet (entries are a few kilobytes per program version).
 
 use super::jit::{DiskCache, Inner};
 use cranelift_codegen::incremental_cache::CacheKvStore;
@@ -142,7 +143,10 @@ impl CacheKvStore for DiskStore {
         file.extend_from_slice(&(val.len() as u64).to_le_bytes());
         file.extend_from_slice(&checksum(&val).to_le_bytes());
         file.extend_from_slice(&val);
-        let tmp = path.with_extension(format!("tmp{}", std::process::id()));
+        // Unique per process and write, so concurrent writers never share a file.
+        static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = WRITES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let tmp = path.with_extension(format!("tmp{}-{n}", std::process::id()));
         // A failed write only loses a cache entry.
         if std::fs::write(&tmp, &file).is_ok() && std::fs::rename(&tmp, &path).is_err() {
             let _ = std::fs::remove_file(&tmp);
