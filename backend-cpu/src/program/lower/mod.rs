@@ -211,7 +211,15 @@ pub(crate) fn lower_program<'m>(
         .ins()
         .load(I64, table_flags, ctx, CallContext::ZERO_PAGE_OFFSET);
     let mut buffers = HashMap::new();
-    for (&global, &slot) in &env.buffer_slots {
+    // In slot order: the function's text must not depend on hash order, or the disk
+    // cache (keyed by it) would miss.
+    let mut slots: Vec<_> = env
+        .buffer_slots
+        .iter()
+        .map(|(&g, &slot)| (slot, g))
+        .collect();
+    slots.sort_unstable_by_key(|&(slot, _)| slot);
+    for (slot, global) in slots {
         let at = (slot * 16) as i32;
         let base = b.ins().load(I64, table_flags, table, at);
         let len = b.ins().load(I64, table_flags, table, at + 8);

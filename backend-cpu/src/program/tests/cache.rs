@@ -4,12 +4,19 @@
 use super::*;
 
 const PROGRAM: &str = r#"
+struct Params { seed: u32 }
+@group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read_write> out: array<u32>;
-fn mix_bits(x: u32) -> u32 { return (x * 2654435761u) ^ (x >> 13u); }
+@group(0) @binding(2) var<storage, read> a: array<u32>;
+@group(0) @binding(3) var<storage, read> b: array<u32>;
+@group(0) @binding(4) var<storage, read> c: array<u32>;
+var<private> count: u32 = 3u;
+var<private> other: vec2<f32>;
+fn mix_bits(x: u32) -> u32 { count += 1u; return (x * 2654435761u) ^ (x >> 13u) ^ a[x & 3u] ^ b[x & 1u] ^ c[0] ^ params.seed; }
 fn raygen__a() {
-    for (var i = 0u; i < arrayLength(&out); i++) { out[i] = mix_bits(i + out[i]); }
+    for (var i = 0u; i < arrayLength(&out); i++) { out[i] = mix_bits(i + out[i]) + count; }
 }
-fn miss__b() { out[0] = bitcast<u32>(sin(f32(out[1]))); }
+fn miss__b() { out[0] = bitcast<u32>(sin(f32(out[1])) + other.y); }
 "#;
 
 fn results(module: &JitModule) -> Vec<Vec<u32>> {
