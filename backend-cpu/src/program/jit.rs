@@ -50,7 +50,9 @@ pub struct CompileStats {
     pub time: Duration,
 }
 
-type EntryFn = unsafe extern "C" fn(*mut CallContext<'_>);
+/// A program's entry point. `C-unwind`: a panic in a `DeviceCalls` method unwinds through the
+/// program (on Linux, see `unwind.rs`).
+type EntryFn = unsafe extern "C-unwind" fn(*mut CallContext<'_>);
 
 /// The compiled programs of one module and the memory holding their code.
 pub(crate) struct Inner {
