@@ -211,7 +211,7 @@ impl ProgramFn<'_> {
             panic: None,
         };
         // SAFETY: `entry` is finalized code of a live module (borrowed by `self`) with the
-        // signature `extern "C" fn(*mut CallContext)`; the context, the buffer table (as
+        // signature `extern "C-unwind" fn(*mut CallContext)`; the context, the buffer table (as
         // long as the module's slots) and what they point to outlive the call.
         unsafe { (self.entry)(&mut ctx) };
         if let Some(payload) = ctx.panic.take() {
