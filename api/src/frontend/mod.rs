@@ -60,6 +60,13 @@ impl CompiledModule {
         self.bindings.iter().find(|b| b.binding == 0)
     }
 
+    /// A diagnostic at `span` of `full_source`, located in the user's source as the front
+    /// end's own errors are (spans in the prelude are reported against `<optik prelude>`).
+    /// Backends use it for constructs they cannot lower.
+    pub fn diagnostic(&self, span: naga::Span, message: impl Into<String>) -> Diagnostic {
+        Locator::new(&self.file_name, &self.full_source, self.user_len).diagnostic(span, message)
+    }
+
     /// The naga function of a device function (its prelude stub).
     pub fn device_function(&self, f: DeviceFunction) -> Option<naga::Handle<naga::Function>> {
         self.module
