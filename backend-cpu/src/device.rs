@@ -5,7 +5,9 @@
 //! nothing to wait for and a launch's buffers cannot change under it; other calls on the
 //! device wait while a launch runs.
 
-use crate::accel::{self, Gas, Ias, MicromapArrayData, MicromapLookup, SceneTable, Transform, Traversable, handle};
+use crate::accel::{
+    self, Gas, Ias, MicromapArrayData, MicromapLookup, SceneTable, Transform, Traversable, handle,
+};
 use crate::launch::{self, LaunchShared};
 use crate::pipeline::{self, GroupObject, ModuleObject, NativeModuleDesc, PipelineObject};
 use crate::program::abi::{BoundBuffer, BoundResource, BoundTexture};
@@ -15,11 +17,13 @@ use optik_api::decode::BufferBytes;
 use optik_api::frontend::BindingInfo;
 use optik_api::sbt::SbtHeader;
 use optik_api::{
-    Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BuildFlags, BuildInput, BuildOperation,
-    Device, DeviceId, DeviceProperties, Error, ErrorKind, ExceptionFlags, FeatureSet, Handle, HandleTable, LaunchSize,
-    MicromapArray, Module, ModuleCompileOptions, OpacityMicromapArrayDesc, Pipeline, PipelineCompileOptions,
-    PipelineLinkOptions, ProgramGroup, ProgramGroupDesc, ProgramSource, Resource, Result, SceneFeatures,
-    ShaderBindingTable, Texture, TextureDesc, TransformDesc, TraversableHandle, validate,
+    Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BuildFlags,
+    BuildInput, BuildOperation, Device, DeviceId, DeviceProperties, Error, ErrorKind,
+    ExceptionFlags, FeatureSet, Handle, HandleTable, LaunchSize, MicromapArray, Module,
+    ModuleCompileOptions, OpacityMicromapArrayDesc, Pipeline, PipelineCompileOptions,
+    PipelineLinkOptions, ProgramGroup, ProgramGroupDesc, ProgramSource, Resource, Result,
+    SceneFeatures, ShaderBindingTable, Texture, TextureDesc, TransformDesc, TraversableHandle,
+    validate,
 };
 use std::sync::{Arc, Mutex, MutexGuard};
 
@@ -43,10 +47,18 @@ struct BufferData {
 
 impl BufferData {
     fn zeroed(size: u64) -> Result<BufferData> {
-        let size = usize::try_from(size).map_err(|_| Error::new(ErrorKind::OutOfMemory, "buffer size exceeds the address space"))?;
+        let size = usize::try_from(size).map_err(|_| {
+            Error::new(
+                ErrorKind::OutOfMemory,
+                "buffer size exceeds the address space",
+            )
+        })?;
         let mut chunks = Vec::new();
         chunks.try_reserve_exact(size.div_ceil(16)).map_err(|_| {
-            Error::new(ErrorKind::OutOfMemory, format!("cannot allocate a buffer of {size} bytes"))
+            Error::new(
+                ErrorKind::OutOfMemory,
+                format!("cannot allocate a buffer of {size} bytes"),
+            )
         })?;
         chunks.resize(size.div_ceil(16), Chunk([0; 16]));
         Ok(BufferData { chunks, size })
@@ -81,7 +93,10 @@ struct TextureData {
 /// What an acceleration structure object was made from.
 enum AccelOrigin {
     /// Built from inputs (kept for updates).
-    Build { options: AccelBuildOptions, inputs: Vec<BuildInput> },
+    Build {
+        options: AccelBuildOptions,
+        inputs: Vec<BuildInput>,
+    },
     /// A transform.
     Transform,
 }
@@ -149,7 +164,12 @@ fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
 fn cpu_name() -> String {
     std::fs::read_to_string("/proc/cpuinfo")
         .ok()
-        .and_then(|s| s.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split(':').nth(1)).map(|n| n.trim().to_string()))
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|n| n.trim().to_string())
+        })
         .unwrap_or_else(|| std::env::consts::ARCH.to_string())
 }
 
@@ -181,7 +201,11 @@ impl CpuDevice {
             max_launch_size: 1 << 32,
             max_buffer_size: 1 << 40,
             backend: BackendKind::Cpu,
-            device_name: format!("{} (optik-cpu, {} threads)", cpu_name(), pool.current_num_threads()),
+            device_name: format!(
+                "{} (optik-cpu, {} threads)",
+                cpu_name(),
+                pool.current_num_threads()
+            ),
         };
         Ok(CpuDevice {
             id,
@@ -210,7 +234,10 @@ impl CpuDevice {
 
     /// The number of launch threads.
     pub fn threads(&self) -> usize {
-        self.pool.lock().unwrap_or_else(|e| e.into_inner()).current_num_threads()
+        self.pool
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .current_num_threads()
     }
 
     /// A module of Rust programs, usable in program groups like a compiled WGSL module.
@@ -236,20 +263,36 @@ impl CpuDevice {
         self.state.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    fn insert_accel(&self, st: &mut State, traversable: Traversable, origin: AccelOrigin, size: u64) -> Result<Accel> {
+    fn insert_accel(
+        &self,
+        st: &mut State,
+        traversable: Traversable,
+        origin: AccelOrigin,
+        size: u64,
+    ) -> Result<Accel> {
         let traversable = Arc::new(traversable);
-        let accel = st.accels.insert(AccelObject { traversable: traversable.clone(), origin, size });
+        let accel = st.accels.insert(AccelObject {
+            traversable: traversable.clone(),
+            origin,
+            size,
+        });
         let raw = accel.raw();
         if raw.slot >= handle::MAX_SLOTS {
             st.accels.remove(accel)?;
-            return Err(Error::limit(format!("this device holds at most {} acceleration structures and transforms", handle::MAX_SLOTS)));
+            return Err(Error::limit(format!(
+                "this device holds at most {} acceleration structures and transforms",
+                handle::MAX_SLOTS
+            )));
         }
         st.scene.set(raw.slot, raw.generation, traversable);
         Ok(accel)
     }
 
     fn scene_features(st: &State) -> Option<SceneFeatures> {
-        st.accels.iter().map(|(_, a)| a.traversable.features()).reduce(SceneFeatures::union)
+        st.accels
+            .iter()
+            .map(|(_, a)| a.traversable.features())
+            .reduce(SceneFeatures::union)
     }
 }
 
@@ -259,7 +302,10 @@ fn sizes(st: &State) -> impl Fn(Buffer) -> Result<u64> + '_ {
 
 /// A panic turned into an error (no panic crosses the API).
 fn panic_message(p: Box<dyn std::any::Any + Send>) -> String {
-    p.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| p.downcast_ref::<String>().cloned()).unwrap_or_else(|| "unknown panic".into())
+    p.downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| p.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into())
 }
 
 /// The union of the pipeline's modules' bindings; a binding declared differently by two
@@ -315,7 +361,13 @@ impl Device for CpuDevice {
 
     fn write_buffer(&self, buffer: Buffer, offset: u64, data: &[u8]) -> Result<()> {
         let mut st = self.state();
-        validate::buffer_range("write_buffer", buffer, offset, data.len() as u64, &sizes(&st))?;
+        validate::buffer_range(
+            "write_buffer",
+            buffer,
+            offset,
+            data.len() as u64,
+            &sizes(&st),
+        )?;
         let b = st.buffers.get_mut(buffer)?;
         b.bytes_mut()[offset as usize..offset as usize + data.len()].copy_from_slice(data);
         Ok(())
@@ -341,7 +393,10 @@ impl Device for CpuDevice {
         validate::texture(desc)?;
         let bytes = desc.width as u64 * desc.height as u64 * desc.format.texel_size() as u64;
         let texels = BufferData::zeroed(bytes)?;
-        Ok(self.state().textures.insert(TextureData { desc: *desc, texels }))
+        Ok(self.state().textures.insert(TextureData {
+            desc: *desc,
+            texels,
+        }))
     }
 
     fn write_texture(&self, texture: Texture, data: &[u8]) -> Result<()> {
@@ -356,7 +411,11 @@ impl Device for CpuDevice {
         self.state().textures.remove(texture).map(drop)
     }
 
-    fn accel_memory_usage(&self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<AccelBufferSizes> {
+    fn accel_memory_usage(
+        &self,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<AccelBufferSizes> {
         let st = self.state();
         let keys = validate::build_inputs(options, inputs, &self.props, &sizes(&st))?;
         Ok(accel::memory_usage(inputs, keys))
@@ -367,43 +426,78 @@ impl Device for CpuDevice {
         let st = &mut *guard;
         let keys = validate::build_inputs(options, inputs, &self.props, &sizes(st))?;
         if options.operation != BuildOperation::Build {
-            return Err(Error::invalid("accel_build needs build_options.operation = Build; refit with accel_update"));
+            return Err(Error::invalid(
+                "accel_build needs build_options.operation = Build; refit with accel_update",
+            ));
         }
-        let data = Inputs { buffers: &st.buffers, micromaps: &st.micromaps };
+        let data = Inputs {
+            buffers: &st.buffers,
+            micromaps: &st.micromaps,
+        };
         let traversable = match &inputs[0] {
-            BuildInput::Instances(ia) => {
-                Traversable::Instances(Ias::build(options, ia, &data, &st.scene, self.props.max_traversable_graph_depth)?)
-            }
+            BuildInput::Instances(ia) => Traversable::Instances(Ias::build(
+                options,
+                ia,
+                &data,
+                &st.scene,
+                self.props.max_traversable_graph_depth,
+            )?),
             _ => Traversable::Geometry(Gas::build(options, inputs, &data, &data)?),
         };
-        let size = accel::memory_usage(inputs, keys).output_size_in_bytes.max(traversable.size_in_bytes());
-        let origin = AccelOrigin::Build { options: *options, inputs: inputs.to_vec() };
+        let size = accel::memory_usage(inputs, keys)
+            .output_size_in_bytes
+            .max(traversable.size_in_bytes());
+        let origin = AccelOrigin::Build {
+            options: *options,
+            inputs: inputs.to_vec(),
+        };
         self.insert_accel(st, traversable, origin, size)
     }
 
-    fn accel_update(&self, accel: Accel, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<()> {
+    fn accel_update(
+        &self,
+        accel: Accel,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<()> {
         let mut guard = self.state();
         let st = &mut *guard;
         validate::build_inputs(options, inputs, &self.props, &sizes(st))?;
         let object = st.accels.get(accel)?;
-        let AccelOrigin::Build { options: built_with, inputs: built_inputs } = &object.origin else {
-            return Err(Error::invalid("accel_update: this is a transform; create a new transform instead"));
+        let AccelOrigin::Build {
+            options: built_with,
+            inputs: built_inputs,
+        } = &object.origin
+        else {
+            return Err(Error::invalid(
+                "accel_update: this is a transform; create a new transform instead",
+            ));
         };
         validate::update(built_with, built_inputs, options, inputs)?;
         let built_with = *built_with;
         let mut traversable = (*object.traversable).clone();
-        let data = Inputs { buffers: &st.buffers, micromaps: &st.micromaps };
+        let data = Inputs {
+            buffers: &st.buffers,
+            micromaps: &st.micromaps,
+        };
         match (&mut traversable, &inputs[0]) {
             (Traversable::Instances(ias), BuildInput::Instances(ia)) => {
                 ias.refit(ia, &data, &st.scene, self.props.max_traversable_graph_depth)?
             }
             (Traversable::Geometry(gas), _) => gas.refit(&built_with, inputs, &data, &data)?,
-            _ => return Err(Error::invalid("accel_update: the inputs' kind differs from the build's")),
+            _ => {
+                return Err(Error::invalid(
+                    "accel_update: the inputs' kind differs from the build's",
+                ));
+            }
         }
         let traversable = Arc::new(traversable);
         let object = st.accels.get_mut(accel)?;
         object.traversable = traversable.clone();
-        object.origin = AccelOrigin::Build { options: built_with, inputs: inputs.to_vec() };
+        object.origin = AccelOrigin::Build {
+            options: built_with,
+            inputs: inputs.to_vec(),
+        };
         let raw = accel.raw();
         st.scene.set(raw.slot, raw.generation, traversable);
         Ok(())
@@ -414,7 +508,9 @@ impl Device for CpuDevice {
         let st = &mut *guard;
         let object = st.accels.get(accel)?;
         let AccelOrigin::Build { options, inputs } = &object.origin else {
-            return Err(Error::invalid("accel_compact: transforms cannot be compacted"));
+            return Err(Error::invalid(
+                "accel_compact: transforms cannot be compacted",
+            ));
         };
         if !options.flags.contains(BuildFlags::ALLOW_COMPACTION) {
             return Err(Error::invalid(
@@ -423,7 +519,10 @@ impl Device for CpuDevice {
         }
         let compacted = object.traversable.compacted();
         let size = compacted.size_in_bytes();
-        let origin = AccelOrigin::Build { options: *options, inputs: inputs.clone() };
+        let origin = AccelOrigin::Build {
+            options: *options,
+            inputs: inputs.clone(),
+        };
         self.insert_accel(st, compacted, origin, size)
     }
 
@@ -440,9 +539,15 @@ impl Device for CpuDevice {
         self.insert_accel(st, Traversable::Transform(t), AccelOrigin::Transform, size)
     }
 
-    fn create_opacity_micromap_array(&self, desc: &OpacityMicromapArrayDesc) -> Result<MicromapArray> {
+    fn create_opacity_micromap_array(
+        &self,
+        desc: &OpacityMicromapArrayDesc,
+    ) -> Result<MicromapArray> {
         validate::micromap_array(desc)?;
-        Ok(self.state().micromaps.insert(Arc::new(MicromapArrayData::new(desc))))
+        Ok(self
+            .state()
+            .micromaps
+            .insert(Arc::new(MicromapArrayData::new(desc))))
     }
 
     fn traversable_handle(&self, accel: Accel) -> Result<TraversableHandle> {
@@ -489,7 +594,9 @@ impl Device for CpuDevice {
         for (i, desc) in descs.iter().enumerate() {
             let modules = &st.modules;
             let module = |m: Module| modules.get(m).map(|o| (o.compiled.clone(), o.native));
-            let program = |p: &optik_api::ProgramRef| Ok(modules.get(p.module)?.programs.get(&p.entry).cloned());
+            let program = |p: &optik_api::ProgramRef| {
+                Ok(modules.get(p.module)?.programs.get(&p.entry).cloned())
+            };
             objects.push(Arc::new(GroupObject::new(i, desc, &module, &program)?));
         }
         Ok(objects.into_iter().map(|g| st.groups.insert(g)).collect())
@@ -507,22 +614,41 @@ impl Device for CpuDevice {
     ) -> Result<Pipeline> {
         let mut st = self.state();
         for (what, depth) in [
-            ("max_direct_callable_depth", link_options.max_direct_callable_depth),
-            ("max_continuation_callable_depth", link_options.max_continuation_callable_depth),
+            (
+                "max_direct_callable_depth",
+                link_options.max_direct_callable_depth,
+            ),
+            (
+                "max_continuation_callable_depth",
+                link_options.max_continuation_callable_depth,
+            ),
         ] {
             if depth > MAX_CALLABLE_DEPTH {
-                return Err(Error::limit(format!("link_options.{what} is {depth}; this device allows at most {MAX_CALLABLE_DEPTH}")));
+                return Err(Error::limit(format!(
+                    "link_options.{what} is {depth}; this device allows at most {MAX_CALLABLE_DEPTH}"
+                )));
             }
         }
         let group_objects = groups
             .iter()
             .enumerate()
-            .map(|(i, g)| st.groups.get(*g).map(|o| (*g, o.clone())).map_err(|e| e.context(format!("groups[{i}]"))))
+            .map(|(i, g)| {
+                st.groups
+                    .get(*g)
+                    .map(|o| (*g, o.clone()))
+                    .map_err(|e| e.context(format!("groups[{i}]")))
+            })
             .collect::<Result<Vec<_>>>()?;
         let objects: Vec<Arc<GroupObject>> = group_objects.iter().map(|(_, g)| g.clone()).collect();
         let programs = pipeline::program_features(&objects);
         let scene = Self::scene_features(&st);
-        let features = optik_api::features::resolve(pipeline_options, link_options, scene, &programs, self.props.max_trace_depth)?;
+        let features = optik_api::features::resolve(
+            pipeline_options,
+            link_options,
+            scene,
+            &programs,
+            self.props.max_trace_depth,
+        )?;
         let bindings = pipeline_bindings(&group_objects)?;
         let accuracy = st.accuracy;
         let object = PipelineObject {
@@ -567,13 +693,30 @@ impl Device for CpuDevice {
         validate::launch_bindings(params, resources, &pipeline.bindings, &sizes(st))?;
         for r in resources {
             match r {
-                Resource::Buffer { binding, buffer, offset, size } => {
-                    let total = st.buffers.get(*buffer).map_err(|e| e.context(format!("resource at binding {binding}")))?.size as u64;
+                Resource::Buffer {
+                    binding,
+                    buffer,
+                    offset,
+                    size,
+                } => {
+                    let total = st
+                        .buffers
+                        .get(*buffer)
+                        .map_err(|e| e.context(format!("resource at binding {binding}")))?
+                        .size as u64;
                     let len = size.unwrap_or(total.saturating_sub(*offset));
-                    validate::buffer_range(&format!("resource at binding {binding}"), *buffer, *offset, len, &sizes(st))?;
+                    validate::buffer_range(
+                        &format!("resource at binding {binding}"),
+                        *buffer,
+                        *offset,
+                        len,
+                        &sizes(st),
+                    )?;
                 }
                 Resource::Texture { binding, texture } => {
-                    st.textures.get(*texture).map_err(|e| e.context(format!("resource at binding {binding}")))?;
+                    st.textures
+                        .get(*texture)
+                        .map_err(|e| e.context(format!("resource at binding {binding}")))?;
                 }
                 Resource::Sampler { .. } => {}
             }
@@ -582,19 +725,45 @@ impl Device for CpuDevice {
             return Ok(());
         }
         let resolved = {
-            let data = Inputs { buffers: &st.buffers, micromaps: &st.micromaps };
-            sbt::resolve(sbt, self.id, &pipeline, &data, self.props.max_sbt_record_stride)?
+            let data = Inputs {
+                buffers: &st.buffers,
+                micromaps: &st.micromaps,
+            };
+            sbt::resolve(
+                sbt,
+                self.id,
+                &pipeline,
+                &data,
+                self.props.max_sbt_record_stride,
+            )?
         };
         // Binding 0: the params bytes, copied into aligned memory that lives for the launch.
         let mut params_copy = BufferData::zeroed(params.len() as u64)?;
         params_copy.bytes_mut().copy_from_slice(params);
-        let slots = resources.iter().map(|r| r.binding() as usize + 1).max().unwrap_or(1);
+        let slots = resources
+            .iter()
+            .map(|r| r.binding() as usize + 1)
+            .max()
+            .unwrap_or(1);
         let mut bound = vec![BoundResource::None; slots];
-        bound[0] = BoundResource::Buffer(BoundBuffer { ptr: params_copy.chunks.as_mut_ptr() as *mut u8, len: params.len() });
-        let State { buffers, textures, scene, .. } = st;
+        bound[0] = BoundResource::Buffer(BoundBuffer {
+            ptr: params_copy.chunks.as_mut_ptr() as *mut u8,
+            len: params.len(),
+        });
+        let State {
+            buffers,
+            textures,
+            scene,
+            ..
+        } = st;
         for r in resources {
             bound[r.binding() as usize] = match r {
-                Resource::Buffer { buffer, offset, size, .. } => {
+                Resource::Buffer {
+                    buffer,
+                    offset,
+                    size,
+                    ..
+                } => {
                     let b = buffers.get_mut(*buffer)?;
                     let len = size.unwrap_or(b.size as u64 - offset) as usize;
                     // SAFETY: the range was checked above; the buffer outlives the launch
@@ -632,10 +801,16 @@ impl Device for CpuDevice {
             link: pipeline.link,
             trace: pipeline.trace,
         };
-        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| launch::run(&shared, &pool)));
+        let outcome =
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| launch::run(&shared, &pool)));
         drop(shared);
         drop(params_copy);
-        outcome.map_err(|p| Error::backend(format!("a program panicked during the launch: {}", panic_message(p))))
+        outcome.map_err(|p| {
+            Error::backend(format!(
+                "a program panicked during the launch: {}",
+                panic_message(p)
+            ))
+        })
     }
 
     fn synchronize(&self) -> Result<()> {

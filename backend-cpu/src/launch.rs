@@ -21,11 +21,16 @@ use crate::accel::SceneTable;
 use crate::pipeline::{Callable, TraceFn};
 use crate::program::abi::{Bindings, BoundResource, DeviceCalls};
 use crate::sbt::{Record, ResolvedSbt};
-use crate::traverse::{self, Candidate, CustomPrimitive, Handler, HitData, Path, Spec, TraceConfig, TraceRay};
+use crate::traverse::{
+    self, Candidate, CustomPrimitive, Handler, HitData, Path, Spec, TraceConfig, TraceRay,
+};
 use optik_api::semantics::exception as code;
 use optik_api::semantics::opacity::CandidateFate;
 use optik_api::semantics::{self, facing, sbt_index};
-use optik_api::{ExceptionFlags, FeatureSet, IDENTITY_3X4, Matrix3x4, PipelineLinkOptions, ProgramKind, RayFlags, TraversableHandle};
+use optik_api::{
+    ExceptionFlags, FeatureSet, IDENTITY_3X4, Matrix3x4, PipelineLinkOptions, ProgramKind,
+    RayFlags, TraversableHandle,
+};
 
 /// Most payload (and callable argument) registers.
 const MAX_PAYLOAD: usize = 32;
@@ -49,13 +54,19 @@ pub(crate) fn run(shared: &LaunchShared<'_>, pool: &rayon::ThreadPool) {
     let [w, h, d] = shared.size;
     // The device limits launches to 2^32 invocations, which fit `usize` on 64-bit hosts.
     let count = (w as u64 * h as u64 * d as u64).min(usize::MAX as u64) as usize;
-    let Some(raygen) = shared.sbt.raygen.programs.main else { return };
+    let Some(raygen) = shared.sbt.raygen.programs.main else {
+        return;
+    };
     pool.install(|| {
         (0..count).into_par_iter().with_min_len(16).for_each(|i| {
             let (i, w, h) = (i as u64, w as u64, h as u64);
             let index = [(i % w) as u32, ((i / w) % h) as u32, (i / (w * h)) as u32];
             let mut inv = Invocation::new(shared, index);
-            let view = View { kind: ProgramKind::Raygen, record: Some(&shared.sbt.raygen), ..View::EMPTY };
+            let view = View {
+                kind: ProgramKind::Raygen,
+                record: Some(&shared.sbt.raygen),
+                ..View::EMPTY
+            };
             inv.run(raygen, view);
         })
     });
@@ -124,7 +135,15 @@ impl View<'_> {
     const EMPTY: View<'static> = View {
         kind: ProgramKind::Raygen,
         record: None,
-        ray: RayState { origin: [0.0; 3], direction: [0.0; 3], tmin: 0.0, tmax: 0.0, time: 0.0, flags: 0, mask: 0 },
+        ray: RayState {
+            origin: [0.0; 3],
+            direction: [0.0; 3],
+            tmin: 0.0,
+            tmax: 0.0,
+            time: 0.0,
+            flags: 0,
+            mask: 0,
+        },
         hit: None,
         exception_code: 0,
     };
@@ -177,7 +196,11 @@ pub(crate) struct Invocation<'l> {
 }
 
 /// Traces for a pipeline compiled as `S`.
-pub(crate) fn trace_with<S: Spec>(inv: &mut Invocation<'_>, ray: &TraceRay, root: TraversableHandle) {
+pub(crate) fn trace_with<S: Spec>(
+    inv: &mut Invocation<'_>,
+    ray: &TraceRay,
+    root: TraversableHandle,
+) {
     let shared = inv.shared;
     traverse::trace::<S, _>(shared.scene, root, ray, &shared.config, inv);
 }
@@ -215,7 +238,9 @@ impl<'l> Invocation<'l> {
     fn run(&mut self, program: Callable<'l>, view: View<'l>) {
         let saved = std::mem::replace(&mut self.view, view);
         let shared = self.shared;
-        let bindings = Bindings { resources: &shared.resources };
+        let bindings = Bindings {
+            resources: &shared.resources,
+        };
         program.call(&bindings, self);
         self.view = saved;
     }
@@ -228,7 +253,12 @@ impl<'l> Invocation<'l> {
         if let Some(rec) = &self.shared.sbt.exception
             && let Some(p) = rec.programs.main
         {
-            let view = View { kind: ProgramKind::Exception, record: Some(rec), exception_code, ..self.view };
+            let view = View {
+                kind: ProgramKind::Exception,
+                record: Some(rec),
+                exception_code,
+                ..self.view
+            };
             self.run(p, view);
         }
         self.ending = true;
@@ -238,7 +268,12 @@ impl<'l> Invocation<'l> {
     /// exceptions) when the index lies past the records.
     fn hit_record(&mut self, path: &Path, sbt_gas_index: u32) -> Option<&'l Record<'l>> {
         let shared = self.shared;
-        let i = sbt_index::hit_record_index(path.sbt_offset, sbt_gas_index, self.trace.sbt_offset, self.trace.sbt_stride);
+        let i = sbt_index::hit_record_index(
+            path.sbt_offset,
+            sbt_gas_index,
+            self.trace.sbt_offset,
+            self.trace.sbt_stride,
+        );
         let rec = shared.sbt.hitgroup.get(i as usize);
         if rec.is_none() && self.exceptions().contains(ExceptionFlags::DEBUG) {
             self.raise(code::INVALID_HIT_SBT);
@@ -247,10 +282,27 @@ impl<'l> Invocation<'l> {
     }
 
     /// Runs the any-hit program on a candidate; `None` when the invocation ended.
-    fn any_hit(&mut self, program: Callable<'l>, record: &'l Record<'l>, hit: HitState) -> Option<AnyHitOutcome> {
+    fn any_hit(
+        &mut self,
+        program: Callable<'l>,
+        record: &'l Record<'l>,
+        hit: HitState,
+    ) -> Option<AnyHitOutcome> {
         let saved = std::mem::replace(&mut self.trace.any_hit, AnyHitOutcome::Accept);
-        let ray = RayState { tmax: hit.t, ..self.trace.ray };
-        self.run(program, View { kind: ProgramKind::AnyHit, record: Some(record), ray, hit: Some(hit), exception_code: 0 });
+        let ray = RayState {
+            tmax: hit.t,
+            ..self.trace.ray
+        };
+        self.run(
+            program,
+            View {
+                kind: ProgramKind::AnyHit,
+                record: Some(record),
+                ray,
+                hit: Some(hit),
+                exception_code: 0,
+            },
+        );
         let outcome = std::mem::replace(&mut self.trace.any_hit, saved);
         (!self.ending).then_some(outcome)
     }
@@ -272,16 +324,41 @@ impl<'l> Invocation<'l> {
                     return;
                 }
                 if let Some(ch) = record.programs.main {
-                    let ray = RayState { tmax: hit.t, ..world };
-                    self.run(ch, View { kind: ProgramKind::ClosestHit, record: Some(record), ray, hit: Some(hit), exception_code: 0 });
+                    let ray = RayState {
+                        tmax: hit.t,
+                        ..world
+                    };
+                    self.run(
+                        ch,
+                        View {
+                            kind: ProgramKind::ClosestHit,
+                            record: Some(record),
+                            ray,
+                            hit: Some(hit),
+                            exception_code: 0,
+                        },
+                    );
                 }
             }
             None => {
                 let shared = self.shared;
-                match shared.sbt.miss.get(sbt_index::miss_record_index(miss_index) as usize) {
+                match shared
+                    .sbt
+                    .miss
+                    .get(sbt_index::miss_record_index(miss_index) as usize)
+                {
                     Some(record) => {
                         if let Some(ms) = record.programs.main {
-                            self.run(ms, View { kind: ProgramKind::Miss, record: Some(record), ray: world, hit: None, exception_code: 0 });
+                            self.run(
+                                ms,
+                                View {
+                                    kind: ProgramKind::Miss,
+                                    record: Some(record),
+                                    ray: world,
+                                    hit: None,
+                                    exception_code: 0,
+                                },
+                            );
                         }
                     }
                     None => {
@@ -301,7 +378,13 @@ impl<'l> Invocation<'l> {
         }
         let shared = self.shared;
         let record = shared.sbt.callables.get(index as usize);
-        let program = record.and_then(|r| if continuation { r.programs.continuation } else { r.programs.direct });
+        let program = record.and_then(|r| {
+            if continuation {
+                r.programs.continuation
+            } else {
+                r.programs.direct
+            }
+        });
         let (Some(record), Some(program)) = (record, program) else {
             if self.exceptions().contains(ExceptionFlags::DEBUG) {
                 self.raise(code::CALLABLE_INVALID_SBT);
@@ -309,7 +392,10 @@ impl<'l> Invocation<'l> {
             return;
         };
         let (depth, limit) = if continuation {
-            (self.continuation_depth, shared.link.max_continuation_callable_depth)
+            (
+                self.continuation_depth,
+                shared.link.max_continuation_callable_depth,
+            )
         } else {
             (self.direct_depth, shared.link.max_direct_callable_depth)
         };
@@ -324,13 +410,24 @@ impl<'l> Invocation<'l> {
         self.payload = [0; MAX_PAYLOAD];
         self.payload[..n].copy_from_slice(&args[..n]);
         self.payload_len = n;
-        let kind = if continuation { ProgramKind::ContinuationCallable } else { ProgramKind::DirectCallable };
+        let kind = if continuation {
+            ProgramKind::ContinuationCallable
+        } else {
+            ProgramKind::DirectCallable
+        };
         if continuation {
             self.continuation_depth += 1;
         } else {
             self.direct_depth += 1;
         }
-        self.run(program, View { kind, record: Some(record), ..self.view });
+        self.run(
+            program,
+            View {
+                kind,
+                record: Some(record),
+                ..self.view
+            },
+        );
         if continuation {
             self.continuation_depth -= 1;
         } else {
@@ -359,8 +456,15 @@ impl Handler for Invocation<'_> {
     }
 
     fn candidate<S: Spec>(&mut self, c: &Candidate<'_>, path: &Path, fate: CandidateFate) {
-        let Some(record) = self.hit_record(path, c.info.sbt_gas_index) else { return };
-        let mut hit = HitState { t: c.t, hit_kind: c.hit_kind, data: Some(c.data), ..HitState::at(c.info, path) };
+        let Some(record) = self.hit_record(path, c.info.sbt_gas_index) else {
+            return;
+        };
+        let mut hit = HitState {
+            t: c.t,
+            hit_kind: c.hit_kind,
+            data: Some(c.data),
+            ..HitState::at(c.info, path)
+        };
         match c.data {
             HitData::Triangle { barycentrics, .. } => {
                 hit.attributes[0] = barycentrics[0].to_bits();
@@ -384,12 +488,22 @@ impl Handler for Invocation<'_> {
     }
 
     fn custom<S: Spec>(&mut self, p: &CustomPrimitive<'_>, path: &Path, fate: CandidateFate) {
-        let Some(record) = self.hit_record(path, p.info.sbt_gas_index) else { return };
-        let Some(is) = record.programs.intersection else { return };
+        let Some(record) = self.hit_record(path, p.info.sbt_gas_index) else {
+            return;
+        };
+        let Some(is) = record.programs.intersection else {
+            return;
+        };
         let base = HitState::at(p.info, path);
         self.trace.intersection = Some(IntersectionContext { base, record, fate });
         self.trace.intersection_exit = false;
-        let view = View { kind: ProgramKind::Intersection, record: Some(record), ray: self.trace.ray, hit: Some(base), exception_code: 0 };
+        let view = View {
+            kind: ProgramKind::Intersection,
+            record: Some(record),
+            ray: self.trace.ray,
+            hit: Some(base),
+            exception_code: 0,
+        };
         self.run(is, view);
         self.trace.intersection = None;
         self.trace.intersection_exit = false;
@@ -441,7 +555,15 @@ impl DeviceCalls for Invocation<'_> {
             return;
         }
         let time = if features.motion { time } else { 0.0 };
-        let world = RayState { origin, direction, tmin, tmax, time, flags, mask };
+        let world = RayState {
+            origin,
+            direction,
+            tmin,
+            tmax,
+            time,
+            flags,
+            mask,
+        };
         let n = payload.len().min(MAX_PAYLOAD);
         let saved_payload = (self.payload, self.payload_len);
         self.payload = [0; MAX_PAYLOAD];
@@ -459,7 +581,15 @@ impl DeviceCalls for Invocation<'_> {
         };
         let saved_trace = std::mem::replace(&mut self.trace, fresh);
         self.depth += 1;
-        let ray = TraceRay { origin, direction, tmin, tmax, time, mask, flags: RayFlags(flags) };
+        let ray = TraceRay {
+            origin,
+            direction,
+            tmin,
+            tmax,
+            time,
+            mask,
+            flags: RayFlags(flags),
+        };
         (self.shared.trace)(self, &ray, TraversableHandle::from_words(handle));
         if !self.ending {
             self.finish_trace(world, miss_index);
@@ -473,7 +603,11 @@ impl DeviceCalls for Invocation<'_> {
     }
 
     fn get_payload(&self, i: u32) -> u32 {
-        if (i as usize) < self.payload_len { self.payload[i as usize] } else { 0 }
+        if (i as usize) < self.payload_len {
+            self.payload[i as usize]
+        } else {
+            0
+        }
     }
 
     fn set_payload(&mut self, i: u32, v: u32) {
@@ -483,18 +617,30 @@ impl DeviceCalls for Invocation<'_> {
     }
 
     fn get_attribute(&self, i: u32) -> u32 {
-        self.hit().and_then(|h| h.attributes.get(i as usize).copied()).unwrap_or(0)
+        self.hit()
+            .and_then(|h| h.attributes.get(i as usize).copied())
+            .unwrap_or(0)
     }
 
     fn report_intersection(&mut self, t: f32, hit_kind: u32, attributes: &[u32; 8]) -> bool {
-        if self.ending || self.trace.intersection_exit || self.view.kind != ProgramKind::Intersection {
+        if self.ending
+            || self.trace.intersection_exit
+            || self.view.kind != ProgramKind::Intersection
+        {
             return false;
         }
-        let Some(ctx) = self.trace.intersection else { return false };
+        let Some(ctx) = self.trace.intersection else {
+            return false;
+        };
         if !semantics::ray::reported_t_accepted(t, self.trace.ray.tmin, self.trace.ray.tmax) {
             return false;
         }
-        let hit = HitState { t, hit_kind: facing::custom_hit_kind(hit_kind), attributes: *attributes, ..ctx.base };
+        let hit = HitState {
+            t,
+            hit_kind: facing::custom_hit_kind(hit_kind),
+            attributes: *attributes,
+            ..ctx.base
+        };
         let mut terminate = false;
         if self.shared.features.any_hit
             && ctx.fate == CandidateFate::NonOpaque
@@ -538,7 +684,8 @@ impl DeviceCalls for Invocation<'_> {
     }
 
     fn object_ray_direction(&self) -> [f32; 3] {
-        self.hit().map_or(self.view.ray.direction, |h| h.object_direction)
+        self.hit()
+            .map_or(self.view.ray.direction, |h| h.object_direction)
     }
 
     fn ray_tmin(&self) -> f32 {
@@ -582,7 +729,8 @@ impl DeviceCalls for Invocation<'_> {
     }
 
     fn is_front_face_hit(&self) -> bool {
-        self.hit().is_some_and(|h| facing::hit_kind_is_front(h.hit_kind))
+        self.hit()
+            .is_some_and(|h| facing::hit_kind_is_front(h.hit_kind))
     }
 
     fn triangle_barycentrics(&self) -> [f32; 2] {
@@ -644,7 +792,10 @@ impl DeviceCalls for Invocation<'_> {
     }
 
     fn remaining_trace_depth(&self) -> u32 {
-        self.shared.features.max_trace_depth.saturating_sub(self.depth)
+        self.shared
+            .features
+            .max_trace_depth
+            .saturating_sub(self.depth)
     }
 
     fn unwinding(&self) -> bool {

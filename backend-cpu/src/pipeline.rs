@@ -6,8 +6,8 @@ use crate::traverse::{Spec, Specialised, TraceRay};
 use optik_api::features::ProgramFeatures;
 use optik_api::frontend::{BindingInfo, CompiledModule};
 use optik_api::{
-    Accuracy, BoxTest, Error, FeatureSet, PipelineLinkOptions, ProgramGroupDesc, ProgramKind, ProgramRef, Result,
-    TraversableHandle, TriangleTest,
+    Accuracy, BoxTest, Error, FeatureSet, PipelineLinkOptions, ProgramGroupDesc, ProgramKind,
+    ProgramRef, Result, TraversableHandle, TriangleTest,
 };
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -35,7 +35,9 @@ pub struct NativeModuleDesc {
 impl std::fmt::Debug for NativeModuleDesc {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let names: Vec<&str> = self.programs.iter().map(|(n, _)| n.as_str()).collect();
-        f.debug_struct("NativeModuleDesc").field("programs", &names).finish_non_exhaustive()
+        f.debug_struct("NativeModuleDesc")
+            .field("programs", &names)
+            .finish_non_exhaustive()
     }
 }
 
@@ -69,10 +71,11 @@ impl ProgramCode {
     pub fn callable(&self) -> Result<Callable<'_>> {
         match self {
             #[cfg(feature = "jit")]
-            ProgramCode::Jit { module, name } => module
-                .program(name)
-                .map(Callable::Jit)
-                .ok_or_else(|| Error::backend(format!("the compiled module lost program `{name}`"))),
+            ProgramCode::Jit { module, name } => {
+                module.program(name).map(Callable::Jit).ok_or_else(|| {
+                    Error::backend(format!("the compiled module lost program `{name}`"))
+                })
+            }
             ProgramCode::Native(f) => Ok(Callable::Native(f)),
         }
     }
@@ -118,8 +121,13 @@ impl ModuleObject {
                     "native program `{name}` has no program prefix (raygen__, intersection__, anyhit__, closesthit__, miss__, exception__, direct_callable__, continuation_callable__)"
                 )));
             };
-            if programs.insert(name.clone(), (kind, ProgramCode::Native(code))).is_some() {
-                return Err(Error::invalid(format!("native program `{name}` is given twice")));
+            if programs
+                .insert(name.clone(), (kind, ProgramCode::Native(code)))
+                .is_some()
+            {
+                return Err(Error::invalid(format!(
+                    "native program `{name}` is given twice"
+                )));
             }
         }
         Ok(ModuleObject {
@@ -160,17 +168,28 @@ impl GroupObject {
     pub fn new(
         index: usize,
         desc: &ProgramGroupDesc,
-        module: &dyn Fn(optik_api::Module) -> Result<(Option<Arc<CompiledModule>>, Option<NativeFeatures>)>,
+        module: &dyn Fn(
+            optik_api::Module,
+        ) -> Result<(Option<Arc<CompiledModule>>, Option<NativeFeatures>)>,
         program: &dyn Fn(&ProgramRef) -> Result<Option<(ProgramKind, ProgramCode)>>,
     ) -> Result<GroupObject> {
         let mut programs = GroupPrograms::default();
         let mut modules: Vec<(optik_api::Module, Arc<CompiledModule>)> = Vec::new();
         let mut native = Vec::new();
         for (kind, p) in desc.programs() {
-            let what = || format!("program_groups[{index}] ({} program `{}`)", kind.name(), p.entry);
+            let what = || {
+                format!(
+                    "program_groups[{index}] ({} program `{}`)",
+                    kind.name(),
+                    p.entry
+                )
+            };
             let (compiled, native_features) = module(p.module).map_err(|e| e.context(what()))?;
             let Some((found, code)) = program(p)? else {
-                return Err(Error::invalid(format!("{}: the module has no program of that name", what())));
+                return Err(Error::invalid(format!(
+                    "{}: the module has no program of that name",
+                    what()
+                )));
             };
             if found != kind {
                 return Err(Error::invalid(format!(
@@ -195,7 +214,12 @@ impl GroupObject {
             }
             native.extend(native_features);
         }
-        Ok(GroupObject { desc: desc.clone(), programs, modules, native })
+        Ok(GroupObject {
+            desc: desc.clone(),
+            programs,
+            modules,
+            native,
+        })
     }
 }
 
@@ -204,7 +228,11 @@ impl GroupObject {
 pub(crate) fn program_features(groups: &[Arc<GroupObject>]) -> ProgramFeatures {
     let descs: Vec<&ProgramGroupDesc> = groups.iter().map(|g| &g.desc).collect();
     let module_of = |p: &ProgramRef| -> Option<&CompiledModule> {
-        groups.iter().flat_map(|g| g.modules.iter()).find(|(m, _)| *m == p.module).map(|(_, c)| c.as_ref())
+        groups
+            .iter()
+            .flat_map(|g| g.modules.iter())
+            .find(|(m, _)| *m == p.module)
+            .map(|(_, c)| c.as_ref())
     };
     let mut f = ProgramFeatures::of_groups(&descs, module_of);
     for n in groups.iter().flat_map(|g| g.native.iter()) {
@@ -216,23 +244,40 @@ pub(crate) fn program_features(groups: &[Arc<GroupObject>]) -> ProgramFeatures {
 }
 
 /// Traverses for one pipeline: a [`Spec`] chosen from the pipeline's features.
-pub(crate) type TraceFn = for<'a, 'l> fn(&'a mut crate::launch::Invocation<'l>, &'a TraceRay, TraversableHandle);
+pub(crate) type TraceFn =
+    for<'a, 'l> fn(&'a mut crate::launch::Invocation<'l>, &'a TraceRay, TraversableHandle);
 
 fn trace_fn<S: Spec>() -> TraceFn {
     crate::launch::trace_with::<S>
 }
 
 fn select_c<const M: bool, const I: bool, const A: bool, const W: bool>(c: bool) -> TraceFn {
-    if c { trace_fn::<Specialised<M, I, A, W, true>>() } else { trace_fn::<Specialised<M, I, A, W, false>>() }
+    if c {
+        trace_fn::<Specialised<M, I, A, W, true>>()
+    } else {
+        trace_fn::<Specialised<M, I, A, W, false>>()
+    }
 }
 fn select_w<const M: bool, const I: bool, const A: bool>(w: bool, c: bool) -> TraceFn {
-    if w { select_c::<M, I, A, true>(c) } else { select_c::<M, I, A, false>(c) }
+    if w {
+        select_c::<M, I, A, true>(c)
+    } else {
+        select_c::<M, I, A, false>(c)
+    }
 }
 fn select_a<const M: bool, const I: bool>(a: bool, w: bool, c: bool) -> TraceFn {
-    if a { select_w::<M, I, true>(w, c) } else { select_w::<M, I, false>(w, c) }
+    if a {
+        select_w::<M, I, true>(w, c)
+    } else {
+        select_w::<M, I, false>(w, c)
+    }
 }
 fn select_i<const M: bool>(i: bool, a: bool, w: bool, c: bool) -> TraceFn {
-    if i { select_a::<M, true>(a, w, c) } else { select_a::<M, false>(a, w, c) }
+    if i {
+        select_a::<M, true>(a, w, c)
+    } else {
+        select_a::<M, false>(a, w, c)
+    }
 }
 
 /// The traversal compiled for `features` and `accuracy` (DESIGN.md §5 and §6).
@@ -240,7 +285,11 @@ pub(crate) fn select_trace(features: &FeatureSet, accuracy: Accuracy) -> TraceFn
     let (m, i, a) = (features.motion, features.instancing(), features.any_hit);
     let w = accuracy.triangle == TriangleTest::Watertight;
     let c = accuracy.box_test == BoxTest::Conservative;
-    if m { select_i::<true>(i, a, w, c) } else { select_i::<false>(i, a, w, c) }
+    if m {
+        select_i::<true>(i, a, w, c)
+    } else {
+        select_i::<false>(i, a, w, c)
+    }
 }
 
 /// A linked pipeline.

@@ -18,7 +18,9 @@ pub(crate) struct RecordPrograms<'l> {
 
 impl<'l> RecordPrograms<'l> {
     fn of(p: &'l GroupPrograms) -> Result<RecordPrograms<'l>> {
-        let c = |x: &'l Option<crate::pipeline::ProgramCode>| x.as_ref().map(|c| c.callable()).transpose();
+        let c = |x: &'l Option<crate::pipeline::ProgramCode>| {
+            x.as_ref().map(|c| c.callable()).transpose()
+        };
         Ok(RecordPrograms {
             main: c(&p.main)?,
             any_hit: c(&p.any_hit)?,
@@ -70,12 +72,24 @@ struct Reader<'a, 'l> {
 }
 
 impl<'l> Reader<'_, 'l> {
-    fn record(&self, what: &str, buffer: Buffer, offset: u64, data_len: usize, region: GroupRegion) -> Result<Record<'l>> {
+    fn record(
+        &self,
+        what: &str,
+        buffer: Buffer,
+        offset: u64,
+        data_len: usize,
+        region: GroupRegion,
+    ) -> Result<Record<'l>> {
         let bytes = self.bytes.buffer(buffer).map_err(|e| e.context(what))?;
         let start = offset as usize;
-        let header = bytes.get(start..start + SBT_RECORD_HEADER_SIZE as usize).ok_or_else(|| {
-            Error::invalid(format!("{what}: the record's header lies outside its buffer of {} bytes", bytes.len()))
-        })?;
+        let header = bytes
+            .get(start..start + SBT_RECORD_HEADER_SIZE as usize)
+            .ok_or_else(|| {
+                Error::invalid(format!(
+                    "{what}: the record's header lies outside its buffer of {} bytes",
+                    bytes.len()
+                ))
+            })?;
         let h = SbtHeader::unpack(header).ok_or_else(|| {
             Error::invalid(format!(
                 "{what} (byte offset {offset}): the first 32 bytes are not a record header; write the bytes of sbt_record_pack_header(group) there"
@@ -108,11 +122,21 @@ impl<'l> Reader<'_, 'l> {
             })?;
         let data_start = start + SBT_RECORD_HEADER_SIZE as usize;
         let data_end = (data_start + data_len.min(self.max_data)).min(bytes.len());
-        Ok(Record { programs: RecordPrograms::of(&group.programs)?, data: bytes[data_start..data_end].to_vec() })
+        Ok(Record {
+            programs: RecordPrograms::of(&group.programs)?,
+            data: bytes[data_start..data_end].to_vec(),
+        })
     }
 
-    fn region(&self, what: &str, region: &Option<SbtRegion>, kind: GroupRegion) -> Result<Vec<Record<'l>>> {
-        let Some(r) = region else { return Ok(Vec::new()) };
+    fn region(
+        &self,
+        what: &str,
+        region: &Option<SbtRegion>,
+        kind: GroupRegion,
+    ) -> Result<Vec<Record<'l>>> {
+        let Some(r) = region else {
+            return Ok(Vec::new());
+        };
         (0..r.count)
             .map(|i| {
                 let offset = r.offset + i as u64 * r.stride as u64;
@@ -133,12 +157,31 @@ pub(crate) fn resolve<'l>(
     max_record_stride: u32,
 ) -> Result<ResolvedSbt<'l>> {
     let max_data = max_record_stride.saturating_sub(SBT_RECORD_HEADER_SIZE) as usize;
-    let r = Reader { device, pipeline, bytes, max_data };
+    let r = Reader {
+        device,
+        pipeline,
+        bytes,
+        max_data,
+    };
     // Single records have no stride: their data runs to the end of the buffer (capped).
-    let raygen = r.record("sbt.raygen", table.raygen.buffer, table.raygen.offset, usize::MAX, GroupRegion::Raygen)?;
+    let raygen = r.record(
+        "sbt.raygen",
+        table.raygen.buffer,
+        table.raygen.offset,
+        usize::MAX,
+        GroupRegion::Raygen,
+    )?;
     let exception = table
         .exception
-        .map(|e| r.record("sbt.exception", e.buffer, e.offset, usize::MAX, GroupRegion::Exception))
+        .map(|e| {
+            r.record(
+                "sbt.exception",
+                e.buffer,
+                e.offset,
+                usize::MAX,
+                GroupRegion::Exception,
+            )
+        })
         .transpose()?;
     Ok(ResolvedSbt {
         raygen,

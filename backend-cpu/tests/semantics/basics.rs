@@ -5,7 +5,10 @@ use optik_api::*;
 
 /// One triangle at z = 5 in front of rays going +z; rays with x index 0..4 hit, 4.. miss.
 fn triangle_scene(kit: &Kit, log: &Log) -> (Pipeline, ShaderBindingTable) {
-    let gas = kit.triangles(&[[0.0, 0.0, 5.0], [0.0, 4.0, 5.0], [4.0, 0.0, 5.0]], GeometryFlags::DISABLE_ANYHIT);
+    let gas = kit.triangles(
+        &[[0.0, 0.0, 5.0], [0.0, 4.0, 5.0], [4.0, 0.0, 5.0]],
+        GeometryFlags::DISABLE_ANYHIT,
+    );
     let (l1, l2, l3) = (log.clone(), log.clone(), log.clone());
     let m = kit.module(vec![
         (
@@ -13,7 +16,12 @@ fn triangle_scene(kit: &Kit, log: &Log) -> (Pipeline, ShaderBindingTable) {
             program(move |c| {
                 let x = c.launch_index()[0];
                 let mut payload = [7u32, 0, 0];
-                trace_ray(c, gas, Ray::new([x as f32 + 0.25, 0.5, 0.0], [0.0, 0.0, 1.0]), &mut payload);
+                trace_ray(
+                    c,
+                    gas,
+                    Ray::new([x as f32 + 0.25, 0.5, 0.0], [0.0, 0.0, 1.0]),
+                    &mut payload,
+                );
                 l1.put(c, "payload", &payload.map(|v| v as f64));
             }),
         ),
@@ -44,7 +52,15 @@ fn triangle_scene(kit: &Kit, log: &Log) -> (Pipeline, ShaderBindingTable) {
         (
             "miss__main",
             program(move |c| {
-                l3.put(c, "miss", &[c.ray_tmax() as f64, c.sbt_data_u32(0) as f64, c.world_ray_origin()[0] as f64]);
+                l3.put(
+                    c,
+                    "miss",
+                    &[
+                        c.ray_tmax() as f64,
+                        c.sbt_data_u32(0) as f64,
+                        c.world_ray_origin()[0] as f64,
+                    ],
+                );
                 c.set_payload(2, 99);
             }),
         ),
@@ -53,7 +69,13 @@ fn triangle_scene(kit: &Kit, log: &Log) -> (Pipeline, ShaderBindingTable) {
     let ms = kit.miss(m, "miss__main");
     let hg = kit.hit(m, Some("closesthit__main"), None, None);
     let p = kit.pipeline(PipelineCompileOptions::default(), 1, &[rg, ms, hg]);
-    let sbt = kit.sbt(Rec::new(rg), &[Rec::with_u32(ms, &[33])], &[Rec::with_u32(hg, &[44])], &[], None);
+    let sbt = kit.sbt(
+        Rec::new(rg),
+        &[Rec::with_u32(ms, &[33])],
+        &[Rec::with_u32(hg, &[44])],
+        &[],
+        None,
+    );
     (p, sbt)
 }
 
@@ -71,7 +93,10 @@ fn closest_hit_and_miss_see_the_hit_and_the_ray() {
             assert_eq!(ch[1], 0.0, "primitive index");
             assert_eq!(ch[2], HIT_KIND_TRIANGLE_FRONT_FACE as f64);
             // (x + .25, .5) = v0 + u (v1 - v0) + v (v2 - v0) with v1 = (0, 4), v2 = (4, 0).
-            assert!((ch[3] - 0.125).abs() < 1e-6 && (ch[4] - (x as f64 + 0.25) / 4.0).abs() < 1e-6, "{ch:?}");
+            assert!(
+                (ch[3] - 0.125).abs() < 1e-6 && (ch[4] - (x as f64 + 0.25) / 4.0).abs() < 1e-6,
+                "{ch:?}"
+            );
             assert_eq!(ch[5], ch[3], "attribute 0 holds the first barycentric");
             assert_eq!(ch[6], 4.0, "vertices");
             assert_eq!(ch[7], 44.0, "SBT data");
@@ -79,7 +104,10 @@ fn closest_hit_and_miss_see_the_hit_and_the_ray() {
             assert_eq!(payload, vec![7.0, 8.0, 0.0]);
             assert_eq!(log.count(x, "miss"), 0);
         } else {
-            assert_eq!(log.get(x, "miss").unwrap(), vec![f32::INFINITY as f64, 33.0, x as f64 + 0.25]);
+            assert_eq!(
+                log.get(x, "miss").unwrap(),
+                vec![f32::INFINITY as f64, 33.0, x as f64 + 0.25]
+            );
             assert_eq!(payload, vec![7.0, 0.0, 99.0]);
             assert_eq!(log.count(x, "ch"), 0);
         }
@@ -90,19 +118,42 @@ fn closest_hit_and_miss_see_the_hit_and_the_ray() {
 fn invalid_rays_run_no_program_and_keep_the_payload() {
     let kit = Kit::new();
     let log = Log::default();
-    let gas = kit.triangles(&quad(-10.0, -10.0, 10.0, 10.0, 5.0), GeometryFlags::DISABLE_ANYHIT);
+    let gas = kit.triangles(
+        &quad(-10.0, -10.0, 10.0, 10.0, 5.0),
+        GeometryFlags::DISABLE_ANYHIT,
+    );
     let bad: Vec<Ray> = vec![
         Ray::new([f32::NAN, 0.0, 0.0], [0.0, 0.0, 1.0]),
         Ray::new([0.0, f32::INFINITY, 0.0], [0.0, 0.0, 1.0]),
         Ray::new([0.0, 0.0, 0.0], [0.0, f32::NAN, 1.0]),
         Ray::new([0.0, 0.0, 0.0], [f32::NEG_INFINITY, 0.0, 1.0]),
-        Ray { tmin: -1.0, ..Ray::new([0.0; 3], [0.0, 0.0, 1.0]) },
-        Ray { tmin: f32::NAN, ..Ray::new([0.0; 3], [0.0, 0.0, 1.0]) },
-        Ray { tmax: f32::NAN, ..Ray::new([0.0; 3], [0.0, 0.0, 1.0]) },
-        Ray { tmin: 3.0, tmax: 2.0, ..Ray::new([0.0; 3], [0.0, 0.0, 1.0]) },
+        Ray {
+            tmin: -1.0,
+            ..Ray::new([0.0; 3], [0.0, 0.0, 1.0])
+        },
+        Ray {
+            tmin: f32::NAN,
+            ..Ray::new([0.0; 3], [0.0, 0.0, 1.0])
+        },
+        Ray {
+            tmax: f32::NAN,
+            ..Ray::new([0.0; 3], [0.0, 0.0, 1.0])
+        },
+        Ray {
+            tmin: 3.0,
+            tmax: 2.0,
+            ..Ray::new([0.0; 3], [0.0, 0.0, 1.0])
+        },
         // Valid edge cases: -0.0 tmin, tmin == tmax, zero direction.
-        Ray { tmin: -0.0, ..Ray::new([0.0; 3], [0.0, 0.0, 1.0]) },
-        Ray { tmin: 2.0, tmax: 2.0, ..Ray::new([0.0; 3], [0.0, 0.0, 1.0]) },
+        Ray {
+            tmin: -0.0,
+            ..Ray::new([0.0; 3], [0.0, 0.0, 1.0])
+        },
+        Ray {
+            tmin: 2.0,
+            tmax: 2.0,
+            ..Ray::new([0.0; 3], [0.0, 0.0, 1.0])
+        },
         Ray::new([0.0; 3], [0.0; 3]),
     ];
     let n = bad.len() as u32;
@@ -124,25 +175,49 @@ fn invalid_rays_run_no_program_and_keep_the_payload() {
         ),
         ("closesthit__main", program(move |c| l2.put(c, "ch", &[]))),
         ("miss__main", program(move |c| l3.put(c, "miss", &[]))),
-        ("exception__main", program(move |c| l4.put(c, "exception", &[c.exception_code() as f64]))),
+        (
+            "exception__main",
+            program(move |c| l4.put(c, "exception", &[c.exception_code() as f64])),
+        ),
     ]);
     let rg = kit.raygen(m, "raygen__main");
     let ms = kit.miss(m, "miss__main");
     let hg = kit.hit(m, Some("closesthit__main"), None, None);
-    let ex = kit.group(ProgramGroupDesc::Exception(ProgramRef::new(m, "exception__main")));
+    let ex = kit.group(ProgramGroupDesc::Exception(ProgramRef::new(
+        m,
+        "exception__main",
+    )));
     for debug in [false, true] {
         log.clear();
         let options = PipelineCompileOptions {
-            exception_flags: Setting::Value(if debug { ExceptionFlags::DEBUG } else { ExceptionFlags::NONE }),
+            exception_flags: Setting::Value(if debug {
+                ExceptionFlags::DEBUG
+            } else {
+                ExceptionFlags::NONE
+            }),
             ..Default::default()
         };
         let p = kit.pipeline(options, 1, &[rg, ms, hg, ex]);
-        let sbt = kit.sbt(Rec::new(rg), &[Rec::new(ms)], &[Rec::new(hg)], &[], Some(Rec::new(ex)));
+        let sbt = kit.sbt(
+            Rec::new(rg),
+            &[Rec::new(ms)],
+            &[Rec::new(hg)],
+            &[],
+            Some(Rec::new(ex)),
+        );
         kit.launch(p, &sbt, n);
         for x in 0..8 {
-            assert_eq!(log.count(x, "ch") + log.count(x, "miss"), 0, "ray {x} ran a program");
+            assert_eq!(
+                log.count(x, "ch") + log.count(x, "miss"),
+                0,
+                "ray {x} ran a program"
+            );
             if debug {
-                assert_eq!(log.get(x, "exception"), Some(vec![semantics::exception::INVALID_RAY as f64]), "ray {x}");
+                assert_eq!(
+                    log.get(x, "exception"),
+                    Some(vec![semantics::exception::INVALID_RAY as f64]),
+                    "ray {x}"
+                );
                 // The exception ended the launch index: raygen wrote nothing after trace.
                 assert_eq!(log.count(x, "payload"), 0, "ray {x}");
             } else {
@@ -151,8 +226,16 @@ fn invalid_rays_run_no_program_and_keep_the_payload() {
             }
         }
         assert_eq!(log.names(8), vec!["ch", "payload"], "tmin = -0.0 is valid");
-        assert_eq!(log.names(9), vec!["miss", "payload"], "tmin == tmax is valid; triangles need t inside");
-        assert_eq!(log.names(10), vec!["miss", "payload"], "a zero direction is valid and misses triangles");
+        assert_eq!(
+            log.names(9),
+            vec!["miss", "payload"],
+            "tmin == tmax is valid; triangles need t inside"
+        );
+        assert_eq!(
+            log.names(10),
+            vec!["miss", "payload"],
+            "a zero direction is valid and misses triangles"
+        );
     }
 }
 

@@ -24,12 +24,21 @@ impl Log {
     /// Records `what` with values for the launch index `x`.
     pub fn put(&self, c: &dyn DeviceCalls, what: &str, values: &[f64]) {
         let x = c.launch_index()[0];
-        self.0.lock().unwrap().push((x, what.to_string(), values.to_vec()));
+        self.0
+            .lock()
+            .unwrap()
+            .push((x, what.to_string(), values.to_vec()));
     }
 
     /// Entries of launch index `x`, in the order they were written.
     pub fn of(&self, x: u32) -> Vec<(String, Vec<f64>)> {
-        self.0.lock().unwrap().iter().filter(|e| e.0 == x).map(|e| (e.1.clone(), e.2.clone())).collect()
+        self.0
+            .lock()
+            .unwrap()
+            .iter()
+            .filter(|e| e.0 == x)
+            .map(|e| (e.1.clone(), e.2.clone()))
+            .collect()
     }
 
     /// Names of the entries of launch index `x`.
@@ -81,7 +90,18 @@ pub struct Ray {
 
 impl Ray {
     pub fn new(origin: [f32; 3], dir: [f32; 3]) -> Ray {
-        Ray { origin, dir, tmin: 0.0, tmax: f32::INFINITY, time: 0.0, mask: 0xFF, flags: 0, sbt_offset: 0, sbt_stride: 1, miss: 0 }
+        Ray {
+            origin,
+            dir,
+            tmin: 0.0,
+            tmax: f32::INFINITY,
+            time: 0.0,
+            mask: 0xFF,
+            flags: 0,
+            sbt_offset: 0,
+            sbt_stride: 1,
+            miss: 0,
+        }
     }
     pub fn flags(self, flags: u32) -> Ray {
         Ray { flags, ..self }
@@ -96,12 +116,27 @@ impl Ray {
 
 /// Traces `ray` against `handle` with `payload`.
 pub fn trace_ray(c: &mut dyn DeviceCalls, handle: TraversableHandle, r: Ray, payload: &mut [u32]) {
-    c.trace(handle.to_words(), r.origin, r.dir, r.tmin, r.tmax, r.time, r.mask, r.flags, r.sbt_offset, r.sbt_stride, r.miss, payload);
+    c.trace(
+        handle.to_words(),
+        r.origin,
+        r.dir,
+        r.tmin,
+        r.tmax,
+        r.time,
+        r.mask,
+        r.flags,
+        r.sbt_offset,
+        r.sbt_stride,
+        r.miss,
+        payload,
+    );
 }
 
 impl Kit {
     pub fn new() -> Kit {
-        Kit { dev: CpuDevice::with_threads(2).unwrap() }
+        Kit {
+            dev: CpuDevice::with_threads(2).unwrap(),
+        }
     }
 
     pub fn buffer<T: bytemuck::Pod>(&self, data: &[T]) -> Buffer {
@@ -120,22 +155,39 @@ impl Kit {
     pub fn triangles(&self, vertices: &[[f32; 3]], flags: GeometryFlags) -> TraversableHandle {
         let vb = self.buffer(vertices);
         let input = TriangleArray::new(BufferView::new(vb), vertices.len() as u32, flags);
-        self.build(AccelBuildOptions::default(), &[BuildInput::Triangles(input)])
+        self.build(
+            AccelBuildOptions::default(),
+            &[BuildInput::Triangles(input)],
+        )
     }
 
     pub fn instances(&self, instances: &[Instance]) -> TraversableHandle {
         let ib = self.buffer(instances);
-        let input = InstanceArray { instances: BufferView::new(ib), num_instances: instances.len() as u32 };
-        self.build(AccelBuildOptions::default(), &[BuildInput::Instances(input)])
+        let input = InstanceArray {
+            instances: BufferView::new(ib),
+            num_instances: instances.len() as u32,
+        };
+        self.build(
+            AccelBuildOptions::default(),
+            &[BuildInput::Instances(input)],
+        )
     }
 
     pub fn module(&self, programs: Vec<(&str, NativeProgram)>) -> Module {
         self.module_with(programs, 8, false)
     }
 
-    pub fn module_with(&self, programs: Vec<(&str, NativeProgram)>, payload_values: u32, throws: bool) -> Module {
+    pub fn module_with(
+        &self,
+        programs: Vec<(&str, NativeProgram)>,
+        payload_values: u32,
+        throws: bool,
+    ) -> Module {
         let desc = NativeModuleDesc {
-            programs: programs.into_iter().map(|(n, p)| (n.to_string(), p)).collect(),
+            programs: programs
+                .into_iter()
+                .map(|(n, p)| (n.to_string(), p))
+                .collect(),
             payload_values,
             attribute_values: 8,
             throws,
@@ -155,7 +207,13 @@ impl Kit {
         self.group(ProgramGroupDesc::Miss(Some(ProgramRef::new(m, name))))
     }
 
-    pub fn hit(&self, m: Module, ch: Option<&str>, ah: Option<&str>, is: Option<&str>) -> ProgramGroup {
+    pub fn hit(
+        &self,
+        m: Module,
+        ch: Option<&str>,
+        ah: Option<&str>,
+        is: Option<&str>,
+    ) -> ProgramGroup {
         self.hit_builtin(m, ch, ah, is, BuiltinIntersector::Triangle)
     }
 
@@ -168,11 +226,24 @@ impl Kit {
         builtin: BuiltinIntersector,
     ) -> ProgramGroup {
         let r = |n: Option<&str>| n.map(|n| ProgramRef::new(m, n));
-        self.group(ProgramGroupDesc::HitGroup { closest_hit: r(ch), any_hit: r(ah), intersection: r(is), builtin })
+        self.group(ProgramGroupDesc::HitGroup {
+            closest_hit: r(ch),
+            any_hit: r(ah),
+            intersection: r(is),
+            builtin,
+        })
     }
 
-    pub fn pipeline(&self, options: PipelineCompileOptions, max_trace_depth: u32, groups: &[ProgramGroup]) -> Pipeline {
-        let link = PipelineLinkOptions { max_trace_depth, ..Default::default() };
+    pub fn pipeline(
+        &self,
+        options: PipelineCompileOptions,
+        max_trace_depth: u32,
+        groups: &[ProgramGroup],
+    ) -> Pipeline {
+        let link = PipelineLinkOptions {
+            max_trace_depth,
+            ..Default::default()
+        };
         self.dev.create_pipeline(&options, &link, groups).unwrap()
     }
 
@@ -189,13 +260,28 @@ impl Kit {
             bytes[i * stride + 32..i * stride + 32 + r.1.len()].copy_from_slice(&r.1);
         }
         let b = self.buffer(&bytes);
-        Some(SbtRegion { buffer: b, offset: 0, stride: stride as u32, count: recs.len() as u32 })
+        Some(SbtRegion {
+            buffer: b,
+            offset: 0,
+            stride: stride as u32,
+            count: recs.len() as u32,
+        })
     }
 
-    pub fn sbt(&self, raygen: Rec, miss: &[Rec], hit: &[Rec], callables: &[Rec], exception: Option<Rec>) -> ShaderBindingTable {
+    pub fn sbt(
+        &self,
+        raygen: Rec,
+        miss: &[Rec],
+        hit: &[Rec],
+        callables: &[Rec],
+        exception: Option<Rec>,
+    ) -> ShaderBindingTable {
         let single = |r: Rec| {
             let region = self.records(&[r]).unwrap();
-            SbtRecord { buffer: region.buffer, offset: 0 }
+            SbtRecord {
+                buffer: region.buffer,
+                offset: 0,
+            }
         };
         ShaderBindingTable {
             raygen: single(raygen),
@@ -207,7 +293,9 @@ impl Kit {
     }
 
     pub fn launch(&self, pipeline: Pipeline, sbt: &ShaderBindingTable, width: u32) {
-        self.dev.launch(pipeline, &[], &[], sbt, LaunchSize::new(width, 1, 1)).unwrap();
+        self.dev
+            .launch(pipeline, &[], &[], sbt, LaunchSize::new(width, 1, 1))
+            .unwrap();
     }
 }
 
@@ -219,5 +307,12 @@ pub fn fb(bits: u32) -> f64 {
 /// A quad of two triangles in the plane z = `z`, spanning [x0, x1] × [y0, y1], facing -z
 /// (counter-clockwise seen from below, so rays going +z see its front).
 pub fn quad(x0: f32, y0: f32, x1: f32, y1: f32, z: f32) -> Vec<[f32; 3]> {
-    vec![[x0, y0, z], [x0, y1, z], [x1, y1, z], [x0, y0, z], [x1, y1, z], [x1, y0, z]]
+    vec![
+        [x0, y0, z],
+        [x0, y1, z],
+        [x1, y1, z],
+        [x0, y0, z],
+        [x1, y1, z],
+        [x1, y0, z],
+    ]
 }

@@ -3,4 +3,17 @@
 
 mod kit;
 
+mod accel_ops;
+mod anyhit;
 mod basics;
+mod callables;
+mod custom;
+mod determinism;
+mod errors;
+mod exceptions;
+mod features;
+mod flags;
+mod instances;
+mod motion;
+mod primitives;
+mod sbt;
