@@ -36,10 +36,22 @@ pub fn open() -> optik_api::Result<Box<dyn optik_api::Device>> {
     Ok(Box::new(CpuDevice::new()?))
 }
 
+/// Opens a CPU device with `threads` launch threads (`None`: one per core).
+#[cfg(feature = "runtime")]
+pub fn open_with_threads(threads: Option<usize>) -> optik_api::Result<Box<dyn optik_api::Device>> {
+    Ok(Box::new(CpuDevice::with_threads(threads.unwrap_or(0))?))
+}
+
 /// Without the `runtime` feature this crate only builds acceleration structures.
 #[cfg(not(feature = "runtime"))]
 pub fn open() -> optik_api::Result<Box<dyn optik_api::Device>> {
     Err(optik_api::Error::unsupported(
         "optik-cpu was built without its `runtime` feature; enable `runtime` (or `jit`) for a device",
     ))
+}
+
+/// Without the `runtime` feature this crate only builds acceleration structures.
+#[cfg(not(feature = "runtime"))]
+pub fn open_with_threads(_threads: Option<usize>) -> optik_api::Result<Box<dyn optik_api::Device>> {
+    open()
 }

@@ -2,5 +2,7 @@
 
 /// Opens a device of this backend.
 pub fn open() -> optik_api::Result<Box<dyn optik_api::Device>> {
-    Err(optik_api::Error::unsupported("the vulkan backend is not implemented yet"))
+    Err(optik_api::Error::unsupported(
+        "the vulkan backend is not implemented yet",
+    ))
 }

@@ -11,7 +11,7 @@ mod locate;
 mod reflect;
 
 pub use device_api::{
-    prelude, DeviceFunction, PRELUDE_CONSTANTS, PRELUDE_EXCEPTION_CODES, PRELUDE_MARKER,
+    DeviceFunction, PRELUDE_CONSTANTS, PRELUDE_EXCEPTION_CODES, PRELUDE_MARKER, prelude,
 };
 pub use reflect::{BindingInfo, BindingKind, ProgramInfo};
 
@@ -115,7 +115,10 @@ pub fn compile(source: &ProgramSource, payload_len: u32) -> Result<CompiledModul
             }
             for (_, label) in e.spans() {
                 // naga's labels name IR handles ("naga::ir::Function [0]"), useless to users.
-                if !label.is_empty() && !label.contains("naga::") && !message.contains(label.as_str()) {
+                if !label.is_empty()
+                    && !label.contains("naga::")
+                    && !message.contains(label.as_str())
+                {
                     message.push_str(&format!(" ({label})"));
                 }
             }

@@ -1,0 +1,21 @@
+//! `optik info`: which backends run here, on what.
+
+/// Runs the command; returns the exit status.
+pub fn run() -> u8 {
+    println!("backends:");
+    for s in optik::backend_statuses() {
+        match &s.availability {
+            Ok(device) => println!("  {:<7} available: {device}", s.kind.name()),
+            Err(why) => println!("  {:<7} not available: {why}", s.kind.name()),
+        }
+    }
+    println!();
+    let adapters = optik::backends::wgpu::probe();
+    println!("wgpu adapters ({}):", adapters.len());
+    for a in &adapters {
+        for line in a.to_string().lines() {
+            println!("  {line}");
+        }
+    }
+    0
+}
