@@ -153,6 +153,13 @@ pub(crate) struct GroupPrograms {
     pub continuation: Option<ProgramCode>,
 }
 
+/// Finds a module's front-end result and native features by handle.
+pub(crate) type ModuleLookup<'a> =
+    &'a dyn Fn(optik_api::Module) -> Result<(Option<Arc<CompiledModule>>, Option<NativeFeatures>)>;
+/// Finds a program's kind and code.
+pub(crate) type ProgramLookup<'a> =
+    &'a dyn Fn(&ProgramRef) -> Result<Option<(ProgramKind, ProgramCode)>>;
+
 /// A program group.
 pub(crate) struct GroupObject {
     pub desc: ProgramGroupDesc,
@@ -168,10 +175,8 @@ impl GroupObject {
     pub fn new(
         index: usize,
         desc: &ProgramGroupDesc,
-        module: &dyn Fn(
-            optik_api::Module,
-        ) -> Result<(Option<Arc<CompiledModule>>, Option<NativeFeatures>)>,
-        program: &dyn Fn(&ProgramRef) -> Result<Option<(ProgramKind, ProgramCode)>>,
+        module: ModuleLookup<'_>,
+        program: ProgramLookup<'_>,
     ) -> Result<GroupObject> {
         let mut programs = GroupPrograms::default();
         let mut modules: Vec<(optik_api::Module, Arc<CompiledModule>)> = Vec::new();

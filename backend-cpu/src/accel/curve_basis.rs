@@ -77,8 +77,9 @@ impl BezierSegment {
         let mut q = self.points;
         for level in (1..=self.degree).rev() {
             for i in 0..level {
-                for k in 0..4 {
-                    q[i][k] = q[i][k] + (q[i + 1][k] - q[i][k]) * u;
+                let next = q[i + 1];
+                for (a, b) in q[i].iter_mut().zip(next) {
+                    *a += (b - *a) * u;
                 }
             }
         }
@@ -95,8 +96,9 @@ impl BezierSegment {
         right[n] = q[n];
         for level in 1..=n {
             for i in 0..=(n - level) {
-                for k in 0..4 {
-                    q[i][k] = 0.5 * (q[i][k] + q[i + 1][k]);
+                let next = q[i + 1];
+                for (a, b) in q[i].iter_mut().zip(next) {
+                    *a = 0.5 * (*a + b);
                 }
             }
             left[level] = q[0];

@@ -191,7 +191,7 @@ impl RoundCone {
         ]) {
             return None;
         }
-        let y_ok = |y: f64| !(self.open_a && y < 0.0) && !(self.open_b && y > self.len);
+        let y_ok = |y: f64| !((self.open_a && y < 0.0) || (self.open_b && y > self.len));
         let mut best: Option<f64> = None;
         let mut consider = |t: f64, valid: bool| {
             if valid && t > tmin && t < tmax && best.is_none_or(|b| t < b) {
@@ -455,7 +455,7 @@ mod tests {
             match (got, want) {
                 (Some(g), Some(w)) => assert!((g - w).abs() < 2e-3, "x={x}: {g} vs {w}"),
                 (None, None) => {}
-                (g, w) => assert!(false, "x={x}: {g:?} vs {w:?}"),
+                (g, w) => panic!("x={x}: {g:?} vs {w:?}"),
             }
         }
     }

@@ -45,7 +45,7 @@ pub fn intersect(
     let s = b / a;
     let v = [f[0] - s * dir[0], f[1] - s * dir[1], f[2] - s * dir[2]];
     let disc = a * (r * r - dot(v, v));
-    if !(disc >= 0.0) {
+    if disc.is_nan() || disc < 0.0 {
         return None;
     }
     let q = -(b + disc.sqrt().copysign(b));

@@ -18,9 +18,12 @@ fn aabb_gas(kit: &Kit, flags: GeometryFlags) -> TraversableHandle {
     )
 }
 
+/// A program body that logs.
+type Body = Box<dyn Fn(&mut dyn DeviceCalls, &Log) + Send + Sync>;
+
 struct Programs {
-    is: Box<dyn Fn(&mut dyn DeviceCalls, &Log) + Send + Sync>,
-    ah: Option<Box<dyn Fn(&mut dyn DeviceCalls, &Log) + Send + Sync>>,
+    is: Body,
+    ah: Option<Body>,
 }
 
 fn run(kit: &Kit, gas: TraversableHandle, rays: Vec<Ray>, p: Programs) -> Log {
@@ -93,7 +96,7 @@ fn reports_use_the_closed_interval() {
             ..up
         },
     ];
-    let is: Box<dyn Fn(&mut dyn DeviceCalls, &Log) + Send + Sync> = Box::new(|c, log| {
+    let is: Body = Box::new(|c, log| {
         let (lo, hi) = (c.ray_tmin(), c.ray_tmax());
         let a = c.report_intersection(hi, 3, &[1, 2, 3, 4, 5, 6, 7, 8]);
         let b = c.report_intersection(f32::from_bits(hi.to_bits() + 1), 4, &[0; 8]);
@@ -132,7 +135,7 @@ fn any_hit_decides_reports_and_terminate_ends_the_intersection_program() {
     let gas = aabb_gas(&kit, GeometryFlags::NONE);
     let up = Ray::new([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
     // Reports at 5.7 (any-hit ignores t in (5.6, 5.8)), then 5.2, then (terminating) 4.5.
-    let is: Box<dyn Fn(&mut dyn DeviceCalls, &Log) + Send + Sync> = Box::new(|c, log| {
+    let is: Body = Box::new(|c, log| {
         for t in [5.7f32, 5.2, 4.5, 4.2] {
             let accepted = c.report_intersection(t, 0, &[t.to_bits(), 0, 0, 0, 0, 0, 0, 0]);
             log.put(c, "report", &[t as f64, accepted as u32 as f64]);
@@ -142,7 +145,7 @@ fn any_hit_decides_reports_and_terminate_ends_the_intersection_program() {
         }
         log.put(c, "is_end", &[]);
     });
-    let ah: Box<dyn Fn(&mut dyn DeviceCalls, &Log) + Send + Sync> = Box::new(|c, log| {
+    let ah: Body = Box::new(|c, log| {
         let t = c.ray_tmax();
         log.put(c, "ah", &[t as f64, fb(c.get_attribute(0))]);
         if t > 5.6 && t < 5.8 {
@@ -189,8 +192,7 @@ fn no_report_or_no_intersection_program_misses() {
     let kit = Kit::new();
     let gas = aabb_gas(&kit, GeometryFlags::DISABLE_ANYHIT);
     let up = Ray::new([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
-    let is: Box<dyn Fn(&mut dyn DeviceCalls, &Log) + Send + Sync> =
-        Box::new(|c, log| log.put(c, "is", &[]));
+    let is: Body = Box::new(|c, log| log.put(c, "is", &[]));
     let log = run(
         &kit,
         gas,

@@ -16,9 +16,12 @@ pub fn program(f: impl Fn(&mut dyn DeviceCalls) + Send + Sync + 'static) -> Nati
     Arc::new(move |_: &Bindings<'_>, c: &mut dyn DeviceCalls| f(c))
 }
 
+/// One log entry: launch index, what, values.
+pub type Entry = (u32, String, Vec<f64>);
+
 /// What programs record, by launch index.
 #[derive(Clone, Default)]
-pub struct Log(pub Arc<Mutex<Vec<(u32, String, Vec<f64>)>>>);
+pub struct Log(pub Arc<Mutex<Vec<Entry>>>);
 
 impl Log {
     /// Records `what` with values for the launch index `x`.
