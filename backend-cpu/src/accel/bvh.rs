@@ -2,9 +2,11 @@
 //! optik's own node layout, traversed by `crate::traverse`.
 //!
 //! Layout (the contract with `traverse` and with the wgpu backend, which uploads these nodes
-//! as they are): `nodes[0]` is the root; an inner node (`count == 0`) has its two children at
-//! `first` and `first + 1`; a leaf (`count > 0`) covers primitive slots `first .. first +
-//! count`. Children always come after their parent, so a reverse sweep refits the tree. A
+//! as they are): `nodes()[0]` is the root and `nodes()[1]` is unused padding; an inner node
+//! (`count == 0`) has its two children at `first` and `first + 1`, always an even index, so
+//! siblings share one 64-byte cache line (the node array is 64-byte aligned); a leaf (`count
+//! > 0`) covers primitive slots `first .. first + count`. Children always come after their
+//! parent, so a reverse sweep refits the tree. A
 //! structure's per-primitive arrays are stored in slot order, so a leaf reads them
 //! contiguously; `primitive_order[slot]` maps a slot back to the primitive's place in the
 //! build inputs. Primitives that can never be hit (NaN or infinite coordinates, degenerate
@@ -50,11 +52,16 @@ impl BvhNode {
     }
 }
 
+/// Two sibling nodes: the unit of storage, one cache line.
+#[repr(C, align(64))]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+struct NodePair([BvhNode; 2]);
+
 /// A binary BVH over primitive slots.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Bvh {
-    /// The nodes; empty when the structure holds no primitive.
-    pub nodes: Vec<BvhNode>,
+    /// The nodes in sibling pairs; empty when the structure holds no primitive.
+    pairs: Vec<NodePair>,
     /// The deepest leaf's depth (the root has depth 1); sizes traversal stacks.
     pub depth: u32,
 }
@@ -150,11 +157,24 @@ impl Bvh {
         Ok((bvh, order))
     }
 
+    /// The nodes: root at 0, padding at 1, sibling pairs from 2 (see the module docs).
+    pub fn nodes(&self) -> &[BvhNode] {
+        bytemuck::cast_slice(&self.pairs)
+    }
+
+    fn nodes_mut(&mut self) -> &mut [BvhNode] {
+        bytemuck::cast_slice_mut(&mut self.pairs)
+    }
+
     /// Recomputes every box from the primitives' boxes by slot, keeping the topology.
     /// Invalid (NaN, empty) primitive boxes count as empty.
     pub fn refit(&mut self, slot_box: impl Fn(usize) -> Aabb) {
-        for i in (0..self.nodes.len()).rev() {
-            let n = self.nodes[i];
+        let nodes = self.nodes_mut();
+        for i in (0..nodes.len()).rev() {
+            if i == 1 {
+                continue;
+            }
+            let n = nodes[i];
             let b = if n.is_leaf() {
                 (n.first..n.first + n.count).fold(Aabb::EMPTY, |acc, s| {
                     let b = slot_box(s as usize);
@@ -165,22 +185,25 @@ impl Bvh {
                     }
                 })
             } else {
-                self.nodes[n.first as usize]
+                nodes[n.first as usize]
                     .aabb()
-                    .union(&self.nodes[n.first as usize + 1].aabb())
+                    .union(&nodes[n.first as usize + 1].aabb())
             };
-            self.nodes[i].set_aabb(b);
+            nodes[i].set_aabb(b);
         }
     }
 
     /// The root box (empty without nodes).
     pub fn bounds(&self) -> Aabb {
-        self.nodes.first().map(|n| n.aabb()).unwrap_or(Aabb::EMPTY)
+        self.nodes()
+            .first()
+            .map(|n| n.aabb())
+            .unwrap_or(Aabb::EMPTY)
     }
 
     /// Bytes the nodes occupy.
     pub fn size_in_bytes(&self) -> u64 {
-        (self.nodes.len() * std::mem::size_of::<BvhNode>()) as u64
+        (self.pairs.len() * std::mem::size_of::<NodePair>()) as u64
     }
 }
 
@@ -193,9 +216,11 @@ fn convert(src: &obvhs::bvh2::Bvh2) -> (Bvh, Vec<u32>) {
         max: [0.0; 3],
         count: 0,
     };
-    let mut nodes = Vec::with_capacity(src.nodes.len());
+    let mut nodes = Vec::with_capacity(src.nodes.len() + 1);
     let mut order = Vec::with_capacity(src.primitive_indices.len());
     let mut depth = 0;
+    // The root, and padding so that every sibling pair starts at an even index.
+    nodes.push(placeholder);
     nodes.push(placeholder);
     let mut stack = vec![(0usize, 0usize, 1u32)];
     while let Some((s, d, level)) = stack.pop() {
@@ -224,7 +249,11 @@ fn convert(src: &obvhs::bvh2::Bvh2) -> (Bvh, Vec<u32>) {
             stack.push((n.first_index as usize, c, level + 1));
         }
     }
-    (Bvh { nodes, depth }, order)
+    let pairs = nodes
+        .chunks(2)
+        .map(|p| NodePair([p[0], p.get(1).copied().unwrap_or(placeholder)]))
+        .collect();
+    (Bvh { pairs, depth }, order)
 }
 
 #[cfg(test)]
@@ -240,7 +269,10 @@ mod tests {
 
     fn check_structure(bvh: &Bvh, order: &[u32], boxes: &[Aabb]) {
         let mut seen = vec![false; order.len()];
-        for (i, n) in bvh.nodes.iter().enumerate() {
+        for (i, n) in bvh.nodes().iter().enumerate() {
+            if i == 1 {
+                continue;
+            }
             if n.is_leaf() {
                 for s in n.first..n.first + n.count {
                     assert!(!seen[s as usize], "slot {s} in two leaves");
@@ -253,7 +285,11 @@ mod tests {
             } else {
                 assert!(n.first as usize > i, "children come after parents");
                 for c in [n.first, n.first + 1] {
-                    let cb = bvh.nodes[c as usize].aabb();
+                    assert!(
+                        c as usize % 2 == 0 || c == n.first + 1,
+                        "siblings share a pair"
+                    );
+                    let cb = bvh.nodes()[c as usize].aabb();
                     assert_eq!(n.aabb(), n.aabb().union(&cb));
                 }
             }
@@ -291,7 +327,17 @@ mod tests {
         assert!(!order.contains(&3) && !order.contains(&5) && !order.contains(&7));
         assert!(bvh.bounds().is_finite());
         let (empty, none) = Bvh::build(&[Aabb::EMPTY], BuildQuality::Balanced).unwrap();
-        assert!(empty.nodes.is_empty() && none.is_empty());
+        assert!(empty.nodes().is_empty() && none.is_empty());
+        let (bvh, _) = Bvh::build(
+            &[unit_box(0.0), unit_box(1.0), unit_box(2.0)],
+            BuildQuality::Balanced,
+        )
+        .unwrap();
+        assert_eq!(
+            bvh.nodes().as_ptr() as usize % 64,
+            0,
+            "pairs are cache-line aligned"
+        );
     }
 
     #[test]

@@ -283,7 +283,7 @@ impl<S: Spec> Walker<'_, S> {
             .primitive_types
             .contains(g.geometry.primitive_type())
         {
-            if self.config.debug_exceptions && !g.bvh.nodes.is_empty() {
+            if self.config.debug_exceptions && !g.bvh.nodes().is_empty() {
                 h.traversal_exception(exception::UNSUPPORTED_PRIMITIVE_TYPE);
             }
             return;
@@ -479,7 +479,7 @@ fn walk<H: Handler>(
     h: &mut H,
     mut leaf: impl FnMut(&mut H, u32, u32),
 ) {
-    let nodes = &bvh.nodes[..];
+    let nodes = bvh.nodes();
     let Some(root) = nodes.first() else { return };
     if slab::entry(ray, &root.min, &root.max, tmin, h.t_max()).is_none() {
         return;

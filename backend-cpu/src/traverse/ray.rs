@@ -6,11 +6,13 @@
 //! same ray with `+0.0` (obvhs's traversal does not: numerics.md F0). A zero component gets
 //! the reciprocal `+∞` and its near plane is the box's minimum.
 
-/// Relative widening of the slab reciprocals in the conservative box test: three ulps of
-/// 1.0 (2⁻²³ each) per side, Embree's robust traversal constant, which is 2γ(3) of pbrt-v4
-/// (numerics.md §2.2). It covers the rounding of the subtraction, the reciprocal and the
-/// product in each slab distance.
-pub const SLAB_WIDENING: f32 = 3.0 * f32::EPSILON;
+/// The factor the conservative box test applies to a box's exit distance: `1 + 2γ(3)` with
+/// `γ(n) = nε / (1 − nε)`, `ε = 2⁻²⁴` (pbrt-v4's `Bounds3::IntersectP`, numerics.md §2.2).
+/// Each computed slab distance is within a factor `1 ± γ(3)` of the exact one (a
+/// subtraction, a reciprocal, a product), so widening the exit by `2γ(3)` keeps every box
+/// the exact test hits. `2γ(3)` is a little over 6ε, so this is the next f32 above it,
+/// `1 + 8ε`.
+pub const SLAB_WIDENING: f32 = 1.0 + 4.0 * f32::EPSILON;
 
 /// A ray with the per-ray constants of the slab test and the watertight triangle test.
 #[derive(Clone, Copy, Debug)]
@@ -19,10 +21,10 @@ pub struct PreparedRay {
     pub origin: [f32; 3],
     /// Canonical direction (no `-0.0`).
     pub dir: [f32; 3],
-    /// Reciprocal for near planes (shrunk by [`SLAB_WIDENING`] when conservative).
-    pub inv_near: [f32; 3],
-    /// Reciprocal for far planes (grown by [`SLAB_WIDENING`] when conservative).
-    pub inv_far: [f32; 3],
+    /// Reciprocal of the canonical direction (`+∞` for zero components).
+    pub inv: [f32; 3],
+    /// Factor on a box's exit distance: [`SLAB_WIDENING`] when conservative, else 1.
+    pub exit_scale: f32,
     /// Per axis, whether the direction is negative (near plane = box maximum).
     pub negative: [bool; 3],
     /// Watertight test: the axis of largest |direction|, then the other two, ordered so
@@ -40,11 +42,6 @@ impl PreparedRay {
     pub fn new(origin: [f32; 3], dir: [f32; 3], conservative: bool) -> PreparedRay {
         let dir = [dir[0] + 0.0, dir[1] + 0.0, dir[2] + 0.0];
         let inv = [1.0 / dir[0], 1.0 / dir[1], 1.0 / dir[2]];
-        let (near_scale, far_scale) = if conservative {
-            (1.0 - SLAB_WIDENING, 1.0 + SLAB_WIDENING)
-        } else {
-            (1.0, 1.0)
-        };
         let abs = [dir[0].abs(), dir[1].abs(), dir[2].abs()];
         let kz = if abs[0] >= abs[1] && abs[0] >= abs[2] {
             0
@@ -62,8 +59,8 @@ impl PreparedRay {
         PreparedRay {
             origin,
             dir,
-            inv_near: inv.map(|v| v * near_scale),
-            inv_far: inv.map(|v| v * far_scale),
+            inv,
+            exit_scale: if conservative { SLAB_WIDENING } else { 1.0 },
             negative: [dir[0] < 0.0, dir[1] < 0.0, dir[2] < 0.0],
             axes: [kx, ky, kz],
             shear: [dir[kx] / dz, dir[ky] / dz, 1.0 / dz],

@@ -1,8 +1,8 @@
 //! The ray/box slab test.
 //!
-//! `entry = max(tmin, near distances)`, `exit = min(tmax, far distances)`, hit when `entry
-//! <= exit`. Conservative or plain depends on the reciprocals of the [`PreparedRay`] (the
-//! widening is folded into them, so it costs nothing per box). A NaN distance arises only
+//! `entry = max(tmin, near distances)`, `exit = min(tmax, far distances · s)`, hit when
+//! `entry <= exit`, where `s` is the [`PreparedRay`]'s exit scale: `1 + 2γ(3)` for the
+//! conservative test (one multiply per box), 1 for the plain one (folded away). A NaN distance arises only
 //! from `0 · ∞`, an origin exactly on a slab plane of a ray parallel to it; the comparisons
 //! below ignore it, so such a ray counts as inside the slab (boxes are closed), the same for
 //! `+0.0` and `-0.0` directions.
@@ -20,19 +20,23 @@ pub fn entry(
     tmax: f32,
 ) -> Option<f32> {
     let mut t0 = tmin;
-    let mut t1 = tmax;
+    let mut exit = f32::INFINITY;
     for a in 0..3 {
         let (near, far) = if ray.negative[a] {
             (max[a], min[a])
         } else {
             (min[a], max[a])
         };
-        let tn = (near - ray.origin[a]) * ray.inv_near[a];
-        let tf = (far - ray.origin[a]) * ray.inv_far[a];
+        let tn = (near - ray.origin[a]) * ray.inv[a];
+        let tf = (far - ray.origin[a]) * ray.inv[a];
         // `x > t0` is false for NaN: a NaN distance does not constrain the interval.
         t0 = if tn > t0 { tn } else { t0 };
-        t1 = if tf < t1 { tf } else { t1 };
+        exit = if tf < exit { tf } else { exit };
     }
+    // Widening the exit (not the ray's tmax) makes the test conservative; a negative exit
+    // only grows more negative, so boxes behind the origin still miss.
+    let scaled = exit * ray.exit_scale;
+    let t1 = if scaled < tmax { scaled } else { tmax };
     if t0 <= t1 { Some(t0) } else { None }
 }
 
@@ -75,7 +79,7 @@ mod tests {
         for d in [[1.0, 0.0, 0.0], [1.0, -0.0, 0.0]] {
             assert_eq!(
                 both([0.0, 1.0, 0.5], d, 0.0, f32::INFINITY),
-                [Some(10.0), Some(10.0 * (1.0 - 3.0 * f32::EPSILON))]
+                [Some(10.0), Some(10.0)]
             );
             assert_eq!(both([0.0, 0.0, 0.0], d, 0.0, f32::INFINITY)[0], Some(10.0));
         }
@@ -83,6 +87,14 @@ mod tests {
             both([0.0, 1.0000001, 0.5], [1.0, 0.0, 0.0], 0.0, f32::INFINITY),
             [None, None]
         );
+    }
+
+    #[test]
+    fn widening_constant_is_at_least_two_gamma_three() {
+        let eps = 2.0f64.powi(-24);
+        let gamma3 = 3.0 * eps / (1.0 - 3.0 * eps);
+        assert!(crate::traverse::SLAB_WIDENING as f64 >= 1.0 + 2.0 * gamma3);
+        assert!((crate::traverse::SLAB_WIDENING as f64) < 1.0 + 4.0 * gamma3);
     }
 
     #[test]
