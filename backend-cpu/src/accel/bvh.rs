@@ -2,12 +2,14 @@
 //! optik's own node layout, traversed by `crate::traverse`.
 //!
 //! Layout (the contract with `traverse` and with the wgpu backend, which uploads these nodes
-//! as they are): `nodes()[0]` is the root and `nodes()[1]` is unused padding; an inner node
-//! (`count == 0`) has its two children at `first` and `first + 1`, always an even index, so
-//! siblings share one 64-byte cache line (the node array is 64-byte aligned); a leaf (`count
-//! > 0`) covers primitive slots `first .. first + count`. Children always come after their
-//! parent, so a reverse sweep refits the tree. A
-//! structure's per-primitive arrays are stored in slot order, so a leaf reads them
+//! as they are):
+//! - `nodes()[0]` is the root; `nodes()[1]` is unused padding;
+//! - an inner node (`count == 0`) has its two children at `first` (always even) and
+//!   `first + 1`, so siblings share one 64-byte cache line (the array is 64-byte aligned);
+//! - a leaf (`count` above 0) covers primitive slots `first .. first + count`;
+//! - children come after their parent, so a reverse sweep refits the tree.
+//!
+//! A structure's per-primitive arrays are stored in slot order, so a leaf reads them
 //! contiguously; `primitive_order[slot]` maps a slot back to the primitive's place in the
 //! build inputs. Primitives that can never be hit (NaN or infinite coordinates, degenerate
 //! triangles) get no slot at all.
@@ -284,11 +286,8 @@ mod tests {
                 }
             } else {
                 assert!(n.first as usize > i, "children come after parents");
+                assert!(n.first.is_multiple_of(2), "siblings share a pair");
                 for c in [n.first, n.first + 1] {
-                    assert!(
-                        c as usize % 2 == 0 || c == n.first + 1,
-                        "siblings share a pair"
-                    );
                     let cb = bvh.nodes()[c as usize].aabb();
                     assert_eq!(n.aabb(), n.aabb().union(&cb));
                 }

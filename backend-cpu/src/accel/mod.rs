@@ -110,7 +110,8 @@ pub fn memory_usage(inputs: &[BuildInput], motion_keys: usize) -> AccelBufferSiz
         per_key += n * geometry;
         per_prim += n * (extra + 4 + std::mem::size_of::<PrimitiveInfo>() as u64);
     }
-    let nodes = (2 * prims).saturating_sub(1) * std::mem::size_of::<BvhNode>() as u64;
+    // At most 2n - 1 nodes, plus the padding node after the root.
+    let nodes = 2 * prims * std::mem::size_of::<BvhNode>() as u64;
     let output = nodes + per_prim + per_key * motion_keys as u64;
     AccelBufferSizes {
         output_size_in_bytes: output,
