@@ -40,7 +40,12 @@ fn buffer(slot: u32) -> Buffer {
     })
 }
 
-fn load_obj(path: &str) -> Option<(Vec<[f32; 3]>, Vec<[u32; 3]>)> {
+/// Vertices and triangles.
+type Mesh = (Vec<[f32; 3]>, Vec<[u32; 3]>);
+/// Origin and direction.
+type RaySet = Vec<([f32; 3], [f32; 3])>;
+
+fn load_obj(path: &str) -> Option<Mesh> {
     let text = std::fs::read_to_string(path).ok()?;
     let mut v: Vec<[f32; 3]> = Vec::new();
     let mut f = Vec::new();
@@ -75,7 +80,7 @@ fn load_obj(path: &str) -> Option<(Vec<[f32; 3]>, Vec<[u32; 3]>)> {
 }
 
 /// A sphere with bumps, `n × 2n` quads.
-fn bumpy_sphere(n: u32) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+fn bumpy_sphere(n: u32) -> Mesh {
     let mut v = Vec::new();
     for i in 0..=n {
         for j in 0..=2 * n {
@@ -134,7 +139,7 @@ impl Rng {
     }
 }
 
-fn rays(v: &[[f32; 3]]) -> (Vec<([f32; 3], [f32; 3])>, Vec<([f32; 3], [f32; 3])>) {
+fn rays(v: &[[f32; 3]]) -> (RaySet, RaySet) {
     let mut lo = [f32::INFINITY; 3];
     let mut hi = [f32::NEG_INFINITY; 3];
     for p in v {
@@ -453,7 +458,7 @@ fn run_scene(name: &str, v: &[[f32; 3]], f: &[[u32; 3]]) {
         "Möller–Trumbore + conservative",
         "Möller–Trumbore + plain (FAST)",
     ];
-    let mut rates = vec![[0.0f64; 2]; 4];
+    let mut rates = [[0.0f64; 2]; 4];
     for (k, rays) in [&primary, &incoherent].into_iter().enumerate() {
         let times = interleaved(&mut [
             &mut || drop(trace_all::<Robust>(scene, root, rays)),
