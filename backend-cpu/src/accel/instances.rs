@@ -418,6 +418,11 @@ mod tests {
     }
 
     #[test]
+    fn instance_records_are_128_bytes() {
+        assert_eq!(std::mem::size_of::<InstanceRecord>(), 128);
+    }
+
+    #[test]
     fn srt_bounds_hold_every_sampled_time() {
         let child = Aabb {
             min: [1.0, -0.5, 0.0],

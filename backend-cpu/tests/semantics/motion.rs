@@ -264,3 +264,84 @@ fn motion_geometry_and_pipelines_without_motion() {
         assert_eq!(log.get(i, "ch"), Some(vec![5.0, 0.0, 0.0, 0.0]));
     }
 }
+
+#[test]
+fn motion_spheres_and_custom_boxes_interpolate() {
+    let kit = Kit::new();
+    let mo = MotionOptions { num_keys: 2, flags: MotionFlags::NONE, time_begin: 0.0, time_end: 1.0 };
+    let options = AccelBuildOptions { motion: Some(mo), ..Default::default() };
+    // A sphere moving from z = 10 (radius 1) to z = 14 (radius 2).
+    let spheres = SphereArray {
+        vertex_buffers: vec![BufferView::new(kit.buffer(&[0.0f32, 0.0, 10.0])), BufferView::new(kit.buffer(&[0.0f32, 0.0, 14.0]))],
+        vertex_stride: 0,
+        num_vertices: 1,
+        radius_buffers: vec![BufferView::new(kit.buffer(&[1.0f32])), BufferView::new(kit.buffer(&[2.0f32]))],
+        radius_stride: 0,
+        single_radius: false,
+        flags: vec![GeometryFlags::DISABLE_ANYHIT],
+        sbt_index_offsets: None,
+        primitive_index_offset: 0,
+    };
+    let gas = kit.build(options, &[BuildInput::Spheres(spheres)]);
+    let log = Log::default();
+    let (l1, l2) = (log.clone(), log.clone());
+    let times = [0.0f32, 0.5, 1.0];
+    let m = kit.module(vec![
+        (
+            "raygen__main",
+            program(move |c| {
+                let t = times[c.launch_index()[0] as usize];
+                trace_ray(c, gas, Ray::new([0.0; 3], [0.0, 0.0, 1.0]).time(t), &mut [0]);
+            }),
+        ),
+        ("closesthit__main", program(move |c| l1.put(c, "ch", &[c.ray_tmax() as f64, c.sphere()[2] as f64, c.sphere()[3] as f64]))),
+        ("miss__main", program(move |c| l2.put(c, "miss", &[]))),
+    ]);
+    let rg = kit.raygen(m, "raygen__main");
+    let ms = kit.miss(m, "miss__main");
+    let hg = kit.hit_builtin(m, Some("closesthit__main"), None, None, BuiltinIntersector::Sphere);
+    let p = kit.pipeline(PipelineCompileOptions::default(), 1, &[rg, ms, hg]);
+    let sbt = kit.sbt(Rec::new(rg), &[Rec::new(ms)], &[Rec::new(hg)], &[], None);
+    kit.launch(p, &sbt, 3);
+    assert_eq!(log.get(0, "ch"), Some(vec![9.0, 10.0, 1.0]));
+    assert_eq!(log.get(1, "ch"), Some(vec![10.5, 12.0, 1.5]));
+    assert_eq!(log.get(2, "ch"), Some(vec![12.0, 14.0, 2.0]));
+
+    // A custom box moving from x in [0, 1] to x in [10, 11]: its intersection program runs
+    // only when the ray meets the box at the ray's time.
+    let k0 = kit.buffer(&[0.0f32, -1.0, 4.0, 1.0, 1.0, 6.0]);
+    let k1 = kit.buffer(&[10.0f32, -1.0, 4.0, 11.0, 1.0, 6.0]);
+    let custom = CustomPrimitiveArray {
+        aabb_buffers: vec![BufferView::new(k0), BufferView::new(k1)],
+        ..CustomPrimitiveArray::new(BufferView::new(k0), 1, GeometryFlags::DISABLE_ANYHIT)
+    };
+    let gas = kit.build(options, &[BuildInput::CustomPrimitives(custom)]);
+    let log = Log::default();
+    let (l1, l2) = (log.clone(), log.clone());
+    let cases = [(0.5f32, 0.0f32), (0.5, 0.5), (5.5, 0.5), (5.5, 0.0), (10.5, 1.0)];
+    let m = kit.module(vec![
+        (
+            "raygen__main",
+            program(move |c| {
+                let (x, t) = cases[c.launch_index()[0] as usize];
+                trace_ray(c, gas, Ray::new([x, 0.0, 0.0], [0.0, 0.0, 1.0]).time(t), &mut [0]);
+            }),
+        ),
+        (
+            "intersection__main",
+            program(move |c| {
+                l1.put(c, "is", &[c.ray_time() as f64]);
+                c.report_intersection(5.0, 0, &[0; 8]);
+            }),
+        ),
+        ("closesthit__main", program(move |c| l2.put(c, "ch", &[]))),
+    ]);
+    let rg = kit.raygen(m, "raygen__main");
+    let hg = kit.hit(m, Some("closesthit__main"), None, Some("intersection__main"));
+    let p = kit.pipeline(PipelineCompileOptions::default(), 1, &[rg, hg]);
+    let sbt = kit.sbt(Rec::new(rg), &[], &[Rec::new(hg)], &[], None);
+    kit.launch(p, &sbt, 5);
+    let ran: Vec<bool> = (0..5).map(|x| log.count(x, "ch") == 1).collect();
+    assert_eq!(ran, vec![true, false, true, false, true]);
+    assert_eq!(log.get(2, "is"), Some(vec![0.5]));
+}
