@@ -42,10 +42,24 @@ fn wgsl_programs_trace_through_the_jit() {
     let vb = dev.create_buffer(36).unwrap();
     dev.write_buffer(vb, 0, bytemuck::cast_slice(&tri)).unwrap();
     let input = TriangleArray::new(BufferView::new(vb), 3, GeometryFlags::DISABLE_ANYHIT);
-    let accel = dev.accel_build(&AccelBuildOptions::default(), &[BuildInput::Triangles(input)]).unwrap();
+    let accel = dev
+        .accel_build(
+            &AccelBuildOptions::default(),
+            &[BuildInput::Triangles(input)],
+        )
+        .unwrap();
     let handle = dev.traversable_handle(accel).unwrap();
-    let options = PipelineCompileOptions { num_payload_values: Setting::Value(4), ..Default::default() };
-    let (module, log) = dev.create_module(&ModuleCompileOptions::default(), &options, &ProgramSource::new("trace.wgsl", SOURCE)).unwrap();
+    let options = PipelineCompileOptions {
+        num_payload_values: Setting::Value(4),
+        ..Default::default()
+    };
+    let (module, log) = dev
+        .create_module(
+            &ModuleCompileOptions::default(),
+            &options,
+            &ProgramSource::new("trace.wgsl", SOURCE),
+        )
+        .unwrap();
     assert!(log.contains("trace.wgsl"), "{log}");
     let groups = dev
         .create_program_groups(&[
@@ -54,7 +68,9 @@ fn wgsl_programs_trace_through_the_jit() {
             ProgramGroupDesc::closest_hit(ProgramRef::new(module, "closesthit__main")),
         ])
         .unwrap();
-    let pipeline = dev.create_pipeline(&options, &PipelineLinkOptions::default(), &groups).unwrap();
+    let pipeline = dev
+        .create_pipeline(&options, &PipelineLinkOptions::default(), &groups)
+        .unwrap();
     let mut sbt_bytes = vec![0u8; 3 * 48];
     for (i, g) in groups.iter().enumerate() {
         sbt_bytes[i * 48..i * 48 + 32].copy_from_slice(&dev.sbt_record_pack_header(*g).unwrap());
@@ -62,9 +78,17 @@ fn wgsl_programs_trace_through_the_jit() {
     }
     let sbt_buffer = dev.create_buffer(sbt_bytes.len() as u64).unwrap();
     dev.write_buffer(sbt_buffer, 0, &sbt_bytes).unwrap();
-    let region = |i: u64| SbtRegion { buffer: sbt_buffer, offset: i * 48, stride: 48, count: 1 };
+    let region = |i: u64| SbtRegion {
+        buffer: sbt_buffer,
+        offset: i * 48,
+        stride: 48,
+        count: 1,
+    };
     let sbt = ShaderBindingTable {
-        raygen: SbtRecord { buffer: sbt_buffer, offset: 0 },
+        raygen: SbtRecord {
+            buffer: sbt_buffer,
+            offset: 0,
+        },
         exception: None,
         miss: Some(region(1)),
         hitgroup: Some(region(2)),
@@ -73,22 +97,48 @@ fn wgsl_programs_trace_through_the_jit() {
     let out = dev.create_buffer(6 * 16).unwrap();
     let words = handle.to_words();
     let params: [u32; 4] = [words[0], words[1], 6, 0];
-    dev.launch(pipeline, bytemuck::cast_slice(&params), &[Resource::buffer(1, out)], &sbt, LaunchSize::new(6, 1, 1)).unwrap();
+    dev.launch(
+        pipeline,
+        bytemuck::cast_slice(&params),
+        &[Resource::buffer(1, out)],
+        &sbt,
+        LaunchSize::new(6, 1, 1),
+    )
+    .unwrap();
     let mut bytes = vec![0u8; 6 * 16];
     dev.read_buffer(out, 0, &mut bytes).unwrap();
     let got: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
     for (x, px) in got.iter().enumerate() {
         if x < 4 {
             assert_eq!(px[0], 5.0, "t at {x}");
-            assert!((px[1] - 0.125).abs() < 1e-6 && (px[2] - (x as f32 + 0.25) / 4.0).abs() < 1e-6, "{px:?}");
+            assert!(
+                (px[1] - 0.125).abs() < 1e-6 && (px[2] - (x as f32 + 0.25) / 4.0).abs() < 1e-6,
+                "{px:?}"
+            );
             assert_eq!(px[3], 200.0, "hit group record data");
         } else {
             assert_eq!((px[0], px[3]), (-1.0, 100.0), "miss at {x}");
         }
     }
     // Missing resources are reported before anything runs.
-    let e = dev.launch(pipeline, bytemuck::cast_slice(&params), &[], &sbt, LaunchSize::new(6, 1, 1)).unwrap_err();
+    let e = dev
+        .launch(
+            pipeline,
+            bytemuck::cast_slice(&params),
+            &[],
+            &sbt,
+            LaunchSize::new(6, 1, 1),
+        )
+        .unwrap_err();
     assert!(e.message().contains("binding 1"), "{e}");
-    let e = dev.launch(pipeline, &[0u8; 4], &[Resource::buffer(1, out)], &sbt, LaunchSize::new(6, 1, 1)).unwrap_err();
+    let e = dev
+        .launch(
+            pipeline,
+            &[0u8; 4],
+            &[Resource::buffer(1, out)],
+            &sbt,
+            LaunchSize::new(6, 1, 1),
+        )
+        .unwrap_err();
     assert!(e.message().contains("params is 4 bytes"), "{e}");
 }

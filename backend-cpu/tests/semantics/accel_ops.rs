@@ -250,17 +250,45 @@ fn update_refits_and_keeps_the_handle() {
 #[test]
 fn instance_structures_update_their_transforms() {
     let kit = Kit::new();
-    let gas = kit.triangles(&quad(-0.5, -0.5, 0.5, 0.5, 5.0), GeometryFlags::DISABLE_ANYHIT);
+    let gas = kit.triangles(
+        &quad(-0.5, -0.5, 0.5, 0.5, 5.0),
+        GeometryFlags::DISABLE_ANYHIT,
+    );
     let mut inst = Instance::new(gas);
     let ib = kit.buffer(&[inst]);
-    let input = BuildInput::Instances(InstanceArray { instances: BufferView::new(ib), num_instances: 1 });
-    let options = AccelBuildOptions { flags: BuildFlags::ALLOW_UPDATE, ..Default::default() };
-    let accel = kit.dev.accel_build(&options, std::slice::from_ref(&input)).unwrap();
+    let input = BuildInput::Instances(InstanceArray {
+        instances: BufferView::new(ib),
+        num_instances: 1,
+    });
+    let options = AccelBuildOptions {
+        flags: BuildFlags::ALLOW_UPDATE,
+        ..Default::default()
+    };
+    let accel = kit
+        .dev
+        .accel_build(&options, std::slice::from_ref(&input))
+        .unwrap();
     let root = kit.dev.traversable_handle(accel).unwrap();
-    let rays = || vec![Ray::new([-0.25, 0.25, 0.0], [0.0, 0.0, 1.0]), Ray::new([19.75, 0.25, 0.0], [0.0, 0.0, 1.0])];
+    let rays = || {
+        vec![
+            Ray::new([-0.25, 0.25, 0.0], [0.0, 0.0, 1.0]),
+            Ray::new([19.75, 0.25, 0.0], [0.0, 0.0, 1.0]),
+        ]
+    };
     assert_eq!(hits(&kit, root, rays()), vec![Some((5.0, 0)), None]);
     inst.transform[3] = 20.0;
-    kit.dev.write_buffer(ib, 0, bytemuck::bytes_of(&inst)).unwrap();
-    kit.dev.accel_update(accel, &AccelBuildOptions { operation: BuildOperation::Update, ..options }, &[input]).unwrap();
+    kit.dev
+        .write_buffer(ib, 0, bytemuck::bytes_of(&inst))
+        .unwrap();
+    kit.dev
+        .accel_update(
+            accel,
+            &AccelBuildOptions {
+                operation: BuildOperation::Update,
+                ..options
+            },
+            &[input],
+        )
+        .unwrap();
     assert_eq!(hits(&kit, root, rays()), vec![None, Some((5.0, 0))]);
 }

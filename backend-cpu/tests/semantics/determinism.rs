@@ -97,3 +97,41 @@ fn launches_are_bit_identical_for_any_thread_count() {
     assert_eq!(results[0], results[1]);
     assert_eq!(results[0], results[2]);
 }
+
+#[test]
+fn launch_grids_cover_every_index_once() {
+    let kit = Kit::new();
+    let seen = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let s = seen.clone();
+    let m = kit.module(vec![(
+        "raygen__main",
+        program(move |c| {
+            s.lock()
+                .unwrap()
+                .push((c.launch_index(), c.launch_dimensions()));
+        }),
+    )]);
+    let rg = kit.raygen(m, "raygen__main");
+    let p = kit.pipeline(PipelineCompileOptions::default(), 0, &[rg]);
+    let sbt = kit.sbt(Rec::new(rg), &[], &[], &[], None);
+    for size in [
+        LaunchSize::new(7, 1, 1),
+        LaunchSize::new(3, 5, 1),
+        LaunchSize::new(3, 2, 4),
+    ] {
+        seen.lock().unwrap().clear();
+        kit.dev.launch(p, &[], &[], &sbt, size).unwrap();
+        let mut got = seen.lock().unwrap().clone();
+        got.sort();
+        let mut want = Vec::new();
+        for x in 0..size.width {
+            for y in 0..size.height {
+                for z in 0..size.depth {
+                    want.push(([x, y, z], [size.width, size.height, size.depth]));
+                }
+            }
+        }
+        want.sort();
+        assert_eq!(got, want, "{size:?}");
+    }
+}

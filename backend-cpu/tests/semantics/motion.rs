@@ -268,14 +268,28 @@ fn motion_geometry_and_pipelines_without_motion() {
 #[test]
 fn motion_spheres_and_custom_boxes_interpolate() {
     let kit = Kit::new();
-    let mo = MotionOptions { num_keys: 2, flags: MotionFlags::NONE, time_begin: 0.0, time_end: 1.0 };
-    let options = AccelBuildOptions { motion: Some(mo), ..Default::default() };
+    let mo = MotionOptions {
+        num_keys: 2,
+        flags: MotionFlags::NONE,
+        time_begin: 0.0,
+        time_end: 1.0,
+    };
+    let options = AccelBuildOptions {
+        motion: Some(mo),
+        ..Default::default()
+    };
     // A sphere moving from z = 10 (radius 1) to z = 14 (radius 2).
     let spheres = SphereArray {
-        vertex_buffers: vec![BufferView::new(kit.buffer(&[0.0f32, 0.0, 10.0])), BufferView::new(kit.buffer(&[0.0f32, 0.0, 14.0]))],
+        vertex_buffers: vec![
+            BufferView::new(kit.buffer(&[0.0f32, 0.0, 10.0])),
+            BufferView::new(kit.buffer(&[0.0f32, 0.0, 14.0])),
+        ],
         vertex_stride: 0,
         num_vertices: 1,
-        radius_buffers: vec![BufferView::new(kit.buffer(&[1.0f32])), BufferView::new(kit.buffer(&[2.0f32]))],
+        radius_buffers: vec![
+            BufferView::new(kit.buffer(&[1.0f32])),
+            BufferView::new(kit.buffer(&[2.0f32])),
+        ],
         radius_stride: 0,
         single_radius: false,
         flags: vec![GeometryFlags::DISABLE_ANYHIT],
@@ -291,15 +305,39 @@ fn motion_spheres_and_custom_boxes_interpolate() {
             "raygen__main",
             program(move |c| {
                 let t = times[c.launch_index()[0] as usize];
-                trace_ray(c, gas, Ray::new([0.0; 3], [0.0, 0.0, 1.0]).time(t), &mut [0]);
+                trace_ray(
+                    c,
+                    gas,
+                    Ray::new([0.0; 3], [0.0, 0.0, 1.0]).time(t),
+                    &mut [0],
+                );
             }),
         ),
-        ("closesthit__main", program(move |c| l1.put(c, "ch", &[c.ray_tmax() as f64, c.sphere()[2] as f64, c.sphere()[3] as f64]))),
+        (
+            "closesthit__main",
+            program(move |c| {
+                l1.put(
+                    c,
+                    "ch",
+                    &[
+                        c.ray_tmax() as f64,
+                        c.sphere()[2] as f64,
+                        c.sphere()[3] as f64,
+                    ],
+                )
+            }),
+        ),
         ("miss__main", program(move |c| l2.put(c, "miss", &[]))),
     ]);
     let rg = kit.raygen(m, "raygen__main");
     let ms = kit.miss(m, "miss__main");
-    let hg = kit.hit_builtin(m, Some("closesthit__main"), None, None, BuiltinIntersector::Sphere);
+    let hg = kit.hit_builtin(
+        m,
+        Some("closesthit__main"),
+        None,
+        None,
+        BuiltinIntersector::Sphere,
+    );
     let p = kit.pipeline(PipelineCompileOptions::default(), 1, &[rg, ms, hg]);
     let sbt = kit.sbt(Rec::new(rg), &[Rec::new(ms)], &[Rec::new(hg)], &[], None);
     kit.launch(p, &sbt, 3);
@@ -318,13 +356,24 @@ fn motion_spheres_and_custom_boxes_interpolate() {
     let gas = kit.build(options, &[BuildInput::CustomPrimitives(custom)]);
     let log = Log::default();
     let (l1, l2) = (log.clone(), log.clone());
-    let cases = [(0.5f32, 0.0f32), (0.5, 0.5), (5.5, 0.5), (5.5, 0.0), (10.5, 1.0)];
+    let cases = [
+        (0.5f32, 0.0f32),
+        (0.5, 0.5),
+        (5.5, 0.5),
+        (5.5, 0.0),
+        (10.5, 1.0),
+    ];
     let m = kit.module(vec![
         (
             "raygen__main",
             program(move |c| {
                 let (x, t) = cases[c.launch_index()[0] as usize];
-                trace_ray(c, gas, Ray::new([x, 0.0, 0.0], [0.0, 0.0, 1.0]).time(t), &mut [0]);
+                trace_ray(
+                    c,
+                    gas,
+                    Ray::new([x, 0.0, 0.0], [0.0, 0.0, 1.0]).time(t),
+                    &mut [0],
+                );
             }),
         ),
         (
@@ -337,7 +386,12 @@ fn motion_spheres_and_custom_boxes_interpolate() {
         ("closesthit__main", program(move |c| l2.put(c, "ch", &[]))),
     ]);
     let rg = kit.raygen(m, "raygen__main");
-    let hg = kit.hit(m, Some("closesthit__main"), None, Some("intersection__main"));
+    let hg = kit.hit(
+        m,
+        Some("closesthit__main"),
+        None,
+        Some("intersection__main"),
+    );
     let p = kit.pipeline(PipelineCompileOptions::default(), 1, &[rg, hg]);
     let sbt = kit.sbt(Rec::new(rg), &[], &[Rec::new(hg)], &[], None);
     kit.launch(p, &sbt, 5);
