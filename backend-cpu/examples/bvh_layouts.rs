@@ -475,7 +475,39 @@ fn run_scene(name: &str, v: &[[f32; 3]], f: &[[u32; 3]]) {
     }
 }
 
+/// `OPTIK_BENCH_ONLY=<robust|watertight-plain|mt-conservative|fast|none>`: build the default
+/// BVH and trace both ray sets once with that option (`none`: build only), for instruction
+/// counts under `valgrind --tool=callgrind` (stable on a loaded machine, unlike times).
+fn only(option: &str, v: &[[f32; 3]], f: &[[u32; 3]]) {
+    let memory = Memory(vec![bytemuck::cast_slice(v).to_vec(), bytemuck::cast_slice(f).to_vec()]);
+    let input = TriangleArray::new(BufferView::new(buffer(0)), v.len() as u32, GeometryFlags::DISABLE_ANYHIT)
+        .with_indices(BufferView::new(buffer(1)), f.len() as u32);
+    let gas = Gas::build(&AccelBuildOptions::default(), &[BuildInput::Triangles(input)], &memory, &memory).expect("build");
+    let mut scene = SceneTable::new(DeviceId(1));
+    let root = scene.set(0, 0, Arc::new(Traversable::Geometry(gas)));
+    let (primary, incoherent) = rays(v);
+    let all: Vec<([f32; 3], [f32; 3])> = primary.into_iter().chain(incoherent).collect();
+    let hits = match option {
+        "robust" => trace_all::<Robust>(&scene, root, &all),
+        "watertight-plain" => trace_all::<WatertightPlain>(&scene, root, &all),
+        "mt-conservative" => trace_all::<MtConservative>(&scene, root, &all),
+        "fast" => trace_all::<Fast>(&scene, root, &all),
+        _ => Vec::new(),
+    };
+    println!("{option}: {} rays, {} hits", all.len(), hits.iter().filter(|&&h| h != u32::MAX).count());
+}
+
 fn main() {
+    if let Ok(option) = std::env::var("OPTIK_BENCH_ONLY") {
+        let scene = match std::env::args().nth(1) {
+            Some(path) => load_obj(&path),
+            None => Some(bumpy_sphere(300)),
+        };
+        if let Some((v, f)) = scene {
+            only(&option, &v, &f);
+        }
+        return;
+    }
     let (v, f) = bumpy_sphere(300);
     run_scene("bumpy sphere", &v, &f);
     if let Some(path) = std::env::args().nth(1) {
