@@ -479,10 +479,23 @@ fn run_scene(name: &str, v: &[[f32; 3]], f: &[[u32; 3]]) {
 /// BVH and trace both ray sets once with that option (`none`: build only), for instruction
 /// counts under `valgrind --tool=callgrind` (stable on a loaded machine, unlike times).
 fn only(option: &str, v: &[[f32; 3]], f: &[[u32; 3]]) {
-    let memory = Memory(vec![bytemuck::cast_slice(v).to_vec(), bytemuck::cast_slice(f).to_vec()]);
-    let input = TriangleArray::new(BufferView::new(buffer(0)), v.len() as u32, GeometryFlags::DISABLE_ANYHIT)
-        .with_indices(BufferView::new(buffer(1)), f.len() as u32);
-    let gas = Gas::build(&AccelBuildOptions::default(), &[BuildInput::Triangles(input)], &memory, &memory).expect("build");
+    let memory = Memory(vec![
+        bytemuck::cast_slice(v).to_vec(),
+        bytemuck::cast_slice(f).to_vec(),
+    ]);
+    let input = TriangleArray::new(
+        BufferView::new(buffer(0)),
+        v.len() as u32,
+        GeometryFlags::DISABLE_ANYHIT,
+    )
+    .with_indices(BufferView::new(buffer(1)), f.len() as u32);
+    let gas = Gas::build(
+        &AccelBuildOptions::default(),
+        &[BuildInput::Triangles(input)],
+        &memory,
+        &memory,
+    )
+    .expect("build");
     let mut scene = SceneTable::new(DeviceId(1));
     let root = scene.set(0, 0, Arc::new(Traversable::Geometry(gas)));
     let (primary, incoherent) = rays(v);
@@ -494,7 +507,11 @@ fn only(option: &str, v: &[[f32; 3]], f: &[[u32; 3]]) {
         "fast" => trace_all::<Fast>(&scene, root, &all),
         _ => Vec::new(),
     };
-    println!("{option}: {} rays, {} hits", all.len(), hits.iter().filter(|&&h| h != u32::MAX).count());
+    println!(
+        "{option}: {} rays, {} hits",
+        all.len(),
+        hits.iter().filter(|&&h| h != u32::MAX).count()
+    );
 }
 
 fn main() {
