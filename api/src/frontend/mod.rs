@@ -11,7 +11,8 @@ mod locate;
 mod reflect;
 
 pub use device_api::{
-    DeviceFunction, PRELUDE_CONSTANTS, PRELUDE_EXCEPTION_CODES, PRELUDE_MARKER, prelude,
+    DeviceFunction, OFFSET_RAY_BODY, PRELUDE_CONSTANTS, PRELUDE_EXCEPTION_CODES, PRELUDE_MARKER,
+    prelude,
 };
 pub use reflect::{BindingInfo, BindingKind, ProgramInfo};
 
