@@ -13,9 +13,10 @@
 //! - An exception runs the exception program (when the SBT has one) and ends the launch
 //!   index: every program on the stack returns (see `DeviceCalls::unwinding`) and further
 //!   device calls do nothing.
-//! - A hit whose SBT record index lies past the hit group records is dropped (or raises
-//!   `INVALID_HIT_SBT` under debug exceptions); a miss index past the miss records runs
-//!   nothing (or raises `INVALID_MISS_SBT`).
+//! - A hit whose SBT record index lies past the hit group records is a hit without programs
+//!   (as the Vulkan backend's null records), or raises `INVALID_HIT_SBT` under debug
+//!   exceptions; a miss index past the miss records runs nothing (or raises
+//!   `INVALID_MISS_SBT`).
 
 use crate::accel::SceneTable;
 use crate::pipeline::{Callable, TraceFn};
@@ -264,8 +265,10 @@ impl<'l> Invocation<'l> {
         self.ending = true;
     }
 
-    /// The hit group record of a candidate, or `None` (after an exception under debug
-    /// exceptions) when the index lies past the records.
+    /// The hit group record of a candidate. An index past the records selects a record
+    /// without programs (the hit counts, nothing runs; custom primitives, which need an
+    /// intersection program, cannot be hit), or raises `INVALID_HIT_SBT` under debug
+    /// exceptions (`None`).
     fn hit_record(&mut self, path: &Path, sbt_gas_index: u32) -> Option<&'l Record<'l>> {
         let shared = self.shared;
         let i = sbt_index::hit_record_index(
@@ -274,11 +277,14 @@ impl<'l> Invocation<'l> {
             self.trace.sbt_offset,
             self.trace.sbt_stride,
         );
-        let rec = shared.sbt.hitgroup.get(i as usize);
-        if rec.is_none() && self.exceptions().contains(ExceptionFlags::DEBUG) {
-            self.raise(code::INVALID_HIT_SBT);
+        match shared.sbt.hitgroup.get(i as usize) {
+            Some(rec) => Some(rec),
+            None if self.exceptions().contains(ExceptionFlags::DEBUG) => {
+                self.raise(code::INVALID_HIT_SBT);
+                None
+            }
+            None => Some(&shared.sbt.null_hit),
         }
-        rec
     }
 
     /// Runs the any-hit program on a candidate; `None` when the invocation ended.

@@ -56,6 +56,8 @@ pub(crate) struct ResolvedSbt<'l> {
     pub miss: Vec<Record<'l>>,
     pub hitgroup: Vec<Record<'l>>,
     pub callables: Vec<Record<'l>>,
+    /// What a hit whose record index lies past `hitgroup` uses: no programs, no data.
+    pub null_hit: Record<'l>,
 }
 
 /// Reads records out of buffers.
@@ -189,5 +191,9 @@ pub(crate) fn resolve<'l>(
         miss: r.region("sbt.miss", &table.miss, GroupRegion::Miss)?,
         hitgroup: r.region("sbt.hitgroup", &table.hitgroup, GroupRegion::HitGroup)?,
         callables: r.region("sbt.callables", &table.callables, GroupRegion::Callables)?,
+        null_hit: Record {
+            programs: RecordPrograms::default(),
+            data: Vec::new(),
+        },
     })
 }
