@@ -1,5 +1,16 @@
 //! The `optik` command.
 
+/// Prints a line on stdout; when stdout is closed (`optik info | head`) the program ends quietly
+/// instead of panicking.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if writeln!(std::io::stdout(), $($arg)*).is_err() {
+            std::process::exit(0);
+        }
+    }};
+}
+
 mod compile;
 mod info;
 mod trace;

@@ -35,7 +35,7 @@ pub struct TraceArgs {
 pub fn run(args: &TraceArgs) -> u8 {
     match trace(args) {
         Ok(json) => {
-            println!("{json}");
+            outln!("{json}");
             0
         }
         Err(e) => {
