@@ -25,6 +25,7 @@ pub mod program;
 pub mod sbt;
 pub mod semantics;
 pub mod validate;
+pub mod wgsl;
 
 pub use accel::*;
 pub use device::*;
