@@ -1,0 +1,1 @@
+//! Benchmark entry point (written later in this file).
