@@ -226,3 +226,227 @@ pub fn miss(m: Module, entry: &str) -> ProgramGroupDesc {
 pub fn closest_hit(m: Module, entry: &str) -> ProgramGroupDesc {
     ProgramGroupDesc::closest_hit(ProgramRef::new(m, entry))
 }
+
+/// One test ray: origin, tmin, direction, tmax.
+#[derive(Clone, Copy, Debug)]
+pub struct Ray {
+    pub origin: [f32; 3],
+    pub tmin: f32,
+    pub direction: [f32; 3],
+    pub tmax: f32,
+}
+
+impl Ray {
+    pub fn new(origin: [f32; 3], direction: [f32; 3]) -> Ray {
+        Ray {
+            origin,
+            tmin: 0.0,
+            direction,
+            tmax: 1e30,
+        }
+    }
+
+    pub fn interval(self, tmin: f32, tmax: f32) -> Ray {
+        Ray { tmin, tmax, ..self }
+    }
+}
+
+/// Per-trace settings of [`RAY_LIST`] launches.
+#[derive(Clone, Copy, Debug)]
+pub struct TraceArgs {
+    pub flags: u32,
+    pub sbt_offset: u32,
+    pub sbt_stride: u32,
+    pub miss_index: u32,
+    pub mask: u32,
+    pub time: f32,
+}
+
+impl Default for TraceArgs {
+    fn default() -> Self {
+        TraceArgs {
+            flags: 0,
+            sbt_offset: 0,
+            sbt_stride: 1,
+            miss_index: 0,
+            mask: 0xFF,
+            time: 0.0,
+        }
+    }
+}
+
+/// A raygen tracing one ray per launch index from a ray buffer (binding 2) and writing the
+/// 8 payload words to `out` (binding 1). Payload on entry: 0xAAAAAAAA in every word.
+/// Closest-hit `closesthit__rec` records: 1, t, primitive, hit kind, instance id, SBT GAS
+/// index, the record's first data word, packed barycentrics; `miss__rec`: 2 and its record's
+/// first data word.
+pub const RAY_LIST: &str = r#"
+struct Params { handle: vec2<u32>, flags: u32, sbt_offset: u32, sbt_stride: u32, miss_index: u32, mask: u32, time_bits: u32 }
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read_write> out: array<u32>;
+@group(0) @binding(2) var<storage, read> rays: array<vec4<f32>>;
+
+fn raygen__rays() {
+    let i = rt_launch_index().x;
+    let o = rays[2u * i];
+    let d = rays[2u * i + 1u];
+    var p: RtPayload;
+    for (var k = 0u; k < 8u; k = k + 1u) {
+        p[k] = 0xAAAAAAAAu;
+    }
+    rt_trace(params.handle, o.xyz, d.xyz, o.w, d.w, bitcast<f32>(params.time_bits), params.mask, params.flags, params.sbt_offset, params.sbt_stride, params.miss_index, &p);
+    for (var k = 0u; k < 8u; k = k + 1u) {
+        out[8u * i + k] = p[k];
+    }
+}
+
+fn closesthit__rec() {
+    rt_set_payload(0u, 1u);
+    rt_set_payload(1u, bitcast<u32>(rt_ray_tmax()));
+    rt_set_payload(2u, rt_primitive_index());
+    rt_set_payload(3u, rt_hit_kind());
+    rt_set_payload(4u, rt_instance_id());
+    rt_set_payload(5u, rt_sbt_gas_index());
+    rt_set_payload(6u, rt_sbt_data_u32(0u));
+    rt_set_payload(7u, pack2x16unorm(rt_triangle_barycentrics()));
+}
+
+fn miss__rec() {
+    rt_set_payload(0u, 2u);
+    rt_set_payload(6u, rt_sbt_data_u32(0u));
+}
+"#;
+
+/// What [`RAY_LIST`] recorded for one ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rec {
+    pub words: [u32; 8],
+}
+
+impl Rec {
+    pub fn hit(&self) -> bool {
+        self.words[0] == 1
+    }
+    pub fn missed(&self) -> bool {
+        self.words[0] == 2
+    }
+    /// Neither program ran (an invalid ray).
+    pub fn untouched(&self) -> bool {
+        self.words.iter().all(|&w| w == 0xAAAAAAAA)
+    }
+    pub fn t(&self) -> f32 {
+        f32::from_bits(self.words[1])
+    }
+    pub fn prim(&self) -> u32 {
+        self.words[2]
+    }
+    pub fn hit_kind(&self) -> u32 {
+        self.words[3]
+    }
+    pub fn instance_id(&self) -> u32 {
+        self.words[4]
+    }
+    pub fn gas_index(&self) -> u32 {
+        self.words[5]
+    }
+    pub fn data(&self) -> u32 {
+        self.words[6]
+    }
+    pub fn barycentrics(&self) -> [f32; 2] {
+        let w = self.words[7];
+        [(w & 0xFFFF) as f32 / 65535.0, (w >> 16) as f32 / 65535.0]
+    }
+}
+
+/// Traces `rays` through a [`RAY_LIST`] pipeline.
+pub fn trace_rays(
+    dev: &dyn Device,
+    pipeline: Pipeline,
+    table: &ShaderBindingTable,
+    handle: TraversableHandle,
+    rays: &[Ray],
+    args: TraceArgs,
+) -> Vec<Rec> {
+    let ray_words: Vec<[f32; 4]> = rays
+        .iter()
+        .flat_map(|r| {
+            [
+                [r.origin[0], r.origin[1], r.origin[2], r.tmin],
+                [r.direction[0], r.direction[1], r.direction[2], r.tmax],
+            ]
+        })
+        .collect();
+    let ray_buffer = buffer(dev, &ray_words);
+    let out = dev.create_buffer((rays.len() * 32) as u64).unwrap();
+    let mut words = handle.to_words().to_vec();
+    words.extend_from_slice(&[
+        args.flags,
+        args.sbt_offset,
+        args.sbt_stride,
+        args.miss_index,
+        args.mask,
+        args.time.to_bits(),
+    ]);
+    dev.launch(
+        pipeline,
+        bytemuck::cast_slice(&words),
+        &[Resource::buffer(1, out), Resource::buffer(2, ray_buffer)],
+        table,
+        LaunchSize::new(rays.len() as u32, 1, 1),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    read::<u32>(dev, out)
+        .chunks_exact(8)
+        .map(|c| Rec {
+            words: c.try_into().unwrap(),
+        })
+        .collect()
+}
+
+/// Groups for [`RAY_LIST`] with one miss group and `hits` closest-hit groups, plus `extra`.
+pub fn ray_list_groups(dev: &dyn Device, m: Module, hits: usize, extra: &[ProgramGroupDesc]) -> Groups {
+    let mut descs = vec![raygen(m, "raygen__rays"), miss(m, "miss__rec")];
+    for _ in 0..hits {
+        descs.push(closest_hit(m, "closesthit__rec"));
+    }
+    descs.extend_from_slice(extra);
+    groups(dev, &descs)
+}
+
+/// An SBT whose records carry their index in the first data word (miss records 100 + i).
+pub fn numbered_sbt(dev: &dyn Device, g: &Groups) -> ShaderBindingTable {
+    let mut b = SbtBuilder::new();
+    let raygen = b.record(dev, g.raygen, &[]);
+    let miss0 = b.bytes.len() as u64;
+    for (i, m) in g.miss.iter().enumerate() {
+        b.record(dev, *m, &[100 + i as u32]);
+    }
+    let hit0 = b.bytes.len() as u64;
+    for (i, h) in g.hit.iter().enumerate() {
+        b.record(dev, *h, &[i as u32]);
+    }
+    let call0 = b.bytes.len() as u64;
+    for (i, c) in g.callables.iter().enumerate() {
+        b.record(dev, *c, &[200 + i as u32]);
+    }
+    let exc = g.exception.map(|e| b.record(dev, e, &[300]));
+    let buf = b.finish(dev);
+    let region = |offset, count: usize| {
+        (count > 0).then_some(SbtRegion {
+            buffer: buf,
+            offset,
+            stride: STRIDE,
+            count: count as u32,
+        })
+    };
+    ShaderBindingTable {
+        raygen: SbtRecord {
+            buffer: buf,
+            offset: raygen,
+        },
+        exception: exc.map(|offset| SbtRecord { buffer: buf, offset }),
+        miss: region(miss0, g.miss.len()),
+        hitgroup: region(hit0, g.hit.len()),
+        callables: region(call0, g.callables.len()),
+    }
+}
