@@ -42,14 +42,12 @@ pub(crate) fn build(
     params.pre_split = false;
     let max_leaf = max_leaf.clamp(1, 8);
     params.max_prims_per_leaf = max_leaf.min(params.max_prims_per_leaf.max(1));
-    let obvhs_boxes: Vec<obvhs::aabb::Aabb> = boxes
+    // obvhs sizes its tree by the box count: give it the usable boxes only.
+    let obvhs_boxes: Vec<obvhs::aabb::Aabb> = included
         .iter()
-        .map(|b| {
-            if b.is_usable() {
-                obvhs::aabb::Aabb::new(b.min.into(), b.max.into())
-            } else {
-                obvhs::aabb::Aabb::new([0.0; 3].into(), [0.0; 3].into())
-            }
+        .map(|&i| {
+            let b = boxes[i as usize];
+            obvhs::aabb::Aabb::new(b.min.into(), b.max.into())
         })
         .collect();
     // obvhs asserts on inputs it does not expect; a panic must not cross the API.
@@ -57,7 +55,7 @@ pub(crate) fn build(
         let mut bvh = obvhs::ploc::PlocBuilder::with_capacity(included.len()).build(
             params.ploc_search_distance,
             &obvhs_boxes,
-            included.clone(),
+            (0..included.len() as u32).collect(),
             params.sort_precision,
             params.search_depth_threshold,
         );
@@ -71,7 +69,8 @@ pub(crate) fn build(
         bvh
     }))
     .map_err(|_| Error::backend("the BVH builder (obvhs) failed on these primitives"))?;
-    let (mut nodes, order) = convert(&built);
+    let (mut nodes, local) = convert(&built);
+    let order: Vec<u32> = local.iter().map(|&i| included[i as usize]).collect();
     if order.len() != included.len() || nodes.iter().any(|n| n.count > max_leaf) {
         return Err(Error::backend(format!(
             "the BVH builder placed {} of {} primitives in leaves of at most {max_leaf}",

@@ -223,6 +223,21 @@ mod tests {
     }
 
     #[test]
+    fn unusable_boxes_get_no_slot() {
+        let mut b = boxes(40);
+        b[3].min[0] = f32::NAN;
+        b[7] = Aabb::EMPTY;
+        b[39].max[2] = f32::INFINITY;
+        let (bin, order) = super::super::builder::build(&b, 8, BuildFlags::NONE).unwrap();
+        assert_eq!(order.len(), 37);
+        assert!(![3, 7, 39].iter().any(|i| order.contains(i)));
+        let bvh = Bvh4::from_binary(&bin);
+        assert!(bvh.bounds().is_usable());
+        let (bin, order) = super::super::builder::build(&[Aabb::EMPTY], 8, BuildFlags::NONE).unwrap();
+        assert!(bin.is_empty() && order.is_empty());
+    }
+
+    #[test]
     fn stack_need_of_a_hand_made_tree() {
         // Root with an inner child (3 leaves) and a leaf: max(2, 1 + 3) = 4.
         let leaf = |first| BinaryNode {

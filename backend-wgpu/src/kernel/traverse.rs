@@ -455,7 +455,7 @@ fn custom(c: &KernelConfig<'_>, out: &mut String) {
         }
         let slot = first + i;
         let base = (*lv).prim_base + slot * (1u + 2u * (*lv).keys);
-        let meta = optk_fetch(base);
+        let info = optk_fetch(base);
         let a = base + 1u + 2u * (*lv).key;
         var lo = bitcast<vec3<f32>>(optk_fetch(a).xyz);
         var hi = bitcast<vec3<f32>>(optk_fetch(a + 1u).xyz);
@@ -474,11 +474,11 @@ fn custom(c: &KernelConfig<'_>, out: &mut String) {
         r#"        if !optk_box1((*lv).slab, lo, hi, optk_ray.tmin, optk_best.t) {
             continue;
         }
-        let geom = meta.y >> 29u;
+        let geom = info.y >> 29u;
         if optk_fate(geom, (*lv).inst_flags, optk_ray.flags, OPTK_NONE) == 0u {
             continue;
         }
-        let h = optk_candidate(lv, slot, meta.x, meta.y & 0x1FFFFFFFu, geom);
+        let h = optk_candidate(lv, slot, info.x, info.y & 0x1FFFFFFFu, geom);
         if optk_unwind == 3u {
             return;
         }
@@ -564,7 +564,7 @@ fn spheres(c: &KernelConfig<'_>, out: &mut String) {
         }
         let slot = first + i;
         let base = (*lv).prim_base + slot * (1u + (*lv).keys);
-        let meta = optk_fetch(base);
+        let info = optk_fetch(base);
         var s = bitcast<vec4<f32>>(optk_fetch(base + 1u + (*lv).key));
 "#,
     );
@@ -578,12 +578,12 @@ fn spheres(c: &KernelConfig<'_>, out: &mut String) {
         if !t.hit {
             continue;
         }
-        let geom = meta.y >> 29u;
+        let geom = info.y >> 29u;
         let fate = optk_fate(geom, (*lv).inst_flags, optk_ray.flags, OPTK_NONE);
         if fate == 0u {
             continue;
         }
-        var h = optk_candidate(lv, slot, meta.x, meta.y & 0x1FFFFFFFu, geom);
+        var h = optk_candidate(lv, slot, info.x, info.y & 0x1FFFFFFFu, geom);
         h.t = t.t;
         h.hit_kind = select(0xFFu, 0xFEu, t.front);
         optk_accept(h, fate);
@@ -604,7 +604,7 @@ fn curves(c: &KernelConfig<'_>, out: &mut String) {
         }
         let slot = first + i;
         let base = (*lv).prim_base + slot * (1u + 4u * (*lv).keys);
-        let meta = optk_fetch(base);
+        let info = optk_fetch(base);
         let a = base + 1u + 4u * (*lv).key;
         var p: array<vec4<f32>, 4>;
         for (var j = 0u; j < 4u; j = j + 1u) {
@@ -618,16 +618,16 @@ fn curves(c: &KernelConfig<'_>, out: &mut String) {
     }
     out.push_str(
         r#"        }
-        let t = optk_curve((*lv).origin, (*lv).direction, p, degree, (meta.z & 1u) != 0u, (meta.z & 2u) != 0u, optk_ray.tmin, optk_best.t);
+        let t = optk_curve((*lv).origin, (*lv).direction, p, degree, (info.z & 1u) != 0u, (info.z & 2u) != 0u, optk_ray.tmin, optk_best.t);
         if !t.hit {
             continue;
         }
-        let geom = meta.y >> 29u;
+        let geom = info.y >> 29u;
         let fate = optk_fate(geom, (*lv).inst_flags, optk_ray.flags, OPTK_NONE);
         if fate == 0u {
             continue;
         }
-        var h = optk_candidate(lv, slot, meta.x, meta.y & 0x1FFFFFFFu, geom);
+        var h = optk_candidate(lv, slot, info.x, info.y & 0x1FFFFFFFu, geom);
         h.t = t.t;
         h.hit_kind = 0xFEu;
         h.attrs[0] = bitcast<u32>(t.u);
@@ -761,8 +761,8 @@ fn instance_entry(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
         r#" else {
             let rec = lv.prim_base + (e.x & 0x3FFFFFFFu) * 8u;
-            let meta = optk_fetch(rec + 6u);
-            if ((meta.z & 0xFFu) & optk_ray.mask) == 0u {
+            let info = optk_fetch(rec + 6u);
+            if ((info.z & 0xFFu) & optk_ray.mask) == 0u {
                 continue;
             }
             let link = optk_fetch(rec + 7u);
@@ -777,12 +777,12 @@ fn instance_entry(c: &KernelConfig<'_>, out: &mut String) {
             next.o2w = optk_xform_mul(lv.o2w, io);
             next.origin = optk_xform_point(iw, lv.origin);
             next.direction = optk_canonical_direction(optk_xform_vector(iw, lv.direction));
-            next.instance_id = meta.x;
-            next.instance_index = meta.w;
-            next.sbt_offset = lv.sbt_offset + meta.y;
+            next.instance_id = info.x;
+            next.instance_index = info.w;
+            next.sbt_offset = lv.sbt_offset + info.y;
             // Nested instances: flips compose, culling and micromap switches accumulate,
             // and the innermost instance that sets DISABLE_ANYHIT or ENFORCE_ANYHIT decides.
-            let f = meta.z >> 8u;
+            let f = info.z >> 8u;
             next.flip = lv.flip != ((f & 2u) != 0u);
             var flags = lv.inst_flags | (f & 49u);
             if (f & 12u) != 0u {
