@@ -3,6 +3,7 @@
 mod common;
 use common::*;
 use optik_api::*;
+use std::sync::{Mutex, OnceLock};
 
 const PROGRAMS: &str = r#"
 struct Params { handle: vec2<u32>, mode: u32, pad: u32 }
@@ -115,7 +116,22 @@ fn exception__record() {
 }
 "#;
 
-fn run_mode(mode: u32, max_trace_depth: u32, exceptions: Setting<ExceptionFlags>) -> Vec<u32> {
+struct Rig {
+    dev: Box<dyn Device>,
+    pipeline: Pipeline,
+    table: ShaderBindingTable,
+    handle: TraversableHandle,
+}
+
+/// One pipeline per (depth, exception flags), compiled once for all tests of this file:
+/// lavapipe compiles a kernel at its first dispatch, which takes seconds for deep ones.
+fn rig(max_trace_depth: u32, exceptions: Setting<ExceptionFlags>) -> &'static Rig {
+    type Rigs = Mutex<Vec<((u32, Setting<ExceptionFlags>), &'static Rig)>>;
+    static RIGS: OnceLock<Rigs> = OnceLock::new();
+    let mut rigs = RIGS.get_or_init(|| Mutex::new(Vec::new())).lock().unwrap();
+    if let Some((_, r)) = rigs.iter().find(|(k, _)| *k == (max_trace_depth, exceptions)) {
+        return r;
+    }
     let dev = device();
     let d = dev.as_ref();
     let gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
@@ -141,7 +157,7 @@ fn run_mode(mode: u32, max_trace_depth: u32, exceptions: Setting<ExceptionFlags>
             ProgramGroupDesc::Exception(ProgramRef::new(m, "exception__record")),
         ],
     );
-    let p = d
+    let pipeline = d
         .create_pipeline(
             &PipelineCompileOptions {
                 exception_flags: exceptions,
@@ -155,7 +171,21 @@ fn run_mode(mode: u32, max_trace_depth: u32, exceptions: Setting<ExceptionFlags>
         )
         .unwrap_or_else(|e| panic!("{e}"));
     let table = numbered_sbt(d, &g);
-    run(d, p, &table, &params(d.traversable_handle(gas).unwrap(), &[mode]), 1, 1, 16)
+    let handle = d.traversable_handle(gas).unwrap();
+    let r: &'static Rig = Box::leak(Box::new(Rig {
+        dev,
+        pipeline,
+        table,
+        handle,
+    }));
+    rigs.push(((max_trace_depth, exceptions), r));
+    r
+}
+
+fn run_mode(mode: u32, max_trace_depth: u32, exceptions: Setting<ExceptionFlags>) -> Vec<u32> {
+    let r = rig(max_trace_depth, exceptions);
+    let d = r.dev.as_ref();
+    run(d, r.pipeline, &r.table, &params(r.handle, &[mode]), 1, 1, 16)
 }
 
 #[test]

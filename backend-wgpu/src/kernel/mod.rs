@@ -189,26 +189,32 @@ fn snippets(c: &KernelConfig<'_>, out: &mut String) {
         conservative_boxes: c.accuracy.box_test == BoxTest::Conservative,
         f64_fallback: c.f64 && c.accuracy.triangle == TriangleTest::Watertight,
     };
-    let mut add = |s: &str| out.push_str(&wgsl::specialise(s, options));
-    add(wgsl::RAY);
+    let add = |out: &mut String, s: &str| out.push_str(&wgsl::specialise(s, options));
+    add(out, wgsl::RAY);
     if !c.traces() {
         return;
     }
-    add(wgsl::SLAB);
-    add(wgsl::BVH4);
+    add(out, wgsl::SLAB);
+    add(out, wgsl::BVH4);
     if c.triangles() {
-        add(wgsl::TRIANGLE);
+        // Only the chosen triangle test.
+        let unused = match c.accuracy.triangle {
+            TriangleTest::Watertight => "optk_tri_moller_trumbore",
+            TriangleTest::MollerTrumbore => "optk_tri_watertight",
+        };
+        let text = wgsl::specialise(wgsl::TRIANGLE, options);
+        out.push_str(&crate::program::instance::remove_function(&text, unused).unwrap_or(text));
     }
     if c.spheres() {
-        add(wgsl::SPHERE_SW);
+        add(out, wgsl::SPHERE_SW);
     }
     if c.curves() {
-        add(wgsl::CURVE_SW);
+        add(out, wgsl::CURVE_SW);
     }
     if c.instancing() || c.motion() {
-        add(wgsl::MOTION);
+        add(out, wgsl::MOTION);
     }
     if c.micromaps() {
-        add(wgsl::MICROMAP);
+        add(out, wgsl::MICROMAP);
     }
 }

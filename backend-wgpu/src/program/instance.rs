@@ -697,7 +697,7 @@ fn finish(w: &mut ModuleWork<'_>) -> Result<String> {
 
 /// `text` without the definition of function `name` (naga writes `fn name(...) ... {` and
 /// the body's braces balance; stubs hold no strings or comments).
-fn remove_function(text: &str, name: &str) -> Option<String> {
+pub(crate) fn remove_function(text: &str, name: &str) -> Option<String> {
     let start = text.find(&format!("fn {name}("))?;
     let open = start + text[start..].find('{')?;
     let mut depth = 0usize;
