@@ -44,10 +44,25 @@ pub(crate) struct State {
     pub samplers: Vec<(optik_api::SamplerDesc, wgpu::Sampler)>,
 }
 
+/// Options of [`WgpuDevice::with_options`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct WgpuOptions {
+    /// Caps the bytes optik puts in one storage binding below the adapter's
+    /// `max_storage_buffer_binding_size` (at least 16 KiB is used). Acceleration structure
+    /// data is then split into more, smaller buffers: this is how the splitting that large
+    /// scenes need on lavapipe's 128 MiB limit is tested on small scenes.
+    pub max_storage_binding: Option<u64>,
+}
+
 impl WgpuDevice {
     /// Opens the adapter chosen by [`crate::gpu::ADAPTER_ENV`] or the best one found.
     pub fn new() -> Result<WgpuDevice> {
-        let gpu = Arc::new(Gpu::open()?);
+        WgpuDevice::with_options(WgpuOptions::default())
+    }
+
+    /// [`WgpuDevice::new`] with options.
+    pub fn with_options(options: WgpuOptions) -> Result<WgpuDevice> {
+        let gpu = Arc::new(Gpu::open(options.max_storage_binding)?);
         let id = DeviceId::next();
         let properties = DeviceProperties {
             max_trace_depth: 31,
@@ -108,9 +123,17 @@ impl WgpuDevice {
         Ok(p.variant(&self.gpu, sizes)?.source.clone())
     }
 
-    /// The adapter's limits (the storage binding size sizes the scene arena's chunks).
+    /// The adapter's limits as optik uses them (the storage binding size, possibly capped
+    /// by [`WgpuOptions`], sizes the scene arena's chunks).
     pub fn limits(&self) -> wgpu::Limits {
         self.gpu.limits.clone()
+    }
+
+    /// Destroys the wgpu device under this one, as a driver reset would: every later call
+    /// fails with `ErrorKind::DeviceLost`. For testing how applications handle device loss.
+    pub fn lose_device_for_testing(&self) {
+        self.gpu.device.destroy();
+        let _ = self.gpu.device.poll(wgpu::PollType::Poll);
     }
 }
 

@@ -23,7 +23,7 @@ pub(crate) struct Gpu {
 impl Gpu {
     /// Opens the adapter named by [`ADAPTER_ENV`], or else the first of discrete GPUs,
     /// integrated GPUs, virtual GPUs and CPU adapters.
-    pub fn open() -> Result<Gpu> {
+    pub fn open(max_storage_binding: Option<u64>) -> Result<Gpu> {
         let instance = crate::probe::instance();
         let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::PRIMARY));
         if adapters.is_empty() {
@@ -59,11 +59,11 @@ impl Gpu {
             & (wgpu::Features::TIMESTAMP_QUERY
                 | wgpu::Features::SHADER_F64
                 | wgpu::Features::FLOAT32_FILTERABLE);
-        let limits = adapter.limits();
+        let adapter_limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("optik-wgpu"),
             required_features: features,
-            required_limits: limits.clone(),
+            required_limits: adapter_limits.clone(),
             ..Default::default()
         }))
         .map_err(|e| {
@@ -72,19 +72,22 @@ impl Gpu {
                 info.name
             ))
         })?;
+        // optik's own decisions (arena chunks, binding checks) may use a lower cap than the
+        // adapter's, so that splitting can be tested on any adapter.
+        let mut limits = adapter_limits;
+        if let Some(cap) = max_storage_binding {
+            limits.max_storage_buffer_binding_size = limits.max_storage_buffer_binding_size.min(cap);
+        }
         let lost = Arc::new(AtomicBool::new(false));
         let lost_reason = Arc::new(Mutex::new(String::new()));
         {
             let lost = lost.clone();
             let lost_reason = lost_reason.clone();
             device.set_device_lost_callback(move |reason, message| {
-                // Dropping the device reports a loss too; that one is not an error.
-                if reason != wgpu::DeviceLostReason::Destroyed {
-                    if let Ok(mut r) = lost_reason.lock() {
-                        *r = format!("{reason:?}: {message}");
-                    }
-                    lost.store(true, Ordering::SeqCst);
+                if let Ok(mut r) = lost_reason.lock() {
+                    *r = format!("{reason:?}: {message}");
                 }
+                lost.store(true, Ordering::SeqCst);
             });
         }
         // wgpu's default handler panics; errors outside error scopes are kept and reported

@@ -22,7 +22,7 @@ mod probe;
 mod program;
 mod sbt;
 
-pub use device::WgpuDevice;
+pub use device::{WgpuDevice, WgpuOptions};
 pub use gpu::ADAPTER_ENV;
 pub use probe::{AdapterReport, probe};
 

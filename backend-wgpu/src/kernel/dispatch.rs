@@ -13,7 +13,9 @@ use crate::program::instance::{
 use optik_api::ExceptionFlags;
 
 pub(super) fn write(c: &KernelConfig<'_>, out: &mut String) {
-    raise(c, out);
+    if !c.features.exceptions.is_empty() {
+        raise(c, out);
+    }
     for &d in &c.lowered.traces {
         trace(c, d, out);
     }
