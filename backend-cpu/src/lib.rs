@@ -14,3 +14,8 @@ pub fn open() -> optik_api::Result<Box<dyn optik_api::Device>> {
         "the cpu backend is not implemented yet",
     ))
 }
+
+/// Opens a device of this backend with `threads` worker threads (`None`: one per core).
+pub fn open_with_threads(_threads: Option<usize>) -> optik_api::Result<Box<dyn optik_api::Device>> {
+    open()
+}

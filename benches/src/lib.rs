@@ -3,3 +3,5 @@
 
 pub mod mesh;
 pub mod npy;
+pub mod raycast;
+pub mod rays;

@@ -2,6 +2,7 @@
 
 mod compile;
 mod info;
+mod trace;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -20,6 +21,8 @@ enum Command {
     Compile(compile::CompileArgs),
     /// Lists each backend, whether it can run here, and the devices and adapters found.
     Info,
+    /// Casts rays (a float32 .npy of shape (N, 8)) against a mesh and writes hits to a .npz.
+    Trace(trace::TraceArgs),
 }
 
 fn main() -> ExitCode {
@@ -27,6 +30,7 @@ fn main() -> ExitCode {
     let code = match cli.command {
         Command::Compile(args) => compile::run(&args),
         Command::Info => info::run(),
+        Command::Trace(args) => trace::run(&args),
     };
     ExitCode::from(code)
 }
