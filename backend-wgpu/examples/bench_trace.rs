@@ -10,7 +10,10 @@
 
 use optik_api::Accuracy;
 
-fn load_obj(path: &str) -> Result<(Vec<[f32; 3]>, Vec<[u32; 3]>), String> {
+/// Vertices and triangles.
+type Mesh = (Vec<[f32; 3]>, Vec<[u32; 3]>);
+
+fn load_obj(path: &str) -> Result<Mesh, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: {e}"))?;
     let mut vertices = Vec::new();
     let mut indices = Vec::new();
@@ -36,7 +39,11 @@ fn load_obj(path: &str) -> Result<(Vec<[f32; 3]>, Vec<[u32; 3]>), String> {
             _ => {}
         }
     }
-    if indices.iter().flatten().any(|&i| i as usize >= vertices.len()) {
+    if indices
+        .iter()
+        .flatten()
+        .any(|&i| i as usize >= vertices.len())
+    {
         return Err(format!("{path}: a face names a vertex that does not exist"));
     }
     Ok((vertices, indices))
@@ -61,7 +68,10 @@ fn main() {
         .ok()
         .and_then(|s| Accuracy::parse(&s))
         .unwrap_or_default();
-    println!("mesh             {}", mesh.unwrap_or("generated bumpy sphere"));
+    println!(
+        "mesh             {}",
+        mesh.unwrap_or("generated bumpy sphere")
+    );
     println!("accuracy         {accuracy:?}");
     match optik_wgpu::bench::bench_trace(&vertices, &indices, width, height, repeats, accuracy) {
         Ok(report) => print!("{report}"),

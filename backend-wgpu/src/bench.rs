@@ -181,8 +181,12 @@ pub fn bench_trace(
     let ib = upload(bytemuck::cast_slice(indices))?;
     let start = Instant::now();
     let input = BuildInput::Triangles(
-        TriangleArray::new(BufferView::new(vb), vertices.len() as u32, GeometryFlags::DISABLE_ANYHIT)
-            .with_indices(BufferView::new(ib), indices.len() as u32),
+        TriangleArray::new(
+            BufferView::new(vb),
+            vertices.len() as u32,
+            GeometryFlags::DISABLE_ANYHIT,
+        )
+        .with_indices(BufferView::new(ib), indices.len() as u32),
     );
     let gas = dev.accel_build(
         &AccelBuildOptions {
@@ -244,7 +248,10 @@ pub fn bench_trace(
     let handle = dev.traversable_handle(gas)?;
     let mut timings = Vec::new();
     let mut first_launch_seconds = 0.0;
-    for (k, kind) in [RayKind::Primary, RayKind::Incoherent].into_iter().enumerate() {
+    for (k, kind) in [RayKind::Primary, RayKind::Incoherent]
+        .into_iter()
+        .enumerate()
+    {
         let mut words: Vec<u32> = handle.to_words().to_vec();
         words.extend_from_slice(&[k as u32, 12345]);
         words.extend(lo.iter().map(|v| v.to_bits()));

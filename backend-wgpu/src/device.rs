@@ -14,8 +14,8 @@ use crate::pipeline::{self, PipelineObject};
 use crate::program::{GroupObject, ModuleObject, ModuleSource};
 use optik_api::decode::BufferBytes;
 use optik_api::{
-    Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BuildFlags,
-    BuildInput, BuildOperation, BufferView, DeviceId, DeviceProperties, Error, FeatureSet, Handle,
+    Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BufferView,
+    BuildFlags, BuildInput, BuildOperation, DeviceId, DeviceProperties, Error, FeatureSet, Handle,
     HandleTable, LaunchSize, MicromapArray, Module, ModuleCompileOptions, OpacityMicromapArrayDesc,
     Pipeline, PipelineCompileOptions, PipelineLinkOptions, ProgramGroup, ProgramGroupDesc,
     ProgramRef, ProgramSource, Resource, Result, SbtHeader, SceneFeatures, ShaderBindingTable,
@@ -328,10 +328,7 @@ impl optik_api::Device for WgpuDevice {
     }
 
     fn accuracy(&self) -> Accuracy {
-        self.state
-            .lock()
-            .map(|s| s.accuracy)
-            .unwrap_or_default()
+        self.state.lock().map(|s| s.accuracy).unwrap_or_default()
     }
 
     fn set_accuracy(&self, accuracy: Accuracy) -> Result<()> {
@@ -348,25 +345,17 @@ impl optik_api::Device for WgpuDevice {
 
     fn write_buffer(&self, buffer: Buffer, offset: u64, data: &[u8]) -> Result<()> {
         let mut s = self.lock()?;
-        validate::buffer_range(
-            "write_buffer",
-            buffer,
-            offset,
-            data.len() as u64,
-            &|b| s.size_of(b),
-        )?;
+        validate::buffer_range("write_buffer", buffer, offset, data.len() as u64, &|b| {
+            s.size_of(b)
+        })?;
         s.buffers.get_mut(buffer)?.write(&self.gpu, offset, data)
     }
 
     fn read_buffer(&self, buffer: Buffer, offset: u64, out: &mut [u8]) -> Result<()> {
         let s = self.lock()?;
-        validate::buffer_range(
-            "read_buffer",
-            buffer,
-            offset,
-            out.len() as u64,
-            &|b| s.size_of(b),
-        )?;
+        validate::buffer_range("read_buffer", buffer, offset, out.len() as u64, &|b| {
+            s.size_of(b)
+        })?;
         s.buffers.get(buffer)?.read(&self.gpu, offset, out)
     }
 
@@ -406,10 +395,18 @@ impl optik_api::Device for WgpuDevice {
         let n: u64 = inputs.iter().map(|i| i.num_primitives() as u64).sum();
         let per_slot = match &inputs[0] {
             BuildInput::Instances(_) => accel::layout::INSTANCE_VEC4S,
-            BuildInput::Triangles(_) => accel::layout::slot_vec4s(accel::layout::prim::TRIANGLES, keys as u32),
-            BuildInput::CustomPrimitives(_) => accel::layout::slot_vec4s(accel::layout::prim::CUSTOM, keys as u32),
-            BuildInput::Spheres(_) => accel::layout::slot_vec4s(accel::layout::prim::SPHERES, keys as u32),
-            BuildInput::Curves(_) => accel::layout::slot_vec4s(accel::layout::prim::CURVES, keys as u32),
+            BuildInput::Triangles(_) => {
+                accel::layout::slot_vec4s(accel::layout::prim::TRIANGLES, keys as u32)
+            }
+            BuildInput::CustomPrimitives(_) => {
+                accel::layout::slot_vec4s(accel::layout::prim::CUSTOM, keys as u32)
+            }
+            BuildInput::Spheres(_) => {
+                accel::layout::slot_vec4s(accel::layout::prim::SPHERES, keys as u32)
+            }
+            BuildInput::Curves(_) => {
+                accel::layout::slot_vec4s(accel::layout::prim::CURVES, keys as u32)
+            }
         };
         // At most one four-wide node per leaf and the inner nodes above them.
         let nodes = n.div_ceil(2).max(1) * accel::bvh4::NODE_VEC4S as u64;

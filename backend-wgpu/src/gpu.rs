@@ -67,16 +67,14 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| {
-            Error::unsupported(format!(
-                "wgpu could not open adapter `{}`: {e}",
-                info.name
-            ))
+            Error::unsupported(format!("wgpu could not open adapter `{}`: {e}", info.name))
         })?;
         // optik's own decisions (arena chunks, binding checks) may use a lower cap than the
         // adapter's, so that splitting can be tested on any adapter.
         let mut limits = adapter_limits;
         if let Some(cap) = max_storage_binding {
-            limits.max_storage_buffer_binding_size = limits.max_storage_buffer_binding_size.min(cap);
+            limits.max_storage_buffer_binding_size =
+                limits.max_storage_buffer_binding_size.min(cap);
         }
         let lost = Arc::new(AtomicBool::new(false));
         let lost_reason = Arc::new(Mutex::new(String::new()));
@@ -116,7 +114,11 @@ impl Gpu {
     /// An error when the device was lost or an earlier command failed outside a scope.
     pub fn check(&self) -> Result<()> {
         if self.lost.load(Ordering::SeqCst) {
-            let reason = self.lost_reason.lock().map(|r| r.clone()).unwrap_or_default();
+            let reason = self
+                .lost_reason
+                .lock()
+                .map(|r| r.clone())
+                .unwrap_or_default();
             return Err(Error::new(
                 ErrorKind::DeviceLost,
                 format!(
@@ -150,7 +152,10 @@ impl Gpu {
         if let Some(e) = oom {
             return Err(Error::new(
                 ErrorKind::OutOfMemory,
-                format!("{what}: the device `{}` is out of memory ({e})", self.info.name),
+                format!(
+                    "{what}: the device `{}` is out of memory ({e})",
+                    self.info.name
+                ),
             ));
         }
         if let Some(e) = validation {

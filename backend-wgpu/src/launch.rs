@@ -34,7 +34,9 @@ pub(crate) fn launch(
     {
         let p = s.pipelines.get(pipeline)?;
         for (_, bindings) in &p.bindings {
-            validate::launch_bindings(params, resources, bindings, &|b| Ok(s.buffers.get(b)?.size))?;
+            validate::launch_bindings(params, resources, bindings, &|b| {
+                Ok(s.buffers.get(b)?.size)
+            })?;
         }
     }
     if size.is_empty() {
@@ -42,7 +44,9 @@ pub(crate) fn launch(
     }
     let align = gpu.limits.min_storage_buffer_offset_alignment as u64;
     for r in resources {
-        if let Resource::Buffer { binding, offset, .. } = r
+        if let Resource::Buffer {
+            binding, offset, ..
+        } = r
             && offset % align != 0
         {
             return Err(Error::invalid(format!(
@@ -60,7 +64,9 @@ pub(crate) fn launch(
         let state = &mut *s;
         let p = state.pipelines.get(pipeline)?;
         let buffers = &mut state.buffers;
-        crate::sbt::pack(sbt, p, &mut |b| Ok(buffers.get_mut(b)?.bytes(gpu)?.to_vec()))?
+        crate::sbt::pack(sbt, p, &mut |b| {
+            Ok(buffers.get_mut(b)?.bytes(gpu)?.to_vec())
+        })?
     };
     let r = packed.regions;
     let launch_words: [u32; 16] = [
@@ -83,7 +89,7 @@ pub(crate) fn launch(
     ];
     let uniform = |label: &str, bytes: &[u8]| -> Result<wgpu::Buffer> {
         let size = (bytes.len().max(16) as u64).div_ceil(16) * 16;
-        if size > gpu.limits.max_uniform_buffer_binding_size as u64 {
+        if size > gpu.limits.max_uniform_buffer_binding_size {
             return Err(Error::limit(format!(
                 "{label} is {} bytes; this adapter's uniform bindings hold at most {}",
                 bytes.len(),
@@ -143,7 +149,9 @@ pub(crate) fn launch(
                     let res = resources
                         .iter()
                         .find(|r| r.binding() == b.binding)
-                        .ok_or_else(|| Error::invalid(format!("no resource for binding {}", b.binding)))?;
+                        .ok_or_else(|| {
+                            Error::invalid(format!("no resource for binding {}", b.binding))
+                        })?;
                     match res {
                         Resource::Buffer {
                             buffer,
@@ -152,7 +160,10 @@ pub(crate) fn launch(
                             ..
                         } => {
                             let obj = s.buffers.get(*buffer)?;
-                            if let BindingKind::StorageBuffer { read_only: false, .. } = b.kind {
+                            if let BindingKind::StorageBuffer {
+                                read_only: false, ..
+                            } = b.kind
+                            {
                                 written.push(*buffer);
                             }
                             let bound = size.unwrap_or(obj.size - at);

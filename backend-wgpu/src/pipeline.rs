@@ -6,11 +6,13 @@
 
 use crate::gpu::Gpu;
 use crate::kernel::{self, KernelConfig, Sizes, group_flags};
-use crate::program::instance::{self, BINDING_STRIDE, GroupPrograms, LowerInput, Lowered, ProgramLoc};
+use crate::program::instance::{
+    self, BINDING_STRIDE, GroupPrograms, LowerInput, Lowered, ProgramLoc,
+};
 use crate::program::{GroupObject, ModuleSource};
 use optik_api::frontend::{self, BindingInfo, BindingKind, CompiledModule};
 use optik_api::{
-    Accuracy, Error, ExceptionFlags, FeatureSet, GroupRegion, Handle, Module, PipelineLinkOptions,
+    Accuracy, Error, ExceptionFlags, FeatureSet, Handle, Module, PipelineLinkOptions,
     ProgramFeatures, ProgramGroup, ProgramGroupDesc, ProgramKind, RawHandle, Result,
 };
 use std::collections::HashMap;
@@ -18,7 +20,6 @@ use std::sync::Arc;
 
 /// One group of a pipeline.
 pub(crate) struct PipelineGroup {
-    pub region: GroupRegion,
     /// [`group_flags`] bits.
     pub flags: u32,
 }
@@ -115,7 +116,10 @@ pub(crate) fn link(
             let mi = module_index(program.module)
                 .ok_or_else(|| Error::backend("program module missing from the pipeline"))?;
             let info = compiled[mi].program(&program.entry).ok_or_else(|| {
-                Error::backend(format!("program `{}` vanished on recompilation", program.entry))
+                Error::backend(format!(
+                    "program `{}` vanished on recompilation",
+                    program.entry
+                ))
             })?;
             let loc = Some(ProgramLoc {
                 module: mi,
@@ -149,10 +153,7 @@ pub(crate) fn link(
         }
         group_programs.push(gp);
         group_index.insert(handle.raw(), gi as u32);
-        pipeline_groups.push(PipelineGroup {
-            region: g.desc.region(),
-            flags,
-        });
+        pipeline_groups.push(PipelineGroup { flags });
     }
     let lowered = instance::lower(&LowerInput {
         modules: compiled.iter().collect(),
@@ -312,12 +313,12 @@ fn compile(
                 label: Some("optik user bindings"),
                 entries: &user_entries,
             });
-        let backend_layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("optik backend bindings"),
-                entries: &backend_entries,
-            });
+        let backend_layout =
+            gpu.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("optik backend bindings"),
+                    entries: &backend_entries,
+                });
         let layout = gpu
             .device
             .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

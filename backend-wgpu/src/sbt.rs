@@ -10,8 +10,7 @@
 
 use crate::pipeline::PipelineObject;
 use optik_api::{
-    Buffer, Error, GroupRegion, Result, SBT_RECORD_HEADER_SIZE, SbtHeader,
-    ShaderBindingTable,
+    Buffer, Error, GroupRegion, Result, SBT_RECORD_HEADER_SIZE, SbtHeader, ShaderBindingTable,
 };
 
 /// Words of data copied after a raygen or exception record's header (which have no stride).
@@ -45,11 +44,19 @@ pub(crate) fn pack(
         if !cache.iter().any(|(b, _)| *b == buffer) {
             cache.push((buffer, bytes(buffer)?));
         }
-        let data = &cache.iter().find(|(b, _)| *b == buffer).map(|(_, d)| d).ok_or_else(|| Error::backend("SBT buffer cache"))?;
+        let data = &cache
+            .iter()
+            .find(|(b, _)| *b == buffer)
+            .map(|(_, d)| d)
+            .ok_or_else(|| Error::backend("SBT buffer cache"))?;
         let header_end = offset + SBT_RECORD_HEADER_SIZE as u64;
-        let header = data.get(offset as usize..header_end as usize).ok_or_else(|| {
-            Error::invalid(format!("{what}: the record's header lies outside its buffer"))
-        })?;
+        let header = data
+            .get(offset as usize..header_end as usize)
+            .ok_or_else(|| {
+                Error::invalid(format!(
+                    "{what}: the record's header lies outside its buffer"
+                ))
+            })?;
         let h = SbtHeader::unpack(header).ok_or_else(|| {
             Error::invalid(format!(
                 "{what}: the record does not start with a header packed by sbt_record_pack_header"
@@ -74,7 +81,11 @@ pub(crate) fn pack(
         let end = (header_end + data_bytes).min(data.len() as u64);
         let mut chunk = data[header_end as usize..end as usize].to_vec();
         chunk.resize((data_bytes as usize).div_ceil(4) * 4, 0);
-        words.extend(chunk.chunks_exact(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])));
+        words.extend(
+            chunk
+                .chunks_exact(4)
+                .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+        );
         Ok(at)
     };
     let raygen = record(
@@ -119,17 +130,27 @@ pub(crate) fn pack(
         }
         Ok([base, r.stride / 4, r.count])
     };
-    let hit = region("sbt.hitgroup", &table.hitgroup, GroupRegion::HitGroup, &mut words)?;
+    let hit = region(
+        "sbt.hitgroup",
+        &table.hitgroup,
+        GroupRegion::HitGroup,
+        &mut words,
+    )?;
     let miss = region("sbt.miss", &table.miss, GroupRegion::Miss, &mut words)?;
-    let call = region("sbt.callables", &table.callables, GroupRegion::Callables, &mut words)?;
+    let call = region(
+        "sbt.callables",
+        &table.callables,
+        GroupRegion::Callables,
+        &mut words,
+    )?;
     if words.len() > u32::MAX as usize / 2 {
         return Err(Error::limit("the shader binding table exceeds 8 GiB"));
     }
     Ok(PackedSbt {
         words,
         regions: [
-            raygen, exception, hit[0], hit[1], hit[2], miss[0], miss[1], miss[2], call[0],
-            call[1], call[2], 0,
+            raygen, exception, hit[0], hit[1], hit[2], miss[0], miss[1], miss[2], call[0], call[1],
+            call[2], 0,
         ],
     })
 }

@@ -17,25 +17,42 @@ fn update_moves_geometry_and_keeps_the_handle() {
     let dev = device();
     let d = dev.as_ref();
     let vb = buffer(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0));
-    let input = BuildInput::Triangles(TriangleArray::new(BufferView::new(vb), 6, GeometryFlags::NONE));
+    let input = BuildInput::Triangles(TriangleArray::new(
+        BufferView::new(vb),
+        6,
+        GeometryFlags::NONE,
+    ));
     let options = AccelBuildOptions {
         flags: BuildFlags::ALLOW_UPDATE,
         ..Default::default()
     };
-    let gas = d.accel_build(&options, &[input.clone()]).unwrap();
+    let gas = d
+        .accel_build(&options, std::slice::from_ref(&input))
+        .unwrap();
     let h = d.traversable_handle(gas).unwrap();
-    let rays = [Ray::new([0.5, 0.5, 1.0], [0.0, 0.0, -1.0]), Ray::new([5.5, 0.5, 1.0], [0.0, 0.0, -1.0])];
+    let rays = [
+        Ray::new([0.5, 0.5, 1.0], [0.0, 0.0, -1.0]),
+        Ray::new([5.5, 0.5, 1.0], [0.0, 0.0, -1.0]),
+    ];
     let before = hits(d, h, &rays);
     assert!(before[0].hit() && before[1].missed());
-    d.write_buffer(vb, 0, bytemuck::cast_slice(&quad(5.0, 6.0, 0.0, 1.0, 0.0))).unwrap();
+    d.write_buffer(vb, 0, bytemuck::cast_slice(&quad(5.0, 6.0, 0.0, 1.0, 0.0)))
+        .unwrap();
     let update = AccelBuildOptions {
         operation: BuildOperation::Update,
         ..options
     };
     d.accel_update(gas, &update, &[input]).unwrap();
-    assert_eq!(d.traversable_handle(gas).unwrap(), h, "updates keep the handle");
+    assert_eq!(
+        d.traversable_handle(gas).unwrap(),
+        h,
+        "updates keep the handle"
+    );
     let after = hits(d, h, &rays);
-    assert!(after[0].missed() && after[1].hit(), "the refit structure follows the moved quad");
+    assert!(
+        after[0].missed() && after[1].hit(),
+        "the refit structure follows the moved quad"
+    );
 }
 
 #[test]
@@ -43,21 +60,33 @@ fn compaction_copies_and_reports_sizes() {
     let dev = device();
     let d = dev.as_ref();
     let vb = buffer(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0));
-    let input = BuildInput::Triangles(TriangleArray::new(BufferView::new(vb), 6, GeometryFlags::NONE));
+    let input = BuildInput::Triangles(TriangleArray::new(
+        BufferView::new(vb),
+        6,
+        GeometryFlags::NONE,
+    ));
     let options = AccelBuildOptions {
         flags: BuildFlags::ALLOW_COMPACTION,
         ..Default::default()
     };
-    let estimate = d.accel_memory_usage(&options, &[input.clone()]).unwrap();
+    let estimate = d
+        .accel_memory_usage(&options, std::slice::from_ref(&input))
+        .unwrap();
     let gas = d.accel_build(&options, &[input]).unwrap();
     let size = d.accel_size(gas).unwrap();
-    assert!(size > 0 && size <= estimate.output_size_in_bytes, "{size} vs {estimate:?}");
+    assert!(
+        size > 0 && size <= estimate.output_size_in_bytes,
+        "{size} vs {estimate:?}"
+    );
     let compact = d.accel_compact(gas).unwrap();
     assert_eq!(d.accel_size(compact).unwrap(), size);
     let h = d.traversable_handle(compact).unwrap();
     assert_ne!(h, d.traversable_handle(gas).unwrap());
     d.destroy_accel(gas).unwrap();
-    assert!(hits(d, h, &[Ray::new([0.5, 0.5, 1.0], [0.0, 0.0, -1.0])])[0].hit(), "the copy stands alone");
+    assert!(
+        hits(d, h, &[Ray::new([0.5, 0.5, 1.0], [0.0, 0.0, -1.0])])[0].hit(),
+        "the copy stands alone"
+    );
 }
 
 #[test]
@@ -76,7 +105,10 @@ fn scenes_larger_than_one_storage_binding_are_split() {
         })
         .collect();
     let gas = triangles(d, &vertices, GeometryFlags::NONE);
-    assert!(d.accel_size(gas).unwrap() > 4 * 64 * 1024, "the structure spans several bindings");
+    assert!(
+        d.accel_size(gas).unwrap() > 4 * 64 * 1024,
+        "the structure spans several bindings"
+    );
     let m = module(d, RAY_LIST);
     let g = ray_list_groups(d, m, 1, &[]);
     let p = pipeline(d, &g, 1);
@@ -85,13 +117,30 @@ fn scenes_larger_than_one_storage_binding_are_split() {
     let table = numbered_sbt(d, &g);
     let rays: Vec<Ray> = (0..n * n)
         .step_by(37)
-        .map(|k| Ray::new([(k % n) as f32 + 0.7, (k / n) as f32 + 0.2, 5.0], [0.0, 0.0, -1.0]))
+        .map(|k| {
+            Ray::new(
+                [(k % n) as f32 + 0.7, (k / n) as f32 + 0.2, 5.0],
+                [0.0, 0.0, -1.0],
+            )
+        })
         .collect();
-    let recs = trace_rays(d, p, &table, d.traversable_handle(gas).unwrap(), &rays, TraceArgs::default());
+    let recs = trace_rays(
+        d,
+        p,
+        &table,
+        d.traversable_handle(gas).unwrap(),
+        &rays,
+        TraceArgs::default(),
+    );
     for (i, rec) in recs.iter().enumerate() {
         let k = i * 37;
         assert!(rec.hit(), "ray {i}");
-        assert_eq!(rec.prim() / 2, k as u32, "ray {i} hit quad {}", rec.prim() / 2);
+        assert_eq!(
+            rec.prim() / 2,
+            k as u32,
+            "ray {i} hit quad {}",
+            rec.prim() / 2
+        );
         assert!((rec.t() - (5.0 - (k % 7) as f32 * 0.125)).abs() < 1e-5);
     }
 }

@@ -65,7 +65,9 @@ struct Outcome {
 fn run_case(flags: GeometryFlags, mode: u32, ray_flags: RayFlags) -> Outcome {
     let dev = device();
     let dev = dev.as_ref();
-    let vertices: Vec<[f32; 3]> = (0..4).flat_map(|z| quad(0.0, 1.0, 0.0, 1.0, z as f32)).collect();
+    let vertices: Vec<[f32; 3]> = (0..4)
+        .flat_map(|z| quad(0.0, 1.0, 0.0, 1.0, z as f32))
+        .collect();
     let gas = triangles(dev, &vertices, flags);
     let m = module(dev, PROGRAMS);
     let g = groups(
@@ -112,7 +114,10 @@ fn accepting_any_hit_keeps_the_closest() {
 
 #[test]
 fn ignoring_every_candidate_misses_after_one_call_per_primitive() {
-    for flags in [GeometryFlags::NONE, GeometryFlags::REQUIRE_SINGLE_ANYHIT_CALL] {
+    for flags in [
+        GeometryFlags::NONE,
+        GeometryFlags::REQUIRE_SINGLE_ANYHIT_CALL,
+    ] {
         let o = run_case(flags, 1, RayFlags::NONE);
         assert!(!o.hit, "every candidate ignored: a miss");
         assert_eq!(o.calls, 4, "one candidate per quad along the ray");
@@ -140,13 +145,26 @@ fn ignored_candidates_do_not_hide_later_ones() {
 #[test]
 fn ray_flags_override_geometry() {
     let o = run_case(GeometryFlags::NONE, 1, RayFlags::DISABLE_ANYHIT);
-    assert!(o.hit && (o.t - 7.0).abs() < 1e-5 && o.calls == 0, "ray DISABLE_ANYHIT makes all opaque");
+    assert!(
+        o.hit && (o.t - 7.0).abs() < 1e-5 && o.calls == 0,
+        "ray DISABLE_ANYHIT makes all opaque"
+    );
     let o = run_case(GeometryFlags::DISABLE_ANYHIT, 1, RayFlags::ENFORCE_ANYHIT);
-    assert!(!o.hit && o.calls == 4, "ray ENFORCE_ANYHIT overrides opaque geometry");
+    assert!(
+        !o.hit && o.calls == 4,
+        "ray ENFORCE_ANYHIT overrides opaque geometry"
+    );
     let o = run_case(GeometryFlags::NONE, 0, RayFlags::TERMINATE_ON_FIRST_HIT);
-    assert!(o.hit && o.calls == 1, "the first accepted candidate ends traversal");
+    assert!(
+        o.hit && o.calls == 1,
+        "the first accepted candidate ends traversal"
+    );
     let o = run_case(GeometryFlags::NONE, 0, RayFlags::CULL_ENFORCED_ANYHIT);
     assert!(!o.hit && o.calls == 0, "non-opaque candidates culled");
-    let o = run_case(GeometryFlags::DISABLE_ANYHIT, 0, RayFlags::CULL_ENFORCED_ANYHIT);
+    let o = run_case(
+        GeometryFlags::DISABLE_ANYHIT,
+        0,
+        RayFlags::CULL_ENFORCED_ANYHIT,
+    );
     assert!(o.hit && o.calls == 0, "opaque ones stay");
 }

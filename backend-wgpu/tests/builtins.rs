@@ -42,7 +42,13 @@ fn miss__none() {
 }
 "#;
 
-fn trace(dev: &dyn Device, gas: Accel, ch: &str, builtin: BuiltinIntersector, rays: &[([f32; 3], [f32; 3])]) -> Vec<[u32; 8]> {
+fn trace(
+    dev: &dyn Device,
+    gas: Accel,
+    ch: &str,
+    builtin: BuiltinIntersector,
+    rays: &[([f32; 3], [f32; 3])],
+) -> Vec<[u32; 8]> {
     let m = module(dev, PROGRAMS);
     let g = groups(
         dev,
@@ -100,7 +106,9 @@ fn spheres_from_outside_and_inside() {
         sbt_index_offsets: None,
         primitive_index_offset: 10,
     });
-    let gas = dev.accel_build(&AccelBuildOptions::default(), &[input]).unwrap();
+    let gas = dev
+        .accel_build(&AccelBuildOptions::default(), &[input])
+        .unwrap();
     let down = [0.0, 0.0, -1.0];
     let out = trace(
         dev,
@@ -118,7 +126,11 @@ fn spheres_from_outside_and_inside() {
     assert!(close(f32::from_bits(out[0][1]), 4.0, 1e-5));
     assert_eq!(out[0][2], 10, "primitive index with its offset");
     assert_eq!(out[0][3], 0xFE, "from outside: front");
-    assert_eq!((f32::from_bits(out[0][4]), f32::from_bits(out[0][5])), (0.0, 1.0), "rt_sphere");
+    assert_eq!(
+        (f32::from_bits(out[0][4]), f32::from_bits(out[0][5])),
+        (0.0, 1.0),
+        "rt_sphere"
+    );
     assert!(close(f32::from_bits(out[1][1]), 4.5, 1e-5) && out[1][2] == 11);
     assert_eq!(out[2][0], 1, "a ray from inside hits the far side");
     assert!(close(f32::from_bits(out[2][1]), 1.0, 1e-5));
@@ -147,32 +159,53 @@ fn curve_gas(dev: &dyn Device, curve_type: CurveType, xs: &[f32], endcaps: Curve
         primitive_index_offset: 0,
         endcaps,
     });
-    dev.accel_build(&AccelBuildOptions::default(), &[input]).unwrap()
+    dev.accel_build(&AccelBuildOptions::default(), &[input])
+        .unwrap()
 }
 
 #[test]
 fn linear_curves_are_round_with_caps() {
     let dev = device();
     let dev = dev.as_ref();
-    let gas = curve_gas(dev, CurveType::RoundLinear, &[-1.0, 1.0], CurveEndcaps::Default);
+    let gas = curve_gas(
+        dev,
+        CurveType::RoundLinear,
+        &[-1.0, 1.0],
+        CurveEndcaps::Default,
+    );
     let down = [0.0, 0.0, -1.0];
     let out = trace(
         dev,
         gas,
         "closesthit__curve",
         BuiltinIntersector::Curve(CurveType::RoundLinear),
-        &[([0.5, 0.0, 5.0], down), ([1.05, 0.0, 5.0], down), ([0.5, 0.2, 5.0], down), ([0.5, 0.05, 5.0], down)],
+        &[
+            ([0.5, 0.0, 5.0], down),
+            ([1.05, 0.0, 5.0], down),
+            ([0.5, 0.2, 5.0], down),
+            ([0.5, 0.05, 5.0], down),
+        ],
     );
     assert_eq!(out[0][0], 1);
-    assert!(close(f32::from_bits(out[0][1]), 4.9, 1e-5), "{}", f32::from_bits(out[0][1]));
-    assert!(close(f32::from_bits(out[0][4]), 0.75, 1e-5), "curve parameter");
+    assert!(
+        close(f32::from_bits(out[0][1]), 4.9, 1e-5),
+        "{}",
+        f32::from_bits(out[0][1])
+    );
+    assert!(
+        close(f32::from_bits(out[0][4]), 0.75, 1e-5),
+        "curve parameter"
+    );
     assert_eq!(out[0][3], 0xFE);
     assert_eq!(out[1][0], 1, "the round cap at the end");
     let cap_z = (0.01f32 - 0.0025).sqrt();
     assert!(close(f32::from_bits(out[1][1]), 5.0 - cap_z, 1e-5));
     assert_eq!(out[2][0], 2, "beyond the radius");
     let side_z = (0.01f32 - 0.0025).sqrt();
-    assert!(close(f32::from_bits(out[3][1]), 5.0 - side_z, 1e-5), "round cross-section");
+    assert!(
+        close(f32::from_bits(out[3][1]), 5.0 - side_z, 1e-5),
+        "round cross-section"
+    );
 }
 
 #[test]
@@ -180,10 +213,19 @@ fn cubic_curves_within_tolerance_and_open_ends() {
     let dev = device();
     let dev = dev.as_ref();
     let down = [0.0, 0.0, -1.0];
-    let rays = [([0.5, 0.0, 5.0], down), ([-0.05, 0.0, 5.0], down), ([3.0, 0.0, 5.0], down)];
+    let rays = [
+        ([0.5, 0.0, 5.0], down),
+        ([-0.05, 0.0, 5.0], down),
+        ([3.0, 0.0, 5.0], down),
+    ];
     // Collinear, evenly spaced B-spline points: the segment is the line from x = 0 to 1.
     for (caps, end_hit) in [(CurveEndcaps::Default, false), (CurveEndcaps::On, true)] {
-        let gas = curve_gas(dev, CurveType::RoundCubicBSpline, &[-1.0, 0.0, 1.0, 2.0], caps);
+        let gas = curve_gas(
+            dev,
+            CurveType::RoundCubicBSpline,
+            &[-1.0, 0.0, 1.0, 2.0],
+            caps,
+        );
         let out = trace(
             dev,
             gas,
@@ -192,8 +234,16 @@ fn cubic_curves_within_tolerance_and_open_ends() {
             &rays,
         );
         assert_eq!(out[0][0], 1);
-        assert!(close(f32::from_bits(out[0][1]), 4.9, 1e-4), "{}", f32::from_bits(out[0][1]));
-        assert!(close(f32::from_bits(out[0][4]), 0.5, 1e-3), "curve parameter {}", f32::from_bits(out[0][4]));
+        assert!(
+            close(f32::from_bits(out[0][1]), 4.9, 1e-4),
+            "{}",
+            f32::from_bits(out[0][1])
+        );
+        assert!(
+            close(f32::from_bits(out[0][4]), 0.5, 1e-3),
+            "curve parameter {}",
+            f32::from_bits(out[0][4])
+        );
         assert_eq!(out[1][0] == 1, end_hit, "end caps {caps:?}");
         assert_eq!(out[2][0], 2);
     }

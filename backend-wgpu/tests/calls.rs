@@ -129,7 +129,10 @@ fn rig(max_trace_depth: u32, exceptions: Setting<ExceptionFlags>) -> &'static Ri
     type Rigs = Mutex<Vec<((u32, Setting<ExceptionFlags>), &'static Rig)>>;
     static RIGS: OnceLock<Rigs> = OnceLock::new();
     let mut rigs = RIGS.get_or_init(|| Mutex::new(Vec::new())).lock().unwrap();
-    if let Some((_, r)) = rigs.iter().find(|(k, _)| *k == (max_trace_depth, exceptions)) {
+    if let Some((_, r)) = rigs
+        .iter()
+        .find(|(k, _)| *k == (max_trace_depth, exceptions))
+    {
         return r;
     }
     let dev = device();
@@ -185,15 +188,30 @@ fn rig(max_trace_depth: u32, exceptions: Setting<ExceptionFlags>) -> &'static Ri
 fn run_mode(mode: u32, max_trace_depth: u32, exceptions: Setting<ExceptionFlags>) -> Vec<u32> {
     let r = rig(max_trace_depth, exceptions);
     let d = r.dev.as_ref();
-    run(d, r.pipeline, &r.table, &params(r.handle, &[mode]), 1, 1, 16)
+    run(
+        d,
+        r.pipeline,
+        &r.table,
+        &params(r.handle, &[mode]),
+        1,
+        1,
+        16,
+    )
 }
 
 #[test]
 fn recursion_to_the_maximum_depth_with_private_globals_per_invocation() {
     let out = run_mode(0, 3, Setting::Auto);
     assert_eq!(out[0], 3, "raygen → closest-hit ×3");
-    assert_eq!(&out[1..4], &[2, 1, 0], "remaining trace depth at depths 1, 2, 3");
-    assert_eq!(out[4], 42, "raygen's private global kept through the traces");
+    assert_eq!(
+        &out[1..4],
+        &[2, 1, 0],
+        "remaining trace depth at depths 1, 2, 3"
+    );
+    assert_eq!(
+        out[4], 42,
+        "raygen's private global kept through the traces"
+    );
     assert_eq!(out[5], 0, "each closest-hit kept its own private globals");
     assert_eq!(out[6], 0, "raygen started with the initial value");
     assert_eq!(out[8], 0, "no exception");
@@ -204,17 +222,26 @@ fn direct_and_continuation_callables() {
     let out = run_mode(1, 3, Setting::Auto);
     assert_eq!(out[0], 10, "direct callable 0 doubles");
     assert_eq!(out[1], 16, "direct callable 1 adds 3 and calls 0 (nested)");
-    assert_eq!(out[2], 1003, "the continuation callable traced (3 levels deep)");
+    assert_eq!(
+        out[2], 1003,
+        "the continuation callable traced (3 levels deep)"
+    );
     assert_eq!(out[3], 9, "no callable record 7: nothing runs");
 }
 
 #[test]
 fn trace_depth_exceeded_runs_the_exception_program_and_ends_the_launch_index() {
     let out = run_mode(4, 2, Setting::Auto);
-    assert_eq!(out[8] as i32, optik_api::semantics::exception::TRACE_DEPTH_EXCEEDED);
+    assert_eq!(
+        out[8] as i32,
+        optik_api::semantics::exception::TRACE_DEPTH_EXCEEDED
+    );
     assert_eq!(out[9], 300, "the exception record's data");
     assert_eq!(out[10], 1, "rt_launch_index in the exception program");
-    assert_eq!(out[0], 0xEEEE, "raygen did not continue after the exception");
+    assert_eq!(
+        out[0], 0xEEEE,
+        "raygen did not continue after the exception"
+    );
 }
 
 #[test]
@@ -226,10 +253,17 @@ fn user_exceptions() {
 
 #[test]
 fn invalid_rays_raise_with_debug_exceptions() {
-    let out = run_mode(2, 2, Setting::Value(ExceptionFlags::DEBUG | ExceptionFlags::USER));
+    let out = run_mode(
+        2,
+        2,
+        Setting::Value(ExceptionFlags::DEBUG | ExceptionFlags::USER),
+    );
     assert_eq!(out[8] as i32, optik_api::semantics::exception::INVALID_RAY);
     let out = run_mode(2, 2, Setting::Auto);
-    assert_eq!(out[8], 0, "without DEBUG the invalid ray just misses, silently");
+    assert_eq!(
+        out[8], 0,
+        "without DEBUG the invalid ray just misses, silently"
+    );
     assert_eq!(out[0], 0, "no program ran, the payload is unchanged");
 }
 
@@ -237,7 +271,10 @@ fn invalid_rays_raise_with_debug_exceptions() {
 fn without_exception_flags_nothing_is_raised() {
     let out = run_mode(4, 2, Setting::Value(ExceptionFlags::NONE));
     assert_eq!(out[8], 0);
-    assert_eq!(out[0], 2, "the trace beyond the depth did nothing; raygen went on");
+    assert_eq!(
+        out[0], 2,
+        "the trace beyond the depth did nothing; raygen went on"
+    );
     let out = run_mode(3, 2, Setting::Value(ExceptionFlags::NONE));
     assert_eq!(out[8], 0, "throws are ignored without USER");
 }

@@ -68,7 +68,9 @@ fn run_case(with_any_hit: bool, ignore: u32, tmin: f32, tmax: f32, aabbs: &[[f32
         aabbs.len() as u32,
         GeometryFlags::NONE,
     ));
-    let gas = dev.accel_build(&AccelBuildOptions::default(), &[input]).unwrap();
+    let gas = dev
+        .accel_build(&AccelBuildOptions::default(), &[input])
+        .unwrap();
     let m = module(dev, PROGRAMS);
     let g = groups(
         dev,
@@ -119,7 +121,11 @@ fn closest_report_wins_with_its_attributes_and_masked_hit_kind() {
     assert_eq!(o.out[3], 5, "custom hit kinds keep 7 bits");
     assert_eq!(o.out[4], 30, "the attributes of the accepted report");
     assert_eq!(o.out[5], 0, "odd custom hit kinds are back faces");
-    assert_eq!(o.log[3], 1 | 4, "slab 3: top accepted, bottom (farther) refused");
+    assert_eq!(
+        o.log[3],
+        1 | 4,
+        "slab 3: top accepted, bottom (farther) refused"
+    );
     for k in 0..4 {
         assert_eq!(o.log[k] & 2, 0, "a bottom is never closer than its top");
     }

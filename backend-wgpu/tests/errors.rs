@@ -8,7 +8,10 @@ fn buffer_errors() {
     let dev = device();
     let d = dev.as_ref();
     let max = d.properties().max_buffer_size;
-    assert_eq!(d.create_buffer(max + 1).unwrap_err().kind(), ErrorKind::LimitExceeded);
+    assert_eq!(
+        d.create_buffer(max + 1).unwrap_err().kind(),
+        ErrorKind::LimitExceeded
+    );
     let b = d.create_buffer(16).unwrap();
     let e = d.write_buffer(b, 12, &[0; 8]).unwrap_err();
     assert_eq!(e.kind(), ErrorKind::InvalidArgument);
@@ -19,7 +22,10 @@ fn buffer_errors() {
     d.read_buffer(b, 2, &mut out).unwrap();
     assert_eq!(out, [0, 1, 2, 3, 4, 5, 0]);
     d.destroy_buffer(b).unwrap();
-    assert_eq!(d.buffer_size(b).unwrap_err().kind(), ErrorKind::InvalidHandle);
+    assert_eq!(
+        d.buffer_size(b).unwrap_err().kind(),
+        ErrorKind::InvalidHandle
+    );
     let other = device();
     let foreign = other.create_buffer(4).unwrap();
     let e = d.buffer_size(foreign).unwrap_err();
@@ -45,11 +51,19 @@ fn program_and_pipeline_errors() {
         .create_program_groups(&[closest_hit(m, "closesthit__nothere")])
         .unwrap_err();
     assert!(e.message().contains("closesthit__nothere"), "{e}");
-    let e = d.create_program_groups(&[closest_hit(m, "miss__rec")]).unwrap_err();
-    assert!(e.message().contains("miss program"), "{e}");
-    let hit = d.create_program_groups(&[closest_hit(m, "closesthit__rec")]).unwrap();
     let e = d
-        .create_pipeline(&PipelineCompileOptions::default(), &PipelineLinkOptions::default(), &hit)
+        .create_program_groups(&[closest_hit(m, "miss__rec")])
+        .unwrap_err();
+    assert!(e.message().contains("miss program"), "{e}");
+    let hit = d
+        .create_program_groups(&[closest_hit(m, "closesthit__rec")])
+        .unwrap();
+    let e = d
+        .create_pipeline(
+            &PipelineCompileOptions::default(),
+            &PipelineLinkOptions::default(),
+            &hit,
+        )
         .unwrap_err();
     assert!(e.message().contains("raygen"), "{e}");
     let g = ray_list_groups(d, m, 1, &[]);
@@ -78,18 +92,42 @@ fn launch_errors_and_empty_launches() {
     let h = d.traversable_handle(gas).unwrap();
     let out = d.create_buffer(64).unwrap();
     let e = d
-        .launch(p, &params(h, &[]), &[Resource::buffer(1, out)], &table, LaunchSize::new(1, 1, 1))
+        .launch(
+            p,
+            &params(h, &[]),
+            &[Resource::buffer(1, out)],
+            &table,
+            LaunchSize::new(1, 1, 1),
+        )
         .unwrap_err();
     assert!(e.message().contains("binding 2"), "{e}");
     let e = d
-        .launch(p, &[0; 4], &[Resource::buffer(1, out), Resource::buffer(2, out)], &table, LaunchSize::new(1, 1, 1))
+        .launch(
+            p,
+            &[0; 4],
+            &[Resource::buffer(1, out), Resource::buffer(2, out)],
+            &table,
+            LaunchSize::new(1, 1, 1),
+        )
         .unwrap_err();
     assert!(e.message().contains("params"), "{e}");
     // A zero-sized launch does nothing.
-    d.launch(p, &params(h, &[]), &[Resource::buffer(1, out), Resource::buffer(2, out)], &table, LaunchSize::new(0, 5, 1))
-        .unwrap();
+    d.launch(
+        p,
+        &params(h, &[]),
+        &[Resource::buffer(1, out), Resource::buffer(2, out)],
+        &table,
+        LaunchSize::new(0, 5, 1),
+    )
+    .unwrap();
     let e = d
-        .launch(p, &params(h, &[]), &[Resource::buffer(1, out), Resource::buffer(2, out)], &table, LaunchSize::new(1 << 16, 1 << 16, 1))
+        .launch(
+            p,
+            &params(h, &[]),
+            &[Resource::buffer(1, out), Resource::buffer(2, out)],
+            &table,
+            LaunchSize::new(1 << 16, 1 << 16, 1),
+        )
         .unwrap_err();
     assert_eq!(e.kind(), ErrorKind::LimitExceeded);
 }
@@ -100,7 +138,11 @@ fn acceleration_structure_errors() {
     let d = dev.as_ref();
     let gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
     let vb = buffer(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0));
-    let input = BuildInput::Triangles(TriangleArray::new(BufferView::new(vb), 6, GeometryFlags::NONE));
+    let input = BuildInput::Triangles(TriangleArray::new(
+        BufferView::new(vb),
+        6,
+        GeometryFlags::NONE,
+    ));
     let e = d
         .accel_update(
             gas,
@@ -108,11 +150,16 @@ fn acceleration_structure_errors() {
                 operation: BuildOperation::Update,
                 ..Default::default()
             },
-            &[input.clone()],
+            std::slice::from_ref(&input),
         )
         .unwrap_err();
     assert!(e.message().contains("ALLOW_UPDATE"), "{e}");
-    assert!(d.accel_compact(gas).unwrap_err().message().contains("ALLOW_COMPACTION"));
+    assert!(
+        d.accel_compact(gas)
+            .unwrap_err()
+            .message()
+            .contains("ALLOW_COMPACTION")
+    );
     let bad = Instance::new(TraversableHandle(0xDEAD_BEEF_0000_0007));
     let ib = buffer(d, &[bad]);
     let e = d
@@ -124,10 +171,16 @@ fn acceleration_structure_errors() {
             })],
         )
         .unwrap_err();
-    assert!(e.message().contains("instances[0]") && e.message().contains("not a live"), "{e}");
+    assert!(
+        e.message().contains("instances[0]") && e.message().contains("not a live"),
+        "{e}"
+    );
     let short = TriangleArray::new(BufferView::new(vb), 600, GeometryFlags::NONE);
     let e = d
-        .accel_build(&AccelBuildOptions::default(), &[BuildInput::Triangles(short)])
+        .accel_build(
+            &AccelBuildOptions::default(),
+            &[BuildInput::Triangles(short)],
+        )
         .unwrap_err();
     assert_eq!(e.kind(), ErrorKind::InvalidArgument);
 }
@@ -140,6 +193,9 @@ fn device_loss_is_an_error_not_a_panic() {
     dev.lose_device_for_testing();
     let e = d.create_buffer(16).unwrap_err();
     assert_eq!(e.kind(), ErrorKind::DeviceLost, "{e}");
-    assert_eq!(d.write_buffer(b, 0, &[0; 4]).unwrap_err().kind(), ErrorKind::DeviceLost);
+    assert_eq!(
+        d.write_buffer(b, 0, &[0; 4]).unwrap_err().kind(),
+        ErrorKind::DeviceLost
+    );
     assert_eq!(d.synchronize().unwrap_err().kind(), ErrorKind::DeviceLost);
 }

@@ -36,7 +36,14 @@ fn miss__none() {
 }
 "#;
 
-fn instance(child: TraversableHandle, m: Matrix3x4, id: u32, sbt_offset: u32, mask: u32, flags: InstanceFlags) -> Instance {
+fn instance(
+    child: TraversableHandle,
+    m: Matrix3x4,
+    id: u32,
+    sbt_offset: u32,
+    mask: u32,
+    flags: InstanceFlags,
+) -> Instance {
     Instance {
         transform: m,
         instance_id: id,
@@ -57,7 +64,8 @@ fn ias(dev: &dyn Device, instances: &[Instance]) -> Accel {
         instances: BufferView::new(b),
         num_instances: instances.len() as u32,
     });
-    dev.accel_build(&AccelBuildOptions::default(), &[input]).unwrap()
+    dev.accel_build(&AccelBuildOptions::default(), &[input])
+        .unwrap()
 }
 
 struct Scene {
@@ -77,16 +85,44 @@ fn scene() -> Scene {
     let l1 = ias(
         d,
         &[
-            instance(h(gas), translate(0.0, 0.0, 0.0), 1, 0, 0xFF, InstanceFlags::NONE),
-            instance(h(gas), translate(2.0, 0.0, 0.0), 2, 1, 0xFF, InstanceFlags::FLIP_TRIANGLE_FACING),
-            instance(h(gas), translate(4.0, 0.0, 0.0), 3, 0, 0x02, InstanceFlags::NONE),
+            instance(
+                h(gas),
+                translate(0.0, 0.0, 0.0),
+                1,
+                0,
+                0xFF,
+                InstanceFlags::NONE,
+            ),
+            instance(
+                h(gas),
+                translate(2.0, 0.0, 0.0),
+                2,
+                1,
+                0xFF,
+                InstanceFlags::FLIP_TRIANGLE_FACING,
+            ),
+            instance(
+                h(gas),
+                translate(4.0, 0.0, 0.0),
+                3,
+                0,
+                0x02,
+                InstanceFlags::NONE,
+            ),
         ],
     );
     let scaled = [2.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 2.0, 0.0, 0.0, 2.0, 0.0];
     let l2 = ias(
         d,
         &[
-            instance(h(l1), translate(0.0, 0.0, 0.0), 4, 2, 0xFF, InstanceFlags::NONE),
+            instance(
+                h(l1),
+                translate(0.0, 0.0, 0.0),
+                4,
+                2,
+                0xFF,
+                InstanceFlags::NONE,
+            ),
             instance(h(l1), scaled, 5, 0, 0xFF, InstanceFlags::NONE),
         ],
     );
@@ -97,7 +133,17 @@ fn scene() -> Scene {
             world_to_object: translate(0.0, 0.0, 1.0),
         })
         .unwrap();
-    let l3 = ias(d, &[instance(h(t), IDENTITY_3X4, 6, 1, 0xFF, InstanceFlags::NONE)]);
+    let l3 = ias(
+        d,
+        &[instance(
+            h(t),
+            IDENTITY_3X4,
+            6,
+            1,
+            0xFF,
+            InstanceFlags::NONE,
+        )],
+    );
     let top = h(l3);
     Scene { dev, gas, top }
 }
@@ -126,21 +172,47 @@ fn trace(s: &Scene, points: &[[f32; 2]], mask: u32) -> Vec<[u32; 8]> {
         LaunchSize::new(points.len() as u32, 1, 1),
     )
     .unwrap_or_else(|e| panic!("{e}"));
-    read::<u32>(d, out).chunks_exact(8).map(|c| c.try_into().unwrap()).collect()
+    read::<u32>(d, out)
+        .chunks_exact(8)
+        .map(|c| c.try_into().unwrap())
+        .collect()
 }
 
 #[test]
 fn three_levels_with_a_transform() {
     let s = scene();
-    let out = trace(&s, &[[0.5, 0.5], [2.5, 0.5], [4.5, 0.5], [1.0, 3.0], [5.0, 3.0], [0.5, 1.5]], 0xFF);
+    let out = trace(
+        &s,
+        &[
+            [0.5, 0.5],
+            [2.5, 0.5],
+            [4.5, 0.5],
+            [1.0, 3.0],
+            [5.0, 3.0],
+            [0.5, 1.5],
+        ],
+        0xFF,
+    );
     let t = |o: &[u32; 8]| f32::from_bits(o[1]);
     // (0.5, 0.5): IAS3 → transform → IAS2 #0 → IAS1 #0.
     assert_eq!(out[0][0], 1);
-    assert!((t(&out[0]) - 6.0).abs() < 1e-5, "the quad sits at z = -1: t = 6, got {}", t(&out[0]));
+    assert!(
+        (t(&out[0]) - 6.0).abs() < 1e-5,
+        "the quad sits at z = -1: t = 6, got {}",
+        t(&out[0])
+    );
     assert_eq!(out[0][2], 0xFE);
-    assert_eq!((out[0][3], out[0][4]), (1, 0), "innermost instance id and index");
+    assert_eq!(
+        (out[0][3], out[0][4]),
+        (1, 0),
+        "innermost instance id and index"
+    );
     assert_eq!(out[0][5], 1 + 2, "SBT offsets add up along the path");
-    assert_eq!(f32::from_bits(out[0][6]), 6.0, "object-space origin z: 5 + 1");
+    assert_eq!(
+        f32::from_bits(out[0][6]),
+        6.0,
+        "object-space origin z: 5 + 1"
+    );
     assert_eq!(f32::from_bits(out[0][7]), 0.0);
     // (2.5, 0.5): the flipped instance.
     assert_eq!(out[1][2], 0xFF, "FLIP_TRIANGLE_FACING swaps the faces");
@@ -151,7 +223,11 @@ fn three_levels_with_a_transform() {
     assert_eq!((out[3][0], out[3][3], out[3][5]), (1, 1, 1));
     assert!((t(&out[3]) - 6.0).abs() < 1e-5);
     assert_eq!(f32::from_bits(out[3][6]), 3.0);
-    assert_eq!(f32::from_bits(out[3][7]), 2.0, "object-to-world translation y");
+    assert_eq!(
+        f32::from_bits(out[3][7]),
+        2.0,
+        "object-to-world translation y"
+    );
     assert_eq!((out[4][3], out[4][5], out[4][2]), (2, 2, 0xFF));
     assert_eq!(out[5][0], 2, "between the quads");
 }
@@ -171,5 +247,8 @@ fn destroyed_children_are_missed() {
     let s = scene();
     s.dev.destroy_accel(s.gas).unwrap();
     let out = trace(&s, &[[0.5, 0.5], [1.0, 3.0]], 0xFF);
-    assert!(out.iter().all(|o| o[0] == 2), "the geometry is gone: {out:?}");
+    assert!(
+        out.iter().all(|o| o[0] == 2),
+        "the geometry is gone: {out:?}"
+    );
 }

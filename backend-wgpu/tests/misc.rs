@@ -38,7 +38,14 @@ fn helper() -> u32 { return 1000u; }
 fn closesthit__b() { rt_set_payload(0u, table[0] + helper() + params.a.w); }
 "#,
     );
-    let g = groups(d, &[raygen(a, "raygen__a"), miss(a, "miss__a"), closest_hit(b, "closesthit__b")]);
+    let g = groups(
+        d,
+        &[
+            raygen(a, "raygen__a"),
+            miss(a, "miss__a"),
+            closest_hit(b, "closesthit__b"),
+        ],
+    );
     let p = pipeline(d, &g, 1);
     let table = sbt(d, &g, &[]);
     let data = buffer(d, &[7u32]);
@@ -55,7 +62,11 @@ fn closesthit__b() { rt_set_payload(0u, table[0] + helper() + params.a.w); }
     )
     .unwrap_or_else(|e| panic!("{e}"));
     let r: Vec<u32> = read(d, out);
-    assert_eq!(r, vec![7 + 1000 + 40, 10], "each module's helpers, bindings and parameters");
+    assert_eq!(
+        r,
+        vec![7 + 1000 + 40, 10],
+        "each module's helpers, bindings and parameters"
+    );
 }
 
 #[test]
@@ -63,14 +74,21 @@ fn index_and_vertex_formats_and_vertex_access() {
     let dev = device();
     let d = dev.as_ref();
     // Half-float vertices with u16 indices and a pre-transform that lifts z by 2.
-    let positions: [[f32; 3]; 4] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
-    let halves: Vec<u16> = positions
-        .iter()
-        .flat_map(|p| p.map(|v| half_bits(v)))
-        .collect();
+    let positions: [[f32; 3]; 4] = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ];
+    let halves: Vec<u16> = positions.iter().flat_map(|p| p.map(half_bits)).collect();
     let vb = buffer(d, &halves);
     let ib = buffer(d, &[0u16, 1, 2, 0, 2, 3]);
-    let pre = buffer(d, &[1.0f32, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 2.0]);
+    let pre = buffer(
+        d,
+        &[
+            1.0f32, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 2.0,
+        ],
+    );
     let mut t = TriangleArray::new(BufferView::new(vb), 4, GeometryFlags::NONE);
     t.vertex_format = VertexFormat::Half3;
     t.indices = Some(TriangleIndices {
@@ -89,14 +107,33 @@ fn index_and_vertex_formats_and_vertex_access() {
             "{HEADER}\nfn raygen__r() {{ var p: RtPayload; rt_trace(params.handle, vec3<f32>(0.75, 0.25, 5.0), vec3<f32>(0.0, 0.0, -1.0), 0.0, 10.0, 0.0, 0xFFu, 0u, 0u, 1u, 0u, &p); for (var k = 0u; k < 10u; k = k + 1u) {{ out[k] = p[k]; }} }}\nfn closesthit__v() {{ let v = rt_triangle_vertices(); for (var k = 0u; k < 3u; k = k + 1u) {{ rt_set_payload(3u * k, bitcast<u32>(v[k].x)); rt_set_payload(3u * k + 1u, bitcast<u32>(v[k].y)); rt_set_payload(3u * k + 2u, bitcast<u32>(v[k].z)); }} rt_set_payload(9u, bitcast<u32>(rt_ray_tmax())); }}\nfn miss__m() {{ }}\n"
         ),
     );
-    let g = groups(d, &[raygen(m, "raygen__r"), miss(m, "miss__m"), closest_hit(m, "closesthit__v")]);
+    let g = groups(
+        d,
+        &[
+            raygen(m, "raygen__r"),
+            miss(m, "miss__m"),
+            closest_hit(m, "closesthit__v"),
+        ],
+    );
     let p = pipeline(d, &g, 1);
     let table = sbt(d, &g, &[]);
-    let out: Vec<f32> = run(d, p, &table, &params(d.traversable_handle(gas).unwrap(), &[]), 1, 1, 10)
-        .into_iter()
-        .map(f32::from_bits)
-        .collect();
-    assert_eq!(&out[..9], &[0.0, 0.0, 2.0, 1.0, 0.0, 2.0, 1.0, 1.0, 2.0], "triangle 0's vertices after the pre-transform");
+    let out: Vec<f32> = run(
+        d,
+        p,
+        &table,
+        &params(d.traversable_handle(gas).unwrap(), &[]),
+        1,
+        1,
+        10,
+    )
+    .into_iter()
+    .map(f32::from_bits)
+    .collect();
+    assert_eq!(
+        &out[..9],
+        &[0.0, 0.0, 2.0, 1.0, 0.0, 2.0, 1.0, 1.0, 2.0],
+        "triangle 0's vertices after the pre-transform"
+    );
     assert_eq!(out[9], 3.0);
 }
 
@@ -121,7 +158,8 @@ fn textures_and_three_dimensional_launches() {
             format: TextureFormat::R32Float,
         })
         .unwrap();
-    d.write_texture(tex, bytemuck::cast_slice(&[0.25f32, 0.75])).unwrap();
+    d.write_texture(tex, bytemuck::cast_slice(&[0.25f32, 0.75]))
+        .unwrap();
     let m = module(
         d,
         r#"
@@ -149,7 +187,10 @@ fn miss__m() { }
         &[0u8; 16],
         &[
             Resource::buffer(1, out),
-            Resource::Texture { binding: 2, texture: tex },
+            Resource::Texture {
+                binding: 2,
+                texture: tex,
+            },
             Resource::Sampler {
                 binding: 3,
                 sampler: SamplerDesc::default(),
@@ -164,7 +205,10 @@ fn miss__m() { }
         for y in 0..3 {
             for x in 0..2 {
                 let k = (z * 3 + y) * 2 + x;
-                assert_eq!(r[k as usize], [25, 75][x as usize] + 1000 * (x + 10 * y + 100 * z));
+                assert_eq!(
+                    r[k as usize],
+                    [25, 75][x as usize] + 1000 * (x + 10 * y + 100 * z)
+                );
             }
         }
     }
@@ -190,7 +234,10 @@ fn instance_flags_case(flags: InstanceFlags, geometry: GeometryFlags, ray_flags:
             })],
         )
         .unwrap();
-    let m = module(d, &format!("{RAY_LIST}\nfn anyhit__ignore() {{ rt_ignore_intersection(); }}\n"));
+    let m = module(
+        d,
+        &format!("{RAY_LIST}\nfn anyhit__ignore() {{ rt_ignore_intersection(); }}\n"),
+    );
     let g = groups(
         d,
         &[
@@ -210,22 +257,56 @@ fn instance_flags_case(flags: InstanceFlags, geometry: GeometryFlags, ray_flags:
         flags: ray_flags.0,
         ..Default::default()
     };
-    trace_rays(d, p, &table, d.traversable_handle(ias).unwrap(), &[Ray::new([0.5, 0.5, 1.0], [0.0, 0.0, -1.0])], args)[0]
+    trace_rays(
+        d,
+        p,
+        &table,
+        d.traversable_handle(ias).unwrap(),
+        &[Ray::new([0.5, 0.5, 1.0], [0.0, 0.0, -1.0])],
+        args,
+    )[0]
 }
 
 #[test]
 fn instance_flags_and_their_precedence() {
     let none = GeometryFlags::NONE;
     let opaque = GeometryFlags::DISABLE_ANYHIT;
-    assert!(instance_flags_case(InstanceFlags::NONE, none, RayFlags::NONE).missed(), "any-hit ignores");
-    assert!(instance_flags_case(InstanceFlags::DISABLE_ANYHIT, none, RayFlags::NONE).hit(), "instance forces opaque");
-    assert!(instance_flags_case(InstanceFlags::ENFORCE_ANYHIT, opaque, RayFlags::NONE).missed(), "instance overrides geometry");
-    assert!(instance_flags_case(InstanceFlags::ENFORCE_ANYHIT, none, RayFlags::DISABLE_ANYHIT).hit(), "the ray overrides the instance");
+    assert!(
+        instance_flags_case(InstanceFlags::NONE, none, RayFlags::NONE).missed(),
+        "any-hit ignores"
+    );
+    assert!(
+        instance_flags_case(InstanceFlags::DISABLE_ANYHIT, none, RayFlags::NONE).hit(),
+        "instance forces opaque"
+    );
+    assert!(
+        instance_flags_case(InstanceFlags::ENFORCE_ANYHIT, opaque, RayFlags::NONE).missed(),
+        "instance overrides geometry"
+    );
+    assert!(
+        instance_flags_case(
+            InstanceFlags::ENFORCE_ANYHIT,
+            none,
+            RayFlags::DISABLE_ANYHIT
+        )
+        .hit(),
+        "the ray overrides the instance"
+    );
     let cull_front = RayFlags::CULL_FRONT_FACING_TRIANGLES | RayFlags::DISABLE_ANYHIT;
     assert!(instance_flags_case(InstanceFlags::NONE, none, cull_front).missed());
-    assert!(instance_flags_case(InstanceFlags::DISABLE_TRIANGLE_FACE_CULLING, none, cull_front).hit());
+    assert!(
+        instance_flags_case(
+            InstanceFlags::DISABLE_TRIANGLE_FACE_CULLING,
+            none,
+            cull_front
+        )
+        .hit()
+    );
     let flipped = instance_flags_case(InstanceFlags::FLIP_TRIANGLE_FACING, none, cull_front);
-    assert!(flipped.hit() && flipped.hit_kind() == 0xFF, "flipped: the front is now the back");
+    assert!(
+        flipped.hit() && flipped.hit_kind() == 0xFF,
+        "flipped: the front is now the back"
+    );
 }
 
 #[test]
@@ -251,7 +332,20 @@ fn scenes_that_grow_after_linking_get_bigger_kernels() {
     let mut top = d.traversable_handle(gas).unwrap();
     for level in 0..3 {
         let inst = Instance {
-            transform: [1.0, 0.0, 0.0, level as f32, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+            transform: [
+                1.0,
+                0.0,
+                0.0,
+                level as f32,
+                0.0,
+                1.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                1.0,
+                0.0,
+            ],
             ..Instance::new(top)
         };
         let ib = buffer(d, &[inst]);
@@ -267,10 +361,28 @@ fn scenes_that_grow_after_linking_get_bigger_kernels() {
         top = d.traversable_handle(ias).unwrap();
     }
     let after = dev.kernel_source(p).unwrap();
-    let levels = |s: &str| s.lines().find(|l| l.starts_with("const OPTK_LEVELS")).map(str::to_string);
-    assert_ne!(levels(&before), levels(&after), "the level array grew with the scene");
+    let levels = |s: &str| {
+        s.lines()
+            .find(|l| l.starts_with("const OPTK_LEVELS"))
+            .map(str::to_string)
+    };
+    assert_ne!(
+        levels(&before),
+        levels(&after),
+        "the level array grew with the scene"
+    );
     let table = numbered_sbt(d, &g);
     // Shifted by 0 + 1 + 2 = 3 in x.
-    let recs = trace_rays(d, p, &table, top, &[Ray::new([3.5, 0.5, 1.0], [0.0, 0.0, -1.0]), Ray::new([0.5, 0.5, 1.0], [0.0, 0.0, -1.0])], TraceArgs::default());
+    let recs = trace_rays(
+        d,
+        p,
+        &table,
+        top,
+        &[
+            Ray::new([3.5, 0.5, 1.0], [0.0, 0.0, -1.0]),
+            Ray::new([0.5, 0.5, 1.0], [0.0, 0.0, -1.0]),
+        ],
+        TraceArgs::default(),
+    );
     assert!(recs[0].hit() && recs[1].missed());
 }

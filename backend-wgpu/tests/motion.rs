@@ -21,7 +21,14 @@ fn trace_at(dev: &dyn Device, top: TraversableHandle, x: f32, y: f32, time: f32)
         time,
         ..Default::default()
     };
-    trace_rays(dev, p, &table, top, &[Ray::new([x, y, 5.0], [0.0, 0.0, -1.0])], args)[0]
+    trace_rays(
+        dev,
+        p,
+        &table,
+        top,
+        &[Ray::new([x, y, 5.0], [0.0, 0.0, -1.0])],
+        args,
+    )[0]
 }
 
 /// Traces several (x, y, time) rays with one pipeline.
@@ -36,7 +43,15 @@ fn trace_all(dev: &dyn Device, top: TraversableHandle, rays: &[(f32, f32, f32)])
                 time,
                 ..Default::default()
             };
-            trace_rays(dev, p, &table, top, &[Ray::new([x, y, 5.0], [0.0, 0.0, -1.0])], args)[0].hit()
+            trace_rays(
+                dev,
+                p,
+                &table,
+                top,
+                &[Ray::new([x, y, 5.0], [0.0, 0.0, -1.0])],
+                args,
+            )[0]
+            .hit()
         })
         .collect()
 }
@@ -45,7 +60,11 @@ fn trace_all(dev: &dyn Device, top: TraversableHandle, rays: &[(f32, f32, f32)])
 fn triangle_keys_interpolate_and_vanish_flags() {
     for (flags, before, after) in [
         (MotionFlags::NONE, true, true),
-        (MotionFlags::START_VANISH | MotionFlags::END_VANISH, false, false),
+        (
+            MotionFlags::START_VANISH | MotionFlags::END_VANISH,
+            false,
+            false,
+        ),
     ] {
         let dev = device();
         let d = dev.as_ref();
@@ -98,7 +117,16 @@ fn matrix_and_srt_motion_transforms() {
         })
         .unwrap();
     let m = d.traversable_handle(matrix).unwrap();
-    let hits = trace_all(d, m, &[(2.5, 0.0, 0.0), (4.5, 0.0, 0.5), (2.5, 0.0, 0.5), (6.5, 0.0, 1.0)]);
+    let hits = trace_all(
+        d,
+        m,
+        &[
+            (2.5, 0.0, 0.0),
+            (4.5, 0.0, 0.5),
+            (2.5, 0.0, 0.5),
+            (6.5, 0.0, 1.0),
+        ],
+    );
     assert_eq!(hits, vec![true, true, false, true], "matrix keys lerp");
 
     // SRT: a quarter turn about z. At half time (nlerp) the quad has turned 45°.
@@ -119,8 +147,21 @@ fn matrix_and_srt_motion_transforms() {
         .unwrap();
     let s = d.traversable_handle(srt).unwrap();
     let diag = 2.5 * std::f32::consts::FRAC_1_SQRT_2;
-    let hits = trace_all(d, s, &[(2.5, 0.0, 0.0), (0.0, 2.5, 1.0), (diag, diag, 0.5), (2.5, 0.0, 0.5)]);
-    assert_eq!(hits, vec![true, true, true, false], "SRT keys rotate the quad");
+    let hits = trace_all(
+        d,
+        s,
+        &[
+            (2.5, 0.0, 0.0),
+            (0.0, 2.5, 1.0),
+            (diag, diag, 0.5),
+            (2.5, 0.0, 0.5),
+        ],
+    );
+    assert_eq!(
+        hits,
+        vec![true, true, true, false],
+        "SRT keys rotate the quad"
+    );
 
     // The same motion transform under an instance.
     let b = buffer(d, &[Instance::new(s)]);
@@ -183,7 +224,17 @@ fn moving_spheres() {
     let table = numbered_sbt(d, &g);
     let top = d.traversable_handle(gas).unwrap();
     let at = |x: f32, time: f32| {
-        trace_rays(d, p, &table, top, &[Ray::new([x, 0.0, 5.0], [0.0, 0.0, -1.0])], TraceArgs { time, ..Default::default() })[0]
+        trace_rays(
+            d,
+            p,
+            &table,
+            top,
+            &[Ray::new([x, 0.0, 5.0], [0.0, 0.0, -1.0])],
+            TraceArgs {
+                time,
+                ..Default::default()
+            },
+        )[0]
     };
     assert!(at(1.0, 0.5).hit());
     assert!((at(1.0, 0.5).t() - 4.75).abs() < 1e-5);

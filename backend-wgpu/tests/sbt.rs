@@ -36,7 +36,11 @@ fn rig() -> Rig {
         )
         .unwrap();
     let m = module(d, RAY_LIST);
-    let mut descs = vec![raygen(m, "raygen__rays"), miss(m, "miss__rec"), miss(m, "miss__rec")];
+    let mut descs = vec![
+        raygen(m, "raygen__rays"),
+        miss(m, "miss__rec"),
+        miss(m, "miss__rec"),
+    ];
     for _ in 0..6 {
         descs.push(closest_hit(m, "closesthit__rec"));
     }
@@ -53,7 +57,12 @@ fn rig() -> Rig {
 
 fn rays() -> Vec<Ray> {
     let down = |x, y| Ray::new([x, y, 1.0], [0.0, 0.0, -1.0]);
-    vec![down(0.75, 0.25), down(0.25, 0.75), down(2.5, 0.5), down(5.0, 0.5)]
+    vec![
+        down(0.75, 0.25),
+        down(0.25, 0.75),
+        down(2.5, 0.5),
+        down(5.0, 0.5),
+    ]
 }
 
 #[test]
@@ -61,10 +70,20 @@ fn gas_index_and_record_formula() {
     let r = rig();
     let d = r.dev.as_ref();
     let table = numbered_sbt(d, &r.groups);
-    let recs = trace_rays(d, r.pipeline, &table, r.handle, &rays(), TraceArgs::default());
+    let recs = trace_rays(
+        d,
+        r.pipeline,
+        &table,
+        r.handle,
+        &rays(),
+        TraceArgs::default(),
+    );
     assert_eq!((recs[0].gas_index(), recs[0].data()), (0, 0));
     assert_eq!((recs[1].gas_index(), recs[1].data()), (1, 1));
-    assert_eq!((recs[2].gas_index(), recs[2].data(), recs[2].prim()), (2, 2, 100));
+    assert_eq!(
+        (recs[2].gas_index(), recs[2].data(), recs[2].prim()),
+        (2, 2, 100)
+    );
     assert_eq!(recs[3].data(), 100, "miss record 0");
     // offset 1, stride 2: records 1, 3, 5; only the low 4 bits count (0x11 → 1, 0x12 → 2),
     // and the low 16 bits of the miss index (0x10001 → 1).
@@ -76,7 +95,12 @@ fn gas_index_and_record_formula() {
     };
     let recs = trace_rays(d, r.pipeline, &table, r.handle, &rays(), args);
     assert_eq!(
-        [recs[0].data(), recs[1].data(), recs[2].data(), recs[3].data()],
+        [
+            recs[0].data(),
+            recs[1].data(),
+            recs[2].data(),
+            recs[3].data()
+        ],
         [1, 3, 5, 101]
     );
     // Stride 0: every geometry uses the same record.
@@ -100,8 +124,14 @@ fn out_of_range_records_run_nothing() {
         ..Default::default()
     };
     let recs = trace_rays(d, r.pipeline, &table, r.handle, &rays(), args);
-    assert!(recs[0].untouched(), "hit record 6 of 6: no closest-hit runs");
-    assert!(recs[3].untouched(), "miss record 2 of 2: no miss program runs");
+    assert!(
+        recs[0].untouched(),
+        "hit record 6 of 6: no closest-hit runs"
+    );
+    assert!(
+        recs[3].untouched(),
+        "miss record 2 of 2: no miss program runs"
+    );
 }
 
 #[test]
@@ -123,20 +153,28 @@ fn bad_headers_are_errors_naming_the_record() {
     launch(&table).unwrap();
     // A zeroed record in the hit region.
     let hit = table.hitgroup.unwrap();
-    d.write_buffer(hit.buffer, hit.offset + 2 * STRIDE as u64, &[0u8; 32]).unwrap();
+    d.write_buffer(hit.buffer, hit.offset + 2 * STRIDE as u64, &[0u8; 32])
+        .unwrap();
     let e = launch(&table).unwrap_err();
     assert_eq!(e.kind(), ErrorKind::InvalidArgument);
     assert!(e.message().contains("sbt.hitgroup record 2"), "{e}");
     // A miss group's header where a hit group's belongs.
     let header = d.sbt_record_pack_header(r.groups.miss[0]).unwrap();
-    d.write_buffer(hit.buffer, hit.offset + 2 * STRIDE as u64, &header).unwrap();
+    d.write_buffer(hit.buffer, hit.offset + 2 * STRIDE as u64, &header)
+        .unwrap();
     let e = launch(&table).unwrap_err();
-    assert!(e.message().contains("miss group") && e.message().contains("hit group region"), "{e}");
+    assert!(
+        e.message().contains("miss group") && e.message().contains("hit group region"),
+        "{e}"
+    );
     // A group of another pipeline.
     let m = module(d, RAY_LIST);
-    let other = d.create_program_groups(&[closest_hit(m, "closesthit__rec")]).unwrap()[0];
+    let other = d
+        .create_program_groups(&[closest_hit(m, "closesthit__rec")])
+        .unwrap()[0];
     let header = d.sbt_record_pack_header(other).unwrap();
-    d.write_buffer(hit.buffer, hit.offset + 2 * STRIDE as u64, &header).unwrap();
+    d.write_buffer(hit.buffer, hit.offset + 2 * STRIDE as u64, &header)
+        .unwrap();
     let e = launch(&table).unwrap_err();
     assert!(e.message().contains("not part of this pipeline"), "{e}");
     // Misaligned strides are caught by validation.

@@ -28,14 +28,37 @@ fn a_triangle_only_single_gas_pipeline_has_nothing_else() {
     assert!(!f.motion && !f.any_hit && !f.intersection && !f.opacity_micromaps);
     assert!(f.exceptions.is_empty());
     let src = dev.kernel_source(p).unwrap();
-    for absent in [SPHERES, CURVES, MOTION, INSTANCES, TRANSFORMS, ANY_HIT, INTERSECTION, EXCEPTIONS, MICROMAPS] {
-        assert!(!src.contains(absent), "`{absent}` in a triangle-only single-GAS kernel");
+    for absent in [
+        SPHERES,
+        CURVES,
+        MOTION,
+        INSTANCES,
+        TRANSFORMS,
+        ANY_HIT,
+        INTERSECTION,
+        EXCEPTIONS,
+        MICROMAPS,
+    ] {
+        assert!(
+            !src.contains(absent),
+            "`{absent}` in a triangle-only single-GAS kernel"
+        );
     }
     assert!(src.contains("optk_tri_watertight("));
     // And it still traces.
     let table = numbered_sbt(d, &g);
     let h = d.traversable_handle(gas).unwrap();
-    assert!(trace_rays(d, p, &table, h, &[Ray::new([0.5, 0.5, 1.0], [0.0, 0.0, -1.0])], TraceArgs::default())[0].hit());
+    assert!(
+        trace_rays(
+            d,
+            p,
+            &table,
+            h,
+            &[Ray::new([0.5, 0.5, 1.0], [0.0, 0.0, -1.0])],
+            TraceArgs::default()
+        )[0]
+        .hit()
+    );
 }
 
 #[test]
@@ -71,8 +94,21 @@ fn forcing_every_feature_compiles_every_part() {
     let f = d.pipeline_features(p).unwrap();
     assert!(f.motion && f.any_hit && f.intersection && f.opacity_micromaps && f.instancing());
     let src = dev.kernel_source(p).unwrap();
-    for present in [SPHERES, CURVES, MOTION, INSTANCES, TRANSFORMS, ANY_HIT, INTERSECTION, EXCEPTIONS, MICROMAPS] {
-        assert!(src.contains(present), "`{present}` missing from an all-features kernel");
+    for present in [
+        SPHERES,
+        CURVES,
+        MOTION,
+        INSTANCES,
+        TRANSFORMS,
+        ANY_HIT,
+        INTERSECTION,
+        EXCEPTIONS,
+        MICROMAPS,
+    ] {
+        assert!(
+            src.contains(present),
+            "`{present}` missing from an all-features kernel"
+        );
     }
 }
 
@@ -87,7 +123,10 @@ fn accuracy_selects_the_tests_compiled() {
     let p = pipeline(d, &g, 1);
     let src = dev.kernel_source(p).unwrap();
     assert!(src.contains("optk_tri_moller_trumbore(") && !src.contains("optk_tri_watertight("));
-    assert!(!src.contains("OPTK_SLAB_WIDEN;"), "plain slabs are not widened");
+    assert!(
+        !src.contains("OPTK_SLAB_WIDEN;"),
+        "plain slabs are not widened"
+    );
     d.set_accuracy(Accuracy::ROBUST).unwrap();
     let p = pipeline(d, &g, 1);
     let src = dev.kernel_source(p).unwrap();

@@ -39,7 +39,14 @@ fn a_quad_is_hit_inside_and_missed_outside() {
     // The quad covers x in [0.25, 0.75], y in [0, 1] at z = 0.
     let gas = triangles(dev, &quad(0.25, 0.75, 0.0, 1.0, 0.0), GeometryFlags::NONE);
     let m = module(dev, &format!("{HEADER}{PROGRAMS}"));
-    let g = groups(dev, &[raygen(m, "raygen__grid"), miss(m, "miss__none"), closest_hit(m, "closesthit__record")]);
+    let g = groups(
+        dev,
+        &[
+            raygen(m, "raygen__grid"),
+            miss(m, "miss__none"),
+            closest_hit(m, "closesthit__record"),
+        ],
+    );
     let p = pipeline(dev, &g, 1);
     let table = sbt(dev, &g, &[]);
     let handle = dev.traversable_handle(gas).unwrap();
@@ -49,7 +56,11 @@ fn a_quad_is_hit_inside_and_missed_outside() {
             let k = (y * 8 + x) * 4;
             let px = (x as f32 + 0.5) / 8.0;
             if (0.25..0.75).contains(&px) {
-                assert!(out[k] < 2, "pixel {x},{y} should hit, got {:?}", &out[k..k + 4]);
+                assert!(
+                    out[k] < 2,
+                    "pixel {x},{y} should hit, got {:?}",
+                    &out[k..k + 4]
+                );
                 assert_eq!(out[k + 1], 0xFE, "seen from +z the quad is front-facing");
                 assert_eq!(f32::from_bits(out[k + 2]), 1.0, "t = 1");
             } else {
@@ -86,7 +97,14 @@ fn rig(vertices: &[[f32; 3]], accuracy: Accuracy) -> Rig {
 
 impl Rig {
     fn trace(&self, rays: &[Ray], args: TraceArgs) -> Vec<Rec> {
-        trace_rays(self.dev.as_ref(), self.pipeline, &self.table, self.handle, rays, args)
+        trace_rays(
+            self.dev.as_ref(),
+            self.pipeline,
+            &self.table,
+            self.handle,
+            rays,
+            args,
+        )
     }
 }
 
@@ -97,12 +115,22 @@ fn barycentrics_facing_and_t() {
     let r = rig(&UNIT, Accuracy::ROBUST);
     let down = |x, y| Ray::new([x, y, 2.0], [0.0, 0.0, -1.0]);
     let up = |x, y| Ray::new([x, y, -3.0], [0.0, 0.0, 1.0]);
-    let recs = r.trace(&[down(0.25, 0.5), up(0.125, 0.25), down(0.75, 0.75)], TraceArgs::default());
+    let recs = r.trace(
+        &[down(0.25, 0.5), up(0.125, 0.25), down(0.75, 0.75)],
+        TraceArgs::default(),
+    );
     assert!(recs[0].hit());
     assert_eq!(recs[0].t(), 2.0);
-    assert_eq!(recs[0].hit_kind(), 0xFE, "counter-clockwise seen from the origin: front");
+    assert_eq!(
+        recs[0].hit_kind(),
+        0xFE,
+        "counter-clockwise seen from the origin: front"
+    );
     let b = recs[0].barycentrics();
-    assert!((b[0] - 0.25).abs() < 1e-4 && (b[1] - 0.5).abs() < 1e-4, "{b:?}");
+    assert!(
+        (b[0] - 0.25).abs() < 1e-4 && (b[1] - 0.5).abs() < 1e-4,
+        "{b:?}"
+    );
     assert!(recs[1].hit());
     assert_eq!(recs[1].t(), 3.0);
     assert_eq!(recs[1].hit_kind(), 0xFF, "seen from below: back");
@@ -138,19 +166,31 @@ fn invalid_rays_run_no_program() {
     let ok = Ray::new([0.25, 0.25, 1.0], [0.0, 0.0, -1.0]);
     let recs = r.trace(
         &[
-            Ray { origin: [f32::NAN, 0.25, 1.0], ..ok },
-            Ray { direction: [0.0, f32::INFINITY, -1.0], ..ok },
+            Ray {
+                origin: [f32::NAN, 0.25, 1.0],
+                ..ok
+            },
+            Ray {
+                direction: [0.0, f32::INFINITY, -1.0],
+                ..ok
+            },
             ok.interval(-1.0, 5.0),
             ok.interval(3.0, 2.0),
             ok.interval(0.0, f32::NAN),
             ok.interval(f32::NAN, 1.0),
-            Ray { direction: [0.0, 0.0, 0.0], ..ok },
+            Ray {
+                direction: [0.0, 0.0, 0.0],
+                ..ok
+            },
             ok.interval(0.0, f32::INFINITY),
         ],
         TraceArgs::default(),
     );
     for (i, rec) in recs[..6].iter().enumerate() {
-        assert!(rec.untouched(), "invalid ray {i} must run no program: {rec:?}");
+        assert!(
+            rec.untouched(),
+            "invalid ray {i} must run no program: {rec:?}"
+        );
     }
     assert!(recs[6].missed(), "a zero direction is valid and misses");
     assert!(recs[7].hit(), "tmax = +inf is valid");
@@ -158,7 +198,10 @@ fn invalid_rays_run_no_program() {
 
 /// A closed UV sphere of radius about 1 with radially jittered vertices (the leak test of
 /// research/numerics.md §1.5), as triangles, and its shared edges.
-fn jittered_sphere(rings: usize, segments: usize) -> (Vec<[f32; 3]>, Vec<([f32; 3], [f32; 3])>) {
+/// An edge: its two end points.
+type Edge = ([f32; 3], [f32; 3]);
+
+fn jittered_sphere(rings: usize, segments: usize) -> (Vec<[f32; 3]>, Vec<Edge>) {
     let mut seed = 0x9E3779B9u32;
     let mut rand = move || {
         seed ^= seed << 13;
@@ -171,7 +214,11 @@ fn jittered_sphere(rings: usize, segments: usize) -> (Vec<[f32; 3]>, Vec<([f32; 
         for s in 0..segments {
             let theta = r as f32 / rings as f32 * std::f32::consts::PI;
             let phi = s as f32 / segments as f32 * std::f32::consts::TAU;
-            let radius = if r == 0 || r == rings { 1.0 } else { 1.0 + 0.5 * rand() };
+            let radius = if r == 0 || r == rings {
+                1.0
+            } else {
+                1.0 + 0.5 * rand()
+            };
             grid[r * segments + s] = [
                 radius * theta.sin() * phi.cos(),
                 radius * theta.sin() * phi.sin(),
@@ -203,7 +250,12 @@ fn jittered_sphere(rings: usize, segments: usize) -> (Vec<[f32; 3]>, Vec<([f32; 
 fn watertight_rays_through_shared_edges_and_vertices_never_leak() {
     let (vertices, edges) = jittered_sphere(12, 16);
     let mut rays = Vec::new();
-    let origins = [[0.1f32, 0.2, -0.3], [-0.4, 0.1, 0.2], [0.0, 0.0, 0.0], [0.3, -0.3, 0.1]];
+    let origins = [
+        [0.1f32, 0.2, -0.3],
+        [-0.4, 0.1, 0.2],
+        [0.0, 0.0, 0.0],
+        [0.3, -0.3, 0.1],
+    ];
     for (a, b) in &edges {
         for s in [0.0f32, 0.25, 0.5, 0.75] {
             let target: [f32; 3] = std::array::from_fn(|i| a[i] + s * (b[i] - a[i]));
@@ -214,11 +266,19 @@ fn watertight_rays_through_shared_edges_and_vertices_never_leak() {
     }
     let robust = rig(&vertices, Accuracy::ROBUST).trace(&rays, TraceArgs::default());
     let leaks = robust.iter().filter(|r| !r.hit()).count();
-    assert_eq!(leaks, 0, "watertight: {leaks} of {} rays leaked out of a closed mesh", rays.len());
+    assert_eq!(
+        leaks,
+        0,
+        "watertight: {leaks} of {} rays leaked out of a closed mesh",
+        rays.len()
+    );
     // The same rays leak through Möller–Trumbore: the test can tell the two apart.
     let fast = rig(&vertices, Accuracy::FAST).trace(&rays, TraceArgs::default());
     let fast_leaks = fast.iter().filter(|r| !r.hit()).count();
-    assert!(fast_leaks > 0, "Möller–Trumbore was expected to leak on these rays");
+    assert!(
+        fast_leaks > 0,
+        "Möller–Trumbore was expected to leak on these rays"
+    );
 }
 
 #[test]
@@ -247,7 +307,10 @@ fn culling_flags_drop_faces() {
         flags: RayFlags::DISABLE_CLOSESTHIT.0,
         ..Default::default()
     };
-    assert!(r.trace(&[down], skip_ch)[0].untouched(), "a hit without closest-hit runs nothing");
+    assert!(
+        r.trace(&[down], skip_ch)[0].untouched(),
+        "a hit without closest-hit runs nothing"
+    );
 }
 
 #[test]
@@ -264,7 +327,11 @@ fn both_accuracy_settings_find_the_same_clear_hits() {
         for (k, rec) in recs.iter().enumerate() {
             assert!(rec.hit(), "{accuracy:?} ray {k}");
             let cell = (k as f32 * 0.25 + 0.1).floor();
-            assert!((rec.t() - (5.0 - cell * 0.1)).abs() < 1e-5, "{accuracy:?} ray {k}: t {}", rec.t());
+            assert!(
+                (rec.t() - (5.0 - cell * 0.1)).abs() < 1e-5,
+                "{accuracy:?} ray {k}: t {}",
+                rec.t()
+            );
             assert_eq!(rec.prim() / 2, cell as u32);
         }
     }

@@ -132,7 +132,9 @@ impl Arena {
             if let Some(l) = self.chunk_len.last_mut()
                 && *l < self.chunk_cap
             {
-                return Err(Error::backend("scene arena: a partial chunk before the last"));
+                return Err(Error::backend(
+                    "scene arena: a partial chunk before the last",
+                ));
             }
             self.chunks.push(create_chunk(gpu, len)?);
             self.chunk_len.push(len);

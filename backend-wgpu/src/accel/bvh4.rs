@@ -59,7 +59,10 @@ impl Bvh4 {
                     .enumerate()
                     .filter(|(_, c)| bin[**c].count == 0)
                     .max_by(|(_, a), (_, c)| {
-                        bin[**a].bounds.half_area().total_cmp(&bin[**c].bounds.half_area())
+                        bin[**a]
+                            .bounds
+                            .half_area()
+                            .total_cmp(&bin[**c].bounds.half_area())
                     })
                     .map(|(i, _)| i);
                 let Some(i) = widest else { break };
@@ -104,7 +107,10 @@ impl Bvh4 {
 
     /// The box of the whole tree.
     pub fn bounds(&self) -> Aabb {
-        self.nodes.first().map(|n| n.bounds()).unwrap_or(Aabb::EMPTY)
+        self.nodes
+            .first()
+            .map(|n| n.bounds())
+            .unwrap_or(Aabb::EMPTY)
     }
 
     /// The deepest traversal stack a ray can need, beyond the root's own entry.
@@ -216,7 +222,10 @@ mod tests {
                     }
                 }
             }
-            assert!(seen.iter().all(|&s| s == 1), "every slot in exactly one leaf");
+            assert!(
+                seen.iter().all(|&s| s == 1),
+                "every slot in exactly one leaf"
+            );
             let need = bvh.stack_need(|_, _| 0);
             assert!((1..=3 * bvh.nodes.len() as u32 + 1).contains(&need));
         }
@@ -233,7 +242,8 @@ mod tests {
         assert!(![3, 7, 39].iter().any(|i| order.contains(i)));
         let bvh = Bvh4::from_binary(&bin);
         assert!(bvh.bounds().is_usable());
-        let (bin, order) = super::super::builder::build(&[Aabb::EMPTY], 8, BuildFlags::NONE).unwrap();
+        let (bin, order) =
+            super::super::builder::build(&[Aabb::EMPTY], 8, BuildFlags::NONE).unwrap();
         assert!(bin.is_empty() && order.is_empty());
     }
 

@@ -79,8 +79,12 @@ fn collect(
     micromap: &dyn Fn(MicromapArray) -> Result<MicromapData>,
 ) -> Result<Prims> {
     let _ = options;
-    let first_records =
-        sbt_index::input_first_records(&inputs.iter().map(|i| i.num_sbt_records()).collect::<Vec<_>>());
+    let first_records = sbt_index::input_first_records(
+        &inputs
+            .iter()
+            .map(|i| i.num_sbt_records())
+            .collect::<Vec<_>>(),
+    );
     let (prim_type, degree) = match &inputs[0] {
         BuildInput::Triangles(_) => (prim::TRIANGLES, 0),
         BuildInput::CustomPrimitives(_) => (prim::CUSTOM, 0),
@@ -183,12 +187,8 @@ fn collect(
                 for i in 0..c.num_primitives as usize {
                     let record = offsets[i];
                     let meta1 = meta_word(first_record + record, c.flags[record as usize].0)?;
-                    p.records.push([
-                        c.primitive_index_offset.wrapping_add(i as u32),
-                        meta1,
-                        0,
-                        0,
-                    ]);
+                    p.records
+                        .push([c.primitive_index_offset.wrapping_add(i as u32), meta1, 0, 0]);
                     let mut bounds = Aabb::EMPTY;
                     let mut usable = true;
                     for kd in &key_data {
@@ -220,12 +220,8 @@ fn collect(
                 for i in 0..s.num_vertices as usize {
                     let record = offsets[i];
                     let meta1 = meta_word(first_record + record, s.flags[record as usize].0)?;
-                    p.records.push([
-                        s.primitive_index_offset.wrapping_add(i as u32),
-                        meta1,
-                        0,
-                        0,
-                    ]);
+                    p.records
+                        .push([s.primitive_index_offset.wrapping_add(i as u32), meta1, 0, 0]);
                     let mut bounds = Aabb::EMPTY;
                     let mut usable = true;
                     for kd in &key_data {
@@ -329,9 +325,7 @@ fn to_bezier(t: CurveType, p: &[[f32; 4]; 4]) -> [[f32; 4]; 4] {
             [0.0, 0.0, 1.0, 0.0],
         ],
     };
-    std::array::from_fn(|i| {
-        std::array::from_fn(|k| (0..4).map(|j| weights[i][j] * p[j][k]).sum())
-    })
+    std::array::from_fn(|i| std::array::from_fn(|k| (0..4).map(|j| weights[i][j] * p[j][k]).sum()))
 }
 
 /// Builds a geometry structure.

@@ -102,12 +102,7 @@ pub(crate) fn build_instances(
     let node_rel = HEADER_VEC4S as u32;
     let inst_rel = node_rel + (topo.bvh.nodes.len() * NODE_VEC4S) as u32;
     let mut words = vec![
-        [
-            layout::kind_word(kind::IAS, 0, 0),
-            1,
-            node_rel,
-            inst_rel,
-        ],
+        [layout::kind_word(kind::IAS, 0, 0), 1, node_rel, inst_rel],
         [0; 4],
         [0, topo.bvh.nodes.len() as u32, 0, 0],
     ];
@@ -251,7 +246,15 @@ fn srt_bounds(keys: &[SrtData], child: &Aabb) -> Aabb {
         return Aabb::EMPTY;
     }
     let corners: Vec<[f32; 3]> = (0..8)
-        .map(|c| std::array::from_fn(|i| if c & (1 << i) != 0 { child.max[i] } else { child.min[i] }))
+        .map(|c| {
+            std::array::from_fn(|i| {
+                if c & (1 << i) != 0 {
+                    child.max[i]
+                } else {
+                    child.min[i]
+                }
+            })
+        })
         .collect();
     let reach = keys
         .iter()
@@ -325,7 +328,11 @@ mod tests {
             let m = motion::srt_to_matrix(&key);
             for c in 0..8 {
                 let p: [f32; 3] = std::array::from_fn(|i| {
-                    if c & (1 << i) != 0 { child.max[i] } else { child.min[i] }
+                    if c & (1 << i) != 0 {
+                        child.max[i]
+                    } else {
+                        child.min[i]
+                    }
                 });
                 let q = affine::transform_point(&m, p);
                 for i in 0..3 {

@@ -155,7 +155,10 @@ impl Scene {
     /// The GPU handle table, uploaded when it changed.
     pub fn table_buffer(&mut self, gpu: &Gpu) -> Result<&wgpu::Buffer> {
         let needed = (self.table.len().max(1) * 16) as u64;
-        let fits = self.table_buffer.as_ref().is_some_and(|b| b.size() >= needed);
+        let fits = self
+            .table_buffer
+            .as_ref()
+            .is_some_and(|b| b.size() >= needed);
         if !fits {
             let size = needed.next_power_of_two().max(256);
             self.table_buffer = Some(gpu.scoped("allocating the handle table", || {
@@ -177,7 +180,8 @@ impl Scene {
             if words.is_empty() {
                 words.push([0; 4]);
             }
-            gpu.queue.write_buffer(buffer, 0, bytemuck::cast_slice(&words));
+            gpu.queue
+                .write_buffer(buffer, 0, bytemuck::cast_slice(&words));
             self.table_dirty = false;
         }
         Ok(buffer)

@@ -7,9 +7,7 @@
 //! TRACE_DEPTH_EXCEEDED: that is where the per-depth copies end.
 
 use super::KernelConfig;
-use crate::program::instance::{
-    Site, continuation_stub_name, direct_stub_name, trace_stub_name,
-};
+use crate::program::instance::{Site, continuation_stub_name, direct_stub_name, trace_stub_name};
 use optik_api::ExceptionFlags;
 
 pub(super) fn write(c: &KernelConfig<'_>, out: &mut String) {
@@ -20,7 +18,14 @@ pub(super) fn write(c: &KernelConfig<'_>, out: &mut String) {
         trace(c, d, out);
     }
     for &k in &c.lowered.directs {
-        callable(c, out, &direct_stub_name(k), Site::Direct(k), k > c.max_direct, 8);
+        callable(
+            c,
+            out,
+            &direct_stub_name(k),
+            Site::Direct(k),
+            k > c.max_direct,
+            8,
+        );
     }
     for &(d, n) in &c.lowered.continuations {
         callable(
@@ -54,7 +59,9 @@ fn switch(c: &KernelConfig<'_>, site: Site, indent: &str) -> String {
     let mut s = format!("{indent}switch optk_group(record) {{\n");
     if let Some(entries) = c.lowered.dispatch.get(&site) {
         for (group, name) in entries {
-            s.push_str(&format!("{indent}    case {group}u: {{\n{indent}        {name}();\n{indent}    }}\n"));
+            s.push_str(&format!(
+                "{indent}    case {group}u: {{\n{indent}        {name}();\n{indent}    }}\n"
+            ));
         }
     }
     s.push_str(&format!("{indent}    default: {{}}\n{indent}}}\n"));
@@ -78,7 +85,9 @@ fn optk_raise(code: i32) {
 "#,
     );
     out.push_str(&switch(c, Site::Exception, "        "));
-    out.push_str("        optk_record = saved;\n    }\n    optk_unwind = 3u;\n    optk_done = true;\n}\n\n");
+    out.push_str(
+        "        optk_record = saved;\n    }\n    optk_unwind = 3u;\n    optk_done = true;\n}\n\n",
+    );
 }
 
 fn trace(c: &KernelConfig<'_>, d: u32, out: &mut String) {
@@ -168,7 +177,14 @@ fn verdict(c: &KernelConfig<'_>, out: &mut String, name: &str, site: Site) {
 
 /// A direct (`flag` 8) or continuation (16) callable call; `overflow` when the nesting is
 /// beyond the pipeline's limit.
-fn callable(c: &KernelConfig<'_>, out: &mut String, name: &str, site: Site, overflow: bool, flag: u32) {
+fn callable(
+    c: &KernelConfig<'_>,
+    out: &mut String,
+    name: &str,
+    site: Site,
+    overflow: bool,
+    flag: u32,
+) {
     let n = c.payload_len();
     out.push_str(&format!(
         "fn {name}(index: u32, args: ptr<function, array<u32, {n}>>) {{\n"
@@ -180,7 +196,11 @@ fn callable(c: &KernelConfig<'_>, out: &mut String, name: &str, site: Site, over
         out.push_str("}\n\n");
         return;
     }
-    let debug_raise = if c.debug() { "        optk_raise(-12);\n" } else { "" };
+    let debug_raise = if c.debug() {
+        "        optk_raise(-12);\n"
+    } else {
+        ""
+    };
     out.push_str(&format!(
         "    if index >= optk_launch.sbt2.z {{\n{debug_raise}        return;\n    }}\n    let record = optk_launch.sbt2.x + index * optk_launch.sbt2.y;\n    if (optk_group_flags(record) & {flag}u) == 0u {{\n{debug_raise}        return;\n    }}\n    let saved_regs = optk_regs;\n    let saved_record = optk_record;\n    optk_regs = *args;\n    optk_record = record;\n"
     ));

@@ -178,7 +178,9 @@ fn bindings(c: &KernelConfig<'_>, out: &mut String) {
             c.sizes.chunk_shift
         ));
         for k in 1..c.sizes.chunks {
-            out.push_str(&format!("        case {k}u: {{ return optk_scene{k}[j]; }}\n"));
+            out.push_str(&format!(
+                "        case {k}u: {{ return optk_scene{k}[j]; }}\n"
+            ));
         }
         out.push_str("        default: { return optk_scene0[j]; }\n    }\n}\n\n");
     }

@@ -656,7 +656,9 @@ fn optk_traverse(handle: vec2<u32>) -> bool {
 "#,
     );
     if c.exception(ExceptionFlags::DEBUG) {
-        out.push_str("        if (handle.x | handle.y) != 0u {\n            optk_raise(-5);\n        }\n");
+        out.push_str(
+            "        if (handle.x | handle.y) != 0u {\n            optk_raise(-5);\n        }\n",
+        );
     }
     out.push_str(
         r#"        return false;

@@ -61,7 +61,8 @@ pub(crate) fn analyse(module: &Module, exceptions_on: bool, user_throws: bool) -
                 let c = &facts[callee.index()];
                 match c.device {
                     Some(d) => {
-                        f.traces |= matches!(d, DeviceFunction::Trace | DeviceFunction::ContinuationCall);
+                        f.traces |=
+                            matches!(d, DeviceFunction::Trace | DeviceFunction::ContinuationCall);
                         f.continues |= d == DeviceFunction::ContinuationCall;
                         f.calls_direct |= d == DeviceFunction::DirectCall;
                         f.unwinds |= device_unwinds(d, exceptions_on, user_throws);

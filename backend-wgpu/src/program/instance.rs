@@ -231,7 +231,11 @@ fn unique_prefix(m: &Module, mi: usize) -> String {
         .filter_map(|(_, t)| t.name.as_deref())
         .chain(m.constants.iter().filter_map(|(_, c)| c.name.as_deref()))
         .chain(m.overrides.iter().filter_map(|(_, o)| o.name.as_deref()))
-        .chain(m.global_variables.iter().filter_map(|(_, g)| g.name.as_deref()))
+        .chain(
+            m.global_variables
+                .iter()
+                .filter_map(|(_, g)| g.name.as_deref()),
+        )
         .collect();
     let mut attempt = 0u32;
     loop {
@@ -345,14 +349,25 @@ impl<'a> Lowering<'a> {
         Ok(())
     }
 
-    fn key(&self, mi: usize, f: Handle<Function>, ctx: Ctx, root: Option<u32>, is_root: bool) -> FnKey {
+    fn key(
+        &self,
+        mi: usize,
+        f: Handle<Function>,
+        ctx: Ctx,
+        root: Option<u32>,
+        is_root: bool,
+    ) -> FnKey {
         let facts = &self.work[mi].facts[f.index()];
         FnKey {
             function: f,
             d: facts.traces.then_some(ctx.d),
             c: facts.continues.then_some(ctx.c),
             k: facts.calls_direct.then_some(ctx.k),
-            root: if facts.privates.is_empty() { None } else { root },
+            root: if facts.privates.is_empty() {
+                None
+            } else {
+                root
+            },
             is_root,
         }
     }
@@ -380,7 +395,11 @@ impl<'a> Lowering<'a> {
             let facts = self.work[mi].facts[callee.index()].clone();
             let mapped = match facts.device {
                 Some(df) => {
-                    if analysis::device_unwinds(df, self.input.exceptions_on, self.input.user_throws) {
+                    if analysis::device_unwinds(
+                        df,
+                        self.input.exceptions_on,
+                        self.input.user_throws,
+                    ) {
                         unwinds.insert(callee);
                     }
                     let name = self.device_stub(df, ctx);
@@ -459,7 +478,15 @@ impl<'a> Lowering<'a> {
             }
         }
         let body = std::mem::take(&mut func.body);
-        func.body = rewrite_block(body, &mut func.expressions, &func.result, &target, &unwinds, unwinding, false);
+        func.body = rewrite_block(
+            body,
+            &mut func.expressions,
+            &func.result,
+            &target,
+            &unwinds,
+            unwinding,
+            false,
+        );
         let original = func.name.clone().unwrap_or_else(|| "f".into());
         let name = stable_name(&w.prefix, &original, w.count);
         w.count += 1;
@@ -533,10 +560,12 @@ impl<'a> Lowering<'a> {
             }),
             ..Function::default()
         };
-        let value = f
-            .expressions
-            .append(Expression::Literal(naga::Literal::Bool(false)), Span::UNDEFINED);
-        f.body.push(Statement::Return { value: Some(value) }, Span::UNDEFINED);
+        let value = f.expressions.append(
+            Expression::Literal(naga::Literal::Bool(false)),
+            Span::UNDEFINED,
+        );
+        f.body
+            .push(Statement::Return { value: Some(value) }, Span::UNDEFINED);
         let h = w.out.functions.append(f, Span::UNDEFINED);
         w.stubs.insert(UNWINDING_STUB.to_string(), h);
         h
@@ -672,8 +701,11 @@ fn finish(w: &mut ModuleWork<'_>) -> Result<String> {
             e.as_inner()
         ))
     })?;
-    let mut text = naga::back::wgsl::write_string(&w.out, &info, naga::back::wgsl::WriterFlags::empty())
-        .map_err(|e| Error::backend(format!("writing `{}` as WGSL failed: {e}", w.src.file_name)))?;
+    let mut text =
+        naga::back::wgsl::write_string(&w.out, &info, naga::back::wgsl::WriterFlags::empty())
+            .map_err(|e| {
+                Error::backend(format!("writing `{}` as WGSL failed: {e}", w.src.file_name))
+            })?;
     for name in w.stubs.keys() {
         text = remove_function(&text, name).ok_or_else(|| {
             Error::backend(format!(
@@ -716,7 +748,11 @@ pub(crate) fn remove_function(text: &str, name: &str) -> Option<String> {
         }
     }
     let end = end?;
-    let end = if text[end..].starts_with('\n') { end + 1 } else { end };
+    let end = if text[end..].starts_with('\n') {
+        end + 1
+    } else {
+        end
+    };
     Some(format!("{}{}", &text[..start], &text[end..]))
 }
 
@@ -734,8 +770,14 @@ mod tests {
     #[test]
     fn remove_function_cuts_balanced_bodies() {
         let text = "fn a() {\n    if true { }\n}\nfn b() -> u32 {\n    return 0u;\n}\n";
-        assert_eq!(remove_function(text, "a").unwrap(), "fn b() -> u32 {\n    return 0u;\n}\n");
-        assert_eq!(remove_function(text, "b").unwrap(), "fn a() {\n    if true { }\n}\n");
+        assert_eq!(
+            remove_function(text, "a").unwrap(),
+            "fn b() -> u32 {\n    return 0u;\n}\n"
+        );
+        assert_eq!(
+            remove_function(text, "b").unwrap(),
+            "fn a() {\n    if true { }\n}\n"
+        );
         assert!(remove_function(text, "c").is_none());
     }
 }

@@ -10,8 +10,8 @@ pub(crate) mod instance;
 
 use optik_api::frontend::{self, CompiledModule};
 use optik_api::{
-    Error, ModuleCompileOptions, PipelineCompileOptions, ProgramGroupDesc, ProgramKind,
-    ProgramRef, ProgramSource, Result,
+    Error, ModuleCompileOptions, PipelineCompileOptions, ProgramGroupDesc, ProgramRef,
+    ProgramSource, Result,
 };
 use std::sync::Arc;
 
@@ -23,15 +23,15 @@ pub(crate) struct ModuleObject {
 /// A module's source and its check at creation.
 pub(crate) struct ModuleSource {
     pub source: ProgramSource,
-    pub options: ModuleCompileOptions,
     /// Compiled with the creation's payload length (the pipeline's, or 32 when `Auto`).
     pub compiled: CompiledModule,
 }
 
 impl ModuleObject {
-    /// Compiles `source`; the log lists the programs found.
+    /// Compiles `source`; the log lists the programs found. The optimisation and debug
+    /// levels of `options` do not change the generated WGSL (the driver optimises it).
     pub fn create(
-        options: &ModuleCompileOptions,
+        _options: &ModuleCompileOptions,
         pipeline_options: &PipelineCompileOptions,
         source: &ProgramSource,
     ) -> Result<(ModuleObject, String)> {
@@ -50,7 +50,6 @@ impl ModuleObject {
             ModuleObject {
                 source: Arc::new(ModuleSource {
                     source: source.clone(),
-                    options: *options,
                     compiled,
                 }),
             },
@@ -116,15 +115,5 @@ impl GroupObject {
             desc: desc.clone(),
             sources,
         })
-    }
-
-    /// The program of `kind` in this group with its source.
-    pub fn program(&self, kind: ProgramKind) -> Option<(&ProgramRef, &Arc<ModuleSource>)> {
-        self.desc
-            .programs()
-            .into_iter()
-            .zip(self.sources.iter())
-            .find(|((k, _), _)| *k == kind)
-            .map(|((_, p), s)| (p, s))
     }
 }

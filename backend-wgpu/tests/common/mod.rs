@@ -32,7 +32,8 @@ pub fn triangles(dev: &dyn Device, vertices: &[[f32; 3]], flags: GeometryFlags) 
         vertices.len() as u32,
         flags,
     ));
-    dev.accel_build(&AccelBuildOptions::default(), &[input]).unwrap()
+    dev.accel_build(&AccelBuildOptions::default(), &[input])
+        .unwrap()
 }
 
 /// A quad (two triangles) in the plane z = `z` over [x0, x1] × [y0, y1], facing +z.
@@ -80,7 +81,9 @@ impl Groups {
 
 /// Creates groups from descriptions (raygen first, then the rest by their region).
 pub fn groups(dev: &dyn Device, descs: &[ProgramGroupDesc]) -> Groups {
-    let handles = dev.create_program_groups(descs).unwrap_or_else(|e| panic!("{e}"));
+    let handles = dev
+        .create_program_groups(descs)
+        .unwrap_or_else(|e| panic!("{e}"));
     let mut g = Groups {
         raygen: handles[0],
         miss: vec![],
@@ -115,7 +118,8 @@ impl SbtBuilder {
     /// Appends a record; returns its offset.
     pub fn record(&mut self, dev: &dyn Device, group: ProgramGroup, data: &[u32]) -> u64 {
         let at = self.bytes.len() as u64;
-        self.bytes.extend_from_slice(&dev.sbt_record_pack_header(group).unwrap());
+        self.bytes
+            .extend_from_slice(&dev.sbt_record_pack_header(group).unwrap());
         let mut d: Vec<u8> = bytemuck::cast_slice(data).to_vec();
         d.resize((STRIDE - 32) as usize, 0);
         self.bytes.extend_from_slice(&d);
@@ -137,7 +141,11 @@ pub fn sbt(dev: &dyn Device, g: &Groups, hit_data: &[Vec<u32>]) -> ShaderBinding
     }
     let hit0 = b.bytes.len() as u64;
     for (i, h) in g.hit.iter().enumerate() {
-        b.record(dev, *h, hit_data.get(i).map(|v| v.as_slice()).unwrap_or(&[]));
+        b.record(
+            dev,
+            *h,
+            hit_data.get(i).map(|v| v.as_slice()).unwrap_or(&[]),
+        );
     }
     let call0 = b.bytes.len() as u64;
     for c in &g.callables {
@@ -158,7 +166,10 @@ pub fn sbt(dev: &dyn Device, g: &Groups, hit_data: &[Vec<u32>]) -> ShaderBinding
             buffer: buf,
             offset: raygen,
         },
-        exception: exc.map(|offset| SbtRecord { buffer: buf, offset }),
+        exception: exc.map(|offset| SbtRecord {
+            buffer: buf,
+            offset,
+        }),
         miss: region(miss0, g.miss.len()),
         hitgroup: region(hit0, g.hit.len()),
         callables: region(call0, g.callables.len()),
@@ -404,7 +415,12 @@ pub fn trace_rays(
 }
 
 /// Groups for [`RAY_LIST`] with one miss group and `hits` closest-hit groups, plus `extra`.
-pub fn ray_list_groups(dev: &dyn Device, m: Module, hits: usize, extra: &[ProgramGroupDesc]) -> Groups {
+pub fn ray_list_groups(
+    dev: &dyn Device,
+    m: Module,
+    hits: usize,
+    extra: &[ProgramGroupDesc],
+) -> Groups {
     let mut descs = vec![raygen(m, "raygen__rays"), miss(m, "miss__rec")];
     for _ in 0..hits {
         descs.push(closest_hit(m, "closesthit__rec"));
@@ -444,7 +460,10 @@ pub fn numbered_sbt(dev: &dyn Device, g: &Groups) -> ShaderBindingTable {
             buffer: buf,
             offset: raygen,
         },
-        exception: exc.map(|offset| SbtRecord { buffer: buf, offset }),
+        exception: exc.map(|offset| SbtRecord {
+            buffer: buf,
+            offset,
+        }),
         miss: region(miss0, g.miss.len()),
         hitgroup: region(hit0, g.hit.len()),
         callables: region(call0, g.callables.len()),
