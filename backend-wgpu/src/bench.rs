@@ -58,6 +58,8 @@ pub struct BenchReport {
     pub accel_bytes: u64,
     /// Pipeline creation plus the first launch (which compiles the kernel on some drivers).
     pub first_launch_seconds: f64,
+    /// Entries of the kernel's traversal stack (sized from the structure's depth).
+    pub stack_entries: u32,
     pub timings: Vec<TraceTiming>,
 }
 
@@ -72,6 +74,7 @@ impl std::fmt::Display for BenchReport {
             self.accel_bytes as f64 / (1 << 20) as f64
         )?;
         writeln!(f, "first launch     {:.3} s", self.first_launch_seconds)?;
+        writeln!(f, "traversal stack  {} entries", self.stack_entries)?;
         for t in &self.timings {
             writeln!(
                 f,
@@ -295,7 +298,14 @@ pub fn bench_trace(
             hits,
         });
     }
+    let stack_entries = wgpu_device
+        .kernel_source(pipeline)?
+        .lines()
+        .find_map(|l| l.strip_prefix("const OPTK_STACK: u32 = "))
+        .and_then(|v| v.trim_end_matches("u;").parse().ok())
+        .unwrap_or(0);
     Ok(BenchReport {
+        stack_entries,
         device: dev.properties().device_name.clone(),
         triangles: indices.len(),
         build_seconds,

@@ -298,7 +298,20 @@ impl State {
     }
 
     /// Stores encoded words in the arena and registers the object.
-    fn store(&mut self, gpu: &Gpu, words: &[[u32; 4]], mut object: AccelObject) -> Result<Accel> {
+    fn store(
+        &mut self,
+        gpu: &Gpu,
+        props: &DeviceProperties,
+        words: &[[u32; 4]],
+        mut object: AccelObject,
+    ) -> Result<Accel> {
+        let depth = object.features.depth + 1;
+        if depth > props.max_traversable_graph_depth {
+            return Err(Error::limit(format!(
+                "this structure would make a traversable graph {depth} levels deep (instances and transforms over geometry); this device allows {}",
+                props.max_traversable_graph_depth
+            )));
+        }
         let n = words.len() as u64;
         let at = self.scene.arena.alloc(gpu, n)?;
         self.scene.arena.write(gpu, at, words);
@@ -427,7 +440,7 @@ impl optik_api::Device for WgpuDevice {
         let mut s = self.lock()?;
         let keys = validate::build_inputs(options, inputs, &self.properties, &|b| s.size_of(b))?;
         let (words, object) = s.encode(&self.gpu, self.id, options, inputs, keys, None)?;
-        s.store(&self.gpu, &words, object)
+        s.store(&self.gpu, &self.properties, &words, object)
     }
 
     fn accel_update(
@@ -523,7 +536,7 @@ impl optik_api::Device for WgpuDevice {
             refit: Refit::None,
             kind_word: built.words[0][0],
         };
-        s.store(&self.gpu, &built.words, object)
+        s.store(&self.gpu, &self.properties, &built.words, object)
     }
 
     fn create_opacity_micromap_array(

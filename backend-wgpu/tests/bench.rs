@@ -20,4 +20,5 @@ fn bench_trace_reports_both_ray_kinds() {
     assert!(incoherent.hits > incoherent.rays / 2, "{report}");
     assert!(incoherent.wall_seconds > 0.0 && primary.mrays_per_second() > 0.0);
     assert!(report.to_string().contains("incoherent"));
+    assert!(report.stack_entries >= 8, "{report}");
 }

@@ -175,6 +175,27 @@ fn acceleration_structure_errors() {
         e.message().contains("instances[0]") && e.message().contains("not a live"),
         "{e}"
     );
+    // Graphs deeper than the device's limit are refused.
+    let limit = d.properties().max_traversable_graph_depth;
+    let mut top = d.traversable_handle(gas).unwrap();
+    let mut refused = None;
+    for level in 1..=limit {
+        let t = d.create_transform(&TransformDesc::Static {
+            child: top,
+            object_to_world: IDENTITY_3X4,
+            world_to_object: IDENTITY_3X4,
+        });
+        match t {
+            Ok(t) => top = d.traversable_handle(t).unwrap(),
+            Err(e) => {
+                refused = Some((level, e));
+                break;
+            }
+        }
+    }
+    let (level, e) = refused.expect("a graph deeper than the limit was accepted");
+    assert_eq!(level, limit, "{level} levels of transforms over a GAS");
+    assert_eq!(e.kind(), ErrorKind::LimitExceeded);
     let short = TriangleArray::new(BufferView::new(vb), 600, GeometryFlags::NONE);
     let e = d
         .accel_build(
