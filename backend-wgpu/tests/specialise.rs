@@ -4,8 +4,8 @@ use common::*;
 use optik_api::*;
 
 /// Names that only the code of one feature defines.
-const SPHERES: &str = "optk_sphere(";
-const CURVES: &str = "optk_curve(";
+const SPHERES: &str = "optik_sphere_roots(";
+const CURVES: &str = "optik_curve_intersect(";
 const MOTION: &str = "optk_motion_key(";
 const INSTANCES: &str = "OptkXform";
 const TRANSFORMS: &str = "optk_through_transforms(";

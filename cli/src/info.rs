@@ -10,6 +10,18 @@ pub fn run() -> u8 {
         }
     }
     println!();
+    match optik::backends::vulkan::probe() {
+        Ok(devices) => {
+            println!("Vulkan devices ({}):", devices.len());
+            for d in &devices {
+                for line in d.to_string().lines() {
+                    println!("  {line}");
+                }
+            }
+        }
+        Err(e) => println!("Vulkan devices: none ({})", e.message()),
+    }
+    println!();
     let adapters = optik::backends::wgpu::probe();
     println!("wgpu adapters ({}):", adapters.len());
     for a in &adapters {

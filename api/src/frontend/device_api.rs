@@ -354,8 +354,9 @@ pub const PRELUDE_EXCEPTION_CODES: &[(&str, i32)] = &[
 /// The body of `rt_offset_ray`: Wächter and Binder, "A Fast and Robust Method for Avoiding
 /// Self-Intersection" (Ray Tracing Gems ch. 6). Moves `p` 256 ulps along `n` per component,
 /// or by a fixed 1/65536 where |p| < 1/32 (the ulp-starved region near zero). `n` must point
-/// to the side the new ray leaves from.
-const OFFSET_RAY_BODY: &str = r#"{
+/// to the side the new ray leaves from. Public so that backends which write their own prelude
+/// (the Vulkan backend) keep this one shared body.
+pub const OFFSET_RAY_BODY: &str = r#"{
     let of_i = vec3<i32>(256.0 * n);
     let p_bits = bitcast<vec3<i32>>(p);
     let p_i = bitcast<vec3<f32>>(p_bits + select(of_i, -of_i, p < vec3<f32>(0.0)));

@@ -43,7 +43,8 @@ pub(crate) struct BuiltGeometry {
 struct Prims {
     prim_type: u32,
     keys: u32,
-    degree: u32,
+    /// Curve basis (0 for other primitives).
+    basis: u32,
     boxes: Vec<Aabb>,
     records: Vec<[u32; 4]>,
     micromap_table: Vec<[u32; 4]>,
@@ -85,11 +86,11 @@ fn collect(
             .map(|i| i.num_sbt_records())
             .collect::<Vec<_>>(),
     );
-    let (prim_type, degree) = match &inputs[0] {
+    let (prim_type, basis) = match &inputs[0] {
         BuildInput::Triangles(_) => (prim::TRIANGLES, 0),
         BuildInput::CustomPrimitives(_) => (prim::CUSTOM, 0),
         BuildInput::Spheres(_) => (prim::SPHERES, 0),
-        BuildInput::Curves(c) => (prim::CURVES, curve_degree(c.curve_type)),
+        BuildInput::Curves(c) => (prim::CURVES, optik_api::wgsl::curve_basis(c.curve_type)),
         BuildInput::Instances(_) => {
             return Err(Error::backend("instances reached the geometry builder"));
         }
@@ -97,7 +98,7 @@ fn collect(
     let mut p = Prims {
         prim_type,
         keys: keys as u32,
-        degree,
+        basis,
         boxes: Vec::new(),
         records: Vec::new(),
         micromap_table: Vec::new(),
@@ -268,18 +269,21 @@ fn collect(
                         for (j, cp) in control.iter_mut().enumerate().take(n) {
                             *cp = kd.points[first as usize + j];
                         }
+                        // Bounds from the Bézier form: Catmull-Rom segments can leave the
+                        // hull of their own control points, never that of their Bézier ones.
                         let bezier = to_bezier(c.curve_type, &control);
                         let mut hull = Aabb::EMPTY;
                         let mut radius = 0.0f32;
-                        for b in bezier.iter().take(degree as usize + 1) {
+                        for b in bezier.iter().take(n) {
                             hull = hull.grow([b[0], b[1], b[2]]);
                             radius = radius.max(b[3]);
                         }
                         let b = hull.padded(radius).widened_relative();
                         usable &= b.is_usable() && radius.is_finite();
                         bounds = bounds.union(b);
-                        for b in bezier {
-                            p.records.push(b.map(f32::to_bits));
+                        // The GPU evaluates the input's own basis (optik_curve_intersect).
+                        for cp in control {
+                            p.records.push(cp.map(f32::to_bits));
                         }
                     }
                     p.boxes.push(if usable { bounds } else { Aabb::EMPTY });
@@ -291,13 +295,8 @@ fn collect(
     Ok(p)
 }
 
-/// Bézier degree of a curve type.
-fn curve_degree(t: CurveType) -> u32 {
-    t.control_points() - 1
-}
-
-/// A segment's control points (with radii) in Bézier form: the same curve, so the GPU
-/// evaluates one basis only; by the convex hull property the Bézier points bound it.
+/// A segment's control points (with radii) in Bézier form: the same curve, and by the convex
+/// hull property its Bézier points bound it (centre and radius alike).
 fn to_bezier(t: CurveType, p: &[[f32; 4]; 4]) -> [[f32; 4]; 4] {
     let weights: [[f32; 4]; 4] = match t {
         CurveType::RoundLinear => [
@@ -369,7 +368,7 @@ fn encode(options: &AccelBuildOptions, prims: &Prims, refit: &RefitState) -> Bui
     let prim_rel = node_rel + (refit.bvh.nodes.len() * NODE_VEC4S) as u32;
     let mut words = Vec::with_capacity(prim_rel as usize + refit.order.len() * stride);
     words.push([
-        layout::kind_word(kind::GAS, prims.prim_type, prims.degree),
+        layout::kind_word(kind::GAS, prims.prim_type, prims.basis),
         prims.keys,
         node_rel,
         prim_rel,

@@ -11,15 +11,15 @@
 //! | 2 | micromap data rel, nodes, 0, 0 | 0, nodes, 0, 0 | 0 |
 //!
 //! The kind word holds the traversable kind in bits 0..4, the primitive type in bits 4..8
-//! and the curve degree in bits 8..10.
+//! and the curve basis (`optik_api::wgsl::curve_basis`) in bits 8..10.
 //!
 //! Per-slot records (slots are in BVH leaf order; `k` runs over motion keys):
 //! - triangles, 3 vec4 per key: `(v0, prim index) (v1, sbt-gas-index | flags << 29)
 //!   (v2, micromap word)`; keys after the first repeat the meta words;
 //! - custom primitives: meta, then per key `(min, 0) (max, 0)`;
 //! - spheres: meta, then per key `(centre, radius)`;
-//! - curves: meta (with cap bits in z), then per key four Bézier control points
-//!   `(xyz, radius)`;
+//! - curves: meta (with cap bits in z), then per key the segment's four control points in
+//!   its own basis `(xyz, radius)` (unused ones zero);
 //! - instances, [`INSTANCE_VEC4S`]: world-to-object rows (3), object-to-world rows (3),
 //!   `(id, sbt offset, mask | flags << 8, index)`, `(child slot, child generation, 0, 0)`.
 //!
@@ -75,8 +75,8 @@ pub(crate) fn slot_vec4s(prim_type: u32, keys: u32) -> u64 {
 }
 
 /// The kind word.
-pub(crate) fn kind_word(kind: u32, prim_type: u32, curve_degree: u32) -> u32 {
-    kind | (prim_type << 4) | (curve_degree << 8)
+pub(crate) fn kind_word(kind: u32, prim_type: u32, curve_basis: u32) -> u32 {
+    kind | (prim_type << 4) | (curve_basis << 8)
 }
 
 /// A 3×4 row-major matrix as three vec4 rows of f32 bits.

@@ -207,11 +207,12 @@ fn snippets(c: &KernelConfig<'_>, out: &mut String) {
         let text = wgsl::specialise(wgsl::TRIANGLE, options);
         out.push_str(&crate::program::instance::remove_function(&text, unused).unwrap_or(text));
     }
-    if c.spheres() {
-        add(out, wgsl::SPHERE_SW);
+    // The built-in intersectors shared with the Vulkan backend; curves use the sphere's.
+    if c.spheres() || c.curves() {
+        add(out, wgsl::SPHERE);
     }
     if c.curves() {
-        add(out, wgsl::CURVE_SW);
+        add(out, wgsl::CURVE);
     }
     if c.instancing() || c.motion() {
         add(out, wgsl::MOTION);

@@ -574,8 +574,12 @@ fn spheres(c: &KernelConfig<'_>, out: &mut String) {
         );
     }
     out.push_str(
-        r#"        let t = optk_sphere((*lv).origin, (*lv).direction, s.xyz, s.w, optk_ray.tmin, optk_best.t);
-        if !t.hit {
+        r#"        // Built-in primitives hit in the open interval (tmin, tmax): the near root entering
+        // (front), else the far root leaving (a ray from inside; back).
+        let r = optik_sphere_roots(s.xyz, s.w, (*lv).origin, (*lv).direction);
+        let near_ok = r.z != 0.0 && r.x > optk_ray.tmin && r.x < optk_best.t;
+        let far_ok = r.z != 0.0 && r.y > optk_ray.tmin && r.y < optk_best.t;
+        if !near_ok && !far_ok {
             continue;
         }
         let geom = info.y >> 29u;
@@ -584,8 +588,8 @@ fn spheres(c: &KernelConfig<'_>, out: &mut String) {
             continue;
         }
         var h = optk_candidate(lv, slot, info.x, info.y & 0x1FFFFFFFu, geom);
-        h.t = t.t;
-        h.hit_kind = select(0xFFu, 0xFEu, t.front);
+        h.t = select(r.y, r.x, near_ok);
+        h.hit_kind = select(0xFFu, 0xFEu, near_ok);
         optk_accept(h, fate);
     }
 }
@@ -597,7 +601,7 @@ fn spheres(c: &KernelConfig<'_>, out: &mut String) {
 fn curves(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
         r#"fn optk_leaf_curves(lv: ptr<function, OptkLevel>, first: u32, count: u32) {
-    let degree = ((*lv).kind_word >> 8u) & 3u;
+    let basis = ((*lv).kind_word >> 8u) & 3u;
     for (var i = 0u; i < count; i = i + 1u) {
         if optk_done {
             return;
@@ -618,8 +622,8 @@ fn curves(c: &KernelConfig<'_>, out: &mut String) {
     }
     out.push_str(
         r#"        }
-        let t = optk_curve((*lv).origin, (*lv).direction, p, degree, (info.z & 1u) != 0u, (info.z & 2u) != 0u, optk_ray.tmin, optk_best.t);
-        if !t.hit {
+        let t = optik_curve_intersect(basis, p[0], p[1], p[2], p[3], (info.z & 1u) != 0u, (info.z & 2u) != 0u, (*lv).origin, (*lv).direction, optk_ray.tmin, optk_best.t);
+        if t.z == 0.0 || !(t.x > optk_ray.tmin && t.x < optk_best.t) {
             continue;
         }
         let geom = info.y >> 29u;
@@ -628,9 +632,9 @@ fn curves(c: &KernelConfig<'_>, out: &mut String) {
             continue;
         }
         var h = optk_candidate(lv, slot, info.x, info.y & 0x1FFFFFFFu, geom);
-        h.t = t.t;
+        h.t = t.x;
         h.hit_kind = 0xFEu;
-        h.attrs[0] = bitcast<u32>(t.u);
+        h.attrs[0] = bitcast<u32>(t.y);
         optk_accept(h, fate);
     }
 }
