@@ -114,6 +114,16 @@ pub trait DeviceCalls {
     fn exception_code(&self) -> i32;
     /// `rt_remaining_trace_depth()`.
     fn remaining_trace_depth(&self) -> u32;
+    /// Whether the calling program must return at once. It turns true during a call that
+    /// runs other programs: `trace`, `direct_call` and `continuation_call` when an
+    /// exception ended the launch index (the exception program has run; OptiX ends the
+    /// index), and `report_intersection` when an any-hit program terminated the ray or the
+    /// ray's `TERMINATE_ON_FIRST_HIT` accepted the report (the intersection program ends, as
+    /// in Vulkan). Compiled programs check it after those calls and return, as they do
+    /// after a terminator; the runtime turns further device calls into no-ops meanwhile.
+    fn unwinding(&self) -> bool {
+        false
+    }
 
     /// Optional: the values of this invocation as plain memory (see [`DeviceState`]).
     /// Programs read a field whose `present` bit is set with a load instead of calling
