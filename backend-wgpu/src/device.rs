@@ -4,7 +4,7 @@
 //! anything is changed, so a failed call leaves the device as it was. Dropping the device
 //! drops every wgpu object it owns.
 
-use crate::accel::geometry::{self, MicromapData};
+use crate::accel::geometry;
 use crate::accel::instances::{self, ChildInfo};
 use crate::accel::{self, AccelObject, Refit, Scene};
 use crate::buffer::{BufferObject, TextureObject};
@@ -21,6 +21,7 @@ use optik_api::{
     ProgramRef, ProgramSource, Resource, Result, SbtHeader, SceneFeatures, ShaderBindingTable,
     Texture, TextureDesc, TransformDesc, TraversableHandle, validate,
 };
+use optik_cpu::accel::{MicromapArrayData, MicromapLookup};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 /// A wgpu device running optik pipelines as compute megakernels.
@@ -36,7 +37,7 @@ pub(crate) struct State {
     pub buffers: HandleTable<Buffer, BufferObject>,
     pub textures: HandleTable<Texture, TextureObject>,
     pub accels: HandleTable<Accel, AccelObject>,
-    pub micromaps: HandleTable<MicromapArray, MicromapData>,
+    pub micromaps: HandleTable<MicromapArray, Arc<MicromapArrayData>>,
     pub modules: HandleTable<Module, ModuleObject>,
     pub groups: HandleTable<ProgramGroup, GroupObject>,
     pub pipelines: HandleTable<Pipeline, PipelineObject>,
@@ -149,6 +150,15 @@ impl BufferBytes for HostBytes<'_> {
     }
 }
 
+/// Micromap arrays for optik-cpu's geometry builder.
+struct Micromaps<'a>(&'a HandleTable<MicromapArray, Arc<MicromapArrayData>>);
+
+impl MicromapLookup for Micromaps<'_> {
+    fn micromap_array(&self, array: MicromapArray) -> Result<Arc<MicromapArrayData>> {
+        Ok(self.0.get(array)?.clone())
+    }
+}
+
 fn input_buffers(inputs: &[BuildInput]) -> Vec<Buffer> {
     let mut views: Vec<BufferView> = Vec::new();
     for input in inputs {
@@ -235,10 +245,6 @@ impl State {
         }
     }
 
-    fn micromap(&self, array: MicromapArray) -> Result<MicromapData> {
-        Ok(self.micromaps.get(array)?.clone())
-    }
-
     /// Encodes a structure from `inputs` (validated): its words and metadata.
     fn encode(
         &mut self,
@@ -246,7 +252,6 @@ impl State {
         device: DeviceId,
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
-        keys: usize,
         previous: Option<&Refit>,
     ) -> Result<(Vec<[u32; 4]>, AccelObject)> {
         self.refresh(gpu, &input_buffers(inputs))?;
@@ -276,12 +281,12 @@ impl State {
             };
             return Ok((built.words, object));
         }
-        let micromap = |a: MicromapArray| self.micromap(a);
+        let micromaps = Micromaps(&self.micromaps);
         let built = match previous {
             Some(Refit::Geometry(state)) => {
-                geometry::update(options, inputs, keys, &bytes, &micromap, state)?
+                geometry::update(options, inputs, &bytes, &micromaps, state)?
             }
-            _ => geometry::build(options, inputs, keys, &bytes, &micromap)?,
+            _ => geometry::build(options, inputs, &bytes, &micromaps)?,
         };
         let object = AccelObject {
             region: (0, built.words.len() as u64),
@@ -291,7 +296,7 @@ impl State {
             features: SceneFeatures::of_geometry(options, inputs),
             options: *options,
             inputs: inputs.to_vec(),
-            refit: Refit::Geometry(built.refit),
+            refit: built.refit.map(Refit::Geometry).unwrap_or(Refit::None),
             kind_word: built.words[0][0],
         };
         Ok((built.words, object))
@@ -438,8 +443,8 @@ impl optik_api::Device for WgpuDevice {
             ));
         }
         let mut s = self.lock()?;
-        let keys = validate::build_inputs(options, inputs, &self.properties, &|b| s.size_of(b))?;
-        let (words, object) = s.encode(&self.gpu, self.id, options, inputs, keys, None)?;
+        validate::build_inputs(options, inputs, &self.properties, &|b| s.size_of(b))?;
+        let (words, object) = s.encode(&self.gpu, self.id, options, inputs, None)?;
         s.store(&self.gpu, &self.properties, &words, object)
     }
 
@@ -460,13 +465,13 @@ impl optik_api::Device for WgpuDevice {
             (a.options, a.inputs.clone(), a.refit.clone(), a.region)
         };
         validate::update(&built_options, &built_inputs, options, inputs)?;
-        let keys = validate::build_inputs(options, inputs, &self.properties, &|b| s.size_of(b))?;
+        validate::build_inputs(options, inputs, &self.properties, &|b| s.size_of(b))?;
         let build_like = AccelBuildOptions {
             operation: BuildOperation::Build,
             ..*options
         };
         let (words, mut object) =
-            s.encode(&self.gpu, self.id, &build_like, inputs, keys, Some(&refit))?;
+            s.encode(&self.gpu, self.id, &build_like, inputs, Some(&refit))?;
         if words.len() as u64 != region.1 {
             return Err(Error::backend(format!(
                 "an update changed the structure's size from {} to {} vec4s",
@@ -545,10 +550,7 @@ impl optik_api::Device for WgpuDevice {
     ) -> Result<MicromapArray> {
         validate::micromap_array(desc)?;
         let mut s = self.lock()?;
-        Ok(s.micromaps.insert(MicromapData {
-            micromaps: desc.micromaps.clone(),
-            data: desc.data.clone(),
-        }))
+        Ok(s.micromaps.insert(Arc::new(MicromapArrayData::new(desc))))
     }
 
     fn traversable_handle(&self, accel: Accel) -> Result<TraversableHandle> {

@@ -252,3 +252,40 @@ fn destroyed_children_are_missed() {
         "the geometry is gone: {out:?}"
     );
 }
+
+#[test]
+fn many_instances_share_leaves() {
+    // 12 × 12 instances: the builder puts several instances in one leaf, and entering one
+    // must leave the others for later.
+    let dev = device();
+    let d = dev.as_ref();
+    let gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
+    let h = d.traversable_handle(gas).unwrap();
+    let n = 12;
+    let instances: Vec<Instance> = (0..n * n)
+        .map(|k| {
+            let (x, y) = ((k % n) as f32 * 1.5, (k / n) as f32 * 1.5);
+            instance(
+                h,
+                translate(x, y, (k % 5) as f32 * 0.25),
+                1000 + k as u32,
+                0,
+                0xFF,
+                InstanceFlags::NONE,
+            )
+        })
+        .collect();
+    let top = d.traversable_handle(ias(d, &instances)).unwrap();
+    let s = Scene { dev, gas, top };
+    let points: Vec<[f32; 2]> = (0..n * n)
+        .map(|k| [(k % n) as f32 * 1.5 + 0.5, (k / n) as f32 * 1.5 + 0.5])
+        .collect();
+    let out = trace(&s, &points, 0xFF);
+    for (k, o) in out.iter().enumerate() {
+        assert_eq!(o[0], 1, "instance {k} missed");
+        assert_eq!(o[3], 1000 + k as u32, "instance {k}");
+        assert_eq!(o[4], k as u32, "instance index");
+        let t = f32::from_bits(o[1]);
+        assert!((t - (5.0 - (k % 5) as f32 * 0.25)).abs() < 1e-5);
+    }
+}

@@ -16,11 +16,6 @@ impl Aabb {
         max: [f32::NEG_INFINITY; 3],
     };
 
-    /// The box of points.
-    pub fn of_points(points: &[[f32; 3]]) -> Aabb {
-        points.iter().fold(Aabb::EMPTY, |b, p| b.grow(*p))
-    }
-
     /// The box grown to hold `p`.
     pub fn grow(self, p: [f32; 3]) -> Aabb {
         Aabb {

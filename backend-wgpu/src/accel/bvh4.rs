@@ -1,12 +1,14 @@
-//! The four-wide BVH the GPU traverses, made by widening a binary BVH.
+//! The four-wide BVH the GPU traverses, made by widening the binary BVH optik-cpu builds
+//! (`optik_cpu::accel::Bvh`, shared by both backends).
 //!
 //! Each binary inner node becomes a four-wide node by repeatedly opening its child of
 //! largest surface area until it has four children or only leaves. Nodes are numbered
-//! breadth-first, so children come after parents and a reverse sweep refits the tree. The
-//! GPU layout (`optik_api::wgsl::BVH4`): 128 bytes per node, child boxes as f32.
+//! breadth-first, so children come after parents. Every wide child remembers the binary node
+//! it stands for, so a refit of the binary tree (updates) carries over without changing the
+//! topology. The GPU layout (`optik_api::wgsl::BVH4`): 128 bytes per node, child boxes as f32.
 
 use super::aabb::Aabb;
-use super::builder::BinaryNode;
+use optik_cpu::accel::BvhNode;
 
 /// Child kind of an empty slot.
 pub(crate) const KIND_EMPTY: u32 = 0;
@@ -23,6 +25,8 @@ pub(crate) struct Node4 {
     pub child: [u32; 4],
     /// [`KIND_EMPTY`], [`KIND_INNER`], or `n + 1` for a leaf of `n` slots.
     pub kind: [u32; 4],
+    /// The binary node each child stands for.
+    pub source: [u32; 4],
 }
 
 /// A four-wide BVH; empty when the structure holds nothing that can be hit.
@@ -31,9 +35,18 @@ pub(crate) struct Bvh4 {
     pub nodes: Vec<Node4>,
 }
 
+/// A binary node's box.
+fn box_of(n: &BvhNode) -> Aabb {
+    Aabb {
+        min: n.min,
+        max: n.max,
+    }
+}
+
 impl Bvh4 {
-    /// Widens a binary BVH (see `builder` for its layout).
-    pub fn from_binary(bin: &[BinaryNode]) -> Bvh4 {
+    /// Widens a binary BVH: `bin[0]` is the root; an inner node's children are at `first`
+    /// and `first + 1`; a leaf covers slots `first .. first + count` (optik-cpu's layout).
+    pub fn from_binary(bin: &[BvhNode]) -> Bvh4 {
         let Some(root) = bin.first() else {
             return Bvh4::default();
         };
@@ -41,10 +54,11 @@ impl Bvh4 {
             bounds: [Aabb::EMPTY; 4],
             child: [0; 4],
             kind: [KIND_EMPTY; 4],
+            source: [0; 4],
         };
         let mut nodes = vec![empty];
         if root.count > 0 {
-            nodes[0].bounds[0] = root.bounds;
+            nodes[0].bounds[0] = box_of(root);
             nodes[0].child[0] = root.first;
             nodes[0].kind[0] = root.count + 1;
             return Bvh4 { nodes };
@@ -59,10 +73,9 @@ impl Bvh4 {
                     .enumerate()
                     .filter(|(_, c)| bin[**c].count == 0)
                     .max_by(|(_, a), (_, c)| {
-                        bin[**a]
-                            .bounds
+                        box_of(&bin[**a])
                             .half_area()
-                            .total_cmp(&bin[**c].bounds.half_area())
+                            .total_cmp(&box_of(&bin[**c]).half_area())
                     })
                     .map(|(i, _)| i);
                 let Some(i) = widest else { break };
@@ -72,7 +85,8 @@ impl Bvh4 {
             }
             for (slot, &c) in open.iter().enumerate() {
                 let child = bin[c];
-                nodes[w].bounds[slot] = child.bounds;
+                nodes[w].bounds[slot] = box_of(&child);
+                nodes[w].source[slot] = c as u32;
                 if child.count > 0 {
                     nodes[w].child[slot] = child.first;
                     nodes[w].kind[slot] = child.count + 1;
@@ -88,19 +102,15 @@ impl Bvh4 {
         Bvh4 { nodes }
     }
 
-    /// Recomputes every box from the slots' boxes, keeping the topology.
-    pub fn refit(&mut self, slot_box: impl Fn(usize) -> Aabb) {
-        for i in (0..self.nodes.len()).rev() {
+    /// Takes the boxes of a refit binary tree (the one this was widened from).
+    pub fn refit_from_binary(&mut self, bin: &[BvhNode]) {
+        for n in &mut self.nodes {
             for c in 0..4 {
-                let n = self.nodes[i];
-                self.nodes[i].bounds[c] = match n.kind[c] {
-                    KIND_EMPTY => Aabb::EMPTY,
-                    KIND_INNER => self.nodes[n.child[c] as usize].bounds(),
-                    k => (n.child[c]..n.child[c] + k - 1).fold(Aabb::EMPTY, |acc, s| {
-                        let b = slot_box(s as usize);
-                        if b.is_usable() { acc.union(b) } else { acc }
-                    }),
-                };
+                if n.kind[c] != KIND_EMPTY
+                    && let Some(b) = bin.get(n.source[c] as usize)
+                {
+                    n.bounds[c] = box_of(b);
+                }
             }
         }
     }
@@ -118,7 +128,7 @@ impl Bvh4 {
     /// The GPU pops an entry, pushes the node's hit children (at most four) and pops the
     /// nearest; the others wait below it. So a node of k children needs
     /// max(k, k − 1 + the most any child needs); a leaf needs `leaf_need(first, count)`
-    /// (0 for primitives; an instance needs room for its child structure).
+    /// (0 for primitives; instances need room for their child structures).
     pub fn stack_need(&self, leaf_need: impl Fn(u32, u32) -> u32) -> u32 {
         let mut need = vec![0u32; self.nodes.len()];
         for i in (0..self.nodes.len()).rev() {
@@ -182,13 +192,13 @@ impl Node4 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use optik_api::BuildFlags;
+    use optik_cpu::accel::{Aabb as CpuAabb, BuildQuality, Bvh};
 
-    fn boxes(n: usize) -> Vec<Aabb> {
+    fn boxes(n: usize) -> Vec<CpuAabb> {
         (0..n)
             .map(|i| {
                 let x = (i * 37 % 101) as f32;
-                Aabb {
+                CpuAabb {
                     min: [x, (i % 7) as f32, 0.0],
                     max: [x + 0.5, (i % 7) as f32 + 1.0, 1.0],
                 }
@@ -200,8 +210,8 @@ mod tests {
     fn widening_keeps_every_slot_once_and_boxes_hold_children() {
         for n in [1usize, 2, 5, 33, 1000] {
             let b = boxes(n);
-            let (bin, order) = super::super::builder::build(&b, 4, BuildFlags::NONE).unwrap();
-            let bvh = Bvh4::from_binary(&bin);
+            let (bin, order) = Bvh::build(&b, BuildQuality::Balanced).unwrap();
+            let bvh = Bvh4::from_binary(bin.nodes());
             let mut seen = vec![0u32; order.len()];
             for (i, node) in bvh.nodes.iter().enumerate() {
                 for c in 0..4 {
@@ -216,6 +226,10 @@ mod tests {
                             for s in node.child[c]..node.child[c] + k - 1 {
                                 seen[s as usize] += 1;
                                 let pb = b[order[s as usize] as usize];
+                                let pb = Aabb {
+                                    min: pb.min,
+                                    max: pb.max,
+                                };
                                 assert_eq!(node.bounds[c].union(pb), node.bounds[c]);
                             }
                         }
@@ -232,51 +246,42 @@ mod tests {
     }
 
     #[test]
-    fn unusable_boxes_get_no_slot() {
-        let mut b = boxes(40);
-        b[3].min[0] = f32::NAN;
-        b[7] = Aabb::EMPTY;
-        b[39].max[2] = f32::INFINITY;
-        let (bin, order) = super::super::builder::build(&b, 8, BuildFlags::NONE).unwrap();
-        assert_eq!(order.len(), 37);
-        assert!(![3, 7, 39].iter().any(|i| order.contains(i)));
-        let bvh = Bvh4::from_binary(&bin);
-        assert!(bvh.bounds().is_usable());
-        let (bin, order) =
-            super::super::builder::build(&[Aabb::EMPTY], 8, BuildFlags::NONE).unwrap();
-        assert!(bin.is_empty() && order.is_empty());
+    fn refits_follow_the_binary_tree() {
+        let b = boxes(200);
+        let (mut bin, order) = Bvh::build(&b, BuildQuality::Balanced).unwrap();
+        let mut bvh = Bvh4::from_binary(bin.nodes());
+        let moved: Vec<CpuAabb> = b.iter().map(|x| x.padded(0.5)).collect();
+        bin.refit(|slot| moved[order[slot] as usize]);
+        bvh.refit_from_binary(bin.nodes());
+        assert_eq!(
+            bvh,
+            Bvh4::from_binary(bin.nodes()),
+            "same topology, new boxes"
+        );
+        assert_eq!(bvh.bounds().min[0], -0.5);
     }
 
     #[test]
     fn stack_need_of_a_hand_made_tree() {
-        // Root with an inner child (3 leaves) and a leaf: max(2, 1 + 3) = 4.
-        let leaf = |first| BinaryNode {
-            bounds: Aabb {
-                min: [0.0; 3],
-                max: [1.0; 3],
-            },
+        // Root with an inner child (three leaves) and a leaf: widening opens everything
+        // into one node of four leaves, needing max(4, 3 + the leaves' need).
+        let node = |first, count| BvhNode {
+            min: [0.0; 3],
             first,
-            count: 1,
-        };
-        let inner = |first| BinaryNode {
-            bounds: Aabb {
-                min: [0.0; 3],
-                max: [1.0; 3],
-            },
-            first,
-            count: 0,
+            max: [1.0; 3],
+            count,
         };
         let bin = vec![
-            inner(1),
-            inner(3),
-            leaf(0),
-            inner(5),
-            leaf(1),
-            leaf(2),
-            leaf(3),
+            node(2, 0),
+            node(0, 0),
+            node(4, 0),
+            node(0, 1),
+            node(6, 0),
+            node(1, 1),
+            node(2, 1),
+            node(3, 1),
         ];
         let bvh = Bvh4::from_binary(&bin);
-        // Widening opens everything: one node of four leaves.
         assert_eq!(bvh.nodes.len(), 1);
         assert_eq!(bvh.stack_need(|_, _| 0), 4);
         assert_eq!(bvh.stack_need(|_, _| 5), 8);

@@ -5,7 +5,6 @@
 //! the device's handle table: a child destroyed later is simply missed.
 
 use super::aabb::Aabb;
-use super::builder;
 use super::bvh4::{Bvh4, NODE_VEC4S};
 use super::layout::{self, HEADER_VEC4S, INSTANCE_VEC4S, kind};
 use optik_api::decode::{self, BufferBytes};
@@ -14,6 +13,7 @@ use optik_api::{
     AccelBuildOptions, InstanceArray, Matrix3x4, MotionKinds, Result, SceneFeatures, SrtData,
     TransformDesc,
 };
+use optik_cpu::accel::{Aabb as CpuAabb, BuildQuality, Bvh};
 
 /// What a parent needs to know about a child traversable.
 #[derive(Clone, Copy, Debug)]
@@ -42,9 +42,11 @@ pub(crate) struct BuiltParent {
     pub refit: Option<Bvh4WithOrder>,
 }
 
-/// The topology of an instance structure's build, kept for updates.
+/// The trees of an instance structure's build, kept for updates: optik-cpu's binary BVH
+/// and slot order, and the wide tree made from it.
 #[derive(Clone, Debug)]
 pub(crate) struct Bvh4WithOrder {
+    binary: Bvh,
     bvh: Bvh4,
     order: Vec<u32>,
 }
@@ -83,18 +85,26 @@ pub(crate) fn build_instances(
         records.push([link[0], link[1], 0, 0]);
         children.push(child);
     }
+    let cpu_boxes: Vec<CpuAabb> = boxes
+        .iter()
+        .map(|b| CpuAabb {
+            min: b.min,
+            max: b.max,
+        })
+        .collect();
     let topo = match topology {
         Some(t) => {
             let mut t = t.clone();
             let order = t.order.clone();
-            t.bvh.refit(|slot| boxes[order[slot] as usize]);
+            t.binary.refit(|slot| cpu_boxes[order[slot] as usize]);
+            t.bvh.refit_from_binary(t.binary.nodes());
             t
         }
         None => {
-            // One instance per leaf: the GPU enters an instance as soon as it pops it.
-            let (bin, order) = builder::build(&boxes, 1, options.flags)?;
+            let (binary, order) = Bvh::build(&cpu_boxes, BuildQuality::from_flags(options.flags))?;
             Bvh4WithOrder {
-                bvh: Bvh4::from_binary(&bin),
+                bvh: Bvh4::from_binary(binary.nodes()),
+                binary,
                 order,
             }
         }
@@ -112,14 +122,17 @@ pub(crate) fn build_instances(
         words.extend_from_slice(&records[at..at + INSTANCE_VEC4S as usize]);
     }
     let live: Vec<ChildInfo> = children.iter().flatten().copied().collect();
+    // Entering one instance of a leaf pushes the rest of the leaf (when there is a rest), a
+    // level marker and the child's root, then pops the root.
     let stack_need = topo.bvh.stack_need(|first, count| {
-        (first..first + count)
+        let deepest = (first..first + count)
             .map(|slot| {
                 children[topo.order[slot as usize] as usize]
                     .map_or(0, |c| 2u32.max(1 + c.stack_need))
             })
             .max()
-            .unwrap_or(0)
+            .unwrap_or(0);
+        deepest + (count > 1) as u32
     });
     let features = SceneFeatures::of_parent(
         &live.iter().map(|c| c.features).collect::<Vec<_>>(),

@@ -7,7 +7,6 @@
 
 pub(crate) mod aabb;
 pub(crate) mod arena;
-pub(crate) mod builder;
 pub(crate) mod bvh4;
 pub(crate) mod geometry;
 pub(crate) mod instances;

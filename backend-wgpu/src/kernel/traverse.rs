@@ -3,8 +3,8 @@
 //! One loop walks every level of the graph with one stack of `vec2<u32>` entries (a
 //! reference and the entry's near distance, to skip entries beyond the closest hit when
 //! they are popped). A reference's top two bits say what it is: 0 an inner BVH4 node, 1 a
-//! geometry leaf (count − 1 in bits 27..30, first slot below), 2 an instance, 3 a level
-//! marker. Entering an instance saves the current level (ray in that level's space, BVH
+//! geometry leaf and 2 an instance leaf (count − 1 in bits 27..30, first slot below), 3 a
+//! level marker. Entering an instance saves the current level (ray in that level's space, BVH
 //! bases, instance data, accumulated transforms) in a small array and pushes a marker;
 //! popping the marker restores it. Transform traversables under an instance are folded
 //! into the instance's level as it is entered. Children are pushed far to near, so the
@@ -723,10 +723,10 @@ fn optk_traverse(handle: vec2<u32>) -> bool {
                 if n.hit[k] {
                     if n.kind[k] == 1u {
                         refs[k] = n.child[k];
-                    } else if lv.is_ias {
-                        refs[k] = (2u << 30u) | n.child[k];
                     } else {
-                        refs[k] = (1u << 30u) | ((n.kind[k] - 2u) << 27u) | n.child[k];
+                        // A leaf of count - 1 in bits 27..30: primitives (1) or instances (2).
+                        let tag = select(1u, 2u, lv.is_ias);
+                        refs[k] = (tag << 30u) | ((n.kind[k] - 2u) << 27u) | n.child[k];
                     }
                 }
             }
@@ -766,7 +766,14 @@ fn optk_traverse(handle: vec2<u32>) -> bool {
 fn instance_entry(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
         r#" else {
-            let rec = lv.prim_base + (e.x & 0x3FFFFFFFu) * 8u;
+            // An instance leaf: enter its first instance, leaving the rest for later.
+            let count = ((e.x >> 27u) & 7u) + 1u;
+            let slot = e.x & 0x7FFFFFFu;
+            if count > 1u && sp < OPTK_STACK {
+                stack[sp] = vec2<u32>((2u << 30u) | ((count - 2u) << 27u) | (slot + 1u), e.y);
+                sp = sp + 1u;
+            }
+            let rec = lv.prim_base + slot * 8u;
             let info = optk_fetch(rec + 6u);
             if ((info.z & 0xFFu) & optk_ray.mask) == 0u {
                 continue;
