@@ -13,8 +13,10 @@ use optik_api::{
     Buffer, Error, GroupRegion, Result, SBT_RECORD_HEADER_SIZE, SbtHeader, ShaderBindingTable,
 };
 
-/// Words of data copied after a raygen or exception record's header (which have no stride).
-const SINGLE_RECORD_DATA_BYTES: u64 = 4096;
+/// Bytes of data copied after a raygen or exception record's header: they have no stride,
+/// so their data runs to the end of the buffer, capped as a record of the largest stride
+/// (`properties().max_sbt_record_stride`, as the CPU backend does).
+const SINGLE_RECORD_DATA_BYTES: u64 = (1 << 16) - 32;
 /// Marks "no record" (as `OPTK_NONE` in the kernel).
 pub(crate) const NONE: u32 = u32::MAX;
 
@@ -41,6 +43,10 @@ pub(crate) fn pack(
                       region: GroupRegion,
                       words: &mut Vec<u32>|
      -> Result<u32> {
+        let region_stride = matches!(
+            region,
+            GroupRegion::Miss | GroupRegion::HitGroup | GroupRegion::Callables
+        );
         if !cache.iter().any(|(b, _)| *b == buffer) {
             cache.push((buffer, bytes(buffer)?));
         }
@@ -80,7 +86,13 @@ pub(crate) fn pack(
         words.extend_from_slice(&[0; 6]);
         let end = (header_end + data_bytes).min(data.len() as u64);
         let mut chunk = data[header_end as usize..end as usize].to_vec();
-        chunk.resize((data_bytes as usize).div_ceil(4) * 4, 0);
+        // Records of a region keep their stride; single records keep what their buffer holds.
+        let len = if region_stride {
+            data_bytes
+        } else {
+            end - header_end
+        };
+        chunk.resize((len as usize).div_ceil(4) * 4, 0);
         words.extend(
             chunk
                 .chunks_exact(4)
