@@ -341,55 +341,6 @@ pub fn parse_ply(bytes: &[u8], name: &str) -> Result<Mesh> {
     Ok(mesh)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn obj_fans_polygons_in_file_order() {
-        let m = parse_obj(
-            "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\nf -4/1/1 -2//3 -1\n",
-            "t.obj",
-        )
-        .unwrap();
-        assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3], [0, 2, 3]]);
-        let e = parse_obj("v 0 0 0\nf 1 2 3\n", "t.obj").unwrap_err();
-        assert!(
-            e.message()
-                .starts_with("t.obj:2: face index 2 refers to no vertex"),
-            "{e}"
-        );
-    }
-
-    #[test]
-    fn ply_ascii_and_binary() {
-        let ascii = b"ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";
-        let m = parse_ply(ascii, "a.ply").unwrap();
-        assert_eq!(m.positions.len(), 4);
-        assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3]]);
-        let mut bin = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\nelement face 1\nproperty list uchar uint vertex_indices\nend_header\n".to_vec();
-        for v in [[0.0f64, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.5]] {
-            for c in v {
-                bin.extend_from_slice(&c.to_le_bytes());
-            }
-        }
-        bin.push(3);
-        for i in [0u32, 1, 2] {
-            bin.extend_from_slice(&i.to_le_bytes());
-        }
-        let m = parse_ply(&bin, "b.ply").unwrap();
-        assert_eq!(m.positions[2], [0.0, 2.0, 0.5]);
-        assert_eq!(m.triangles, vec![[0, 1, 2]]);
-        bin.truncate(bin.len() - 2);
-        assert!(
-            parse_ply(&bin, "b.ply")
-                .unwrap_err()
-                .message()
-                .contains("ends early")
-        );
-    }
-}
-
 impl Mesh {
     /// A closed unit icosphere: an icosahedron subdivided `subdivisions` times, vertices pushed to
     /// the sphere, shared between faces (so edges are shared exactly). Counter-clockwise seen from
@@ -473,5 +424,54 @@ impl Mesh {
                 .collect(),
             triangles: self.triangles.clone(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn obj_fans_polygons_in_file_order() {
+        let m = parse_obj(
+            "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\nf -4/1/1 -2//3 -1\n",
+            "t.obj",
+        )
+        .unwrap();
+        assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3], [0, 2, 3]]);
+        let e = parse_obj("v 0 0 0\nf 1 2 3\n", "t.obj").unwrap_err();
+        assert!(
+            e.message()
+                .starts_with("t.obj:2: face index 2 refers to no vertex"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn ply_ascii_and_binary() {
+        let ascii = b"ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";
+        let m = parse_ply(ascii, "a.ply").unwrap();
+        assert_eq!(m.positions.len(), 4);
+        assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+        let mut bin = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\nelement face 1\nproperty list uchar uint vertex_indices\nend_header\n".to_vec();
+        for v in [[0.0f64, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.5]] {
+            for c in v {
+                bin.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        bin.push(3);
+        for i in [0u32, 1, 2] {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+        let m = parse_ply(&bin, "b.ply").unwrap();
+        assert_eq!(m.positions[2], [0.0, 2.0, 0.5]);
+        assert_eq!(m.triangles, vec![[0, 1, 2]]);
+        bin.truncate(bin.len() - 2);
+        assert!(
+            parse_ply(&bin, "b.ply")
+                .unwrap_err()
+                .message()
+                .contains("ends early")
+        );
     }
 }
