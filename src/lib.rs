@@ -45,19 +45,38 @@ pub fn open_backend(kind: BackendKind) -> Result<Box<dyn Device>> {
     }
 }
 
+/// Settings for opening a device that only some backends use.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct OpenOptions {
+    /// CPU worker threads (`None`: one per core). Results do not depend on it.
+    pub threads: Option<usize>,
+}
+
 /// Opens a device: a named backend, or the first that works of Vulkan, wgpu and CPU.
 pub fn open(choice: BackendChoice) -> Result<Box<dyn Device>> {
+    open_with(choice, &OpenOptions::default())
+}
+
+/// Opens a device with options.
+pub fn open_with(choice: BackendChoice, options: &OpenOptions) -> Result<Box<dyn Device>> {
+    let open_one = |kind| match kind {
+        BackendKind::Cpu => open_cpu_with(options.threads),
+        other => open_backend(other),
+    };
     match choice {
-        BackendChoice::Named(kind) => open_backend(kind),
+        BackendChoice::Named(kind) => open_one(kind),
         BackendChoice::Auto => {
             let mut reasons = Vec::new();
             for kind in [BackendKind::Vulkan, BackendKind::Wgpu, BackendKind::Cpu] {
-                match open_backend(kind) {
+                match open_one(kind) {
                     Ok(d) => return Ok(d),
                     Err(e) => reasons.push(format!("{kind}: {}", e.message())),
                 }
             }
-            Err(Error::unsupported(format!("no backend can run here ({})", reasons.join("; "))))
+            Err(Error::unsupported(format!(
+                "no backend can run here ({})",
+                reasons.join("; ")
+            )))
         }
     }
 }
@@ -82,12 +101,16 @@ fn not_built(kind: BackendKind) -> Error {
     ))
 }
 
-#[cfg(feature = "cpu")]
 fn open_cpu() -> Result<Box<dyn Device>> {
-    optik_cpu::open()
+    open_cpu_with(None)
+}
+
+#[cfg(feature = "cpu")]
+fn open_cpu_with(threads: Option<usize>) -> Result<Box<dyn Device>> {
+    optik_cpu::open_with_threads(threads)
 }
 #[cfg(not(feature = "cpu"))]
-fn open_cpu() -> Result<Box<dyn Device>> {
+fn open_cpu_with(_threads: Option<usize>) -> Result<Box<dyn Device>> {
     Err(not_built(BackendKind::Cpu))
 }
 

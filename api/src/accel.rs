@@ -221,7 +221,11 @@ impl TriangleArray {
 
     /// Bytes between vertices after resolving a stride of 0.
     pub fn effective_vertex_stride(&self) -> u32 {
-        if self.vertex_stride == 0 { self.vertex_format.size() } else { self.vertex_stride }
+        if self.vertex_stride == 0 {
+            self.vertex_format.size()
+        } else {
+            self.vertex_stride
+        }
     }
 }
 
@@ -288,12 +292,20 @@ pub struct SphereArray {
 impl SphereArray {
     /// Bytes between centres after resolving a stride of 0.
     pub fn effective_vertex_stride(&self) -> u32 {
-        if self.vertex_stride == 0 { 12 } else { self.vertex_stride }
+        if self.vertex_stride == 0 {
+            12
+        } else {
+            self.vertex_stride
+        }
     }
 
     /// Bytes between radii after resolving a stride of 0.
     pub fn effective_radius_stride(&self) -> u32 {
-        if self.radius_stride == 0 { 4 } else { self.radius_stride }
+        if self.radius_stride == 0 {
+            4
+        } else {
+            self.radius_stride
+        }
     }
 }
 
@@ -571,7 +583,13 @@ pub struct SrtData {
 impl SrtData {
     /// The identity key (unit scale, identity rotation, no translation).
     pub fn identity() -> Self {
-        Self { sx: 1.0, sy: 1.0, sz: 1.0, qw: 1.0, ..Default::default() }
+        Self {
+            sx: 1.0,
+            sy: 1.0,
+            sz: 1.0,
+            qw: 1.0,
+            ..Default::default()
+        }
     }
 }
 

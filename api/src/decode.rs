@@ -6,8 +6,8 @@
 //! count, SBT offsets past the record count, micromap indices past the array.
 
 use crate::accel::{
-    BufferView, CurveArray, CustomPrimitiveArray, IndexFormat, Instance, InstanceArray, SbtIndexOffsets,
-    SphereArray, TriangleArray, VertexFormat,
+    BufferView, CurveArray, CustomPrimitiveArray, IndexFormat, Instance, InstanceArray,
+    SbtIndexOffsets, SphereArray, TriangleArray, VertexFormat,
 };
 use crate::error::{Error, Result};
 use crate::handle::Buffer;
@@ -19,12 +19,20 @@ pub trait BufferBytes {
     fn bytes(&self, buffer: Buffer) -> Result<&[u8]>;
 }
 
-fn slice<'a>(bytes: &'a dyn BufferBytes, view: &BufferView, at: u64, len: usize) -> Result<&'a [u8]> {
+fn slice<'a>(
+    bytes: &'a dyn BufferBytes,
+    view: &BufferView,
+    at: u64,
+    len: usize,
+) -> Result<&'a [u8]> {
     let data = bytes.bytes(view.buffer)?;
     let start = view.offset + at;
     let end = start + len as u64;
     data.get(start as usize..end as usize).ok_or_else(|| {
-        Error::invalid(format!("reading bytes {start}..{end} of a buffer of {} bytes", data.len()))
+        Error::invalid(format!(
+            "reading bytes {start}..{end} of a buffer of {} bytes",
+            data.len()
+        ))
     })
 }
 
@@ -62,13 +70,23 @@ pub struct DecodedTriangles {
 }
 
 /// Reads the vertices of motion key `key` and the indices of a triangle input.
-pub fn triangles(t: &TriangleArray, key: usize, bytes: &dyn BufferBytes) -> Result<DecodedTriangles> {
+pub fn triangles(
+    t: &TriangleArray,
+    key: usize,
+    bytes: &dyn BufferBytes,
+) -> Result<DecodedTriangles> {
     let stride = t.effective_vertex_stride() as usize;
     let size = t.vertex_format.size() as usize;
     let vb = &t.vertex_buffers[key];
     let n = t.num_vertices as usize;
-    let raw = if n == 0 { &[][..] } else { slice(bytes, vb, 0, (n - 1) * stride + size)? };
-    let mut vertices: Vec<[f32; 3]> = (0..n).map(|i| decode_vertex(t.vertex_format, &raw[i * stride..])).collect();
+    let raw = if n == 0 {
+        &[][..]
+    } else {
+        slice(bytes, vb, 0, (n - 1) * stride + size)?
+    };
+    let mut vertices: Vec<[f32; 3]> = (0..n)
+        .map(|i| decode_vertex(t.vertex_format, &raw[i * stride..]))
+        .collect();
     if let Some(pt) = &t.pre_transform {
         let m = slice(bytes, pt, 0, 48)?;
         let m: [f32; 12] = std::array::from_fn(|i| f32_at(m, i * 4));
@@ -77,17 +95,31 @@ pub fn triangles(t: &TriangleArray, key: usize, bytes: &dyn BufferBytes) -> Resu
         }
     }
     let indices = match &t.indices {
-        None => (0..t.num_vertices / 3).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect(),
+        None => (0..t.num_vertices / 3)
+            .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+            .collect(),
         Some(ix) => {
             let isize = ix.format.size() as usize;
-            let istride = if ix.stride == 0 { isize } else { ix.stride as usize };
+            let istride = if ix.stride == 0 {
+                isize
+            } else {
+                ix.stride as usize
+            };
             let count = ix.num_triangles as usize;
-            let raw = if count == 0 { &[][..] } else { slice(bytes, &ix.buffer, 0, (count - 1) * istride + isize)? };
+            let raw = if count == 0 {
+                &[][..]
+            } else {
+                slice(bytes, &ix.buffer, 0, (count - 1) * istride + isize)?
+            };
             let mut out = Vec::with_capacity(count);
             for tri in 0..count {
                 let b = &raw[tri * istride..];
                 let idx = match ix.format {
-                    IndexFormat::U16x3 => [u16_at(b, 0) as u32, u16_at(b, 2) as u32, u16_at(b, 4) as u32],
+                    IndexFormat::U16x3 => [
+                        u16_at(b, 0) as u32,
+                        u16_at(b, 2) as u32,
+                        u16_at(b, 4) as u32,
+                    ],
                     IndexFormat::U32x3 => [u32_at(b, 0), u32_at(b, 4), u32_at(b, 8)],
                 };
                 if let Some(bad) = idx.iter().find(|&&i| i >= t.num_vertices) {
@@ -105,12 +137,27 @@ pub fn triangles(t: &TriangleArray, key: usize, bytes: &dyn BufferBytes) -> Resu
 }
 
 /// Reads per-primitive SBT offsets; checks each is below the record count.
-pub fn sbt_offsets(offsets: Option<&SbtIndexOffsets>, num_primitives: u32, num_records: u32, bytes: &dyn BufferBytes) -> Result<Vec<u32>> {
-    let Some(o) = offsets else { return Ok(vec![0; num_primitives as usize]) };
+pub fn sbt_offsets(
+    offsets: Option<&SbtIndexOffsets>,
+    num_primitives: u32,
+    num_records: u32,
+    bytes: &dyn BufferBytes,
+) -> Result<Vec<u32>> {
+    let Some(o) = offsets else {
+        return Ok(vec![0; num_primitives as usize]);
+    };
     let size = o.size_in_bytes as usize;
-    let stride = if o.stride == 0 { size } else { o.stride as usize };
+    let stride = if o.stride == 0 {
+        size
+    } else {
+        o.stride as usize
+    };
     let n = num_primitives as usize;
-    let raw = if n == 0 { &[][..] } else { slice(bytes, &o.buffer, 0, (n - 1) * stride + size)? };
+    let raw = if n == 0 {
+        &[][..]
+    } else {
+        slice(bytes, &o.buffer, 0, (n - 1) * stride + size)?
+    };
     let mut out = Vec::with_capacity(n);
     for i in 0..n {
         let b = &raw[i * stride..];
@@ -130,11 +177,21 @@ pub fn sbt_offsets(offsets: Option<&SbtIndexOffsets>, num_primitives: u32, num_r
 }
 
 /// Reads the AABBs (`min.xyz, max.xyz`) of motion key `key`.
-pub fn aabbs(c: &CustomPrimitiveArray, key: usize, bytes: &dyn BufferBytes) -> Result<Vec<[f32; 6]>> {
+pub fn aabbs(
+    c: &CustomPrimitiveArray,
+    key: usize,
+    bytes: &dyn BufferBytes,
+) -> Result<Vec<[f32; 6]>> {
     let stride = c.effective_stride() as usize;
     let n = c.num_primitives as usize;
-    let raw = if n == 0 { &[][..] } else { slice(bytes, &c.aabb_buffers[key], 0, (n - 1) * stride + 24)? };
-    Ok((0..n).map(|i| std::array::from_fn(|k| f32_at(raw, i * stride + k * 4))).collect())
+    let raw = if n == 0 {
+        &[][..]
+    } else {
+        slice(bytes, &c.aabb_buffers[key], 0, (n - 1) * stride + 24)?
+    };
+    Ok((0..n)
+        .map(|i| std::array::from_fn(|k| f32_at(raw, i * stride + k * 4)))
+        .collect())
 }
 
 /// Reads spheres (`centre.xyz, radius`) of motion key `key`.
@@ -152,9 +209,16 @@ pub fn spheres(s: &SphereArray, key: usize, bytes: &dyn BufferBytes) -> Result<V
     for i in 0..n {
         let r = f32_at(radii, if s.single_radius { 0 } else { i * rs });
         if !(r >= 0.0) || !r.is_finite() {
-            return Err(Error::invalid(format!("sphere {i} has radius {r}; radii must be finite and not negative")));
+            return Err(Error::invalid(format!(
+                "sphere {i} has radius {r}; radii must be finite and not negative"
+            )));
         }
-        out.push([f32_at(centres, i * vs), f32_at(centres, i * vs + 4), f32_at(centres, i * vs + 8), r]);
+        out.push([
+            f32_at(centres, i * vs),
+            f32_at(centres, i * vs + 4),
+            f32_at(centres, i * vs + 8),
+            r,
+        ]);
     }
     Ok(out)
 }
@@ -170,9 +234,21 @@ pub struct DecodedCurves {
 
 /// Reads the control points and segment indices of a curve input.
 pub fn curves(c: &CurveArray, key: usize, bytes: &dyn BufferBytes) -> Result<DecodedCurves> {
-    let vs = if c.vertex_stride == 0 { 12 } else { c.vertex_stride as usize };
-    let ws = if c.width_stride == 0 { 4 } else { c.width_stride as usize };
-    let is = if c.index_stride == 0 { 4 } else { c.index_stride as usize };
+    let vs = if c.vertex_stride == 0 {
+        12
+    } else {
+        c.vertex_stride as usize
+    };
+    let ws = if c.width_stride == 0 {
+        4
+    } else {
+        c.width_stride as usize
+    };
+    let is = if c.index_stride == 0 {
+        4
+    } else {
+        c.index_stride as usize
+    };
     let nv = c.num_vertices as usize;
     let mut points = Vec::with_capacity(nv);
     if nv > 0 {
@@ -181,13 +257,24 @@ pub fn curves(c: &CurveArray, key: usize, bytes: &dyn BufferBytes) -> Result<Dec
         for i in 0..nv {
             let r = f32_at(wid, i * ws);
             if !(r >= 0.0) || !r.is_finite() {
-                return Err(Error::invalid(format!("curve control point {i} has radius {r}; radii must be finite and not negative")));
+                return Err(Error::invalid(format!(
+                    "curve control point {i} has radius {r}; radii must be finite and not negative"
+                )));
             }
-            points.push([f32_at(pos, i * vs), f32_at(pos, i * vs + 4), f32_at(pos, i * vs + 8), r]);
+            points.push([
+                f32_at(pos, i * vs),
+                f32_at(pos, i * vs + 4),
+                f32_at(pos, i * vs + 8),
+                r,
+            ]);
         }
     }
     let n = c.num_primitives as usize;
-    let raw = if n == 0 { &[][..] } else { slice(bytes, &c.index_buffer, 0, (n - 1) * is + 4)? };
+    let raw = if n == 0 {
+        &[][..]
+    } else {
+        slice(bytes, &c.index_buffer, 0, (n - 1) * is + 4)?
+    };
     let per = c.curve_type.control_points();
     let mut segments = Vec::with_capacity(n);
     for s in 0..n {
@@ -211,10 +298,16 @@ pub fn instances(ia: &InstanceArray, bytes: &dyn BufferBytes) -> Result<Vec<Inst
     for i in 0..n {
         let inst: Instance = bytemuck::pod_read_unaligned(&raw[i * 80..i * 80 + 80]);
         if !affine::is_finite(&inst.transform) {
-            return Err(Error::invalid(format!("instance {i} has a transform with NaN or infinite values: {:?}", inst.transform)));
+            return Err(Error::invalid(format!(
+                "instance {i} has a transform with NaN or infinite values: {:?}",
+                inst.transform
+            )));
         }
         if inst.flags & !crate::flags::InstanceFlags::ALL.0 != 0 {
-            return Err(Error::invalid(format!("instance {i} has unknown flag bits {:#x}", inst.flags & !crate::flags::InstanceFlags::ALL.0)));
+            return Err(Error::invalid(format!(
+                "instance {i} has unknown flag bits {:#x}",
+                inst.flags & !crate::flags::InstanceFlags::ALL.0
+            )));
         }
         out.push(inst);
     }
@@ -223,14 +316,24 @@ pub fn instances(ia: &InstanceArray, bytes: &dyn BufferBytes) -> Result<Vec<Inst
 
 /// Reads micromap indices of a triangle input: per triangle, a micromap index or a special
 /// (negative) index. `None` when the input has no micromap.
-pub fn micromap_indices(t: &TriangleArray, num_micromaps: usize, bytes: &dyn BufferBytes) -> Result<Option<Vec<i32>>> {
-    let Some(omm) = &t.opacity_micromap else { return Ok(None) };
+pub fn micromap_indices(
+    t: &TriangleArray,
+    num_micromaps: usize,
+    bytes: &dyn BufferBytes,
+) -> Result<Option<Vec<i32>>> {
+    let Some(omm) = &t.opacity_micromap else {
+        return Ok(None);
+    };
     let n = t.num_primitives() as usize;
     let mut out = Vec::with_capacity(n);
     let raw = match &omm.index_buffer {
         Some(ib) if n > 0 => {
             let size = omm.index_size_in_bytes as usize;
-            let stride = if omm.index_stride == 0 { size } else { omm.index_stride as usize };
+            let stride = if omm.index_stride == 0 {
+                size
+            } else {
+                omm.index_stride as usize
+            };
             Some((slice(bytes, ib, 0, (n - 1) * stride + size)?, size, stride))
         }
         _ => None,

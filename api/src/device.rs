@@ -124,11 +124,15 @@ pub struct Accuracy {
 
 impl Accuracy {
     /// The fast options: Möller–Trumbore and plain slabs.
-    pub const FAST: Accuracy =
-        Accuracy { triangle: TriangleTest::MollerTrumbore, box_test: BoxTest::Plain };
+    pub const FAST: Accuracy = Accuracy {
+        triangle: TriangleTest::MollerTrumbore,
+        box_test: BoxTest::Plain,
+    };
     /// The robust default.
-    pub const ROBUST: Accuracy =
-        Accuracy { triangle: TriangleTest::Watertight, box_test: BoxTest::Conservative };
+    pub const ROBUST: Accuracy = Accuracy {
+        triangle: TriangleTest::Watertight,
+        box_test: BoxTest::Conservative,
+    };
 
     /// Parses `robust`, `fast`, `watertight+plain`, `mt+conservative` and the like.
     pub fn parse(s: &str) -> Option<Accuracy> {
@@ -164,7 +168,10 @@ pub struct ProgramSource {
 impl ProgramSource {
     /// Source text with a file name for diagnostics.
     pub fn new(file_name: impl Into<String>, wgsl: impl Into<String>) -> Self {
-        Self { file_name: file_name.into(), wgsl: wgsl.into() }
+        Self {
+            file_name: file_name.into(),
+            wgsl: wgsl.into(),
+        }
     }
 }
 
@@ -215,8 +222,12 @@ pub trait Device: Send + Sync {
     fn accel_build(&self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<Accel>;
     /// Refits `accel` to `inputs` (same kinds and counts as its build; the build must have
     /// had `ALLOW_UPDATE`). Its traversable handle stays the same.
-    fn accel_update(&self, accel: Accel, options: &AccelBuildOptions, inputs: &[BuildInput])
-    -> Result<()>;
+    fn accel_update(
+        &self,
+        accel: Accel,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<()>;
     /// A compacted copy of `accel` (built with `ALLOW_COMPACTION`), with a new handle; the
     /// original stays valid until destroyed.
     fn accel_compact(&self, accel: Accel) -> Result<Accel>;
@@ -225,8 +236,10 @@ pub trait Device: Send + Sync {
     /// Creates a static, matrix-motion or SRT-motion transform traversable.
     fn create_transform(&self, desc: &TransformDesc) -> Result<Accel>;
     /// Builds an opacity micromap array for triangle inputs.
-    fn create_opacity_micromap_array(&self, desc: &OpacityMicromapArrayDesc)
-    -> Result<MicromapArray>;
+    fn create_opacity_micromap_array(
+        &self,
+        desc: &OpacityMicromapArrayDesc,
+    ) -> Result<MicromapArray>;
     /// The traversable handle of an acceleration structure or transform.
     fn traversable_handle(&self, accel: Accel) -> Result<TraversableHandle>;
     /// Frees an acceleration structure or transform. Instances and transforms that name it

@@ -46,7 +46,11 @@ pub struct Diagnostic {
 
 impl fmt::Display for Diagnostic {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}:{}:{}: {}", self.file, self.line, self.column, self.message)?;
+        write!(
+            f,
+            "{}:{}:{}: {}",
+            self.file, self.line, self.column, self.message
+        )?;
         if !self.source_line.is_empty() {
             let caret_pad = " ".repeat(self.column.saturating_sub(1) as usize);
             write!(f, "\n    {}\n    {}^", self.source_line, caret_pad)?;
@@ -69,7 +73,11 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 impl Error {
     /// An error of `kind` with `message`.
     pub fn new(kind: ErrorKind, message: impl Into<String>) -> Self {
-        Self { kind, message: message.into(), diagnostics: Vec::new() }
+        Self {
+            kind,
+            message: message.into(),
+            diagnostics: Vec::new(),
+        }
     }
 
     /// An [`ErrorKind::InvalidArgument`] error.
@@ -99,7 +107,11 @@ impl Error {
             [one] => one.to_string(),
             [first, rest @ ..] => format!("{first}\n(and {} more errors)", rest.len()),
         };
-        Self { kind: ErrorKind::Compile, message, diagnostics }
+        Self {
+            kind: ErrorKind::Compile,
+            message,
+            diagnostics,
+        }
     }
 
     /// What kind of failure this is.

@@ -33,7 +33,11 @@ impl MotionKinds {
 
     /// The union.
     pub fn union(self, o: MotionKinds) -> MotionKinds {
-        MotionKinds { geometry: self.geometry || o.geometry, matrix: self.matrix || o.matrix, srt: self.srt || o.srt }
+        MotionKinds {
+            geometry: self.geometry || o.geometry,
+            matrix: self.matrix || o.matrix,
+            srt: self.srt || o.srt,
+        }
     }
 }
 
@@ -89,8 +93,15 @@ impl SceneFeatures {
 
     /// The features of an instance structure or transform over children with `children`
     /// features. `motion` adds the kind of a motion transform.
-    pub fn of_parent(children: &[SceneFeatures], motion: MotionKinds, is_static_transform: bool) -> SceneFeatures {
-        let mut f = SceneFeatures { depth: 1, ..SceneFeatures::default() };
+    pub fn of_parent(
+        children: &[SceneFeatures],
+        motion: MotionKinds,
+        is_static_transform: bool,
+    ) -> SceneFeatures {
+        let mut f = SceneFeatures {
+            depth: 1,
+            ..SceneFeatures::default()
+        };
         let mut all_gas = true;
         for c in children {
             f.primitive_types |= c.primitive_types;
@@ -103,7 +114,11 @@ impl SceneFeatures {
         f.motion = f.motion.union(motion);
         f.static_transforms |= is_static_transform;
         let is_transform = motion.any() || is_static_transform;
-        f.graph = if all_gas && !is_transform { TraversableGraph::SingleLevelInstancing } else { TraversableGraph::Any };
+        f.graph = if all_gas && !is_transform {
+            TraversableGraph::SingleLevelInstancing
+        } else {
+            TraversableGraph::Any
+        };
         f
     }
 
@@ -169,7 +184,12 @@ impl ProgramFeatures {
     ) -> ProgramFeatures {
         let mut f = ProgramFeatures::default();
         for g in groups {
-            if let ProgramGroupDesc::HitGroup { builtin, intersection: None, .. } = g {
+            if let ProgramGroupDesc::HitGroup {
+                builtin,
+                intersection: None,
+                ..
+            } = g
+            {
                 f.builtin_types |= match builtin {
                     BuiltinIntersector::Triangle => PrimitiveTypeFlags::TRIANGLE,
                     BuiltinIntersector::Sphere => PrimitiveTypeFlags::SPHERE,
@@ -187,14 +207,17 @@ impl ProgramFeatures {
                     ProgramKind::Exception => f.exception_program = true,
                     ProgramKind::Raygen => {}
                 }
-                let Some(module) = module_of(program) else { continue };
+                let Some(module) = module_of(program) else {
+                    continue;
+                };
                 f.payload_values_used = f.payload_values_used.max(module.payload_values_used);
                 f.attribute_values_used = f.attribute_values_used.max(module.attribute_values_used);
                 if let Some(p) = module.program(&program.entry) {
                     f.throws |= p.calls(DeviceFunction::ThrowException);
                     f.reads_time |= p.calls(DeviceFunction::RayTime);
                     f.traces_from_hits |= kind != ProgramKind::Raygen
-                        && (p.calls(DeviceFunction::Trace) || p.calls(DeviceFunction::ContinuationCall));
+                        && (p.calls(DeviceFunction::Trace)
+                            || p.calls(DeviceFunction::ContinuationCall));
                 }
             }
         }
@@ -239,7 +262,11 @@ impl FeatureSet {
         FeatureSet {
             primitive_types: PrimitiveTypeFlags::ALL,
             motion: true,
-            motion_kinds: MotionKinds { geometry: true, matrix: true, srt: true },
+            motion_kinds: MotionKinds {
+                geometry: true,
+                matrix: true,
+                srt: true,
+            },
             traversable_graph: TraversableGraph::Any,
             any_hit: true,
             intersection: true,
@@ -266,7 +293,10 @@ impl FeatureSet {
             (PrimitiveTypeFlags::CUSTOM, "custom"),
             (PrimitiveTypeFlags::SPHERE, "spheres"),
             (PrimitiveTypeFlags::ROUND_LINEAR, "linear-curves"),
-            (PrimitiveTypeFlags::ROUND_QUADRATIC_BSPLINE, "quadratic-curves"),
+            (
+                PrimitiveTypeFlags::ROUND_QUADRATIC_BSPLINE,
+                "quadratic-curves",
+            ),
             (PrimitiveTypeFlags::ROUND_CUBIC_BSPLINE, "cubic-curves"),
             (PrimitiveTypeFlags::ROUND_CATMULLROM, "catmull-rom-curves"),
         ] {
@@ -318,7 +348,9 @@ pub fn resolve(
             link.max_trace_depth
         )));
     }
-    let scene_types = scene.map(|s| s.primitive_types).unwrap_or(PrimitiveTypeFlags::NONE);
+    let scene_types = scene
+        .map(|s| s.primitive_types)
+        .unwrap_or(PrimitiveTypeFlags::NONE);
     let mut auto_types = scene_types | programs.builtin_types;
     if programs.intersection {
         auto_types |= PrimitiveTypeFlags::CUSTOM;
@@ -328,7 +360,9 @@ pub fn resolve(
         auto_types = PrimitiveTypeFlags::TRIANGLE | PrimitiveTypeFlags::CUSTOM;
     }
     let primitive_types = options.primitive_types.or(auto_types);
-    let missing = PrimitiveTypeFlags(programs.builtin_types.0 & !primitive_types.0 & !PrimitiveTypeFlags::TRIANGLE.0);
+    let missing = PrimitiveTypeFlags(
+        programs.builtin_types.0 & !primitive_types.0 & !PrimitiveTypeFlags::TRIANGLE.0,
+    );
     if !missing.is_empty() {
         return Err(Error::invalid(format!(
             "pipeline_options.primitive_types is {primitive_types:?}, but a hit group uses the built-in intersector of {missing:?}; add it to primitive_types or leave it Auto"
@@ -336,7 +370,9 @@ pub fn resolve(
     }
     let scene_motion = scene.map(|s| s.motion).unwrap_or_default();
     let motion = options.uses_motion_blur.or(scene_motion.any());
-    let graph = options.traversable_graph.or(scene.map(|s| s.graph).unwrap_or(TraversableGraph::Any));
+    let graph = options
+        .traversable_graph
+        .or(scene.map(|s| s.graph).unwrap_or(TraversableGraph::Any));
     let max_payload = 32;
     let num_payload_values = options.num_payload_values.or(programs.payload_values_used);
     if num_payload_values > max_payload {
@@ -344,14 +380,19 @@ pub fn resolve(
             "pipeline_options.num_payload_values is {num_payload_values}; at most {max_payload} payload registers exist"
         )));
     }
-    if num_payload_values < programs.payload_values_used && programs.payload_values_used < max_payload {
+    if num_payload_values < programs.payload_values_used
+        && programs.payload_values_used < max_payload
+    {
         return Err(Error::invalid(format!(
             "pipeline_options.num_payload_values is {num_payload_values}, but the programs use payload register {}; raise it to at least {} or leave it Auto",
             programs.payload_values_used - 1,
             programs.payload_values_used
         )));
     }
-    let num_attribute_values = options.num_attribute_values.or(programs.attribute_values_used).max(2);
+    let num_attribute_values = options
+        .num_attribute_values
+        .or(programs.attribute_values_used)
+        .max(2);
     if num_attribute_values > 8 {
         return Err(Error::limit(format!(
             "pipeline_options.num_attribute_values is {num_attribute_values}; at most 8 attribute registers exist"
@@ -366,14 +407,21 @@ pub fn resolve(
     };
     let exceptions = options.exception_flags.or(auto_exceptions);
     if exceptions.unknown_bits() != 0 {
-        return Err(Error::invalid(format!("pipeline_options.exception_flags has unknown bits {:#x}", exceptions.unknown_bits())));
+        return Err(Error::invalid(format!(
+            "pipeline_options.exception_flags has unknown bits {:#x}",
+            exceptions.unknown_bits()
+        )));
     }
     let opacity_micromaps = options
         .allow_opacity_micromaps
         .or(scene.is_some_and(|s| s.opacity_micromaps));
     let motion_kinds = if motion {
         match options.uses_motion_blur {
-            Setting::Value(true) if !scene_motion.any() => MotionKinds { geometry: true, matrix: true, srt: true },
+            Setting::Value(true) if !scene_motion.any() => MotionKinds {
+                geometry: true,
+                matrix: true,
+                srt: true,
+            },
             _ => scene_motion,
         }
     } else {
@@ -402,10 +450,23 @@ mod tests {
 
     #[test]
     fn auto_follows_scene_and_programs() {
-        let scene = SceneFeatures { primitive_types: PrimitiveTypeFlags::TRIANGLE, ..Default::default() };
-        let programs = ProgramFeatures { closest_hit: true, payload_values_used: 3, ..Default::default() };
-        let f = resolve(&PipelineCompileOptions::default(), &PipelineLinkOptions::default(), Some(scene), &programs, 31)
-            .unwrap();
+        let scene = SceneFeatures {
+            primitive_types: PrimitiveTypeFlags::TRIANGLE,
+            ..Default::default()
+        };
+        let programs = ProgramFeatures {
+            closest_hit: true,
+            payload_values_used: 3,
+            ..Default::default()
+        };
+        let f = resolve(
+            &PipelineCompileOptions::default(),
+            &PipelineLinkOptions::default(),
+            Some(scene),
+            &programs,
+            31,
+        )
+        .unwrap();
         assert_eq!(f.primitive_types, PrimitiveTypeFlags::TRIANGLE);
         assert!(!f.motion && !f.any_hit && !f.intersection && !f.instancing());
         assert_eq!(f.num_payload_values, 3);
@@ -427,21 +488,44 @@ mod tests {
         };
         let e = resolve(&opts, &PipelineLinkOptions::default(), None, &programs, 31).unwrap_err();
         assert!(e.message().contains("built-in intersector"), "{e}");
-        let opts = PipelineCompileOptions { num_payload_values: Setting::Value(2), ..Default::default() };
+        let opts = PipelineCompileOptions {
+            num_payload_values: Setting::Value(2),
+            ..Default::default()
+        };
         let e = resolve(&opts, &PipelineLinkOptions::default(), None, &programs, 31).unwrap_err();
         assert!(e.message().contains("payload register 4"), "{e}");
-        let link = PipelineLinkOptions { max_trace_depth: 40, ..Default::default() };
-        let e = resolve(&PipelineCompileOptions::default(), &link, None, &programs, 31).unwrap_err();
+        let link = PipelineLinkOptions {
+            max_trace_depth: 40,
+            ..Default::default()
+        };
+        let e = resolve(
+            &PipelineCompileOptions::default(),
+            &link,
+            None,
+            &programs,
+            31,
+        )
+        .unwrap_err();
         assert!(e.message().contains("max_trace_depth is 40"), "{e}");
     }
 
     #[test]
     fn instance_graphs() {
-        let gas = SceneFeatures { primitive_types: PrimitiveTypeFlags::SPHERE, ..Default::default() };
+        let gas = SceneFeatures {
+            primitive_types: PrimitiveTypeFlags::SPHERE,
+            ..Default::default()
+        };
         let ias = SceneFeatures::of_parent(&[gas], MotionKinds::default(), false);
         assert_eq!(ias.graph, TraversableGraph::SingleLevelInstancing);
         assert_eq!(ias.depth, 1);
-        let srt = SceneFeatures::of_parent(&[gas], MotionKinds { srt: true, ..Default::default() }, false);
+        let srt = SceneFeatures::of_parent(
+            &[gas],
+            MotionKinds {
+                srt: true,
+                ..Default::default()
+            },
+            false,
+        );
         assert_eq!(srt.graph, TraversableGraph::Any);
         let top = SceneFeatures::of_parent(&[ias, srt], MotionKinds::default(), false);
         assert_eq!(top.graph, TraversableGraph::Any);

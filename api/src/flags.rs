@@ -176,7 +176,6 @@ pub const HIT_KIND_TRIANGLE_FRONT_FACE: u32 = 0xFE;
 /// Hit kind of a back-facing triangle hit (OptiX `OPTIX_HIT_KIND_TRIANGLE_BACK_FACE`).
 pub const HIT_KIND_TRIANGLE_BACK_FACE: u32 = 0xFF;
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

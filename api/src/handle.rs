@@ -112,7 +112,12 @@ pub struct HandleTable<H: Handle, T> {
 impl<H: Handle, T> HandleTable<H, T> {
     /// An empty table for objects of `device`.
     pub fn new(device: DeviceId) -> Self {
-        Self { device, slots: Vec::new(), free: Vec::new(), _kind: std::marker::PhantomData }
+        Self {
+            device,
+            slots: Vec::new(),
+            free: Vec::new(),
+            _kind: std::marker::PhantomData,
+        }
     }
 
     /// Stores `value` and returns its handle.
@@ -124,12 +129,19 @@ impl<H: Handle, T> HandleTable<H, T> {
                 slot
             }
             None => {
-                self.slots.push(Slot { generation: 0, value: Some(value) });
+                self.slots.push(Slot {
+                    generation: 0,
+                    value: Some(value),
+                });
                 (self.slots.len() - 1) as u32
             }
         };
         let generation = self.slots[slot as usize].generation;
-        H::from_raw(RawHandle { device: self.device, slot, generation })
+        H::from_raw(RawHandle {
+            device: self.device,
+            slot,
+            generation,
+        })
     }
 
     /// Checks that `handle` is this device's and alive.
@@ -140,7 +152,10 @@ impl<H: Handle, T> HandleTable<H, T> {
                 ErrorKind::InvalidHandle,
                 format!(
                     "{} handle {:?} belongs to {}, not to this device ({}); objects cannot be shared between devices",
-                    H::KIND, raw, raw.device, self.device
+                    H::KIND,
+                    raw,
+                    raw.device,
+                    self.device
                 ),
             ));
         }
@@ -148,7 +163,11 @@ impl<H: Handle, T> HandleTable<H, T> {
             Some(s) if s.generation == raw.generation && s.value.is_some() => Ok(raw.slot as usize),
             _ => Err(Error::new(
                 ErrorKind::InvalidHandle,
-                format!("{} handle {:?} was destroyed and cannot be used", H::KIND, raw),
+                format!(
+                    "{} handle {:?} was destroyed and cannot be used",
+                    H::KIND,
+                    raw
+                ),
             )),
         }
     }
@@ -156,13 +175,19 @@ impl<H: Handle, T> HandleTable<H, T> {
     /// The object named by `handle`.
     pub fn get(&self, handle: H) -> Result<&T> {
         let i = self.check(handle)?;
-        Ok(self.slots[i].value.as_ref().expect("checked slot is occupied"))
+        Ok(self.slots[i]
+            .value
+            .as_ref()
+            .expect("checked slot is occupied"))
     }
 
     /// The object named by `handle`, mutably.
     pub fn get_mut(&mut self, handle: H) -> Result<&mut T> {
         let i = self.check(handle)?;
-        Ok(self.slots[i].value.as_mut().expect("checked slot is occupied"))
+        Ok(self.slots[i]
+            .value
+            .as_mut()
+            .expect("checked slot is occupied"))
     }
 
     /// Removes and returns the object; the handle (and copies of it) become invalid.
@@ -179,7 +204,14 @@ impl<H: Handle, T> HandleTable<H, T> {
         let device = self.device;
         self.slots.iter().enumerate().filter_map(move |(i, s)| {
             s.value.as_ref().map(|v| {
-                (H::from_raw(RawHandle { device, slot: i as u32, generation: s.generation }), v)
+                (
+                    H::from_raw(RawHandle {
+                        device,
+                        slot: i as u32,
+                        generation: s.generation,
+                    }),
+                    v,
+                )
             })
         })
     }
@@ -207,7 +239,11 @@ mod tests {
         assert_eq!(*a.get(h).unwrap(), 7);
         let foreign = b.get(h).unwrap_err();
         assert_eq!(foreign.kind(), ErrorKind::InvalidHandle);
-        assert!(foreign.message().contains("belongs to device"), "{}", foreign.message());
+        assert!(
+            foreign.message().contains("belongs to device"),
+            "{}",
+            foreign.message()
+        );
         assert_eq!(a.remove(h).unwrap(), 7);
         let stale = a.get(h).unwrap_err();
         assert!(stale.message().contains("destroyed"), "{}", stale.message());

@@ -101,7 +101,12 @@ pub enum Resource {
 impl Resource {
     /// A whole buffer at `binding`.
     pub fn buffer(binding: u32, buffer: Buffer) -> Self {
-        Resource::Buffer { binding, buffer, offset: 0, size: None }
+        Resource::Buffer {
+            binding,
+            buffer,
+            offset: 0,
+            size: None,
+        }
     }
 
     /// The binding number.
@@ -128,7 +133,11 @@ pub struct LaunchSize {
 impl LaunchSize {
     /// A width × height × depth launch.
     pub fn new(width: u32, height: u32, depth: u32) -> Self {
-        Self { width, height, depth }
+        Self {
+            width,
+            height,
+            depth,
+        }
     }
 
     /// Total invocations.

@@ -9,6 +9,9 @@
 //! - [`frontend`]: the WGSL program front end (prelude, parse, checks, reflection);
 //! - [`features`]: what a scene and its programs use, for specialised pipelines.
 
+// `!(x >= 0.0)` is how this crate says "negative or NaN": the NaN case is the point.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod accel;
 pub mod decode;
 pub mod device;
@@ -22,13 +25,17 @@ pub mod program;
 pub mod sbt;
 pub mod semantics;
 pub mod validate;
+pub mod wgsl;
 
 pub use accel::*;
 pub use device::*;
 pub use error::{Diagnostic, Error, ErrorKind, Result};
 pub use features::{FeatureSet, MotionKinds, ProgramFeatures, SceneFeatures};
 pub use flags::*;
-pub use handle::{Accel, Buffer, DeviceId, Handle, HandleTable, MicromapArray, Module, Pipeline, ProgramGroup, RawHandle, Texture};
+pub use handle::{
+    Accel, Buffer, DeviceId, Handle, HandleTable, MicromapArray, Module, Pipeline, ProgramGroup,
+    RawHandle, Texture,
+};
 pub use launch::*;
 pub use program::*;
 pub use sbt::*;

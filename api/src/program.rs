@@ -89,7 +89,9 @@ impl ProgramKind {
 
     /// The kind whose prefix starts `function_name`, if any.
     pub fn from_function_name(function_name: &str) -> Option<ProgramKind> {
-        ProgramKind::ALL.into_iter().find(|k| function_name.starts_with(k.prefix()))
+        ProgramKind::ALL
+            .into_iter()
+            .find(|k| function_name.starts_with(k.prefix()))
     }
 
     /// The bit of this kind in a "programs that ran" mask (conformance `programs` channel).
@@ -191,7 +193,11 @@ pub struct PipelineLinkOptions {
 
 impl Default for PipelineLinkOptions {
     fn default() -> Self {
-        Self { max_trace_depth: 1, max_direct_callable_depth: 4, max_continuation_callable_depth: 4 }
+        Self {
+            max_trace_depth: 1,
+            max_direct_callable_depth: 4,
+            max_continuation_callable_depth: 4,
+        }
     }
 }
 
@@ -207,7 +213,10 @@ pub struct ProgramRef {
 impl ProgramRef {
     /// `entry` in `module`.
     pub fn new(module: Module, entry: impl Into<String>) -> Self {
-        Self { module, entry: entry.into() }
+        Self {
+            module,
+            entry: entry.into(),
+        }
     }
 }
 
@@ -271,14 +280,26 @@ impl ProgramGroupDesc {
             ProgramGroupDesc::Raygen(p) => v.push((ProgramKind::Raygen, p)),
             ProgramGroupDesc::Miss(p) => v.extend(p.iter().map(|p| (ProgramKind::Miss, p))),
             ProgramGroupDesc::Exception(p) => v.push((ProgramKind::Exception, p)),
-            ProgramGroupDesc::HitGroup { closest_hit, any_hit, intersection, .. } => {
+            ProgramGroupDesc::HitGroup {
+                closest_hit,
+                any_hit,
+                intersection,
+                ..
+            } => {
                 v.extend(closest_hit.iter().map(|p| (ProgramKind::ClosestHit, p)));
                 v.extend(any_hit.iter().map(|p| (ProgramKind::AnyHit, p)));
                 v.extend(intersection.iter().map(|p| (ProgramKind::Intersection, p)));
             }
-            ProgramGroupDesc::Callables { direct, continuation } => {
+            ProgramGroupDesc::Callables {
+                direct,
+                continuation,
+            } => {
                 v.extend(direct.iter().map(|p| (ProgramKind::DirectCallable, p)));
-                v.extend(continuation.iter().map(|p| (ProgramKind::ContinuationCallable, p)));
+                v.extend(
+                    continuation
+                        .iter()
+                        .map(|p| (ProgramKind::ContinuationCallable, p)),
+                );
             }
         }
         v

@@ -117,7 +117,11 @@ impl SbtHeader {
             return None;
         }
         Some(SbtHeader {
-            group: RawHandle { device: DeviceId(device), slot, generation },
+            group: RawHandle {
+                device: DeviceId(device),
+                slot,
+                generation,
+            },
             region: region_from_code(region)?,
         })
     }
@@ -130,7 +134,11 @@ mod tests {
 
     #[test]
     fn header_round_trips_and_rejects_garbage() {
-        let raw = RawHandle { device: DeviceId(42), slot: 3, generation: 9 };
+        let raw = RawHandle {
+            device: DeviceId(42),
+            slot: 3,
+            generation: 9,
+        };
         let group = ProgramGroup::from_raw(raw);
         let bytes = SbtHeader::pack(group, GroupRegion::HitGroup);
         let h = SbtHeader::unpack(&bytes).unwrap();

@@ -1,1 +1,7 @@
-//! optik-benches: criterion benches and the benchmark report. Not implemented yet.
+//! optik-benches: criterion benches, the one-process benchmark report, and the data tools they
+//! share with the `optik` command (meshes, NumPy arrays, ray casting through the public API).
+
+pub mod mesh;
+pub mod npy;
+pub mod raycast;
+pub mod rays;

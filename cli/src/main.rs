@@ -1,1 +1,47 @@
-fn main() {}
+//! The `optik` command.
+
+/// Prints a line on stdout; when stdout is closed (`optik info | head`) the program ends quietly
+/// instead of panicking.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if writeln!(std::io::stdout(), $($arg)*).is_err() {
+            std::process::exit(0);
+        }
+    }};
+}
+
+mod compile;
+mod info;
+mod trace;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// optik: an OptiX-7-style ray tracing API for Rust, on CPU, wgpu and Vulkan.
+#[derive(Parser)]
+#[command(name = "optik", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Compiles a WGSL module and lists its programs, or prints each error as FILE:LINE:COLUMN.
+    Compile(compile::CompileArgs),
+    /// Lists each backend, whether it can run here, and the devices and adapters found.
+    Info,
+    /// Casts rays (a float32 .npy of shape (N, 8)) against a mesh and writes hits to a .npz.
+    Trace(trace::TraceArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let code = match cli.command {
+        Command::Compile(args) => compile::run(&args),
+        Command::Info => info::run(),
+        Command::Trace(args) => trace::run(&args),
+    };
+    ExitCode::from(code)
+}

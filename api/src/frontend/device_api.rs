@@ -101,8 +101,13 @@ const ALL_KINDS: &[ProgramKind] = &[
     DirectCallable,
     ContinuationCallable,
 ];
-const HIT_MISS_CALLABLE: &[ProgramKind] =
-    &[AnyHit, ClosestHit, Miss, DirectCallable, ContinuationCallable];
+const HIT_MISS_CALLABLE: &[ProgramKind] = &[
+    AnyHit,
+    ClosestHit,
+    Miss,
+    DirectCallable,
+    ContinuationCallable,
+];
 const HIT: &[ProgramKind] = &[AnyHit, ClosestHit];
 const TRAVERSAL: &[ProgramKind] = &[Intersection, AnyHit, ClosestHit, Miss];
 const PRIMITIVE: &[ProgramKind] = &[Intersection, AnyHit, ClosestHit];
@@ -223,7 +228,15 @@ impl DeviceFunction {
             F::DirectCall => (
                 "rt_direct_call",
                 "(index: u32, args: ptr<function, RtPayload>)",
-                &[Raygen, Intersection, AnyHit, ClosestHit, Miss, DirectCallable, ContinuationCallable],
+                &[
+                    Raygen,
+                    Intersection,
+                    AnyHit,
+                    ClosestHit,
+                    Miss,
+                    DirectCallable,
+                    ContinuationCallable,
+                ],
             ),
             F::ContinuationCall => (
                 "rt_continuation_call",
@@ -233,15 +246,33 @@ impl DeviceFunction {
             F::ThrowException => (
                 "rt_throw_exception",
                 "(code: u32)",
-                &[Raygen, Intersection, AnyHit, ClosestHit, Miss, DirectCallable, ContinuationCallable],
+                &[
+                    Raygen,
+                    Intersection,
+                    AnyHit,
+                    ClosestHit,
+                    Miss,
+                    DirectCallable,
+                    ContinuationCallable,
+                ],
             ),
             F::ExceptionCode => ("rt_exception_code", "() -> i32", &[Exception]),
             F::RemainingTraceDepth => (
                 "rt_remaining_trace_depth",
                 "() -> u32",
-                &[Raygen, ClosestHit, Miss, DirectCallable, ContinuationCallable],
+                &[
+                    Raygen,
+                    ClosestHit,
+                    Miss,
+                    DirectCallable,
+                    ContinuationCallable,
+                ],
             ),
-            F::OffsetRay => ("rt_offset_ray", "(p: vec3<f32>, n: vec3<f32>) -> vec3<f32>", ALL_KINDS),
+            F::OffsetRay => (
+                "rt_offset_ray",
+                "(p: vec3<f32>, n: vec3<f32>) -> vec3<f32>",
+                ALL_KINDS,
+            ),
         }
     }
 
@@ -261,7 +292,10 @@ impl DeviceFunction {
 
     /// Whether this function ends the program that calls it (no return).
     pub fn is_terminator(self) -> bool {
-        matches!(self, DeviceFunction::IgnoreIntersection | DeviceFunction::TerminateRay)
+        matches!(
+            self,
+            DeviceFunction::IgnoreIntersection | DeviceFunction::TerminateRay
+        )
     }
 }
 
@@ -283,24 +317,46 @@ pub const PRELUDE_CONSTANTS: &[(&str, &str, u32)] = &[
 
 /// Exception codes (OptiX `OptixExceptionCodes`), as `i32` constants in the prelude.
 pub const PRELUDE_EXCEPTION_CODES: &[(&str, i32)] = &[
-    ("RT_EXCEPTION_CODE_STACK_OVERFLOW", crate::semantics::exception::STACK_OVERFLOW),
-    ("RT_EXCEPTION_CODE_TRACE_DEPTH_EXCEEDED", crate::semantics::exception::TRACE_DEPTH_EXCEEDED),
-    ("RT_EXCEPTION_CODE_INVALID_TRAVERSABLE", crate::semantics::exception::INVALID_TRAVERSABLE),
-    ("RT_EXCEPTION_CODE_INVALID_MISS_SBT", crate::semantics::exception::INVALID_MISS_SBT),
-    ("RT_EXCEPTION_CODE_INVALID_HIT_SBT", crate::semantics::exception::INVALID_HIT_SBT),
+    (
+        "RT_EXCEPTION_CODE_STACK_OVERFLOW",
+        crate::semantics::exception::STACK_OVERFLOW,
+    ),
+    (
+        "RT_EXCEPTION_CODE_TRACE_DEPTH_EXCEEDED",
+        crate::semantics::exception::TRACE_DEPTH_EXCEEDED,
+    ),
+    (
+        "RT_EXCEPTION_CODE_INVALID_TRAVERSABLE",
+        crate::semantics::exception::INVALID_TRAVERSABLE,
+    ),
+    (
+        "RT_EXCEPTION_CODE_INVALID_MISS_SBT",
+        crate::semantics::exception::INVALID_MISS_SBT,
+    ),
+    (
+        "RT_EXCEPTION_CODE_INVALID_HIT_SBT",
+        crate::semantics::exception::INVALID_HIT_SBT,
+    ),
     (
         "RT_EXCEPTION_CODE_UNSUPPORTED_PRIMITIVE_TYPE",
         crate::semantics::exception::UNSUPPORTED_PRIMITIVE_TYPE,
     ),
-    ("RT_EXCEPTION_CODE_INVALID_RAY", crate::semantics::exception::INVALID_RAY),
-    ("RT_EXCEPTION_CODE_CALLABLE_INVALID_SBT", crate::semantics::exception::CALLABLE_INVALID_SBT),
+    (
+        "RT_EXCEPTION_CODE_INVALID_RAY",
+        crate::semantics::exception::INVALID_RAY,
+    ),
+    (
+        "RT_EXCEPTION_CODE_CALLABLE_INVALID_SBT",
+        crate::semantics::exception::CALLABLE_INVALID_SBT,
+    ),
 ];
 
 /// The body of `rt_offset_ray`: Wächter and Binder, "A Fast and Robust Method for Avoiding
 /// Self-Intersection" (Ray Tracing Gems ch. 6). Moves `p` 256 ulps along `n` per component,
 /// or by a fixed 1/65536 where |p| < 1/32 (the ulp-starved region near zero). `n` must point
-/// to the side the new ray leaves from.
-const OFFSET_RAY_BODY: &str = r#"{
+/// to the side the new ray leaves from. Public so that backends which write their own prelude
+/// (the Vulkan backend) keep this one shared body.
+pub const OFFSET_RAY_BODY: &str = r#"{
     let of_i = vec3<i32>(256.0 * n);
     let p_bits = bitcast<vec3<i32>>(p);
     let p_i = bitcast<vec3<f32>>(p_bits + select(of_i, -of_i, p < vec3<f32>(0.0)));
@@ -338,7 +394,10 @@ pub fn prelude(payload_len: u32) -> String {
     s.push_str(PRELUDE_MARKER);
     s.push('\n');
     s.push_str("alias RtHandle = vec2<u32>;\n");
-    s.push_str(&format!("alias RtPayload = array<u32, {}>;\n", payload_len.max(1)));
+    s.push_str(&format!(
+        "alias RtPayload = array<u32, {}>;\n",
+        payload_len.max(1)
+    ));
     s.push_str("alias RtAttributes = array<u32, 8>;\n");
     for (name, ty, value) in PRELUDE_CONSTANTS {
         s.push_str(&format!("const {name}: {ty} = {value}u;\n"));
@@ -347,7 +406,11 @@ pub fn prelude(payload_len: u32) -> String {
         s.push_str(&format!("const {name}: i32 = {value}i;\n"));
     }
     for f in DeviceFunction::ALL {
-        let body = if f == DeviceFunction::OffsetRay { OFFSET_RAY_BODY } else { stub_body(f) };
+        let body = if f == DeviceFunction::OffsetRay {
+            OFFSET_RAY_BODY
+        } else {
+            stub_body(f)
+        };
         s.push_str(&format!("fn {}{} {}\n", f.name(), f.signature(), body));
     }
     s
@@ -389,7 +452,10 @@ mod tests {
         assert!(DeviceFunction::ReportIntersection.is_allowed_in(ProgramKind::Intersection));
         assert!(!DeviceFunction::ReportIntersection.is_allowed_in(ProgramKind::ClosestHit));
         assert!(!DeviceFunction::ThrowException.is_allowed_in(ProgramKind::Exception));
-        assert_eq!(DeviceFunction::LaunchIndex.allowed_in_text(), "every program");
+        assert_eq!(
+            DeviceFunction::LaunchIndex.allowed_in_text(),
+            "every program"
+        );
         assert_eq!(
             DeviceFunction::IgnoreIntersection.allowed_in_text(),
             "any-hit programs"

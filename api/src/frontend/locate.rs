@@ -11,7 +11,11 @@ pub(crate) struct Locator<'a> {
 
 impl<'a> Locator<'a> {
     pub(crate) fn new(file: &'a str, full: &'a str, user_len: usize) -> Self {
-        Self { file, full, user_len }
+        Self {
+            file,
+            full,
+            user_len,
+        }
     }
 
     /// A diagnostic at `span`. Spans inside the prelude (which only a user's redefinition of
@@ -28,16 +32,30 @@ impl<'a> Locator<'a> {
             };
         };
         let (text, offset, file) = if range.start >= self.user_len {
-            (&self.full[self.user_len..], range.start - self.user_len, "<optik prelude>".to_string())
+            (
+                &self.full[self.user_len..],
+                range.start - self.user_len,
+                "<optik prelude>".to_string(),
+            )
         } else {
-            (&self.full[..self.user_len], range.start, self.file.to_string())
+            (
+                &self.full[..self.user_len],
+                range.start,
+                self.file.to_string(),
+            )
         };
         let prefix = &text[..offset];
         let line = prefix.matches('\n').count() as u32 + 1;
         let line_start = prefix.rfind('\n').map(|p| p + 1).unwrap_or(0);
         let column = (offset - line_start) as u32 + 1;
         let source_line = text[line_start..].lines().next().unwrap_or("").to_string();
-        Diagnostic { file, line, column, message, source_line }
+        Diagnostic {
+            file,
+            line,
+            column,
+            message,
+            source_line,
+        }
     }
 
     /// The byte offset of `fn name` in the user's source, as a one-byte span at the name.
@@ -48,9 +66,7 @@ impl<'a> Locator<'a> {
             let at = from + found;
             let before = user[..at].trim_end();
             let after = user[at + name.len()..].chars().next();
-            if before.ends_with("fn")
-                && !after.is_some_and(|c| c.is_alphanumeric() || c == '_')
-            {
+            if before.ends_with("fn") && !after.is_some_and(|c| c.is_alphanumeric() || c == '_') {
                 return naga::Span::new(at as u32, (at + name.len()) as u32);
             }
             from = at + name.len();

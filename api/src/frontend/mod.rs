@@ -11,7 +11,8 @@ mod locate;
 mod reflect;
 
 pub use device_api::{
-    prelude, DeviceFunction, PRELUDE_CONSTANTS, PRELUDE_EXCEPTION_CODES, PRELUDE_MARKER,
+    DeviceFunction, OFFSET_RAY_BODY, PRELUDE_CONSTANTS, PRELUDE_EXCEPTION_CODES, PRELUDE_MARKER,
+    prelude,
 };
 pub use reflect::{BindingInfo, BindingKind, ProgramInfo};
 
@@ -57,6 +58,13 @@ impl CompiledModule {
     /// The launch-parameter binding (`@group(0) @binding(0) var<uniform>`), if declared.
     pub fn params(&self) -> Option<&BindingInfo> {
         self.bindings.iter().find(|b| b.binding == 0)
+    }
+
+    /// A diagnostic at `span` of `full_source`, located in the user's source as the front
+    /// end's own errors are (spans in the prelude are reported against `<optik prelude>`).
+    /// Backends use it for constructs they cannot lower.
+    pub fn diagnostic(&self, span: naga::Span, message: impl Into<String>) -> Diagnostic {
+        Locator::new(&self.file_name, &self.full_source, self.user_len).diagnostic(span, message)
     }
 
     /// The naga function of a device function (its prelude stub).
@@ -115,7 +123,10 @@ pub fn compile(source: &ProgramSource, payload_len: u32) -> Result<CompiledModul
             }
             for (_, label) in e.spans() {
                 // naga's labels name IR handles ("naga::ir::Function [0]"), useless to users.
-                if !label.is_empty() && !label.contains("naga::") && !message.contains(label.as_str()) {
+                if !label.is_empty()
+                    && !label.contains("naga::")
+                    && !message.contains(label.as_str())
+                {
                     message.push_str(&format!(" ({label})"));
                 }
             }

@@ -105,7 +105,12 @@ pub(crate) fn reflect(
         .functions
         .iter()
         .filter(|(h, _)| !loc.is_user(module.functions.get_span(*h)))
-        .filter_map(|(h, f)| f.name.as_deref().and_then(DeviceFunction::from_name).map(|d| (h, d)))
+        .filter_map(|(h, f)| {
+            f.name
+                .as_deref()
+                .and_then(DeviceFunction::from_name)
+                .map(|d| (h, d))
+        })
         .collect();
 
     let bindings = check_globals(module, loc, diags);
@@ -130,7 +135,11 @@ pub(crate) fn reflect(
         }
         let name = function.name.clone().unwrap_or_default();
         let decl_span = loc.function_name_span(&name);
-        let span = if decl_span.is_defined() { decl_span } else { module.functions.get_span(handle) };
+        let span = if decl_span.is_defined() {
+            decl_span
+        } else {
+            module.functions.get_span(handle)
+        };
         if let Some(kind) = check_function_name(&name, span, loc, diags) {
             if !function.arguments.is_empty() {
                 diags.push(loc.diagnostic(
@@ -163,39 +172,72 @@ pub(crate) fn reflect(
             });
         }
         let mut f = FunctionFacts::default();
-        walk_block(&function.body, module, function, &device_fns, &mut f, loc, diags);
-        check_expressions(module, function, handle, info, payload_ty, &mut f, loc, diags);
+        walk_block(
+            &function.body,
+            module,
+            function,
+            &device_fns,
+            &mut f,
+            loc,
+            diags,
+        );
+        check_expressions(
+            module, function, handle, info, payload_ty, &mut f, loc, diags,
+        );
         facts.insert(handle, f);
     }
 
     let binding_of: HashMap<Handle<naga::GlobalVariable>, u32> =
         bindings.iter().map(|b| (b.global, b.binding)).collect();
     for program in &mut programs {
-        analyse_program(program, module, info, &facts, &device_fns, &binding_of, loc, diags);
+        analyse_program(
+            program,
+            module,
+            info,
+            &facts,
+            &device_fns,
+            &binding_of,
+            loc,
+            diags,
+        );
     }
 
     let mut payload_values_used = 0;
     let mut attribute_values_used = 0;
     for f in facts.values() {
         for i in &f.payload_indices {
-            payload_values_used = payload_values_used.max(i.map_or(MAX_PAYLOAD, |i| (i + 1).min(MAX_PAYLOAD)));
+            payload_values_used =
+                payload_values_used.max(i.map_or(MAX_PAYLOAD, |i| (i + 1).min(MAX_PAYLOAD)));
         }
         for i in &f.attribute_indices {
-            attribute_values_used =
-                attribute_values_used.max(i.map_or(MAX_ATTRIBUTES, |i| (i + 1).min(MAX_ATTRIBUTES)));
+            attribute_values_used = attribute_values_used
+                .max(i.map_or(MAX_ATTRIBUTES, |i| (i + 1).min(MAX_ATTRIBUTES)));
         }
     }
-    let reports = programs.iter().any(|p| p.calls(DeviceFunction::ReportIntersection))
-        || programs.iter().any(|p| p.calls(DeviceFunction::TriangleBarycentrics));
+    let reports = programs
+        .iter()
+        .any(|p| p.calls(DeviceFunction::ReportIntersection))
+        || programs
+            .iter()
+            .any(|p| p.calls(DeviceFunction::TriangleBarycentrics));
     if reports || attribute_values_used > 0 {
         // OptiX raises attribute counts below 2 to 2 (the triangle barycentrics).
         attribute_values_used = attribute_values_used.max(2);
     }
-    Reflection { programs, bindings, payload_values_used, attribute_values_used }
+    Reflection {
+        programs,
+        bindings,
+        payload_values_used,
+        attribute_values_used,
+    }
 }
 
 fn prefixes_text() -> String {
-    ProgramKind::ALL.iter().map(|k| k.prefix()).collect::<Vec<_>>().join(", ")
+    ProgramKind::ALL
+        .iter()
+        .map(|k| k.prefix())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Checks a function's name; returns its program kind when it is a program.
@@ -209,7 +251,10 @@ fn check_function_name(
         if name.len() == kind.prefix().len() {
             diags.push(loc.diagnostic(
                 span,
-                format!("program `{name}` has no name after its prefix `{}`", kind.prefix()),
+                format!(
+                    "program `{name}` has no name after its prefix `{}`",
+                    kind.prefix()
+                ),
             ));
         }
         return Some(kind);
@@ -217,7 +262,9 @@ fn check_function_name(
     if name.starts_with("rt_") {
         diags.push(loc.diagnostic(
             span,
-            format!("function name `{name}`: names starting with `rt_` are reserved for the device API"),
+            format!(
+                "function name `{name}`: names starting with `rt_` are reserved for the device API"
+            ),
         ));
         return None;
     }
@@ -294,7 +341,9 @@ fn check_globals(module: &Module, loc: &Locator, diags: &mut Vec<Diagnostic>) ->
         }
         let inner = &module.types[var.ty].inner;
         let kind = match (rb.binding, var.space) {
-            (0, AddressSpace::Uniform) => BindingKind::Params { size: inner.size(gctx) },
+            (0, AddressSpace::Uniform) => BindingKind::Params {
+                size: inner.size(gctx),
+            },
             (0, _) => {
                 diags.push(loc.diagnostic(
                     span,
@@ -317,7 +366,11 @@ fn check_globals(module: &Module, loc: &Locator, diags: &mut Vec<Diagnostic>) ->
                 TypeInner::Image {
                     dim: naga::ImageDimension::D2,
                     arrayed: false,
-                    class: naga::ImageClass::Sampled { kind: naga::ScalarKind::Float, multi: false },
+                    class:
+                        naga::ImageClass::Sampled {
+                            kind: naga::ScalarKind::Float,
+                            multi: false,
+                        },
                 } => BindingKind::Texture2d,
                 TypeInner::Sampler { comparison: false } => BindingKind::Sampler,
                 _ => {
@@ -330,14 +383,25 @@ fn check_globals(module: &Module, loc: &Locator, diags: &mut Vec<Diagnostic>) ->
             },
             _ => continue,
         };
-        if let Some(prev) = bindings.iter().find(|b: &&BindingInfo| b.binding == rb.binding) {
+        if let Some(prev) = bindings
+            .iter()
+            .find(|b: &&BindingInfo| b.binding == rb.binding)
+        {
             diags.push(loc.diagnostic(
                 span,
-                format!("`{name}` reuses @binding({}) of `{}`", rb.binding, prev.name),
+                format!(
+                    "`{name}` reuses @binding({}) of `{}`",
+                    rb.binding, prev.name
+                ),
             ));
             continue;
         }
-        bindings.push(BindingInfo { binding: rb.binding, name, kind, global: handle });
+        bindings.push(BindingInfo {
+            binding: rb.binding,
+            name,
+            kind,
+            global: handle,
+        });
     }
     bindings.sort_by_key(|b| b.binding);
     bindings
@@ -346,10 +410,18 @@ fn check_globals(module: &Module, loc: &Locator, diags: &mut Vec<Diagnostic>) ->
 /// Bytes of a storage type's fixed part.
 fn storage_min_size(module: &Module, ty: Handle<naga::Type>) -> u32 {
     match &module.types[ty].inner {
-        TypeInner::Array { size: naga::ArraySize::Dynamic, stride, .. } => *stride,
+        TypeInner::Array {
+            size: naga::ArraySize::Dynamic,
+            stride,
+            ..
+        } => *stride,
         TypeInner::Struct { members, span } => match members.last() {
             Some(last) => match module.types[last.ty].inner {
-                TypeInner::Array { size: naga::ArraySize::Dynamic, stride, .. } => last.offset + stride,
+                TypeInner::Array {
+                    size: naga::ArraySize::Dynamic,
+                    stride,
+                    ..
+                } => last.offset + stride,
                 _ => *span,
             },
             None => *span,
@@ -361,7 +433,10 @@ fn storage_min_size(module: &Module, ty: Handle<naga::Type>) -> u32 {
 /// The type of `RtPayload` (`array<u32, N>`): what the prelude's `rt_trace` points to.
 /// naga does not keep alias names, so the type is found through the prelude's signature.
 fn payload_type(module: &Module) -> Option<Handle<naga::Type>> {
-    let (_, trace) = module.functions.iter().find(|(_, f)| f.name.as_deref() == Some("rt_trace"))?;
+    let (_, trace) = module
+        .functions
+        .iter()
+        .find(|(_, f)| f.name.as_deref() == Some("rt_trace"))?;
     match module.types[trace.arguments.last()?.ty].inner {
         TypeInner::Pointer { base, .. } => Some(base),
         _ => None,
@@ -391,30 +466,45 @@ fn walk_block(
                     walk_block(&case.body, module, function, device_fns, facts, loc, diags);
                 }
             }
-            Statement::Loop { body, continuing, .. } => {
+            Statement::Loop {
+                body, continuing, ..
+            } => {
                 walk_block(body, module, function, device_fns, facts, loc, diags);
                 walk_block(continuing, module, function, device_fns, facts, loc, diags);
             }
-            Statement::Call { function: callee, arguments, .. } => {
+            Statement::Call {
+                function: callee,
+                arguments,
+                ..
+            } => {
                 facts.calls.push((*callee, span));
                 match device_fns.get(callee) {
                     Some(DeviceFunction::GetPayload | DeviceFunction::SetPayload) => {
-                        facts.payload_indices.push(const_u32(module, function, arguments[0]));
+                        facts
+                            .payload_indices
+                            .push(const_u32(module, function, arguments[0]));
                     }
                     Some(DeviceFunction::GetAttribute) => {
-                        facts.attribute_indices.push(const_u32(module, function, arguments[0]));
+                        facts
+                            .attribute_indices
+                            .push(const_u32(module, function, arguments[0]));
                     }
                     _ => {}
                 }
             }
-            Statement::ControlBarrier(_) | Statement::MemoryBarrier(_) | Statement::WorkGroupUniformLoad { .. } => {
+            Statement::ControlBarrier(_)
+            | Statement::MemoryBarrier(_)
+            | Statement::WorkGroupUniformLoad { .. } => {
                 diags.push(loc.diagnostic(
                     span,
                     "barriers are not available in ray tracing programs: each ray runs alone, with no workgroup to synchronise (as in OptiX)",
                 ));
             }
             Statement::Kill => {
-                diags.push(loc.diagnostic(span, "`discard` is for fragment shaders; ray tracing programs cannot use it"));
+                diags.push(loc.diagnostic(
+                    span,
+                    "`discard` is for fragment shaders; ray tracing programs cannot use it",
+                ));
             }
             Statement::RayQuery { .. } | Statement::RayPipelineFunction(_) => {
                 diags.push(loc.diagnostic(
@@ -425,13 +515,22 @@ fn walk_block(
             Statement::SubgroupBallot { .. }
             | Statement::SubgroupGather { .. }
             | Statement::SubgroupCollectiveOperation { .. } => {
-                diags.push(loc.diagnostic(span, "subgroup operations are not available in ray tracing programs"));
+                diags.push(loc.diagnostic(
+                    span,
+                    "subgroup operations are not available in ray tracing programs",
+                ));
             }
             Statement::ImageStore { .. } | Statement::ImageAtomic { .. } => {
-                diags.push(loc.diagnostic(span, "storage textures are not supported: write results to a storage buffer"));
+                diags.push(loc.diagnostic(
+                    span,
+                    "storage textures are not supported: write results to a storage buffer",
+                ));
             }
             Statement::CooperativeStore { .. } => {
-                diags.push(loc.diagnostic(span, "cooperative matrix operations are not available in ray tracing programs"));
+                diags.push(loc.diagnostic(
+                    span,
+                    "cooperative matrix operations are not available in ray tracing programs",
+                ));
             }
             _ => {}
         }
@@ -530,10 +629,10 @@ fn analyse_program(
     via.insert(program.function, None);
     while let Some(f) = queue.pop_front() {
         for (global, _) in module.global_variables.iter() {
-            if !info[f][global].is_empty() {
-                if let Some(b) = binding_of.get(&global) {
-                    program.bindings_used.insert(*b);
-                }
+            if !info[f][global].is_empty()
+                && let Some(b) = binding_of.get(&global)
+            {
+                program.bindings_used.insert(*b);
             }
         }
         let Some(ff) = facts.get(&f) else { continue };
@@ -549,7 +648,10 @@ fn analyse_program(
                         df.allowed_in_text()
                     );
                     if f != program.function {
-                        message.push_str(&format!(" (reached through {})", call_chain(module, &via, f)));
+                        message.push_str(&format!(
+                            " (reached through {})",
+                            call_chain(module, &via, f)
+                        ));
                     }
                     diags.push(loc.diagnostic(span, message));
                 }

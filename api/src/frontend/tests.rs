@@ -18,8 +18,16 @@ fn diag(src: &str) -> Diagnostic {
 fn assert_diag(src: &str, line: u32, column: u32, needle: &str) {
     let d = diag(src);
     assert_eq!(d.file, "user.wgsl", "{d}");
-    assert!(d.message.contains(needle), "message {:?} lacks {needle:?}", d.message);
-    assert_eq!((d.line, d.column), (line, column), "wrong position for: {d}");
+    assert!(
+        d.message.contains(needle),
+        "message {:?} lacks {needle:?}",
+        d.message
+    );
+    assert_eq!(
+        (d.line, d.column),
+        (line, column),
+        "wrong position for: {d}"
+    );
 }
 
 const VALID: &str = r#"struct Params { handle: vec2<u32>, width: u32, pad: u32 }
@@ -55,7 +63,11 @@ fn anyhit__cutout() {
 #[test]
 fn valid_module_reflects_programs_and_bindings() {
     let m = compile_src(VALID).unwrap();
-    let names: Vec<(&str, ProgramKind)> = m.programs.iter().map(|p| (p.name.as_str(), p.kind)).collect();
+    let names: Vec<(&str, ProgramKind)> = m
+        .programs
+        .iter()
+        .map(|p| (p.name.as_str(), p.kind))
+        .collect();
     assert_eq!(
         names,
         vec![
@@ -67,15 +79,26 @@ fn valid_module_reflects_programs_and_bindings() {
     );
     let rg = m.program("raygen__main").unwrap();
     assert!(rg.calls(DeviceFunction::Trace) && rg.calls(DeviceFunction::LaunchIndex));
-    assert_eq!(rg.bindings_used.iter().copied().collect::<Vec<_>>(), vec![0, 1]);
+    assert_eq!(
+        rg.bindings_used.iter().copied().collect::<Vec<_>>(),
+        vec![0, 1]
+    );
     assert_eq!((rg.line, rg.column), (9, 4));
     let ch = m.program("closesthit__radiance").unwrap();
     assert!(ch.helpers.contains("shade"));
-    assert!(ch.calls(DeviceFunction::WorldRayDirection) && ch.calls(DeviceFunction::PrimitiveIndex));
+    assert!(
+        ch.calls(DeviceFunction::WorldRayDirection) && ch.calls(DeviceFunction::PrimitiveIndex)
+    );
     assert!(ch.bindings_used.is_empty());
     assert_eq!(m.bindings.len(), 2);
     assert_eq!(m.params().unwrap().kind, BindingKind::Params { size: 16 });
-    assert_eq!(m.bindings[1].kind, BindingKind::StorageBuffer { read_only: false, min_size: 4 });
+    assert_eq!(
+        m.bindings[1].kind,
+        BindingKind::StorageBuffer {
+            read_only: false,
+            min_size: 4
+        }
+    );
     // p[2] in raygen and rt_set_payload(1u) in miss: registers 0..=2 are used.
     assert_eq!(m.payload_values_used, 3);
     assert_eq!(m.attribute_values_used, 2);
@@ -99,7 +122,12 @@ fn error_type_mismatch_points_at_the_expression() {
 #[test]
 fn error_set_payload_in_raygen() {
     let src = "fn raygen__a() {\n    rt_set_payload(0u, 1u);\n}\n";
-    assert_diag(src, 2, 5, "`rt_set_payload` cannot be used in a raygen program (`raygen__a`)");
+    assert_diag(
+        src,
+        2,
+        5,
+        "`rt_set_payload` cannot be used in a raygen program (`raygen__a`)",
+    );
 }
 
 #[test]
@@ -107,13 +135,21 @@ fn error_get_payload_in_raygen_through_helper() {
     let src = "fn helper() -> u32 {\n  return rt_get_payload(0u);\n}\nfn raygen__a() {\n  let v = helper();\n}\n";
     let d = diag(src);
     assert_eq!((d.line, d.column), (2, 10), "{d}");
-    assert!(d.message.contains("reached through raygen__a -> helper"), "{d}");
+    assert!(
+        d.message.contains("reached through raygen__a -> helper"),
+        "{d}"
+    );
 }
 
 #[test]
 fn error_report_intersection_outside_intersection() {
     let src = "fn closesthit__a() {\n  var a: RtAttributes;\n  let ok = rt_report_intersection(1.0, 0u, a);\n}\n";
-    assert_diag(src, 3, 12, "`rt_report_intersection` cannot be used in a closest-hit program");
+    assert_diag(
+        src,
+        3,
+        12,
+        "`rt_report_intersection` cannot be used in a closest-hit program",
+    );
 }
 
 #[test]
@@ -131,13 +167,23 @@ fn error_trace_in_anyhit() {
 #[test]
 fn error_throw_in_exception_program() {
     let src = "fn exception__a() {\n  rt_throw_exception(3u);\n}\n";
-    assert_diag(src, 2, 3, "`rt_throw_exception` cannot be used in a exception program");
+    assert_diag(
+        src,
+        2,
+        3,
+        "`rt_throw_exception` cannot be used in a exception program",
+    );
 }
 
 #[test]
 fn error_unknown_prefix() {
     let src = "fn closest_hit__shade() {\n}\n";
-    assert_diag(src, 1, 4, "unknown program prefix `closest_hit__` in `closest_hit__shade` (did you mean `closesthit__`?)");
+    assert_diag(
+        src,
+        1,
+        4,
+        "unknown program prefix `closest_hit__` in `closest_hit__shade` (did you mean `closesthit__`?)",
+    );
 }
 
 #[test]
@@ -168,7 +214,10 @@ fn error_barrier() {
 fn error_recursion() {
     let src = "fn f(n: u32) -> u32 {\n  return f(n - 1u);\n}\nfn raygen__a() { let x = f(3u); }\n";
     let d = diag(src);
-    assert!(d.message.contains("recursive") || d.message.contains("cyclic"), "{d}");
+    assert!(
+        d.message.contains("recursive") || d.message.contains("cyclic"),
+        "{d}"
+    );
     assert_eq!(d.line, 1, "{d}");
 }
 
@@ -187,13 +236,23 @@ fn error_group_one_binding() {
 #[test]
 fn error_binding_zero_not_uniform() {
     let src = "@group(0) @binding(0) var<storage, read> data: array<u32>;\nfn raygen__a() { let x = data[0]; }\n";
-    assert_diag(src, 1, 23, "binding 0 is the launch parameters and must be `var<uniform>");
+    assert_diag(
+        src,
+        1,
+        23,
+        "binding 0 is the launch parameters and must be `var<uniform>",
+    );
 }
 
 #[test]
 fn error_uniform_above_zero() {
     let src = "@group(0) @binding(2) var<uniform> extra: vec4<f32>;\nfn raygen__a() { let x = extra.x; }\n";
-    assert_diag(src, 1, 23, "only binding 0 (the launch parameters) is a uniform");
+    assert_diag(
+        src,
+        1,
+        23,
+        "only binding 0 (the launch parameters) is a uniform",
+    );
 }
 
 #[test]
@@ -233,7 +292,12 @@ fn error_syntax() {
 #[test]
 fn error_unknown_identifier() {
     let src = "fn raygen__a() {\n  let x = rt_not_a_function();\n}\n";
-    assert_diag(src, 2, 11, "no definition in scope for identifier: `rt_not_a_function`");
+    assert_diag(
+        src,
+        2,
+        11,
+        "no definition in scope for identifier: `rt_not_a_function`",
+    );
 }
 
 #[test]
@@ -248,8 +312,14 @@ fn diagnostics_format_as_file_line_column() {
     let src = "fn raygen__a() {\n    rt_set_payload(0u, 1u);\n}\n";
     let e = compile_src(src).unwrap_err();
     let text = e.to_string();
-    assert!(text.starts_with("user.wgsl:2:5: `rt_set_payload` cannot be used"), "{text}");
-    assert!(text.contains("\n        rt_set_payload(0u, 1u);\n"), "{text}");
+    assert!(
+        text.starts_with("user.wgsl:2:5: `rt_set_payload` cannot be used"),
+        "{text}"
+    );
+    assert!(
+        text.contains("\n        rt_set_payload(0u, 1u);\n"),
+        "{text}"
+    );
 }
 
 #[test]

@@ -7,7 +7,8 @@ pub fn mul(a: &Matrix3x4, b: &Matrix3x4) -> Matrix3x4 {
     let mut r = [0.0f32; 12];
     for row in 0..3 {
         for col in 0..4 {
-            let mut v = a[row * 4] * b[col] + a[row * 4 + 1] * b[4 + col] + a[row * 4 + 2] * b[8 + col];
+            let mut v =
+                a[row * 4] * b[col] + a[row * 4 + 1] * b[4 + col] + a[row * 4 + 2] * b[8 + col];
             if col == 3 {
                 v += a[row * 4 + 3];
             }
@@ -50,7 +51,9 @@ pub fn inverse(m: &Matrix3x4) -> Option<Matrix3x4> {
 
 /// Applies `m` to a point.
 pub fn transform_point(m: &Matrix3x4, p: [f32; 3]) -> [f32; 3] {
-    std::array::from_fn(|r| m[r * 4] * p[0] + m[r * 4 + 1] * p[1] + m[r * 4 + 2] * p[2] + m[r * 4 + 3])
+    std::array::from_fn(|r| {
+        m[r * 4] * p[0] + m[r * 4 + 1] * p[1] + m[r * 4 + 2] * p[2] + m[r * 4 + 3]
+    })
 }
 
 /// Applies the linear part of `m` to a vector.
@@ -66,7 +69,8 @@ pub fn is_finite(m: &Matrix3x4) -> bool {
 /// The determinant of the linear part (negative for mirroring transforms).
 pub fn determinant(m: &Matrix3x4) -> f64 {
     let a = |r: usize, c: usize| m[r * 4 + c] as f64;
-    a(0, 0) * (a(1, 1) * a(2, 2) - a(1, 2) * a(2, 1)) - a(0, 1) * (a(1, 0) * a(2, 2) - a(1, 2) * a(2, 0))
+    a(0, 0) * (a(1, 1) * a(2, 2) - a(1, 2) * a(2, 1))
+        - a(0, 1) * (a(1, 0) * a(2, 2) - a(1, 2) * a(2, 0))
         + a(0, 2) * (a(1, 0) * a(2, 1) - a(1, 1) * a(2, 0))
 }
 

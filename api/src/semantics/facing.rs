@@ -21,7 +21,11 @@ pub fn flips(instance: InstanceFlags) -> bool {
 
 /// The hit kind of a triangle hit.
 pub fn triangle_hit_kind(front: bool) -> u32 {
-    if front { HIT_KIND_TRIANGLE_FRONT_FACE } else { HIT_KIND_TRIANGLE_BACK_FACE }
+    if front {
+        HIT_KIND_TRIANGLE_FRONT_FACE
+    } else {
+        HIT_KIND_TRIANGLE_BACK_FACE
+    }
 }
 
 /// The hit kind a custom primitive reports: only the low 7 bits count (OptiX reserves
@@ -33,7 +37,11 @@ pub fn custom_hit_kind(reported: u32) -> u32 {
 /// Whether a hit kind is a front-face hit: triangle front faces, and custom kinds (which
 /// OptiX's `optixIsFrontFaceHit` counts as front when the low bit is 0).
 pub fn hit_kind_is_front(hit_kind: u32) -> bool {
-    if hit_kind >= 0x80 { hit_kind == HIT_KIND_TRIANGLE_FRONT_FACE } else { hit_kind & 1 == 0 }
+    if hit_kind >= 0x80 {
+        hit_kind == HIT_KIND_TRIANGLE_FRONT_FACE
+    } else {
+        hit_kind & 1 == 0
+    }
 }
 
 #[cfg(test)]
@@ -43,7 +51,11 @@ mod tests {
     fn normal(v: [[f64; 3]; 3]) -> [f64; 3] {
         let e1 = [v[1][0] - v[0][0], v[1][1] - v[0][1], v[1][2] - v[0][2]];
         let e2 = [v[2][0] - v[0][0], v[2][1] - v[0][1], v[2][2] - v[0][2]];
-        [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]]
+        [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ]
     }
 
     #[test]

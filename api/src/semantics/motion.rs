@@ -39,7 +39,10 @@ pub fn resolve_key(options: &MotionOptions, time: f32) -> Option<KeyPosition> {
     }
     let x = x.clamp(0.0, intervals);
     let key = x.floor();
-    Some(KeyPosition { key: key as usize, t: x - key })
+    Some(KeyPosition {
+        key: key as usize,
+        t: x - key,
+    })
 }
 
 fn lerp(a: f32, b: f32, t: f32) -> f32 {
@@ -79,7 +82,9 @@ pub fn interpolate_srt(keys: &[SrtData], at: KeyPosition) -> SrtData {
 /// The object-to-world matrix of an SRT key: `T · R · S`, where S is the upper-triangular
 /// scale/shear matrix with the pivot as its translation.
 pub fn srt_to_matrix(k: &SrtData) -> Matrix3x4 {
-    let s: Matrix3x4 = [k.sx, k.a, k.b, k.pvx, 0.0, k.sy, k.c, k.pvy, 0.0, 0.0, k.sz, k.pvz];
+    let s: Matrix3x4 = [
+        k.sx, k.a, k.b, k.pvx, 0.0, k.sy, k.c, k.pvy, 0.0, 0.0, k.sz, k.pvz,
+    ];
     let (x, y, z, w) = (k.qx, k.qy, k.qz, k.qw);
     let r: Matrix3x4 = [
         1.0 - 2.0 * (y * y + z * z),
@@ -116,7 +121,12 @@ mod tests {
     use crate::accel::IDENTITY_3X4;
 
     fn opts(n: u16, b: f32, e: f32, flags: MotionFlags) -> MotionOptions {
-        MotionOptions { num_keys: n, flags, time_begin: b, time_end: e }
+        MotionOptions {
+            num_keys: n,
+            flags,
+            time_begin: b,
+            time_end: e,
+        }
     }
 
     #[test]
@@ -128,10 +138,21 @@ mod tests {
         assert_eq!(resolve_key(&o, 1.0), Some(KeyPosition { key: 2, t: 0.0 }));
         assert_eq!(resolve_key(&o, -5.0), Some(KeyPosition { key: 0, t: 0.0 }));
         assert_eq!(resolve_key(&o, 7.0), Some(KeyPosition { key: 2, t: 0.0 }));
-        assert_eq!(resolve_key(&o, f32::NAN), Some(KeyPosition { key: 0, t: 0.0 }));
+        assert_eq!(
+            resolve_key(&o, f32::NAN),
+            Some(KeyPosition { key: 0, t: 0.0 })
+        );
         let degenerate = opts(2, 1.0, 1.0, MotionFlags::NONE);
-        assert_eq!(resolve_key(&degenerate, 1.0), Some(KeyPosition { key: 0, t: 0.0 }));
-        let v = opts(2, 0.0, 1.0, MotionFlags::START_VANISH | MotionFlags::END_VANISH);
+        assert_eq!(
+            resolve_key(&degenerate, 1.0),
+            Some(KeyPosition { key: 0, t: 0.0 })
+        );
+        let v = opts(
+            2,
+            0.0,
+            1.0,
+            MotionFlags::START_VANISH | MotionFlags::END_VANISH,
+        );
         assert_eq!(resolve_key(&v, -0.01), None);
         assert_eq!(resolve_key(&v, 1.01), None);
         assert!(resolve_key(&v, 1.0).is_some());
@@ -162,7 +183,13 @@ mod tests {
     }
 
     fn key(q: [f32; 4]) -> SrtData {
-        SrtData { qx: q[0], qy: q[1], qz: q[2], qw: q[3], ..SrtData::identity() }
+        SrtData {
+            qx: q[0],
+            qy: q[1],
+            qz: q[2],
+            qw: q[3],
+            ..SrtData::identity()
+        }
     }
 
     /// nlerp and slerp agree at the keys and at mid-time of a symmetric interval (both lie on
@@ -189,7 +216,10 @@ mod tests {
         let slerp_angle = angle_of(&key(slerp_quarter));
         assert!((slerp_angle - 44.75).abs() < 1e-3);
         let nlerp_angle = angle_of(&quarter);
-        assert!(slerp_angle - nlerp_angle > 5.0, "nlerp {nlerp_angle} vs slerp {slerp_angle}");
+        assert!(
+            slerp_angle - nlerp_angle > 5.0,
+            "nlerp {nlerp_angle} vs slerp {slerp_angle}"
+        );
         assert!((nlerp_angle - 36.77).abs() < 0.05, "{nlerp_angle}");
         // nlerp keeps the object rigid: the interpolated rotation is orthonormal.
         let m = srt_to_matrix(&quarter);
@@ -216,7 +246,10 @@ mod tests {
         let m = srt_to_matrix(&k);
         // S maps (1,0,0) to (2+1, 0, 0) = (3,0,0); R to (0,3,0); T to (0,3,5).
         let p = crate::semantics::affine::transform_point(&m, [1.0, 0.0, 0.0]);
-        assert!((p[0]).abs() < 1e-5 && (p[1] - 3.0).abs() < 1e-5 && (p[2] - 5.0).abs() < 1e-5, "{p:?}");
+        assert!(
+            (p[0]).abs() < 1e-5 && (p[1] - 3.0).abs() < 1e-5 && (p[2] - 5.0).abs() < 1e-5,
+            "{p:?}"
+        );
         assert!(srt_key_is_valid(&k));
         assert!(!srt_key_is_valid(&SrtData { qw: 2.0, ..k }));
     }

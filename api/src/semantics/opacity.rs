@@ -62,7 +62,9 @@ pub fn resolve(
     let force_2_state = ray.contains(RayFlags::FORCE_OPACITY_MICROMAP_2_STATE)
         || instance.contains(InstanceFlags::FORCE_OPACITY_MICROMAP_2_STATE);
     let mut opaque = geometry.contains(GeometryFlags::DISABLE_ANYHIT);
-    if let Some(state) = micromap.filter(|_| !instance.contains(InstanceFlags::DISABLE_OPACITY_MICROMAPS)) {
+    if let Some(state) =
+        micromap.filter(|_| !instance.contains(InstanceFlags::DISABLE_OPACITY_MICROMAPS))
+    {
         opaque = match (state, force_2_state) {
             (MicromapState::Transparent, _) | (MicromapState::UnknownTransparent, true) => {
                 return CandidateFate::Culled;
@@ -86,12 +88,21 @@ pub fn resolve(
     {
         return CandidateFate::Culled;
     }
-    if opaque { CandidateFate::Opaque } else { CandidateFate::NonOpaque }
+    if opaque {
+        CandidateFate::Opaque
+    } else {
+        CandidateFate::NonOpaque
+    }
 }
 
 /// Whether a triangle that faces front (`front`, after instance flipping) is dropped by the
 /// ray's face-culling flags, given the geometry's and instance's culling overrides.
-pub fn triangle_face_culled(front: bool, geometry: GeometryFlags, instance: InstanceFlags, ray: RayFlags) -> bool {
+pub fn triangle_face_culled(
+    front: bool,
+    geometry: GeometryFlags,
+    instance: InstanceFlags,
+    ray: RayFlags,
+) -> bool {
     if geometry.contains(GeometryFlags::DISABLE_TRIANGLE_FACE_CULLING)
         || instance.contains(InstanceFlags::DISABLE_TRIANGLE_FACE_CULLING)
     {
@@ -148,7 +159,11 @@ mod tests {
             (G_NONE, I_DIS, R_CE, Opaque),
         ];
         for &(g, i, r, want) in table {
-            assert_eq!(resolve(g, i, r, None), want, "geometry {g:?}, instance {i:?}, ray {r:?}");
+            assert_eq!(
+                resolve(g, i, r, None),
+                want,
+                "geometry {g:?}, instance {i:?}, ray {r:?}"
+            );
         }
     }
 
@@ -170,17 +185,39 @@ mod tests {
         assert_eq!(resolve(G_NONE, I_NONE, R_ENF, Some(Transparent)), Culled);
         assert_eq!(resolve(G_NONE, I_NONE, R_NONE, Some(Opaque)), fate_opaque);
         // The micromap state overrides the geometry bit.
-        assert_eq!(resolve(G_DIS, I_NONE, R_NONE, Some(UnknownOpaque)), NonOpaque);
-        assert_eq!(resolve(G_NONE, I_NONE, R_NONE, Some(UnknownTransparent)), NonOpaque);
-        assert_eq!(resolve(G_NONE, I_NONE, f2, Some(UnknownTransparent)), Culled);
-        assert_eq!(resolve(G_NONE, I_NONE, f2, Some(UnknownOpaque)), fate_opaque);
         assert_eq!(
-            resolve(G_NONE, InstanceFlags::FORCE_OPACITY_MICROMAP_2_STATE, R_NONE, Some(UnknownOpaque)),
+            resolve(G_DIS, I_NONE, R_NONE, Some(UnknownOpaque)),
+            NonOpaque
+        );
+        assert_eq!(
+            resolve(G_NONE, I_NONE, R_NONE, Some(UnknownTransparent)),
+            NonOpaque
+        );
+        assert_eq!(
+            resolve(G_NONE, I_NONE, f2, Some(UnknownTransparent)),
+            Culled
+        );
+        assert_eq!(
+            resolve(G_NONE, I_NONE, f2, Some(UnknownOpaque)),
+            fate_opaque
+        );
+        assert_eq!(
+            resolve(
+                G_NONE,
+                InstanceFlags::FORCE_OPACITY_MICROMAP_2_STATE,
+                R_NONE,
+                Some(UnknownOpaque)
+            ),
             fate_opaque
         );
         // Instances may switch micromaps off: the geometry bit applies again.
         assert_eq!(
-            resolve(G_NONE, InstanceFlags::DISABLE_OPACITY_MICROMAPS, R_NONE, Some(Transparent)),
+            resolve(
+                G_NONE,
+                InstanceFlags::DISABLE_OPACITY_MICROMAPS,
+                R_NONE,
+                Some(Transparent)
+            ),
             NonOpaque
         );
         // Ray flags still override a micromap's opaque state.
@@ -195,8 +232,18 @@ mod tests {
         assert!(triangle_face_culled(false, G_NONE, I_NONE, back));
         assert!(!triangle_face_culled(true, G_NONE, I_NONE, back));
         assert!(triangle_face_culled(true, G_NONE, I_NONE, front));
-        assert!(!triangle_face_culled(false, GeometryFlags::DISABLE_TRIANGLE_FACE_CULLING, I_NONE, back));
-        assert!(!triangle_face_culled(true, G_NONE, InstanceFlags::DISABLE_TRIANGLE_FACE_CULLING, front));
+        assert!(!triangle_face_culled(
+            false,
+            GeometryFlags::DISABLE_TRIANGLE_FACE_CULLING,
+            I_NONE,
+            back
+        ));
+        assert!(!triangle_face_culled(
+            true,
+            G_NONE,
+            InstanceFlags::DISABLE_TRIANGLE_FACE_CULLING,
+            front
+        ));
         assert!(!triangle_face_culled(true, G_NONE, I_NONE, R_NONE));
     }
 }

@@ -23,7 +23,12 @@ pub enum InvalidRay {
 }
 
 /// Checks a ray against the policy.
-pub fn check(origin: [f32; 3], direction: [f32; 3], tmin: f32, tmax: f32) -> Result<(), InvalidRay> {
+pub fn check(
+    origin: [f32; 3],
+    direction: [f32; 3],
+    tmin: f32,
+    tmax: f32,
+) -> Result<(), InvalidRay> {
     if !origin.iter().all(|c| c.is_finite()) {
         return Err(InvalidRay::NonFiniteOrigin);
     }
@@ -64,11 +69,27 @@ mod tests {
         assert_eq!(check(o, d, 0.0, f32::INFINITY), Ok(()));
         assert_eq!(check(o, d, -0.0, 1.0), Ok(()));
         assert_eq!(check(o, d, 1.0, 1.0), Ok(()));
-        assert_eq!(check(o, [0.0; 3], 0.0, 1.0), Ok(()), "zero direction is valid");
-        assert_eq!(check([f32::NAN, 0.0, 0.0], d, 0.0, 1.0), Err(InvalidRay::NonFiniteOrigin));
-        assert_eq!(check([f32::INFINITY, 0.0, 0.0], d, 0.0, 1.0), Err(InvalidRay::NonFiniteOrigin));
-        assert_eq!(check(o, [0.0, f32::NEG_INFINITY, 1.0], 0.0, 1.0), Err(InvalidRay::NonFiniteDirection));
-        assert_eq!(check(o, [0.0, f32::NAN, 1.0], 0.0, 1.0), Err(InvalidRay::NonFiniteDirection));
+        assert_eq!(
+            check(o, [0.0; 3], 0.0, 1.0),
+            Ok(()),
+            "zero direction is valid"
+        );
+        assert_eq!(
+            check([f32::NAN, 0.0, 0.0], d, 0.0, 1.0),
+            Err(InvalidRay::NonFiniteOrigin)
+        );
+        assert_eq!(
+            check([f32::INFINITY, 0.0, 0.0], d, 0.0, 1.0),
+            Err(InvalidRay::NonFiniteOrigin)
+        );
+        assert_eq!(
+            check(o, [0.0, f32::NEG_INFINITY, 1.0], 0.0, 1.0),
+            Err(InvalidRay::NonFiniteDirection)
+        );
+        assert_eq!(
+            check(o, [0.0, f32::NAN, 1.0], 0.0, 1.0),
+            Err(InvalidRay::NonFiniteDirection)
+        );
         assert_eq!(check(o, d, -1e-30, 1.0), Err(InvalidRay::BadTmin));
         assert_eq!(check(o, d, f32::NAN, 1.0), Err(InvalidRay::BadTmin));
         assert_eq!(check(o, d, 0.0, f32::NAN), Err(InvalidRay::NanTmax));

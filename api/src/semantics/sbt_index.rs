@@ -14,7 +14,12 @@ pub const INSTANCE_ID_MASK: u32 = 0xFF_FFFF;
 /// The hit group record a candidate selects:
 /// `instance.sbt_offset + (ray offset & 0xF) + sbt_gas_index × (ray stride & 0xF)`.
 /// `instance_sbt_offset` is the sum over the instances on the path (0 without instances).
-pub fn hit_record_index(instance_sbt_offset: u32, sbt_gas_index: u32, ray_offset: u32, ray_stride: u32) -> u64 {
+pub fn hit_record_index(
+    instance_sbt_offset: u32,
+    sbt_gas_index: u32,
+    ray_offset: u32,
+    ray_stride: u32,
+) -> u64 {
     instance_sbt_offset as u64
         + (ray_offset & SBT_OFFSET_STRIDE_MASK) as u64
         + sbt_gas_index as u64 * (ray_stride & SBT_OFFSET_STRIDE_MASK) as u64

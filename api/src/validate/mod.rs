@@ -5,8 +5,8 @@
 //! every backend and nothing is half-built.
 
 use crate::accel::{
-    AccelBuildOptions, BuildInput, BuildOperation, Instance, MAX_MICROMAP_SUBDIVISION_LEVEL, MotionOptions,
-    OpacityMicromapArrayDesc, OpacityMicromapFormat, SbtIndexOffsets, TransformDesc,
+    AccelBuildOptions, BuildInput, BuildOperation, Instance, MAX_MICROMAP_SUBDIVISION_LEVEL,
+    MotionOptions, OpacityMicromapArrayDesc, OpacityMicromapFormat, SbtIndexOffsets, TransformDesc,
 };
 use crate::device::DeviceProperties;
 use crate::error::{Error, Result};
@@ -29,7 +29,13 @@ impl<F: Fn(Buffer) -> Result<u64>> BufferSizes for F {
 }
 
 /// Checks that `len` bytes from `offset` lie inside `buffer`.
-pub fn buffer_range(what: &str, buffer: Buffer, offset: u64, len: u64, sizes: &dyn BufferSizes) -> Result<()> {
+pub fn buffer_range(
+    what: &str,
+    buffer: Buffer,
+    offset: u64,
+    len: u64,
+    sizes: &dyn BufferSizes,
+) -> Result<()> {
     let size = sizes.size_of(buffer).map_err(|e| e.context(what))?;
     let end = offset.checked_add(len);
     match end {
@@ -42,15 +48,21 @@ pub fn buffer_range(what: &str, buffer: Buffer, offset: u64, len: u64, sizes: &d
 }
 
 fn aligned(what: &str, value: u64, alignment: u64) -> Result<()> {
-    if value % alignment != 0 {
-        return Err(Error::invalid(format!("{what} is {value}; it must be a multiple of {alignment}")));
+    if !value.is_multiple_of(alignment) {
+        return Err(Error::invalid(format!(
+            "{what} is {value}; it must be a multiple of {alignment}"
+        )));
     }
     Ok(())
 }
 
 /// Bytes an array of `count` elements of `elem` bytes at `stride` spans.
 fn array_bytes(count: u32, stride: u32, elem: u32) -> u64 {
-    if count == 0 { 0 } else { (count as u64 - 1) * stride as u64 + elem as u64 }
+    if count == 0 {
+        0
+    } else {
+        (count as u64 - 1) * stride as u64 + elem as u64
+    }
 }
 
 /// Checks build options and inputs; returns the number of motion keys (1 for static).
@@ -134,11 +146,22 @@ pub fn build_inputs(
                         t.vertex_format.size()
                     )));
                 }
-                aligned(&what("vertex_stride"), stride as u64, t.vertex_format.alignment() as u64)?;
+                aligned(
+                    &what("vertex_stride"),
+                    stride as u64,
+                    t.vertex_format.alignment() as u64,
+                )?;
                 for (k, vb) in t.vertex_buffers.iter().enumerate() {
-                    aligned(&what(&format!("vertex_buffers[{k}].offset")), vb.offset, t.vertex_format.alignment() as u64)?;
+                    aligned(
+                        &what(&format!("vertex_buffers[{k}].offset")),
+                        vb.offset,
+                        t.vertex_format.alignment() as u64,
+                    )?;
                     buffer_range(
-                        &what(&format!("vertex_buffers[{k}] ({} vertices)", t.num_vertices)),
+                        &what(&format!(
+                            "vertex_buffers[{k}] ({} vertices)",
+                            t.num_vertices
+                        )),
                         vb.buffer,
                         vb.offset,
                         array_bytes(t.num_vertices, stride, t.vertex_format.size()),
@@ -147,7 +170,11 @@ pub fn build_inputs(
                 }
                 match &t.indices {
                     Some(ix) => {
-                        let istride = if ix.stride == 0 { ix.format.size() } else { ix.stride };
+                        let istride = if ix.stride == 0 {
+                            ix.format.size()
+                        } else {
+                            ix.stride
+                        };
                         if istride < ix.format.size() {
                             return Err(Error::invalid(format!(
                                 "{} is {istride}; {:?} indices need at least {} bytes per triangle",
@@ -156,8 +183,16 @@ pub fn build_inputs(
                                 ix.format.size()
                             )));
                         }
-                        aligned(&what("indices.stride"), istride as u64, ix.format.alignment() as u64)?;
-                        aligned(&what("indices.buffer.offset"), ix.buffer.offset, ix.format.alignment() as u64)?;
+                        aligned(
+                            &what("indices.stride"),
+                            istride as u64,
+                            ix.format.alignment() as u64,
+                        )?;
+                        aligned(
+                            &what("indices.buffer.offset"),
+                            ix.buffer.offset,
+                            ix.format.alignment() as u64,
+                        )?;
                         buffer_range(
                             &what(&format!("indices ({} triangles)", ix.num_triangles)),
                             ix.buffer.buffer,
@@ -178,34 +213,50 @@ pub fn build_inputs(
                 }
                 if let Some(pt) = &t.pre_transform {
                     aligned(&what("pre_transform.offset"), pt.offset, 16)?;
-                    buffer_range(&what("pre_transform (3x4 f32)"), pt.buffer, pt.offset, 48, sizes)?;
+                    buffer_range(
+                        &what("pre_transform (3x4 f32)"),
+                        pt.buffer,
+                        pt.offset,
+                        48,
+                        sizes,
+                    )?;
                 }
-                sbt_offsets(&what("sbt_index_offsets"), t.sbt_index_offsets.as_ref(), n, records, sizes)?;
-                if let Some(omm) = &t.opacity_micromap {
-                    if let Some(ib) = &omm.index_buffer {
-                        if !matches!(omm.index_size_in_bytes, 2 | 4) {
-                            return Err(Error::invalid(format!(
-                                "{} is {}; micromap indices are 2 or 4 bytes",
-                                what("opacity_micromap.index_size_in_bytes"),
-                                omm.index_size_in_bytes
-                            )));
-                        }
-                        let s = if omm.index_stride == 0 { omm.index_size_in_bytes } else { omm.index_stride };
-                        if s < omm.index_size_in_bytes {
-                            return Err(Error::invalid(format!(
-                                "{} is {s}; it must be at least the index size {}",
-                                what("opacity_micromap.index_stride"),
-                                omm.index_size_in_bytes
-                            )));
-                        }
-                        buffer_range(
-                            &what("opacity_micromap.index_buffer"),
-                            ib.buffer,
-                            ib.offset,
-                            array_bytes(n, s, omm.index_size_in_bytes),
-                            sizes,
-                        )?;
+                sbt_offsets(
+                    &what("sbt_index_offsets"),
+                    t.sbt_index_offsets.as_ref(),
+                    n,
+                    records,
+                    sizes,
+                )?;
+                if let Some(omm) = &t.opacity_micromap
+                    && let Some(ib) = &omm.index_buffer
+                {
+                    if !matches!(omm.index_size_in_bytes, 2 | 4) {
+                        return Err(Error::invalid(format!(
+                            "{} is {}; micromap indices are 2 or 4 bytes",
+                            what("opacity_micromap.index_size_in_bytes"),
+                            omm.index_size_in_bytes
+                        )));
                     }
+                    let s = if omm.index_stride == 0 {
+                        omm.index_size_in_bytes
+                    } else {
+                        omm.index_stride
+                    };
+                    if s < omm.index_size_in_bytes {
+                        return Err(Error::invalid(format!(
+                            "{} is {s}; it must be at least the index size {}",
+                            what("opacity_micromap.index_stride"),
+                            omm.index_size_in_bytes
+                        )));
+                    }
+                    buffer_range(
+                        &what("opacity_micromap.index_buffer"),
+                        ib.buffer,
+                        ib.offset,
+                        array_bytes(n, s, omm.index_size_in_bytes),
+                        sizes,
+                    )?;
                 }
             }
             BuildInput::CustomPrimitives(c) => {
@@ -226,16 +277,28 @@ pub fn build_inputs(
                         sizes,
                     )?;
                 }
-                sbt_offsets(&what("sbt_index_offsets"), c.sbt_index_offsets.as_ref(), n, records, sizes)?;
+                sbt_offsets(
+                    &what("sbt_index_offsets"),
+                    c.sbt_index_offsets.as_ref(),
+                    n,
+                    records,
+                    sizes,
+                )?;
             }
             BuildInput::Spheres(s) => {
                 let vs = s.effective_vertex_stride();
                 let rs = s.effective_radius_stride();
                 if vs < 12 || vs % 4 != 0 {
-                    return Err(Error::invalid(format!("{} is {vs}; centres need at least 12 bytes, 4-aligned", what("vertex_stride"))));
+                    return Err(Error::invalid(format!(
+                        "{} is {vs}; centres need at least 12 bytes, 4-aligned",
+                        what("vertex_stride")
+                    )));
                 }
                 if rs < 4 || rs % 4 != 0 {
-                    return Err(Error::invalid(format!("{} is {rs}; radii need at least 4 bytes, 4-aligned", what("radius_stride"))));
+                    return Err(Error::invalid(format!(
+                        "{} is {rs}; radii need at least 4 bytes, 4-aligned",
+                        what("radius_stride")
+                    )));
                 }
                 if s.radius_buffers.len() != s.vertex_buffers.len() {
                     return Err(Error::invalid(format!(
@@ -247,17 +310,47 @@ pub fn build_inputs(
                 }
                 for k in 0..s.vertex_buffers.len() {
                     let vb = &s.vertex_buffers[k];
-                    buffer_range(&what(&format!("vertex_buffers[{k}]")), vb.buffer, vb.offset, array_bytes(n, vs, 12), sizes)?;
+                    buffer_range(
+                        &what(&format!("vertex_buffers[{k}]")),
+                        vb.buffer,
+                        vb.offset,
+                        array_bytes(n, vs, 12),
+                        sizes,
+                    )?;
                     let rb = &s.radius_buffers[k];
                     let radii = if s.single_radius { n.min(1) } else { n };
-                    buffer_range(&what(&format!("radius_buffers[{k}]")), rb.buffer, rb.offset, array_bytes(radii, rs, 4), sizes)?;
+                    buffer_range(
+                        &what(&format!("radius_buffers[{k}]")),
+                        rb.buffer,
+                        rb.offset,
+                        array_bytes(radii, rs, 4),
+                        sizes,
+                    )?;
                 }
-                sbt_offsets(&what("sbt_index_offsets"), s.sbt_index_offsets.as_ref(), n, records, sizes)?;
+                sbt_offsets(
+                    &what("sbt_index_offsets"),
+                    s.sbt_index_offsets.as_ref(),
+                    n,
+                    records,
+                    sizes,
+                )?;
             }
             BuildInput::Curves(c) => {
-                let vs = if c.vertex_stride == 0 { 12 } else { c.vertex_stride };
-                let ws = if c.width_stride == 0 { 4 } else { c.width_stride };
-                let is = if c.index_stride == 0 { 4 } else { c.index_stride };
+                let vs = if c.vertex_stride == 0 {
+                    12
+                } else {
+                    c.vertex_stride
+                };
+                let ws = if c.width_stride == 0 {
+                    4
+                } else {
+                    c.width_stride
+                };
+                let is = if c.index_stride == 0 {
+                    4
+                } else {
+                    c.index_stride
+                };
                 if vs < 12 || ws < 4 || is < 4 || vs % 4 != 0 || ws % 4 != 0 || is % 4 != 0 {
                     return Err(Error::invalid(format!(
                         "{}: strides are vertex {vs}, width {ws}, index {is}; they must be 4-aligned and at least 12, 4 and 4 bytes",
@@ -274,11 +367,29 @@ pub fn build_inputs(
                 }
                 for k in 0..c.vertex_buffers.len() {
                     let vb = &c.vertex_buffers[k];
-                    buffer_range(&what(&format!("vertex_buffers[{k}]")), vb.buffer, vb.offset, array_bytes(c.num_vertices, vs, 12), sizes)?;
+                    buffer_range(
+                        &what(&format!("vertex_buffers[{k}]")),
+                        vb.buffer,
+                        vb.offset,
+                        array_bytes(c.num_vertices, vs, 12),
+                        sizes,
+                    )?;
                     let wb = &c.width_buffers[k];
-                    buffer_range(&what(&format!("width_buffers[{k}]")), wb.buffer, wb.offset, array_bytes(c.num_vertices, ws, 4), sizes)?;
+                    buffer_range(
+                        &what(&format!("width_buffers[{k}]")),
+                        wb.buffer,
+                        wb.offset,
+                        array_bytes(c.num_vertices, ws, 4),
+                        sizes,
+                    )?;
                 }
-                buffer_range(&what("index_buffer"), c.index_buffer.buffer, c.index_buffer.offset, array_bytes(n, is, 4), sizes)?;
+                buffer_range(
+                    &what("index_buffer"),
+                    c.index_buffer.buffer,
+                    c.index_buffer.offset,
+                    array_bytes(n, is, 4),
+                    sizes,
+                )?;
             }
             BuildInput::Instances(ia) => {
                 if inputs.len() != 1 {
@@ -287,9 +398,17 @@ pub fn build_inputs(
                         inputs.len()
                     )));
                 }
-                aligned(&what("instances.offset"), ia.instances.offset, Instance::ALIGNMENT as u64)?;
+                aligned(
+                    &what("instances.offset"),
+                    ia.instances.offset,
+                    Instance::ALIGNMENT as u64,
+                )?;
                 buffer_range(
-                    &what(&format!("instances ({} instances of {} bytes)", ia.num_instances, Instance::SIZE)),
+                    &what(&format!(
+                        "instances ({} instances of {} bytes)",
+                        ia.num_instances,
+                        Instance::SIZE
+                    )),
                     ia.instances.buffer,
                     ia.instances.offset,
                     ia.num_instances as u64 * Instance::SIZE as u64,
@@ -301,7 +420,13 @@ pub fn build_inputs(
     Ok(keys)
 }
 
-fn sbt_offsets(what: &str, offsets: Option<&SbtIndexOffsets>, n: u32, records: u32, sizes: &dyn BufferSizes) -> Result<()> {
+fn sbt_offsets(
+    what: &str,
+    offsets: Option<&SbtIndexOffsets>,
+    n: u32,
+    records: u32,
+    sizes: &dyn BufferSizes,
+) -> Result<()> {
     match offsets {
         None if records > 1 => Err(Error::invalid(format!(
             "{what} is missing; an input with {records} SBT records needs per-primitive offsets to choose among them"
@@ -309,15 +434,39 @@ fn sbt_offsets(what: &str, offsets: Option<&SbtIndexOffsets>, n: u32, records: u
         None => Ok(()),
         Some(o) => {
             if !matches!(o.size_in_bytes, 1 | 2 | 4) {
-                return Err(Error::invalid(format!("{what}.size_in_bytes is {}; it must be 1, 2 or 4", o.size_in_bytes)));
+                return Err(Error::invalid(format!(
+                    "{what}.size_in_bytes is {}; it must be 1, 2 or 4",
+                    o.size_in_bytes
+                )));
             }
-            let stride = if o.stride == 0 { o.size_in_bytes } else { o.stride };
+            let stride = if o.stride == 0 {
+                o.size_in_bytes
+            } else {
+                o.stride
+            };
             if stride < o.size_in_bytes {
-                return Err(Error::invalid(format!("{what}.stride is {stride}; it must be at least size_in_bytes ({})", o.size_in_bytes)));
+                return Err(Error::invalid(format!(
+                    "{what}.stride is {stride}; it must be at least size_in_bytes ({})",
+                    o.size_in_bytes
+                )));
             }
-            aligned(&format!("{what}.stride"), stride as u64, o.size_in_bytes as u64)?;
-            aligned(&format!("{what}.buffer.offset"), o.buffer.offset, o.size_in_bytes as u64)?;
-            buffer_range(what, o.buffer.buffer, o.buffer.offset, array_bytes(n, stride, o.size_in_bytes), sizes)
+            aligned(
+                &format!("{what}.stride"),
+                stride as u64,
+                o.size_in_bytes as u64,
+            )?;
+            aligned(
+                &format!("{what}.buffer.offset"),
+                o.buffer.offset,
+                o.size_in_bytes as u64,
+            )?;
+            buffer_range(
+                what,
+                o.buffer.buffer,
+                o.buffer.offset,
+                array_bytes(n, stride, o.size_in_bytes),
+                sizes,
+            )
         }
     }
 }
@@ -337,17 +486,30 @@ pub fn motion_options(what: &str, m: &MotionOptions) -> Result<()> {
         )));
     }
     if m.flags.unknown_bits() != 0 {
-        return Err(Error::invalid(format!("{what}.flags has unknown bits {:#x}", m.flags.unknown_bits())));
+        return Err(Error::invalid(format!(
+            "{what}.flags has unknown bits {:#x}",
+            m.flags.unknown_bits()
+        )));
     }
     Ok(())
 }
 
 /// Checks that an update matches the structure's build: same operation flags, kinds and counts.
-pub fn update(built_with: &AccelBuildOptions, built_inputs: &[BuildInput], options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<()> {
+pub fn update(
+    built_with: &AccelBuildOptions,
+    built_inputs: &[BuildInput],
+    options: &AccelBuildOptions,
+    inputs: &[BuildInput],
+) -> Result<()> {
     if options.operation != BuildOperation::Update {
-        return Err(Error::invalid("accel_update needs build_options.operation = Update"));
+        return Err(Error::invalid(
+            "accel_update needs build_options.operation = Update",
+        ));
     }
-    if !built_with.flags.contains(crate::flags::BuildFlags::ALLOW_UPDATE) {
+    if !built_with
+        .flags
+        .contains(crate::flags::BuildFlags::ALLOW_UPDATE)
+    {
         return Err(Error::invalid(
             "the acceleration structure was built without BuildFlags::ALLOW_UPDATE, so it cannot be updated; rebuild it with that flag",
         ));
@@ -382,12 +544,21 @@ pub fn update(built_with: &AccelBuildOptions, built_inputs: &[BuildInput], optio
 /// Checks a transform description (the child handle is checked by the backend).
 pub fn transform(desc: &TransformDesc) -> Result<()> {
     match desc {
-        TransformDesc::Static { object_to_world, world_to_object, .. } => {
+        TransformDesc::Static {
+            object_to_world,
+            world_to_object,
+            ..
+        } => {
             if !affine::is_finite(object_to_world) || !affine::is_finite(world_to_object) {
-                return Err(Error::invalid("static transform: object_to_world and world_to_object must hold finite values"));
+                return Err(Error::invalid(
+                    "static transform: object_to_world and world_to_object must hold finite values",
+                ));
             }
             let product = affine::mul(object_to_world, world_to_object);
-            let scale = object_to_world.iter().chain(world_to_object.iter()).fold(1.0f32, |a, v| a.max(v.abs()));
+            let scale = object_to_world
+                .iter()
+                .chain(world_to_object.iter())
+                .fold(1.0f32, |a, v| a.max(v.abs()));
             let off = product
                 .iter()
                 .zip(crate::accel::IDENTITY_3X4.iter())
@@ -479,10 +650,19 @@ pub fn launch_size(size: LaunchSize, props: &DeviceProperties) -> Result<()> {
     Ok(())
 }
 
-fn sbt_region(what: &str, r: &SbtRegion, props: &DeviceProperties, sizes: &dyn BufferSizes) -> Result<()> {
-    aligned(&format!("{what}.offset"), r.offset, SBT_RECORD_ALIGNMENT as u64)?;
+fn sbt_region(
+    what: &str,
+    r: &SbtRegion,
+    props: &DeviceProperties,
+    sizes: &dyn BufferSizes,
+) -> Result<()> {
+    aligned(
+        &format!("{what}.offset"),
+        r.offset,
+        SBT_RECORD_ALIGNMENT as u64,
+    )?;
     if r.count > 0 {
-        if r.stride < SBT_RECORD_HEADER_SIZE || r.stride % SBT_RECORD_ALIGNMENT != 0 {
+        if r.stride < SBT_RECORD_HEADER_SIZE || !r.stride.is_multiple_of(SBT_RECORD_ALIGNMENT) {
             return Err(Error::invalid(format!(
                 "{what}.stride is {}; it must be a multiple of {SBT_RECORD_ALIGNMENT} and at least the {SBT_RECORD_HEADER_SIZE}-byte header",
                 r.stride
@@ -506,14 +686,42 @@ fn sbt_region(what: &str, r: &SbtRegion, props: &DeviceProperties, sizes: &dyn B
 
 /// Checks the shape of a shader binding table: alignments, strides, and that every record
 /// lies inside its buffer. Record headers are checked when the backend reads them.
-pub fn sbt(table: &ShaderBindingTable, props: &DeviceProperties, sizes: &dyn BufferSizes) -> Result<()> {
-    aligned("sbt.raygen.offset", table.raygen.offset, SBT_RECORD_ALIGNMENT as u64)?;
-    buffer_range("sbt.raygen", table.raygen.buffer, table.raygen.offset, SBT_RECORD_HEADER_SIZE as u64, sizes)?;
+pub fn sbt(
+    table: &ShaderBindingTable,
+    props: &DeviceProperties,
+    sizes: &dyn BufferSizes,
+) -> Result<()> {
+    aligned(
+        "sbt.raygen.offset",
+        table.raygen.offset,
+        SBT_RECORD_ALIGNMENT as u64,
+    )?;
+    buffer_range(
+        "sbt.raygen",
+        table.raygen.buffer,
+        table.raygen.offset,
+        SBT_RECORD_HEADER_SIZE as u64,
+        sizes,
+    )?;
     if let Some(e) = &table.exception {
-        aligned("sbt.exception.offset", e.offset, SBT_RECORD_ALIGNMENT as u64)?;
-        buffer_range("sbt.exception", e.buffer, e.offset, SBT_RECORD_HEADER_SIZE as u64, sizes)?;
+        aligned(
+            "sbt.exception.offset",
+            e.offset,
+            SBT_RECORD_ALIGNMENT as u64,
+        )?;
+        buffer_range(
+            "sbt.exception",
+            e.buffer,
+            e.offset,
+            SBT_RECORD_HEADER_SIZE as u64,
+            sizes,
+        )?;
     }
-    for (what, region) in [("sbt.miss", &table.miss), ("sbt.hitgroup", &table.hitgroup), ("sbt.callables", &table.callables)] {
+    for (what, region) in [
+        ("sbt.miss", &table.miss),
+        ("sbt.hitgroup", &table.hitgroup),
+        ("sbt.callables", &table.callables),
+    ] {
         if let Some(r) = region {
             sbt_region(what, r, props, sizes)?;
         }
@@ -522,7 +730,12 @@ pub fn sbt(table: &ShaderBindingTable, props: &DeviceProperties, sizes: &dyn Buf
 }
 
 /// Checks launch parameters and resources against a pipeline's bindings.
-pub fn launch_bindings(params: &[u8], resources: &[Resource], bindings: &[BindingInfo], sizes: &dyn BufferSizes) -> Result<()> {
+pub fn launch_bindings(
+    params: &[u8],
+    resources: &[Resource],
+    bindings: &[BindingInfo],
+    sizes: &dyn BufferSizes,
+) -> Result<()> {
     for b in bindings {
         match b.kind {
             BindingKind::Params { size } => {
@@ -542,13 +755,29 @@ pub fn launch_bindings(params: &[u8], resources: &[Resource], bindings: &[Bindin
                     )));
                 };
                 match (b.kind, r) {
-                    (BindingKind::StorageBuffer { min_size, .. }, Resource::Buffer { buffer, offset, size, .. }) => {
-                        let total = sizes.size_of(*buffer).map_err(|e| e.context(format!("binding {}", b.binding)))?;
+                    (
+                        BindingKind::StorageBuffer { min_size, .. },
+                        Resource::Buffer {
+                            buffer,
+                            offset,
+                            size,
+                            ..
+                        },
+                    ) => {
+                        let total = sizes
+                            .size_of(*buffer)
+                            .map_err(|e| e.context(format!("binding {}", b.binding)))?;
                         let bound = match size {
                             Some(s) => *s,
                             None => total.saturating_sub(*offset),
                         };
-                        buffer_range(&format!("resource at binding {} (`{}`)", b.binding, b.name), *buffer, *offset, bound, sizes)?;
+                        buffer_range(
+                            &format!("resource at binding {} (`{}`)", b.binding, b.name),
+                            *buffer,
+                            *offset,
+                            bound,
+                            sizes,
+                        )?;
                         if bound < min_size as u64 {
                             return Err(Error::invalid(format!(
                                 "buffer bound at binding {} (`{}`) is {bound} bytes; its type needs at least {min_size}",
@@ -562,7 +791,8 @@ pub fn launch_bindings(params: &[u8], resources: &[Resource], bindings: &[Bindin
                             )));
                         }
                     }
-                    (BindingKind::Texture2d, Resource::Texture { .. }) | (BindingKind::Sampler, Resource::Sampler { .. }) => {}
+                    (BindingKind::Texture2d, Resource::Texture { .. })
+                    | (BindingKind::Sampler, Resource::Sampler { .. }) => {}
                     (kind, r) => {
                         return Err(Error::invalid(format!(
                             "binding {} (`{}`) is a {} in the programs, but a {} was given",
@@ -579,10 +809,15 @@ pub fn launch_bindings(params: &[u8], resources: &[Resource], bindings: &[Bindin
     let mut seen = std::collections::BTreeSet::new();
     for r in resources {
         if r.binding() == 0 {
-            return Err(Error::invalid("resources: binding 0 is the launch parameters; pass them as `params` bytes"));
+            return Err(Error::invalid(
+                "resources: binding 0 is the launch parameters; pass them as `params` bytes",
+            ));
         }
         if !seen.insert(r.binding()) {
-            return Err(Error::invalid(format!("resources: binding {} is given twice", r.binding())));
+            return Err(Error::invalid(format!(
+                "resources: binding {} is given twice",
+                r.binding()
+            )));
         }
     }
     Ok(())

@@ -1,9 +1,10 @@
 //! The contract between JIT-compiled programs and the CPU runtime.
 //!
-//! A compiled program is called with a [`ProgramCall`]: the resources it may touch and a
+//! A compiled program is called (`ProgramFn::call`) with the resources it may touch and a
 //! `&mut dyn DeviceCalls` that answers every device-API function (DESIGN.md §3) for the
 //! current ray, hit and launch index. The JIT lowers each prelude stub (`rt_*`) to a call
-//! of the matching [`DeviceCalls`] method (through `extern "C"` trampolines); the runtime
+//! of the matching [`DeviceCalls`] method (through `extern "C-unwind"` trampolines), or to a
+//! load from the runtime's [`DeviceState`] when it offers one; the runtime
 //! (`launch` and `traverse`) implements the trait. Tests implement it too, which is how the
 //! JIT is tested without traversal and traversal without the JIT.
 //!
@@ -113,6 +114,125 @@ pub trait DeviceCalls {
     fn exception_code(&self) -> i32;
     /// `rt_remaining_trace_depth()`.
     fn remaining_trace_depth(&self) -> u32;
+    /// Whether the calling program must return at once. It turns true during a call that
+    /// runs other programs: `trace`, `direct_call` and `continuation_call` when an
+    /// exception ended the launch index (the exception program has run; OptiX ends the
+    /// index), and `report_intersection` when an any-hit program terminated the ray or the
+    /// ray's `TERMINATE_ON_FIRST_HIT` accepted the report (the intersection program ends, as
+    /// in Vulkan). Compiled programs check it after those calls and return, as they do
+    /// after a terminator; the runtime turns further device calls into no-ops meanwhile.
+    fn unwinding(&self) -> bool {
+        false
+    }
+
+    /// Optional: the values of this invocation as plain memory (see [`DeviceState`]).
+    /// Programs read a field whose `present` bit is set with a load instead of calling
+    /// its method, which saves a few nanoseconds per call. The default (null) means every
+    /// getter calls its method.
+    ///
+    /// The pointer must stay valid until the program returns, and reads through it must
+    /// see what the methods would return at that moment: if a method changes a value (the
+    /// ray's `tmax` after an accepted `report_intersection`), update the field too. Keep the
+    /// state in memory that Rust does not also hold a `&` reference to across such updates
+    /// (a field behind a `Box` or an `UnsafeCell`).
+    fn state(&self) -> *const DeviceState {
+        std::ptr::null()
+    }
+}
+
+/// Device-API values a runtime may hand to programs as memory ([`DeviceCalls::state`]).
+/// Each group of fields has a bit in `present`; a getter whose bit is clear calls its
+/// [`DeviceCalls`] method instead. Matrices are row-major 3×4, as the methods return them.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DeviceState {
+    /// Which fields hold values: a union of the `DeviceState::*` bits.
+    pub present: u32,
+    /// `rt_launch_index()` ([`DeviceState::LAUNCH_INDEX`]).
+    pub launch_index: [u32; 3],
+    /// `rt_launch_dimensions()` ([`DeviceState::LAUNCH_DIMENSIONS`]).
+    pub launch_dimensions: [u32; 3],
+    /// `rt_world_ray_origin()` ([`DeviceState::WORLD_RAY`]).
+    pub world_ray_origin: [f32; 3],
+    /// `rt_world_ray_direction()` ([`DeviceState::WORLD_RAY`]).
+    pub world_ray_direction: [f32; 3],
+    /// `rt_object_ray_origin()` ([`DeviceState::OBJECT_RAY`]).
+    pub object_ray_origin: [f32; 3],
+    /// `rt_object_ray_direction()` ([`DeviceState::OBJECT_RAY`]).
+    pub object_ray_direction: [f32; 3],
+    /// `rt_ray_tmin()` ([`DeviceState::RAY`]).
+    pub ray_tmin: f32,
+    /// `rt_ray_tmax()` ([`DeviceState::RAY`]).
+    pub ray_tmax: f32,
+    /// `rt_ray_time()` ([`DeviceState::RAY`]).
+    pub ray_time: f32,
+    /// `rt_ray_flags()` ([`DeviceState::RAY`]).
+    pub ray_flags: u32,
+    /// `rt_ray_mask()` ([`DeviceState::RAY`]).
+    pub ray_mask: u32,
+    /// `rt_primitive_index()` ([`DeviceState::PRIMITIVE`]).
+    pub primitive_index: u32,
+    /// `rt_sbt_gas_index()` ([`DeviceState::PRIMITIVE`]).
+    pub sbt_gas_index: u32,
+    /// `rt_instance_id()` ([`DeviceState::PRIMITIVE`]).
+    pub instance_id: u32,
+    /// `rt_instance_index()` ([`DeviceState::PRIMITIVE`]).
+    pub instance_index: u32,
+    /// `rt_hit_kind()` ([`DeviceState::HIT`]).
+    pub hit_kind: u32,
+    /// `rt_triangle_barycentrics()` ([`DeviceState::HIT`]).
+    pub triangle_barycentrics: [f32; 2],
+    /// `rt_object_to_world()` ([`DeviceState::TRANSFORMS`]).
+    pub object_to_world: [f32; 12],
+    /// `rt_world_to_object()` ([`DeviceState::TRANSFORMS`]).
+    pub world_to_object: [f32; 12],
+    /// `rt_remaining_trace_depth()` ([`DeviceState::TRACE_DEPTH`]).
+    pub remaining_trace_depth: u32,
+}
+
+impl DeviceState {
+    /// `launch_index` is set.
+    pub const LAUNCH_INDEX: u32 = 1 << 0;
+    /// `launch_dimensions` is set.
+    pub const LAUNCH_DIMENSIONS: u32 = 1 << 1;
+    /// `world_ray_origin` and `world_ray_direction` are set.
+    pub const WORLD_RAY: u32 = 1 << 2;
+    /// `object_ray_origin` and `object_ray_direction` are set.
+    pub const OBJECT_RAY: u32 = 1 << 3;
+    /// `ray_tmin`, `ray_tmax`, `ray_time`, `ray_flags` and `ray_mask` are set.
+    pub const RAY: u32 = 1 << 4;
+    /// `primitive_index`, `sbt_gas_index`, `instance_id` and `instance_index` are set.
+    pub const PRIMITIVE: u32 = 1 << 5;
+    /// `hit_kind` and `triangle_barycentrics` are set.
+    pub const HIT: u32 = 1 << 6;
+    /// `object_to_world` and `world_to_object` are set.
+    pub const TRANSFORMS: u32 = 1 << 7;
+    /// `remaining_trace_depth` is set.
+    pub const TRACE_DEPTH: u32 = 1 << 8;
+    /// Nothing set: every getter calls its method.
+    pub const EMPTY: DeviceState = DeviceState {
+        present: 0,
+        launch_index: [0; 3],
+        launch_dimensions: [0; 3],
+        world_ray_origin: [0.0; 3],
+        world_ray_direction: [0.0; 3],
+        object_ray_origin: [0.0; 3],
+        object_ray_direction: [0.0; 3],
+        ray_tmin: 0.0,
+        ray_tmax: 0.0,
+        ray_time: 0.0,
+        ray_flags: 0,
+        ray_mask: 0,
+        primitive_index: 0,
+        sbt_gas_index: 0,
+        instance_id: 0,
+        instance_index: 0,
+        hit_kind: 0,
+        triangle_barycentrics: [0.0; 2],
+        object_to_world: [0.0; 12],
+        world_to_object: [0.0; 12],
+        remaining_trace_depth: 0,
+    };
 }
 
 /// A storage buffer (or the params uniform) bound for a program call.

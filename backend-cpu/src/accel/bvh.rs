@@ -1,0 +1,353 @@
+//! The binary BVH every acceleration structure uses: built by obvhs's PLOC builder, stored in
+//! optik's own node layout, traversed by `crate::traverse`.
+//!
+//! Layout (the contract with `traverse` and with the wgpu backend, which uploads these nodes
+//! as they are):
+//! - `nodes()[0]` is the root; `nodes()[1]` is unused padding;
+//! - an inner node (`count == 0`) has its two children at `first` (always even) and
+//!   `first + 1`, so siblings share one 64-byte cache line (the array is 64-byte aligned);
+//! - a leaf (`count` above 0) covers primitive slots `first .. first + count`;
+//! - children come after their parent, so a reverse sweep refits the tree.
+//!
+//! A structure's per-primitive arrays are stored in slot order, so a leaf reads them
+//! contiguously; `primitive_order[slot]` maps a slot back to the primitive's place in the
+//! build inputs. Primitives that can never be hit (NaN or infinite coordinates, degenerate
+//! triangles) get no slot at all.
+//!
+//! Boxes are exact unions of the primitives' f32 boxes (min/max, no rounding), so the box
+//! test alone decides how conservative traversal is.
+
+use super::aabb::Aabb;
+use optik_api::{BuildFlags, Error, Result};
+
+/// One BVH node (32 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct BvhNode {
+    /// Smallest corner of the node's box.
+    pub min: [f32; 3],
+    /// Inner node: index of the first child. Leaf: first primitive slot.
+    pub first: u32,
+    /// Largest corner of the node's box.
+    pub max: [f32; 3],
+    /// 0 for an inner node; the number of primitive slots of a leaf.
+    pub count: u32,
+}
+
+impl BvhNode {
+    /// Whether the node is a leaf.
+    pub fn is_leaf(&self) -> bool {
+        self.count > 0
+    }
+
+    /// The node's box.
+    pub fn aabb(&self) -> Aabb {
+        Aabb {
+            min: self.min,
+            max: self.max,
+        }
+    }
+
+    fn set_aabb(&mut self, b: Aabb) {
+        self.min = b.min;
+        self.max = b.max;
+    }
+}
+
+/// Two sibling nodes: the unit of storage, one cache line.
+#[repr(C, align(64))]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+struct NodePair([BvhNode; 2]);
+
+/// A binary BVH over primitive slots.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Bvh {
+    /// The nodes in sibling pairs; empty when the structure holds no primitive.
+    pairs: Vec<NodePair>,
+    /// The deepest leaf's depth (the root has depth 1); sizes traversal stacks.
+    pub depth: u32,
+}
+
+/// How much build time to spend for traversal speed, from the build flags.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BuildQuality {
+    /// `PREFER_FAST_BUILD`.
+    FastBuild,
+    /// Neither flag.
+    Balanced,
+    /// `PREFER_FAST_TRACE`.
+    FastTrace,
+}
+
+impl BuildQuality {
+    /// The quality the flags ask for (`PREFER_FAST_TRACE` wins when both are set).
+    pub fn from_flags(flags: BuildFlags) -> BuildQuality {
+        if flags.contains(BuildFlags::PREFER_FAST_TRACE) {
+            BuildQuality::FastTrace
+        } else if flags.contains(BuildFlags::PREFER_FAST_BUILD) {
+            BuildQuality::FastBuild
+        } else {
+            BuildQuality::Balanced
+        }
+    }
+
+    /// The obvhs parameters. Spatial pre-splits are never used: a split primitive sits in
+    /// several leaves and would meet a ray more than once, which any-hit semantics forbid.
+    /// The presets were chosen by measurement (docs/cpu-backend.md, "BVH").
+    pub fn params(self) -> obvhs::BvhBuildParams {
+        let mut p = match self {
+            BuildQuality::FastBuild => obvhs::BvhBuildParams::very_fast_build(),
+            BuildQuality::Balanced => obvhs::BvhBuildParams::fast_build(),
+            BuildQuality::FastTrace => obvhs::BvhBuildParams::medium_build(),
+        };
+        p.pre_split = false;
+        p
+    }
+}
+
+impl Bvh {
+    /// Builds a BVH over the primitives `i` with `boxes[i]` valid and finite; returns it with
+    /// the slot order (`order[slot]` = the primitive's index in `boxes`).
+    pub fn build(boxes: &[Aabb], quality: BuildQuality) -> Result<(Bvh, Vec<u32>)> {
+        let included: Vec<u32> = (0..boxes.len() as u32)
+            .filter(|&i| boxes[i as usize].is_valid() && boxes[i as usize].is_finite())
+            .collect();
+        if included.is_empty() {
+            return Ok((Bvh::default(), Vec::new()));
+        }
+        let params = quality.params();
+        // obvhs reads every box it is given, so it only sees the included ones.
+        let obvhs_boxes: Vec<obvhs::aabb::Aabb> = included
+            .iter()
+            .map(|&i| boxes[i as usize].to_obvhs())
+            .collect();
+        // obvhs asserts on inputs it does not expect; a panic must not cross the API.
+        let built = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            let mut bvh = obvhs::ploc::PlocBuilder::with_capacity(included.len()).build(
+                params.ploc_search_distance,
+                &obvhs_boxes,
+                (0..included.len() as u32).collect(),
+                params.sort_precision,
+                params.search_depth_threshold,
+            );
+            let mut reinsertion = obvhs::bvh2::reinsertion::ReinsertionOptimizer::default();
+            reinsertion.run(&mut bvh, params.reinsertion_batch_ratio, None);
+            obvhs::bvh2::leaf_collapser::collapse(
+                &mut bvh,
+                params.max_prims_per_leaf.clamp(1, 255),
+                params.collapse_traversal_cost,
+            );
+            reinsertion.run(
+                &mut bvh,
+                params.reinsertion_batch_ratio
+                    * params.post_collapse_reinsertion_batch_ratio_multiplier,
+                None,
+            );
+            bvh
+        }))
+        .map_err(|_| Error::backend("the BVH builder (obvhs) failed on these primitives"))?;
+        let (mut bvh, order) = convert(&built);
+        let order: Vec<u32> = order.iter().map(|&k| included[k as usize]).collect();
+        if order.len() != included.len() {
+            return Err(Error::backend(format!(
+                "the BVH builder placed {} of {} primitives in leaves",
+                order.len(),
+                included.len()
+            )));
+        }
+        bvh.refit(|slot| boxes[order[slot] as usize]);
+        Ok((bvh, order))
+    }
+
+    /// The nodes: root at 0, padding at 1, sibling pairs from 2 (see the module docs).
+    pub fn nodes(&self) -> &[BvhNode] {
+        bytemuck::cast_slice(&self.pairs)
+    }
+
+    fn nodes_mut(&mut self) -> &mut [BvhNode] {
+        bytemuck::cast_slice_mut(&mut self.pairs)
+    }
+
+    /// Recomputes every box from the primitives' boxes by slot, keeping the topology.
+    /// Invalid (NaN, empty) primitive boxes count as empty.
+    pub fn refit(&mut self, slot_box: impl Fn(usize) -> Aabb) {
+        let nodes = self.nodes_mut();
+        for i in (0..nodes.len()).rev() {
+            if i == 1 {
+                continue;
+            }
+            let n = nodes[i];
+            let b = if n.is_leaf() {
+                (n.first..n.first + n.count).fold(Aabb::EMPTY, |acc, s| {
+                    let b = slot_box(s as usize);
+                    if b.is_valid() && b.is_finite() {
+                        acc.union(&b)
+                    } else {
+                        acc
+                    }
+                })
+            } else {
+                nodes[n.first as usize]
+                    .aabb()
+                    .union(&nodes[n.first as usize + 1].aabb())
+            };
+            nodes[i].set_aabb(b);
+        }
+    }
+
+    /// The root box (empty without nodes).
+    pub fn bounds(&self) -> Aabb {
+        self.nodes()
+            .first()
+            .map(|n| n.aabb())
+            .unwrap_or(Aabb::EMPTY)
+    }
+
+    /// Bytes the nodes occupy.
+    pub fn size_in_bytes(&self) -> u64 {
+        (self.pairs.len() * std::mem::size_of::<NodePair>()) as u64
+    }
+}
+
+/// Converts obvhs's tree into optik's layout: depth-first, siblings adjacent, children after
+/// parents, leaves' primitives renumbered into consecutive slots.
+fn convert(src: &obvhs::bvh2::Bvh2) -> (Bvh, Vec<u32>) {
+    let placeholder = BvhNode {
+        min: [0.0; 3],
+        first: 0,
+        max: [0.0; 3],
+        count: 0,
+    };
+    let mut nodes = Vec::with_capacity(src.nodes.len() + 1);
+    let mut order = Vec::with_capacity(src.primitive_indices.len());
+    let mut depth = 0;
+    // The root, and padding so that every sibling pair starts at an even index.
+    nodes.push(placeholder);
+    nodes.push(placeholder);
+    let mut stack = vec![(0usize, 0usize, 1u32)];
+    while let Some((s, d, level)) = stack.pop() {
+        depth = depth.max(level);
+        let n = &src.nodes[s];
+        if n.is_leaf() {
+            let first = order.len() as u32;
+            for k in 0..n.prim_count {
+                order.push(src.primitive_indices[(n.first_index + k) as usize]);
+            }
+            nodes[d] = BvhNode {
+                first,
+                count: n.prim_count,
+                ..placeholder
+            };
+        } else {
+            let c = nodes.len();
+            nodes.push(placeholder);
+            nodes.push(placeholder);
+            nodes[d] = BvhNode {
+                first: c as u32,
+                count: 0,
+                ..placeholder
+            };
+            stack.push((n.first_index as usize + 1, c + 1, level + 1));
+            stack.push((n.first_index as usize, c, level + 1));
+        }
+    }
+    let pairs = nodes
+        .chunks(2)
+        .map(|p| NodePair([p[0], p.get(1).copied().unwrap_or(placeholder)]))
+        .collect();
+    (Bvh { pairs, depth }, order)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit_box(x: f32) -> Aabb {
+        Aabb {
+            min: [x, 0.0, 0.0],
+            max: [x + 0.5, 1.0, 1.0],
+        }
+    }
+
+    fn check_structure(bvh: &Bvh, order: &[u32], boxes: &[Aabb]) {
+        let mut seen = vec![false; order.len()];
+        for (i, n) in bvh.nodes().iter().enumerate() {
+            if i == 1 {
+                continue;
+            }
+            if n.is_leaf() {
+                for s in n.first..n.first + n.count {
+                    assert!(!seen[s as usize], "slot {s} in two leaves");
+                    seen[s as usize] = true;
+                    let b = boxes[order[s as usize] as usize];
+                    for a in 0..3 {
+                        assert!(n.min[a] <= b.min[a] && b.max[a] <= n.max[a]);
+                    }
+                }
+            } else {
+                assert!(n.first as usize > i, "children come after parents");
+                assert!(n.first.is_multiple_of(2), "siblings share a pair");
+                for c in [n.first, n.first + 1] {
+                    let cb = bvh.nodes()[c as usize].aabb();
+                    assert_eq!(n.aabb(), n.aabb().union(&cb));
+                }
+            }
+        }
+        assert!(seen.iter().all(|&s| s));
+    }
+
+    #[test]
+    fn builds_cover_every_valid_primitive_once() {
+        for n in [1usize, 2, 3, 17, 1000] {
+            let boxes: Vec<Aabb> = (0..n)
+                .map(|i| unit_box((i * 7 % 13) as f32 + i as f32 * 0.01))
+                .collect();
+            for q in [
+                BuildQuality::FastBuild,
+                BuildQuality::Balanced,
+                BuildQuality::FastTrace,
+            ] {
+                let (bvh, order) = Bvh::build(&boxes, q).unwrap();
+                assert_eq!(order.len(), n);
+                check_structure(&bvh, &order, &boxes);
+                assert!(bvh.depth >= 1);
+            }
+        }
+    }
+
+    #[test]
+    fn invalid_boxes_get_no_slot() {
+        let mut boxes: Vec<Aabb> = (0..10).map(|i| unit_box(i as f32)).collect();
+        boxes[3].min[1] = f32::NAN;
+        boxes[5] = Aabb::EMPTY;
+        boxes[7].max[2] = f32::INFINITY;
+        let (bvh, order) = Bvh::build(&boxes, BuildQuality::Balanced).unwrap();
+        assert_eq!(order.len(), 7);
+        assert!(!order.contains(&3) && !order.contains(&5) && !order.contains(&7));
+        assert!(bvh.bounds().is_finite());
+        let (empty, none) = Bvh::build(&[Aabb::EMPTY], BuildQuality::Balanced).unwrap();
+        assert!(empty.nodes().is_empty() && none.is_empty());
+        let (bvh, _) = Bvh::build(
+            &[unit_box(0.0), unit_box(1.0), unit_box(2.0)],
+            BuildQuality::Balanced,
+        )
+        .unwrap();
+        assert_eq!(
+            bvh.nodes().as_ptr() as usize % 64,
+            0,
+            "pairs are cache-line aligned"
+        );
+    }
+
+    #[test]
+    fn refit_follows_moved_primitives_and_skips_nan() {
+        let boxes: Vec<Aabb> = (0..50).map(|i| unit_box(i as f32)).collect();
+        let (mut bvh, order) = Bvh::build(&boxes, BuildQuality::Balanced).unwrap();
+        let mut moved: Vec<Aabb> = boxes.iter().map(|b| b.padded(0.25)).collect();
+        moved[10].min[0] = f32::NAN;
+        bvh.refit(|s| moved[order[s] as usize]);
+        moved[10] = Aabb::EMPTY;
+        check_structure(&bvh, &order, &moved);
+        assert_eq!(bvh.bounds().min[0], -0.25);
+    }
+}

@@ -1,0 +1,67 @@
+//! Turning a front-end module into callable programs with the Cranelift JIT (`program`).
+
+use crate::pipeline::ModuleObject;
+use optik_api::frontend::CompiledModule;
+use optik_api::{ModuleCompileOptions, Result};
+use std::sync::Arc;
+
+/// Compiles every program of `compiled`; returns the module object and a log line.
+#[cfg(feature = "jit")]
+pub(crate) fn compile(
+    compiled: Arc<CompiledModule>,
+    options: &ModuleCompileOptions,
+) -> Result<(ModuleObject, String)> {
+    use crate::pipeline::ProgramCode;
+    use crate::program::{JitModule, JitOptions};
+    let jit = JitModule::compile(
+        &compiled,
+        &JitOptions {
+            opt_level: options.opt_level,
+            ..Default::default()
+        },
+    )?;
+    let programs = compiled
+        .programs
+        .iter()
+        .map(|p| {
+            (
+                p.name.clone(),
+                (
+                    p.kind,
+                    ProgramCode::Jit {
+                        module: jit.clone(),
+                        name: Arc::from(p.name.as_str()),
+                    },
+                ),
+            )
+        })
+        .collect();
+    let stats = jit.stats();
+    let log = format!(
+        "{}: {} programs compiled ({} from the disk cache) in {:.1} ms",
+        compiled.file_name,
+        stats.functions,
+        stats.disk_cache_hits,
+        stats.time.as_secs_f64() * 1e3
+    );
+    Ok((
+        ModuleObject {
+            compiled: Some(compiled),
+            programs,
+            native: None,
+        },
+        log,
+    ))
+}
+
+/// Without the JIT, WGSL modules parse and check but cannot run.
+#[cfg(not(feature = "jit"))]
+pub(crate) fn compile(
+    compiled: Arc<CompiledModule>,
+    _: &ModuleCompileOptions,
+) -> Result<(ModuleObject, String)> {
+    Err(optik_api::Error::unsupported(format!(
+        "{}: this optik-cpu was built without the `jit` feature, so WGSL programs cannot run; enable the feature, or use CpuDevice::create_native_module for Rust programs",
+        compiled.file_name
+    )))
+}

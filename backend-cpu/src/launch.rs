@@ -1,0 +1,810 @@
+//! Launches: raygen invocations on rayon threads, each an [`Invocation`] that answers the
+//! device API for the programs it runs and decides the fate of the candidates the traversal
+//! finds.
+//!
+//! Semantics kept here (DESIGN.md §4, written down in docs/cpu-backend.md):
+//! - Payload registers are copied in at `rt_trace` and out when it returns; callables get
+//!   their argument array the same way. Registers past the caller's array read 0.
+//! - An invalid ray misses without running any program and leaves the payload alone; with
+//!   `ExceptionFlags::DEBUG` the exception program runs (`INVALID_RAY`).
+//! - `rt_trace` beyond `max_trace_depth` does nothing, or raises `TRACE_DEPTH_EXCEEDED` when
+//!   the pipeline checks `TRACE_DEPTH`. Callables nested beyond the link options' depths do
+//!   nothing, or raise `STACK_OVERFLOW`.
+//! - An exception runs the exception program (when the SBT has one) and ends the launch
+//!   index: every program on the stack returns (see `DeviceCalls::unwinding`) and further
+//!   device calls do nothing.
+//! - A hit whose SBT record index lies past the hit group records is a hit without programs
+//!   (as the Vulkan backend's null records), or raises `INVALID_HIT_SBT` under debug
+//!   exceptions; a miss index past the miss records runs nothing (or raises
+//!   `INVALID_MISS_SBT`).
+
+use crate::accel::SceneTable;
+use crate::pipeline::{Callable, TraceFn};
+use crate::program::abi::{Bindings, BoundResource, DeviceCalls};
+use crate::sbt::{Record, ResolvedSbt};
+use crate::traverse::{
+    self, Candidate, CustomPrimitive, Handler, HitData, Path, Spec, TraceConfig, TraceRay,
+};
+use optik_api::semantics::exception as code;
+use optik_api::semantics::opacity::CandidateFate;
+use optik_api::semantics::{self, facing, sbt_index};
+use optik_api::{
+    ExceptionFlags, FeatureSet, IDENTITY_3X4, Matrix3x4, PipelineLinkOptions, ProgramKind,
+    RayFlags, TraversableHandle,
+};
+
+/// Most payload (and callable argument) registers.
+const MAX_PAYLOAD: usize = 32;
+
+/// What every invocation of a launch shares.
+pub(crate) struct LaunchShared<'l> {
+    pub sbt: ResolvedSbt<'l>,
+    pub scene: &'l SceneTable,
+    pub resources: Vec<BoundResource>,
+    pub size: [u32; 3],
+    pub config: TraceConfig,
+    pub features: FeatureSet,
+    pub link: PipelineLinkOptions,
+    pub trace: TraceFn,
+}
+
+/// Runs every launch index on `pool`. Invocations share nothing mutable but the user's
+/// buffers, so results do not depend on the thread count.
+pub(crate) fn run(shared: &LaunchShared<'_>, pool: &rayon::ThreadPool) {
+    use rayon::prelude::*;
+    let [w, h, d] = shared.size;
+    // The device limits launches to 2^32 invocations, which fit `usize` on 64-bit hosts.
+    let count = (w as u64 * h as u64 * d as u64).min(usize::MAX as u64) as usize;
+    let Some(raygen) = shared.sbt.raygen.programs.main else {
+        return;
+    };
+    pool.install(|| {
+        (0..count).into_par_iter().with_min_len(16).for_each(|i| {
+            let (i, w, h) = (i as u64, w as u64, h as u64);
+            let index = [(i % w) as u32, ((i / w) % h) as u32, (i / (w * h)) as u32];
+            let mut inv = Invocation::new(shared, index);
+            let view = View {
+                kind: ProgramKind::Raygen,
+                record: Some(&shared.sbt.raygen),
+                ..View::EMPTY
+            };
+            inv.run(raygen, view);
+        })
+    });
+}
+
+/// The ray a program sees.
+#[derive(Clone, Copy, Debug)]
+struct RayState {
+    origin: [f32; 3],
+    direction: [f32; 3],
+    tmin: f32,
+    /// The current end: the committed (or candidate) distance in hit programs.
+    tmax: f32,
+    time: f32,
+    flags: u32,
+    mask: u32,
+}
+
+/// The primitive a program sees.
+#[derive(Clone, Copy, Debug)]
+struct HitState {
+    t: f32,
+    primitive_index: u32,
+    sbt_gas_index: u32,
+    instance_id: u32,
+    instance_index: u32,
+    hit_kind: u32,
+    attributes: [u32; 8],
+    data: Option<HitData>,
+    object_origin: [f32; 3],
+    object_direction: [f32; 3],
+    object_to_world: Matrix3x4,
+    world_to_object: Matrix3x4,
+}
+
+impl HitState {
+    fn at(info: &crate::accel::PrimitiveInfo, path: &Path) -> HitState {
+        HitState {
+            t: 0.0,
+            primitive_index: info.primitive_index,
+            sbt_gas_index: info.sbt_gas_index,
+            instance_id: path.instance_id,
+            instance_index: path.instance_index,
+            hit_kind: 0,
+            attributes: [0; 8],
+            data: None,
+            object_origin: path.object_origin,
+            object_direction: path.object_direction,
+            object_to_world: path.object_to_world,
+            world_to_object: path.world_to_object,
+        }
+    }
+}
+
+/// What the running program sees.
+#[derive(Clone, Copy)]
+struct View<'l> {
+    kind: ProgramKind,
+    record: Option<&'l Record<'l>>,
+    ray: RayState,
+    hit: Option<HitState>,
+    exception_code: i32,
+}
+
+impl View<'_> {
+    const EMPTY: View<'static> = View {
+        kind: ProgramKind::Raygen,
+        record: None,
+        ray: RayState {
+            origin: [0.0; 3],
+            direction: [0.0; 3],
+            tmin: 0.0,
+            tmax: 0.0,
+            time: 0.0,
+            flags: 0,
+            mask: 0,
+        },
+        hit: None,
+        exception_code: 0,
+    };
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum AnyHitOutcome {
+    Accept,
+    Ignore,
+    Terminate,
+}
+
+/// An intersection program's candidate.
+#[derive(Clone, Copy)]
+struct IntersectionContext<'l> {
+    base: HitState,
+    record: &'l Record<'l>,
+    fate: CandidateFate,
+}
+
+/// The state of the innermost `rt_trace`.
+#[derive(Clone, Copy)]
+struct TraceState<'l> {
+    ray: RayState,
+    sbt_offset: u32,
+    sbt_stride: u32,
+    committed: Option<(HitState, &'l Record<'l>)>,
+    terminated: bool,
+    any_hit: AnyHitOutcome,
+    intersection: Option<IntersectionContext<'l>>,
+    /// The running intersection program must return.
+    intersection_exit: bool,
+}
+
+/// One launch index: the device API for its programs, and the candidate handler of its
+/// traces.
+pub(crate) struct Invocation<'l> {
+    shared: &'l LaunchShared<'l>,
+    index: [u32; 3],
+    /// Traces in progress.
+    depth: u32,
+    direct_depth: u32,
+    continuation_depth: u32,
+    /// An exception ended this launch index.
+    ending: bool,
+    view: View<'l>,
+    payload: [u32; MAX_PAYLOAD],
+    payload_len: usize,
+    trace: TraceState<'l>,
+}
+
+/// Traces for a pipeline compiled as `S`.
+pub(crate) fn trace_with<S: Spec>(
+    inv: &mut Invocation<'_>,
+    ray: &TraceRay,
+    root: TraversableHandle,
+) {
+    let shared = inv.shared;
+    traverse::trace::<S, _>(shared.scene, root, ray, &shared.config, inv);
+}
+
+impl<'l> Invocation<'l> {
+    fn new(shared: &'l LaunchShared<'l>, index: [u32; 3]) -> Invocation<'l> {
+        Invocation {
+            shared,
+            index,
+            depth: 0,
+            direct_depth: 0,
+            continuation_depth: 0,
+            ending: false,
+            view: View::EMPTY,
+            payload: [0; MAX_PAYLOAD],
+            payload_len: 0,
+            trace: TraceState {
+                ray: View::EMPTY.ray,
+                sbt_offset: 0,
+                sbt_stride: 0,
+                committed: None,
+                terminated: false,
+                any_hit: AnyHitOutcome::Accept,
+                intersection: None,
+                intersection_exit: false,
+            },
+        }
+    }
+
+    fn exceptions(&self) -> ExceptionFlags {
+        self.shared.features.exceptions
+    }
+
+    /// Runs a program with `view`, restoring the caller's view after.
+    fn run(&mut self, program: Callable<'l>, view: View<'l>) {
+        let saved = std::mem::replace(&mut self.view, view);
+        let shared = self.shared;
+        let bindings = Bindings {
+            resources: &shared.resources,
+        };
+        program.call(&bindings, self);
+        self.view = saved;
+    }
+
+    /// Raises an exception: runs the exception program, then ends the launch index.
+    fn raise(&mut self, exception_code: i32) {
+        if self.ending {
+            return;
+        }
+        if let Some(rec) = &self.shared.sbt.exception
+            && let Some(p) = rec.programs.main
+        {
+            let view = View {
+                kind: ProgramKind::Exception,
+                record: Some(rec),
+                exception_code,
+                ..self.view
+            };
+            self.run(p, view);
+        }
+        self.ending = true;
+    }
+
+    /// The hit group record of a candidate. An index past the records selects a record
+    /// without programs (the hit counts, nothing runs; custom primitives, which need an
+    /// intersection program, cannot be hit), or raises `INVALID_HIT_SBT` under debug
+    /// exceptions (`None`).
+    fn hit_record(&mut self, path: &Path, sbt_gas_index: u32) -> Option<&'l Record<'l>> {
+        let shared = self.shared;
+        let i = sbt_index::hit_record_index(
+            path.sbt_offset,
+            sbt_gas_index,
+            self.trace.sbt_offset,
+            self.trace.sbt_stride,
+        );
+        match shared.sbt.hitgroup.get(i as usize) {
+            Some(rec) => Some(rec),
+            None if self.exceptions().contains(ExceptionFlags::DEBUG) => {
+                self.raise(code::INVALID_HIT_SBT);
+                None
+            }
+            None => Some(&shared.sbt.null_hit),
+        }
+    }
+
+    /// Runs the any-hit program on a candidate; `None` when the invocation ended.
+    fn any_hit(
+        &mut self,
+        program: Callable<'l>,
+        record: &'l Record<'l>,
+        hit: HitState,
+    ) -> Option<AnyHitOutcome> {
+        let saved = std::mem::replace(&mut self.trace.any_hit, AnyHitOutcome::Accept);
+        let ray = RayState {
+            tmax: hit.t,
+            ..self.trace.ray
+        };
+        self.run(
+            program,
+            View {
+                kind: ProgramKind::AnyHit,
+                record: Some(record),
+                ray,
+                hit: Some(hit),
+                exception_code: 0,
+            },
+        );
+        let outcome = std::mem::replace(&mut self.trace.any_hit, saved);
+        (!self.ending).then_some(outcome)
+    }
+
+    /// Commits a hit; `terminate` ends the traversal.
+    fn commit(&mut self, hit: HitState, record: &'l Record<'l>, terminate: bool) {
+        self.trace.committed = Some((hit, record));
+        self.trace.ray.tmax = hit.t;
+        if terminate || RayFlags(self.trace.ray.flags).contains(RayFlags::TERMINATE_ON_FIRST_HIT) {
+            self.trace.terminated = true;
+        }
+    }
+
+    /// After traversal: the closest-hit or miss program.
+    fn finish_trace(&mut self, world: RayState, miss_index: u32) {
+        match self.trace.committed {
+            Some((hit, record)) => {
+                if RayFlags(world.flags).contains(RayFlags::DISABLE_CLOSESTHIT) {
+                    return;
+                }
+                if let Some(ch) = record.programs.main {
+                    let ray = RayState {
+                        tmax: hit.t,
+                        ..world
+                    };
+                    self.run(
+                        ch,
+                        View {
+                            kind: ProgramKind::ClosestHit,
+                            record: Some(record),
+                            ray,
+                            hit: Some(hit),
+                            exception_code: 0,
+                        },
+                    );
+                }
+            }
+            None => {
+                let shared = self.shared;
+                match shared
+                    .sbt
+                    .miss
+                    .get(sbt_index::miss_record_index(miss_index) as usize)
+                {
+                    Some(record) => {
+                        if let Some(ms) = record.programs.main {
+                            self.run(
+                                ms,
+                                View {
+                                    kind: ProgramKind::Miss,
+                                    record: Some(record),
+                                    ray: world,
+                                    hit: None,
+                                    exception_code: 0,
+                                },
+                            );
+                        }
+                    }
+                    None => {
+                        if self.exceptions().contains(ExceptionFlags::DEBUG) {
+                            self.raise(code::INVALID_MISS_SBT);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// `rt_direct_call` and `rt_continuation_call`.
+    fn call_callable(&mut self, index: u32, args: &mut [u32], continuation: bool) {
+        if self.ending {
+            return;
+        }
+        let shared = self.shared;
+        let record = shared.sbt.callables.get(index as usize);
+        let program = record.and_then(|r| {
+            if continuation {
+                r.programs.continuation
+            } else {
+                r.programs.direct
+            }
+        });
+        let (Some(record), Some(program)) = (record, program) else {
+            if self.exceptions().contains(ExceptionFlags::DEBUG) {
+                self.raise(code::CALLABLE_INVALID_SBT);
+            }
+            return;
+        };
+        let (depth, limit) = if continuation {
+            (
+                self.continuation_depth,
+                shared.link.max_continuation_callable_depth,
+            )
+        } else {
+            (self.direct_depth, shared.link.max_direct_callable_depth)
+        };
+        if depth >= limit {
+            if self.exceptions().contains(ExceptionFlags::STACK_OVERFLOW) {
+                self.raise(code::STACK_OVERFLOW);
+            }
+            return;
+        }
+        let n = args.len().min(MAX_PAYLOAD);
+        let saved = (self.payload, self.payload_len);
+        self.payload = [0; MAX_PAYLOAD];
+        self.payload[..n].copy_from_slice(&args[..n]);
+        self.payload_len = n;
+        let kind = if continuation {
+            ProgramKind::ContinuationCallable
+        } else {
+            ProgramKind::DirectCallable
+        };
+        if continuation {
+            self.continuation_depth += 1;
+        } else {
+            self.direct_depth += 1;
+        }
+        self.run(
+            program,
+            View {
+                kind,
+                record: Some(record),
+                ..self.view
+            },
+        );
+        if continuation {
+            self.continuation_depth -= 1;
+        } else {
+            self.direct_depth -= 1;
+        }
+        if !self.ending {
+            args[..n].copy_from_slice(&self.payload[..n]);
+        }
+        (self.payload, self.payload_len) = saved;
+    }
+
+    fn hit(&self) -> Option<&HitState> {
+        self.view.hit.as_ref()
+    }
+}
+
+impl Handler for Invocation<'_> {
+    #[inline]
+    fn t_max(&self) -> f32 {
+        self.trace.ray.tmax
+    }
+
+    #[inline]
+    fn done(&self) -> bool {
+        self.trace.terminated || self.ending
+    }
+
+    fn candidate<S: Spec>(&mut self, c: &Candidate<'_>, path: &Path, fate: CandidateFate) {
+        let Some(record) = self.hit_record(path, c.info.sbt_gas_index) else {
+            return;
+        };
+        let mut hit = HitState {
+            t: c.t,
+            hit_kind: c.hit_kind,
+            data: Some(c.data),
+            ..HitState::at(c.info, path)
+        };
+        match c.data {
+            HitData::Triangle { barycentrics, .. } => {
+                hit.attributes[0] = barycentrics[0].to_bits();
+                hit.attributes[1] = barycentrics[1].to_bits();
+            }
+            HitData::Curve { u } => hit.attributes[0] = u.to_bits(),
+            HitData::Sphere { .. } => {}
+        }
+        let mut terminate = false;
+        if S::ANY_HIT
+            && fate == CandidateFate::NonOpaque
+            && let Some(ah) = record.programs.any_hit
+        {
+            match self.any_hit(ah, record, hit) {
+                None | Some(AnyHitOutcome::Ignore) => return,
+                Some(AnyHitOutcome::Terminate) => terminate = true,
+                Some(AnyHitOutcome::Accept) => {}
+            }
+        }
+        self.commit(hit, record, terminate);
+    }
+
+    fn custom<S: Spec>(&mut self, p: &CustomPrimitive<'_>, path: &Path, fate: CandidateFate) {
+        let Some(record) = self.hit_record(path, p.info.sbt_gas_index) else {
+            return;
+        };
+        let Some(is) = record.programs.intersection else {
+            return;
+        };
+        let base = HitState::at(p.info, path);
+        self.trace.intersection = Some(IntersectionContext { base, record, fate });
+        self.trace.intersection_exit = false;
+        let view = View {
+            kind: ProgramKind::Intersection,
+            record: Some(record),
+            ray: self.trace.ray,
+            hit: Some(base),
+            exception_code: 0,
+        };
+        self.run(is, view);
+        self.trace.intersection = None;
+        self.trace.intersection_exit = false;
+    }
+
+    fn traversal_exception(&mut self, exception_code: i32) {
+        self.raise(exception_code);
+    }
+}
+
+impl DeviceCalls for Invocation<'_> {
+    fn launch_index(&self) -> [u32; 3] {
+        self.index
+    }
+
+    fn launch_dimensions(&self) -> [u32; 3] {
+        self.shared.size
+    }
+
+    fn trace(
+        &mut self,
+        handle: [u32; 2],
+        origin: [f32; 3],
+        direction: [f32; 3],
+        tmin: f32,
+        tmax: f32,
+        time: f32,
+        mask: u32,
+        flags: u32,
+        sbt_offset: u32,
+        sbt_stride: u32,
+        miss_index: u32,
+        payload: &mut [u32],
+    ) {
+        if self.ending {
+            return;
+        }
+        let features = self.shared.features;
+        if self.depth >= features.max_trace_depth {
+            if features.exceptions.contains(ExceptionFlags::TRACE_DEPTH) {
+                self.raise(code::TRACE_DEPTH_EXCEEDED);
+            }
+            return;
+        }
+        if semantics::ray::check(origin, direction, tmin, tmax).is_err() {
+            if features.exceptions.contains(ExceptionFlags::DEBUG) {
+                self.raise(code::INVALID_RAY);
+            }
+            return;
+        }
+        let time = if features.motion { time } else { 0.0 };
+        let world = RayState {
+            origin,
+            direction,
+            tmin,
+            tmax,
+            time,
+            flags,
+            mask,
+        };
+        let n = payload.len().min(MAX_PAYLOAD);
+        let saved_payload = (self.payload, self.payload_len);
+        self.payload = [0; MAX_PAYLOAD];
+        self.payload[..n].copy_from_slice(&payload[..n]);
+        self.payload_len = n;
+        let fresh = TraceState {
+            ray: world,
+            sbt_offset,
+            sbt_stride,
+            committed: None,
+            terminated: false,
+            any_hit: AnyHitOutcome::Accept,
+            intersection: None,
+            intersection_exit: false,
+        };
+        let saved_trace = std::mem::replace(&mut self.trace, fresh);
+        self.depth += 1;
+        let ray = TraceRay {
+            origin,
+            direction,
+            tmin,
+            tmax,
+            time,
+            mask,
+            flags: RayFlags(flags),
+        };
+        (self.shared.trace)(self, &ray, TraversableHandle::from_words(handle));
+        if !self.ending {
+            self.finish_trace(world, miss_index);
+        }
+        self.depth -= 1;
+        if !self.ending {
+            payload[..n].copy_from_slice(&self.payload[..n]);
+        }
+        self.trace = saved_trace;
+        (self.payload, self.payload_len) = saved_payload;
+    }
+
+    fn get_payload(&self, i: u32) -> u32 {
+        if (i as usize) < self.payload_len {
+            self.payload[i as usize]
+        } else {
+            0
+        }
+    }
+
+    fn set_payload(&mut self, i: u32, v: u32) {
+        if (i as usize) < self.payload_len && !self.ending {
+            self.payload[i as usize] = v;
+        }
+    }
+
+    fn get_attribute(&self, i: u32) -> u32 {
+        self.hit()
+            .and_then(|h| h.attributes.get(i as usize).copied())
+            .unwrap_or(0)
+    }
+
+    fn report_intersection(&mut self, t: f32, hit_kind: u32, attributes: &[u32; 8]) -> bool {
+        if self.ending
+            || self.trace.intersection_exit
+            || self.view.kind != ProgramKind::Intersection
+        {
+            return false;
+        }
+        let Some(ctx) = self.trace.intersection else {
+            return false;
+        };
+        if !semantics::ray::reported_t_accepted(t, self.trace.ray.tmin, self.trace.ray.tmax) {
+            return false;
+        }
+        let hit = HitState {
+            t,
+            hit_kind: facing::custom_hit_kind(hit_kind),
+            attributes: *attributes,
+            ..ctx.base
+        };
+        let mut terminate = false;
+        if self.shared.features.any_hit
+            && ctx.fate == CandidateFate::NonOpaque
+            && let Some(ah) = ctx.record.programs.any_hit
+        {
+            match self.any_hit(ah, ctx.record, hit) {
+                None | Some(AnyHitOutcome::Ignore) => return false,
+                Some(AnyHitOutcome::Terminate) => terminate = true,
+                Some(AnyHitOutcome::Accept) => {}
+            }
+        }
+        self.commit(hit, ctx.record, terminate);
+        self.trace.intersection_exit = self.trace.terminated;
+        // The intersection program now sees the new end of the interval.
+        self.view.ray.tmax = t;
+        true
+    }
+
+    fn ignore_intersection(&mut self) {
+        if self.view.kind == ProgramKind::AnyHit {
+            self.trace.any_hit = AnyHitOutcome::Ignore;
+        }
+    }
+
+    fn terminate_ray(&mut self) {
+        if self.view.kind == ProgramKind::AnyHit {
+            self.trace.any_hit = AnyHitOutcome::Terminate;
+        }
+    }
+
+    fn world_ray_origin(&self) -> [f32; 3] {
+        self.view.ray.origin
+    }
+
+    fn world_ray_direction(&self) -> [f32; 3] {
+        self.view.ray.direction
+    }
+
+    fn object_ray_origin(&self) -> [f32; 3] {
+        self.hit().map_or(self.view.ray.origin, |h| h.object_origin)
+    }
+
+    fn object_ray_direction(&self) -> [f32; 3] {
+        self.hit()
+            .map_or(self.view.ray.direction, |h| h.object_direction)
+    }
+
+    fn ray_tmin(&self) -> f32 {
+        self.view.ray.tmin
+    }
+
+    fn ray_tmax(&self) -> f32 {
+        self.view.ray.tmax
+    }
+
+    fn ray_time(&self) -> f32 {
+        self.view.ray.time
+    }
+
+    fn ray_flags(&self) -> u32 {
+        self.view.ray.flags
+    }
+
+    fn ray_mask(&self) -> u32 {
+        self.view.ray.mask
+    }
+
+    fn primitive_index(&self) -> u32 {
+        self.hit().map_or(0, |h| h.primitive_index)
+    }
+
+    fn sbt_gas_index(&self) -> u32 {
+        self.hit().map_or(0, |h| h.sbt_gas_index)
+    }
+
+    fn instance_id(&self) -> u32 {
+        self.hit().map_or(0, |h| h.instance_id)
+    }
+
+    fn instance_index(&self) -> u32 {
+        self.hit().map_or(0, |h| h.instance_index)
+    }
+
+    fn hit_kind(&self) -> u32 {
+        self.hit().map_or(0, |h| h.hit_kind)
+    }
+
+    fn is_front_face_hit(&self) -> bool {
+        self.hit()
+            .is_some_and(|h| facing::hit_kind_is_front(h.hit_kind))
+    }
+
+    fn triangle_barycentrics(&self) -> [f32; 2] {
+        match self.hit().and_then(|h| h.data) {
+            Some(HitData::Triangle { barycentrics, .. }) => barycentrics,
+            _ => [0.0; 2],
+        }
+    }
+
+    fn triangle_vertices(&self) -> [[f32; 3]; 3] {
+        match self.hit().and_then(|h| h.data) {
+            Some(HitData::Triangle { vertices, .. }) => vertices,
+            _ => [[0.0; 3]; 3],
+        }
+    }
+
+    fn sphere(&self) -> [f32; 4] {
+        match self.hit().and_then(|h| h.data) {
+            Some(HitData::Sphere { sphere }) => sphere,
+            _ => [0.0; 4],
+        }
+    }
+
+    fn curve_parameter(&self) -> f32 {
+        match self.hit().and_then(|h| h.data) {
+            Some(HitData::Curve { u }) => u,
+            _ => 0.0,
+        }
+    }
+
+    fn object_to_world(&self) -> [f32; 12] {
+        self.hit().map_or(IDENTITY_3X4, |h| h.object_to_world)
+    }
+
+    fn world_to_object(&self) -> [f32; 12] {
+        self.hit().map_or(IDENTITY_3X4, |h| h.world_to_object)
+    }
+
+    fn sbt_data_u32(&self, i: u32) -> u32 {
+        self.view.record.map_or(0, |r| r.data_u32(i))
+    }
+
+    fn direct_call(&mut self, index: u32, args: &mut [u32]) {
+        self.call_callable(index, args, false);
+    }
+
+    fn continuation_call(&mut self, index: u32, args: &mut [u32]) {
+        self.call_callable(index, args, true);
+    }
+
+    fn throw_exception(&mut self, user_code: u32) {
+        if self.exceptions().contains(ExceptionFlags::USER) {
+            self.raise(code::user_code(user_code));
+        }
+    }
+
+    fn exception_code(&self) -> i32 {
+        self.view.exception_code
+    }
+
+    fn remaining_trace_depth(&self) -> u32 {
+        self.shared
+            .features
+            .max_trace_depth
+            .saturating_sub(self.depth)
+    }
+
+    fn unwinding(&self) -> bool {
+        self.ending || (self.view.kind == ProgramKind::Intersection && self.trace.intersection_exit)
+    }
+}

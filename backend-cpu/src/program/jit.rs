@@ -1,0 +1,444 @@
+//! The JIT driver: a module's programs to machine code, and calling them.
+
+use super::abi::{Bindings, BoundResource, DeviceCalls, DeviceState};
+use super::cache::{self, DiskStore, ModuleKey};
+use super::host::{BufferSlot, CallContext, HostFn, ZERO_PAGE};
+use super::lower::{self, LowerError, ModuleEnv};
+use cranelift_codegen::control::ControlPlane;
+use cranelift_codegen::settings::{self, Configurable};
+use cranelift_codegen::{Context, ir, isa::OwnedTargetIsa};
+use cranelift_frontend::FunctionBuilderContext;
+use cranelift_jit::{JITBuilder, JITModule};
+use cranelift_module::{FuncId, Linkage, Module, ModuleReloc, default_libcall_names};
+use optik_api::frontend::CompiledModule;
+use optik_api::{Error, OptLevel, Result};
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// Where compiled functions are cached on disk.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub enum DiskCache {
+    /// `$OPTIK_CACHE_PATH`, `$XDG_CACHE_HOME/optik` or `~/.cache/optik`; off when
+    /// `OPTIK_CACHE_DISABLE=1`.
+    #[default]
+    FromEnvironment,
+    /// No disk cache.
+    Disabled,
+    /// This directory.
+    Directory(PathBuf),
+}
+
+/// How to compile a module.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct JitOptions {
+    /// Cranelift's optimisation level: `None` is Cranelift's `none`, the others `speed`.
+    pub opt_level: OptLevel,
+    /// The disk cache. It changes compile time only: code is the same with it on or off.
+    pub disk_cache: DiskCache,
+}
+
+/// What compiling a module did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CompileStats {
+    /// Programs compiled.
+    pub functions: usize,
+    /// Of those, how many came from the disk cache.
+    pub disk_cache_hits: usize,
+    /// Wall time of the whole compile.
+    pub time: Duration,
+}
+
+/// A program's entry point. `C-unwind`: a panic in a `DeviceCalls` method unwinds through the
+/// program (on Linux, see `unwind.rs`).
+type EntryFn = unsafe extern "C-unwind" fn(*mut CallContext<'_>);
+
+/// The compiled programs of one module and the memory holding their code.
+pub(crate) struct Inner {
+    /// Entry points, and whether each reads `DeviceState` fields.
+    programs: HashMap<String, (EntryFn, bool)>,
+    /// The binding number of each buffer-table slot (`None`: a buffer without a binding).
+    slot_bindings: Vec<Option<u32>>,
+    stats: CompileStats,
+    /// The unwind tables of the code; dropped (deregistered) before the code is freed.
+    #[cfg(target_os = "linux")]
+    unwind: Option<super::unwind::UnwindRegistration>,
+    /// Owns the executable memory; only touched again to free it.
+    code: Mutex<Option<JITModule>>,
+}
+
+impl Drop for Inner {
+    fn drop(&mut self) {
+        #[cfg(target_os = "linux")]
+        drop(self.unwind.take());
+        if let Some(module) = self
+            .code
+            .get_mut()
+            .unwrap_or_else(|e| e.into_inner())
+            .take()
+        {
+            // SAFETY: the last `JitModule` is gone, and every `ProgramFn` borrows one, so
+            // no code of this module can run any more.
+            unsafe { module.free_memory() };
+        }
+    }
+}
+
+/// The programs of a module, compiled to native code. Cheap to clone; shared by threads.
+#[derive(Clone)]
+pub struct JitModule {
+    inner: Arc<Inner>,
+}
+
+impl std::fmt::Debug for JitModule {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut names: Vec<&String> = self.inner.programs.keys().collect();
+        names.sort();
+        f.debug_struct("JitModule")
+            .field("programs", &names)
+            .field("stats", &self.inner.stats)
+            .finish()
+    }
+}
+
+/// One compiled program. Borrows its [`JitModule`], which keeps the code alive.
+#[derive(Clone, Copy)]
+pub struct ProgramFn<'m> {
+    entry: EntryFn,
+    /// Whether the program (or a helper) calls a getter `DeviceState` can answer; only
+    /// then is `DeviceCalls::state` asked for.
+    reads_state: bool,
+    slot_bindings: &'m [Option<u32>],
+}
+
+impl std::fmt::Debug for ProgramFn<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ProgramFn")
+            .field("entry", &(self.entry as *const u8))
+            .finish()
+    }
+}
+
+/// Buffers a program call binds without allocating.
+const INLINE_SLOTS: usize = 16;
+
+/// A launch's bindings laid out for one module's code: the buffer table programs read.
+/// Preparing once per launch (or per thread) and calling with
+/// [`ProgramFn::call_prepared`] saves rebuilding it at every program call.
+pub struct PreparedBindings<'a> {
+    bindings: &'a Bindings<'a>,
+    table: Vec<BufferSlot>,
+    /// The slot layout the table was built for (borrowed from its module), to catch a
+    /// mix-up of modules.
+    layout: &'a [Option<u32>],
+}
+
+// The table holds the same raw buffer pointers as `Bindings`, shared the same way.
+unsafe impl Send for PreparedBindings<'_> {}
+unsafe impl Sync for PreparedBindings<'_> {}
+
+/// The buffer table for `slot_bindings` from `bindings`.
+fn buffer_table(slot_bindings: &[Option<u32>], bindings: &Bindings<'_>) -> Vec<BufferSlot> {
+    slot_bindings
+        .iter()
+        .map(
+            |binding| match binding.and_then(|b| bindings.resources.get(b as usize)) {
+                Some(BoundResource::Buffer(b)) => BufferSlot {
+                    ptr: b.ptr,
+                    len: b.len,
+                },
+                _ => BufferSlot::EMPTY,
+            },
+        )
+        .collect()
+}
+
+impl ProgramFn<'_> {
+    /// Runs the program once with `bindings`, answering device-API calls with `calls`.
+    ///
+    /// Buffer accesses are bounds-checked against the bound lengths; the runtime's part of
+    /// the contract (`abi.rs`) is that every bound pointer is valid for its length for the
+    /// duration of the call. A panic inside `calls` propagates to the caller.
+    pub fn call(&self, bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
+        let slots = self.slot_bindings.len();
+        let mut inline = [BufferSlot::EMPTY; INLINE_SLOTS];
+        if slots <= INLINE_SLOTS {
+            for (slot, binding) in inline.iter_mut().zip(self.slot_bindings) {
+                if let Some(BoundResource::Buffer(b)) =
+                    binding.and_then(|b| bindings.resources.get(b as usize))
+                {
+                    *slot = BufferSlot {
+                        ptr: b.ptr,
+                        len: b.len,
+                    };
+                }
+            }
+            self.run(inline.as_ptr(), bindings, calls);
+        } else {
+            let table = buffer_table(self.slot_bindings, bindings);
+            self.run(table.as_ptr(), bindings, calls);
+        }
+    }
+
+    /// Runs the program once with bindings prepared by [`JitModule::prepare`] (of this
+    /// program's module; bindings prepared for another module are laid out again here).
+    #[inline]
+    pub fn call_prepared(&self, prepared: &PreparedBindings<'_>, calls: &mut dyn DeviceCalls) {
+        if std::ptr::eq(prepared.layout, self.slot_bindings) {
+            self.run(prepared.table.as_ptr(), prepared.bindings, calls);
+        } else {
+            self.call(prepared.bindings, calls);
+        }
+    }
+
+    fn run(&self, table: *const BufferSlot, bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
+        let state = if self.reads_state {
+            calls.state()
+        } else {
+            std::ptr::null()
+        };
+        let mut ctx = CallContext {
+            buffers: table,
+            zero_page: ZERO_PAGE.as_ptr(),
+            state: if state.is_null() {
+                &DeviceState::EMPTY
+            } else {
+                state
+            },
+            calls: calls as *mut dyn DeviceCalls,
+            bindings: bindings as *const Bindings<'_>,
+            panic: None,
+        };
+        // SAFETY: `entry` is finalized code of a live module (borrowed by `self`) with the
+        // signature `extern "C-unwind" fn(*mut CallContext)`; the context, the buffer table (as
+        // long as the module's slots) and what they point to outlive the call.
+        unsafe { (self.entry)(&mut ctx) };
+        if let Some(payload) = ctx.panic.take() {
+            std::panic::resume_unwind(payload);
+        }
+    }
+}
+
+impl JitModule {
+    /// Compiles every program of `module` (with every function it reaches), or returns
+    /// the live module already compiled from the same source and optimisation level.
+    pub fn compile(module: &CompiledModule, options: &JitOptions) -> Result<JitModule> {
+        let key = ModuleKey {
+            source: module.full_source.clone(),
+            opt_level: options.opt_level,
+        };
+        let inner = cache::memory_cached(key, || compile_module(module, options).map(Arc::new))?;
+        Ok(JitModule { inner })
+    }
+
+    /// Compiles without looking in (or adding to) the in-memory cache.
+    pub fn compile_uncached(module: &CompiledModule, options: &JitOptions) -> Result<JitModule> {
+        Ok(JitModule {
+            inner: Arc::new(compile_module(module, options)?),
+        })
+    }
+
+    /// The program named `name` (with its prefix, e.g. `closesthit__radiance`).
+    pub fn program(&self, name: &str) -> Option<ProgramFn<'_>> {
+        let (entry, reads_state) = *self.inner.programs.get(name)?;
+        Some(ProgramFn {
+            entry,
+            reads_state,
+            slot_bindings: &self.inner.slot_bindings,
+        })
+    }
+
+    /// `bindings` laid out for this module's programs (see [`PreparedBindings`]).
+    pub fn prepare<'a>(&'a self, bindings: &'a Bindings<'a>) -> PreparedBindings<'a> {
+        PreparedBindings {
+            bindings,
+            table: buffer_table(&self.inner.slot_bindings, bindings),
+            layout: &self.inner.slot_bindings,
+        }
+    }
+
+    /// What compiling this module did.
+    pub fn stats(&self) -> CompileStats {
+        self.inner.stats
+    }
+
+    /// Whether `a` and `b` share their machine code (the in-memory cache's doing).
+    pub fn same_code(a: &JitModule, b: &JitModule) -> bool {
+        Arc::ptr_eq(&a.inner, &b.inner)
+    }
+}
+
+fn build_isa(opt_level: OptLevel) -> Result<OwnedTargetIsa> {
+    let mut flags = settings::builder();
+    let level = if opt_level == OptLevel::None {
+        "none"
+    } else {
+        "speed"
+    };
+    let set = |flags: &mut settings::Builder, name: &str, value: &str| {
+        flags
+            .set(name, value)
+            .map_err(|e| Error::backend(format!("Cranelift setting {name}={value}: {e}")))
+    };
+    set(&mut flags, "opt_level", level)?;
+    set(&mut flags, "use_colocated_libcalls", "false")?;
+    set(&mut flags, "is_pic", "false")?;
+    set(
+        &mut flags,
+        "enable_verifier",
+        if cfg!(debug_assertions) {
+            "true"
+        } else {
+            "false"
+        },
+    )?;
+    let native = cranelift_native::builder().map_err(|e| {
+        Error::unsupported(format!("the CPU JIT does not support this machine: {e}"))
+    })?;
+    native
+        .finish(settings::Flags::new(flags))
+        .map_err(|e| Error::backend(format!("Cranelift could not target this machine: {e}")))
+}
+
+fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner> {
+    let start = Instant::now();
+    let isa = build_isa(options.opt_level)?;
+    let mut builder = JITBuilder::with_isa(isa.clone(), default_libcall_names());
+    for &f in HostFn::ALL {
+        builder.symbol(f.symbol(), f.address());
+    }
+    let mut jit = JITModule::new(builder);
+    let call_conv = isa.default_call_conv();
+    let module_err =
+        |e: cranelift_module::ModuleError| Error::backend(format!("the CPU JIT failed: {e}"));
+    let mut host_ids: HashMap<HostFn, FuncId> = HashMap::new();
+    for &f in HostFn::ALL {
+        let id = jit
+            .declare_function(f.symbol(), Linkage::Import, &f.signature(call_conv))
+            .map_err(module_err)?;
+        host_ids.insert(f, id);
+    }
+    let env = ModuleEnv::new(module, jit.target_config());
+    let mut store = cache::directory(&options.disk_cache).map(DiskStore::new);
+    let mut stats = CompileStats::default();
+    let mut fctx = FunctionBuilderContext::new();
+    let mut ctx = jit.make_context();
+    let mut ids = Vec::new();
+    for program in &module.programs {
+        let mut sig = ir::Signature::new(call_conv);
+        sig.params.push(ir::AbiParam::new(ir::types::I64));
+        let id = jit
+            .declare_function(&program.name, Linkage::Local, &sig)
+            .map_err(module_err)?;
+        ctx.func.signature.call_conv = call_conv;
+        {
+            let jit = &mut jit;
+            let host_ids = &host_ids;
+            let mut import =
+                |f: HostFn, func: &mut ir::Function| jit.declare_func_in_func(host_ids[&f], func);
+            lower::lower_program(
+                &env,
+                program.function,
+                &mut ctx.func,
+                &mut fctx,
+                &mut import,
+            )
+            .map_err(|e| lowering_error(module, &program.name, e))?;
+        }
+        let dump = std::env::var_os("OPTIK_JIT_DUMP").map(PathBuf::from);
+        if let Some(dir) = &dump {
+            // A debugging aid: the CLIF of every program, and its machine code after.
+            let _ = std::fs::write(
+                dir.join(format!("{}.clif", program.name)),
+                ctx.func.display().to_string(),
+            );
+            ctx.set_disasm(true);
+        }
+        let hit = compile_function(&mut ctx, &*isa, store.as_mut(), &program.name)?;
+        if let (Some(dir), Some(vcode)) = (&dump, ctx.compiled_code().and_then(|c| c.vcode.clone()))
+        {
+            let _ = std::fs::write(dir.join(format!("{}.s", program.name)), vcode);
+        }
+        let code = ctx.compiled_code().expect("compiled above");
+        let unwind_info = code.create_unwind_info(&*isa).map_err(|e| {
+            Error::backend(format!("unwind information for `{}`: {e}", program.name))
+        })?;
+        let relocs: Vec<ModuleReloc> = code
+            .buffer
+            .relocs()
+            .iter()
+            .map(|r| ModuleReloc::from_mach_reloc(r, &ctx.func, id))
+            .collect();
+        let alignment = code.buffer.alignment as u64;
+        jit.define_function_bytes(id, alignment, code.code_buffer(), &relocs)
+            .map_err(module_err)?;
+        jit.clear_context(&mut ctx);
+        stats.functions += 1;
+        stats.disk_cache_hits += hit as usize;
+        let reads_state = program
+            .device_functions
+            .iter()
+            .any(|&f| lower::reads_state(f));
+        ids.push((program.name.clone(), id, unwind_info, reads_state));
+    }
+    jit.finalize_definitions().map_err(module_err)?;
+    let mut programs = HashMap::new();
+    let mut frames = Vec::new();
+    for (name, id, unwind_info, reads_state) in ids {
+        let ptr = jit.get_finalized_function(id);
+        // SAFETY: the function was compiled with exactly this signature.
+        let entry: EntryFn = unsafe { std::mem::transmute::<*const u8, EntryFn>(ptr) };
+        programs.insert(name, (entry, reads_state));
+        frames.extend(unwind_info.map(|info| (ptr as usize, info)));
+    }
+    #[cfg(target_os = "linux")]
+    let unwind = Some(
+        super::unwind::UnwindRegistration::new(&*isa, &frames).map_err(|e| {
+            Error::backend(format!("the CPU JIT could not register unwind tables: {e}"))
+        })?,
+    );
+    #[cfg(not(target_os = "linux"))]
+    let _ = frames;
+    stats.time = start.elapsed();
+    Ok(Inner {
+        programs,
+        slot_bindings: env.slot_bindings(),
+        stats,
+        #[cfg(target_os = "linux")]
+        unwind,
+        code: Mutex::new(Some(jit)),
+    })
+}
+
+/// Compiles `ctx.func`, through the disk cache when there is one; returns whether the
+/// cache had it.
+fn compile_function(
+    ctx: &mut Context,
+    isa: &dyn cranelift_codegen::isa::TargetIsa,
+    store: Option<&mut DiskStore>,
+    name: &str,
+) -> Result<bool> {
+    let mut ctrl = ControlPlane::default();
+    let failed =
+        |e: String| Error::backend(format!("Cranelift could not compile program `{name}`: {e}"));
+    match store {
+        Some(store) => match ctx.compile_with_cache(isa, store, &mut ctrl) {
+            Ok((_, hit)) => Ok(hit),
+            Err(e) => Err(failed(format!("{:?}", e.inner))),
+        },
+        None => match ctx.compile(isa, &mut ctrl) {
+            Ok(_) => Ok(false),
+            Err(e) => Err(failed(format!("{:?}", e.inner))),
+        },
+    }
+}
+
+/// A lowering failure as a compile error at the user's line.
+fn lowering_error(module: &CompiledModule, program: &str, e: LowerError) -> Error {
+    let message = format!(
+        "{} (while compiling program `{program}` for the CPU backend)",
+        e.message
+    );
+    Error::compile(vec![module.diagnostic(e.span, message)])
+}

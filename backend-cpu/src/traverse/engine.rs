@@ -1,0 +1,540 @@
+//! The traversal loop: graphs of instances and transforms down to geometry, BVH walks,
+//! primitive tests, culling and flag resolution.
+
+use super::ray::PreparedRay;
+use super::{Handler, Spec, curve, slab, sphere, triangle};
+use crate::accel::curve_basis::BezierSegment;
+use crate::accel::{
+    Aabb, Bvh, Gas, Geometry, Ias, InstanceRecord, MicromapRef, PrimitiveInfo, Resolved,
+    SceneTable, Transform, Traversable,
+};
+use optik_api::semantics::motion::{self, KeyPosition};
+use optik_api::semantics::opacity::{self, CandidateFate};
+use optik_api::semantics::{affine, exception, facing, sbt_index};
+use optik_api::{
+    IDENTITY_3X4, InstanceFlags, Matrix3x4, PrimitiveTypeFlags, RayFlags, TraversableHandle,
+};
+
+/// A ray to trace, in world space, already checked valid (`semantics::ray::check`).
+#[derive(Clone, Copy, Debug)]
+pub struct TraceRay {
+    /// Origin.
+    pub origin: [f32; 3],
+    /// Direction (not normalised; `t` is measured along it).
+    pub direction: [f32; 3],
+    /// Start of the interval.
+    pub tmin: f32,
+    /// End of the interval.
+    pub tmax: f32,
+    /// Time for motion.
+    pub time: f32,
+    /// Visibility mask.
+    pub mask: u32,
+    /// Ray flags.
+    pub flags: RayFlags,
+}
+
+/// What the pipeline compiled that the traversal checks at run time.
+#[derive(Clone, Copy, Debug)]
+pub struct TraceConfig {
+    /// Primitive types intersected; other geometry is skipped.
+    pub primitive_types: PrimitiveTypeFlags,
+    /// Whether intersection programs exist (custom primitives never hit without them).
+    pub intersection: bool,
+    /// Whether opacity micromaps are looked up.
+    pub micromaps: bool,
+    /// Whether debug exceptions are reported.
+    pub debug_exceptions: bool,
+    /// Deepest graph traversed (guards against cycles made by updates).
+    pub max_graph_depth: u32,
+}
+
+/// The instances and transforms above a candidate.
+#[derive(Clone, Copy, Debug)]
+pub struct Path {
+    /// Object-to-world of the whole path.
+    pub object_to_world: Matrix3x4,
+    /// World-to-object of the whole path.
+    pub world_to_object: Matrix3x4,
+    /// `rt_instance_id` of the innermost instance (0 without instances).
+    pub instance_id: u32,
+    /// `rt_instance_index` of the innermost instance (0 without instances).
+    pub instance_index: u32,
+    /// Sum of the SBT offsets of the instances on the path.
+    pub sbt_offset: u32,
+    /// Instance flags in force: any instance's culling and micromap flags, and the
+    /// innermost any-hit override (`FLIP_TRIANGLE_FACING` is in `flip`).
+    pub flags: InstanceFlags,
+    /// Whether an odd number of instances flip facing.
+    pub flip: bool,
+    /// The ray's origin in object space.
+    pub object_origin: [f32; 3],
+    /// The ray's direction in object space.
+    pub object_direction: [f32; 3],
+}
+
+impl Path {
+    fn root(ray: &TraceRay) -> Path {
+        Path {
+            object_to_world: IDENTITY_3X4,
+            world_to_object: IDENTITY_3X4,
+            instance_id: 0,
+            instance_index: 0,
+            sbt_offset: 0,
+            flags: InstanceFlags::NONE,
+            flip: false,
+            object_origin: ray.origin,
+            object_direction: ray.direction,
+        }
+    }
+
+    /// The path below a transform with these matrices; `None` when the object-space ray is
+    /// not finite (the transform crushes or explodes it: nothing below can be hit).
+    fn transformed(
+        &self,
+        object_to_world: &Matrix3x4,
+        world_to_object: &Matrix3x4,
+    ) -> Option<Path> {
+        let origin = affine::transform_point(world_to_object, self.object_origin);
+        let direction = affine::transform_vector(world_to_object, self.object_direction);
+        if !origin.iter().chain(direction.iter()).all(|v| v.is_finite()) {
+            return None;
+        }
+        Some(Path {
+            object_to_world: affine::mul(&self.object_to_world, object_to_world),
+            world_to_object: affine::mul(world_to_object, &self.world_to_object),
+            object_origin: origin,
+            object_direction: direction,
+            ..*self
+        })
+    }
+
+    fn instance(&self, inst: &InstanceRecord) -> Option<Path> {
+        let mut p = self.transformed(&inst.object_to_world, &inst.world_to_object)?;
+        let flags = InstanceFlags(inst.flags);
+        let overrides = InstanceFlags::DISABLE_ANYHIT | InstanceFlags::ENFORCE_ANYHIT;
+        let mut combined = InstanceFlags(
+            self.flags.0 | (flags.0 & !overrides.0 & !InstanceFlags::FLIP_TRIANGLE_FACING.0),
+        );
+        if flags.intersects(overrides) {
+            combined = InstanceFlags((combined.0 & !overrides.0) | (flags.0 & overrides.0));
+        }
+        p.flags = combined;
+        p.flip = self.flip != facing::flips(flags);
+        p.instance_id = inst.instance_id;
+        p.instance_index = inst.instance_index;
+        p.sbt_offset = self.sbt_offset.wrapping_add(inst.sbt_offset);
+        Some(p)
+    }
+}
+
+/// Geometry of a built-in primitive hit, as programs query it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum HitData {
+    /// A triangle: its object-space vertices (interpolated at the ray's time) and the hit's
+    /// barycentrics.
+    Triangle {
+        /// The vertices.
+        vertices: [[f32; 3]; 3],
+        /// Weights of vertices 1 and 2.
+        barycentrics: [f32; 2],
+    },
+    /// A sphere: centre and radius in object space.
+    Sphere {
+        /// `(centre.xyz, radius)`.
+        sphere: [f32; 4],
+    },
+    /// A curve: the hit's curve parameter.
+    Curve {
+        /// In [0, 1].
+        u: f32,
+    },
+}
+
+/// A built-in primitive hit found by the traversal.
+#[derive(Clone, Copy, Debug)]
+pub struct Candidate<'a> {
+    /// Distance along the ray.
+    pub t: f32,
+    /// The primitive.
+    pub info: &'a PrimitiveInfo,
+    /// The hit kind (`0xFE` front, `0xFF` back).
+    pub hit_kind: u32,
+    /// Primitive-specific data.
+    pub data: HitData,
+}
+
+/// A custom primitive the ray reaches.
+#[derive(Clone, Copy, Debug)]
+pub struct CustomPrimitive<'a> {
+    /// The primitive.
+    pub info: &'a PrimitiveInfo,
+    /// Its box at the ray's time.
+    pub aabb: Aabb,
+}
+
+/// Traces `ray` against the traversable `root` of `scene`, reporting candidates to `handler`.
+pub fn trace<S: Spec, H: Handler>(
+    scene: &SceneTable,
+    root: TraversableHandle,
+    ray: &TraceRay,
+    config: &TraceConfig,
+    handler: &mut H,
+) {
+    let walker = Walker::<S> {
+        scene,
+        ray,
+        config,
+        _spec: std::marker::PhantomData,
+    };
+    match scene.resolve(root) {
+        Resolved::Null => {}
+        Resolved::Invalid => walker.invalid_traversable(handler),
+        Resolved::Live(t) => walker.visit(t, &Path::root(ray), 1, handler),
+    }
+}
+
+struct Walker<'a, S: Spec> {
+    scene: &'a SceneTable,
+    ray: &'a TraceRay,
+    config: &'a TraceConfig,
+    _spec: std::marker::PhantomData<S>,
+}
+
+/// Entries of the BVH walk's stack: a node and the distance where the ray enters it.
+const INLINE_STACK: usize = 64;
+
+impl<S: Spec> Walker<'_, S> {
+    fn invalid_traversable<H: Handler>(&self, h: &mut H) {
+        if self.config.debug_exceptions {
+            h.traversal_exception(exception::INVALID_TRAVERSABLE);
+        }
+    }
+
+    fn visit<H: Handler>(&self, t: &Traversable, path: &Path, level: u32, h: &mut H) {
+        if level > self.config.max_graph_depth {
+            return;
+        }
+        match t {
+            Traversable::Geometry(g) => self.gas(g, path, h),
+            Traversable::Instances(ias) => {
+                if S::INSTANCING {
+                    self.ias(ias, path, level, h);
+                } else {
+                    self.invalid_traversable(h);
+                }
+            }
+            Traversable::Transform(tr) => {
+                if S::INSTANCING {
+                    self.transform(tr, path, level, h);
+                } else {
+                    self.invalid_traversable(h);
+                }
+            }
+        }
+    }
+
+    fn child<H: Handler>(&self, handle: TraversableHandle, path: &Path, level: u32, h: &mut H) {
+        match self.scene.resolve(handle) {
+            Resolved::Null => {}
+            Resolved::Invalid => self.invalid_traversable(h),
+            Resolved::Live(c) => self.visit(c, path, level + 1, h),
+        }
+    }
+
+    fn transform<H: Handler>(&self, tr: &Transform, path: &Path, level: u32, h: &mut H) {
+        let Some(o2w) = tr.object_to_world_at(self.ray.time, S::MOTION) else {
+            return;
+        };
+        let w2o = match &tr.kind {
+            crate::accel::TransformKind::Static {
+                world_to_object, ..
+            } => *world_to_object,
+            _ => match affine::inverse(&o2w) {
+                Some(m) => m,
+                None => return,
+            },
+        };
+        if let Some(p) = path.transformed(&o2w, &w2o) {
+            self.child(tr.child, &p, level, h);
+        }
+    }
+
+    fn ias<H: Handler>(&self, ias: &Ias, path: &Path, level: u32, h: &mut H) {
+        let pr = PreparedRay::new(path.object_origin, path.object_direction, S::CONSERVATIVE);
+        walk(&ias.bvh, &pr, self.ray.tmin, h, |h, first, count| {
+            for inst in &ias.instances[first as usize..(first + count) as usize] {
+                if !sbt_index::instance_visible(inst.mask, self.ray.mask) {
+                    continue;
+                }
+                if let Some(p) = path.instance(inst) {
+                    self.child(TraversableHandle(inst.child), &p, level, h);
+                }
+                if h.done() {
+                    return;
+                }
+            }
+        });
+    }
+
+    fn gas<H: Handler>(&self, g: &Gas, path: &Path, h: &mut H) {
+        if !self
+            .config
+            .primitive_types
+            .contains(g.geometry.primitive_type())
+        {
+            if self.config.debug_exceptions && !g.bvh.nodes().is_empty() {
+                h.traversal_exception(exception::UNSUPPORTED_PRIMITIVE_TYPE);
+            }
+            return;
+        }
+        let at = match (S::MOTION, &g.motion) {
+            (true, Some(m)) => match motion::resolve_key(m, self.ray.time) {
+                Some(at) => at,
+                None => return,
+            },
+            _ => KeyPosition { key: 0, t: 0.0 },
+        };
+        let pr = PreparedRay::new(path.object_origin, path.object_direction, S::CONSERVATIVE);
+        let tmin = self.ray.tmin;
+        let flags = self.ray.flags;
+        match &g.geometry {
+            Geometry::Triangles(tris) => walk(&g.bvh, &pr, tmin, h, |h, first, count| {
+                for s in first as usize..(first + count) as usize {
+                    let tri = lerp_key(&tris.keys, at, s, |a, b, f| {
+                        std::array::from_fn(|v| lerp3(a[v], b[v], f))
+                    });
+                    let hit = if S::WATERTIGHT {
+                        triangle::watertight(&pr, &tri, tmin, h.t_max())
+                    } else {
+                        triangle::moller_trumbore(&pr, &tri, tmin, h.t_max())
+                    };
+                    let Some(hit) = hit else { continue };
+                    let info = &g.primitives[s];
+                    // The test's facing is decided in object space; instances may flip it.
+                    let front =
+                        facing::is_front_face(if hit.front { -1.0 } else { 1.0 }, path.flip);
+                    if opacity::triangle_face_culled(front, info.flags(), path.flags, flags) {
+                        continue;
+                    }
+                    let micromap = match (&tris.micromaps, self.config.micromaps) {
+                        (Some(m), true) => match m.refs[s] {
+                            MicromapRef { array, index } if array != MicromapRef::NONE.array => {
+                                Some(m.arrays[array as usize].state(index, hit.u, hit.v))
+                            }
+                            _ => None,
+                        },
+                        _ => None,
+                    };
+                    let fate = opacity::resolve(info.flags(), path.flags, flags, micromap);
+                    if fate == CandidateFate::Culled {
+                        continue;
+                    }
+                    let data = HitData::Triangle {
+                        vertices: tri,
+                        barycentrics: [hit.u, hit.v],
+                    };
+                    h.candidate::<S>(
+                        &Candidate {
+                            t: hit.t,
+                            info,
+                            hit_kind: facing::triangle_hit_kind(front),
+                            data,
+                        },
+                        path,
+                        fate,
+                    );
+                    if h.done() {
+                        return;
+                    }
+                }
+            }),
+            Geometry::Custom(custom) => {
+                if !self.config.intersection {
+                    return;
+                }
+                walk(&g.bvh, &pr, tmin, h, |h, first, count| {
+                    for s in first as usize..(first + count) as usize {
+                        let aabb = lerp_key(&custom.keys, at, s, |a, b, f| Aabb {
+                            min: lerp3(a.min, b.min, f),
+                            max: lerp3(a.max, b.max, f),
+                        });
+                        if slab::entry(&pr, &aabb.min, &aabb.max, tmin, h.t_max()).is_none() {
+                            continue;
+                        }
+                        let info = &g.primitives[s];
+                        let fate = opacity::resolve(info.flags(), path.flags, flags, None);
+                        if fate == CandidateFate::Culled {
+                            continue;
+                        }
+                        h.custom::<S>(&CustomPrimitive { info, aabb }, path, fate);
+                        if h.done() {
+                            return;
+                        }
+                    }
+                })
+            }
+            Geometry::Spheres(spheres) => walk(&g.bvh, &pr, tmin, h, |h, first, count| {
+                for s in first as usize..(first + count) as usize {
+                    let sp = lerp_key(&spheres.keys, at, s, |a, b, f| {
+                        std::array::from_fn(|k| lerp(a[k], b[k], f))
+                    });
+                    let Some(hit) = sphere::intersect(pr.origin, pr.dir, sp, tmin, h.t_max())
+                    else {
+                        continue;
+                    };
+                    let info = &g.primitives[s];
+                    let fate = opacity::resolve(info.flags(), path.flags, flags, None);
+                    if fate == CandidateFate::Culled {
+                        continue;
+                    }
+                    let data = HitData::Sphere { sphere: sp };
+                    h.candidate::<S>(
+                        &Candidate {
+                            t: hit.t,
+                            info,
+                            hit_kind: facing::triangle_hit_kind(hit.front),
+                            data,
+                        },
+                        path,
+                        fate,
+                    );
+                    if h.done() {
+                        return;
+                    }
+                }
+            }),
+            Geometry::Curves(curves) => walk(&g.bvh, &pr, tmin, h, |h, first, count| {
+                for s in first as usize..(first + count) as usize {
+                    let cp = lerp_key(&curves.keys, at, s, |a, b, f| {
+                        std::array::from_fn(|i| std::array::from_fn(|k| lerp(a[i][k], b[i][k], f)))
+                    });
+                    let seg = BezierSegment::from_basis(curves.curve_type, &cp);
+                    let Some(hit) =
+                        curve::intersect(pr.origin, pr.dir, &seg, curves.caps[s], tmin, h.t_max())
+                    else {
+                        continue;
+                    };
+                    let info = &g.primitives[s];
+                    let fate = opacity::resolve(info.flags(), path.flags, flags, None);
+                    if fate == CandidateFate::Culled {
+                        continue;
+                    }
+                    let data = HitData::Curve { u: hit.u };
+                    h.candidate::<S>(
+                        &Candidate {
+                            t: hit.t,
+                            info,
+                            hit_kind: facing::triangle_hit_kind(true),
+                            data,
+                        },
+                        path,
+                        fate,
+                    );
+                    if h.done() {
+                        return;
+                    }
+                }
+            }),
+        }
+    }
+}
+
+fn lerp(a: f32, b: f32, f: f32) -> f32 {
+    a * (1.0 - f) + b * f
+}
+
+fn lerp3(a: [f32; 3], b: [f32; 3], f: f32) -> [f32; 3] {
+    [
+        lerp(a[0], b[0], f),
+        lerp(a[1], b[1], f),
+        lerp(a[2], b[2], f),
+    ]
+}
+
+/// Slot `s` of the keys at a key position: key `at.key` alone when `at.t == 0` (always for
+/// static structures), else interpolated towards the next key.
+#[inline(always)]
+fn lerp_key<T: Copy>(
+    keys: &[Vec<T>],
+    at: KeyPosition,
+    s: usize,
+    mix: impl Fn(&T, &T, f32) -> T,
+) -> T {
+    let a = &keys[at.key][s];
+    if at.t == 0.0 || at.key + 1 >= keys.len() {
+        *a
+    } else {
+        mix(a, &keys[at.key + 1][s], at.t)
+    }
+}
+
+/// Walks a BVH front to back, calling `leaf(handler, first_slot, count)` for every leaf the
+/// ray reaches before the handler's current `t_max`, until the handler is done.
+#[inline(always)]
+fn walk<H: Handler>(
+    bvh: &Bvh,
+    ray: &PreparedRay,
+    tmin: f32,
+    h: &mut H,
+    mut leaf: impl FnMut(&mut H, u32, u32),
+) {
+    let nodes = bvh.nodes();
+    let Some(root) = nodes.first() else { return };
+    if slab::entry(ray, &root.min, &root.max, tmin, h.t_max()).is_none() {
+        return;
+    }
+    let mut inline = [(0u32, 0.0f32); INLINE_STACK];
+    let mut len = 0usize;
+    let mut spill: Vec<(u32, f32)> = Vec::new();
+    let mut node = 0u32;
+    loop {
+        let n = &nodes[node as usize];
+        let mut next = None;
+        if n.is_leaf() {
+            leaf(h, n.first, n.count);
+            if h.done() {
+                return;
+            }
+        } else {
+            let tmax = h.t_max();
+            let (a, b) = (n.first, n.first + 1);
+            let (na, nb) = (&nodes[a as usize], &nodes[b as usize]);
+            let ea = slab::entry(ray, &na.min, &na.max, tmin, tmax);
+            let eb = slab::entry(ray, &nb.min, &nb.max, tmin, tmax);
+            match (ea, eb) {
+                (Some(ta), Some(tb)) => {
+                    let (near, far, tfar) = if tb < ta { (b, a, ta) } else { (a, b, tb) };
+                    if len < INLINE_STACK {
+                        inline[len] = (far, tfar);
+                        len += 1;
+                    } else {
+                        spill.push((far, tfar));
+                    }
+                    next = Some(near);
+                }
+                (Some(_), None) => next = Some(a),
+                (None, Some(_)) => next = Some(b),
+                (None, None) => {}
+            }
+        }
+        node = match next {
+            Some(c) => c,
+            None => loop {
+                let popped = if let Some(e) = spill.pop() {
+                    e
+                } else if len > 0 {
+                    len -= 1;
+                    inline[len]
+                } else {
+                    return;
+                };
+                // A node entered beyond the closest hit found since it was pushed can hold
+                // nothing nearer.
+                if popped.1 <= h.t_max() {
+                    break popped.0;
+                }
+            },
+        };
+    }
+}

@@ -1,0 +1,85 @@
+//! optik's own traversal: robust box and primitive tests over the BVHs of `accel`, instance
+//! and transform graphs, motion, and the flag semantics of DESIGN.md §4.
+//!
+//! The traversal knows geometry, flags and instances; what happens to a candidate (any-hit
+//! programs, intersection programs, committing a hit) belongs to a [`Handler`]: the launch
+//! runtime's invocation, or a plain closest-hit collector in tests and tools. Pipelines pick a
+//! [`Spec`], a set of compile-time switches, so a pipeline without motion never interpolates,
+//! one without instancing never transforms a ray, and one without any-hit programs never looks
+//! for them (DESIGN.md §6).
+
+mod curve;
+mod engine;
+mod ray;
+mod slab;
+mod sphere;
+mod triangle;
+
+pub use curve::{
+    CURVE_TOLERANCE_RADIUS, CURVE_TOLERANCE_SIZE, CurveHit, MAX_DEPTH as CURVE_MAX_DEPTH,
+};
+pub use engine::{Candidate, CustomPrimitive, HitData, Path, TraceConfig, TraceRay, trace};
+pub use ray::{PreparedRay, SLAB_WIDENING};
+pub use slab::entry as slab_entry;
+pub use sphere::SphereHit;
+pub use triangle::{TriangleHit, moller_trumbore, watertight};
+
+/// The intersectors of the built-in primitives, for tools and the wgpu backend's tests.
+pub mod intersect {
+    pub use super::curve::intersect as curve;
+    pub use super::sphere::intersect as sphere;
+}
+
+use optik_api::semantics::opacity::CandidateFate;
+
+/// Compile-time switches of a traversal (DESIGN.md §6).
+pub trait Spec: 'static {
+    /// Interpolate motion keys at the ray's time (else key 0, time ignored).
+    const MOTION: bool;
+    /// Traverse instance structures and transforms (else only a geometry structure).
+    const INSTANCING: bool;
+    /// Look up and run any-hit programs (else non-opaque candidates are accepted as opaque).
+    const ANY_HIT: bool;
+    /// The watertight triangle test (else Möller–Trumbore).
+    const WATERTIGHT: bool;
+    /// The conservative box test (else plain).
+    const CONSERVATIVE: bool;
+}
+
+/// A [`Spec`] from const parameters: motion, instancing, any-hit, watertight, conservative.
+pub struct Specialised<const M: bool, const I: bool, const A: bool, const W: bool, const C: bool>;
+
+impl<const M: bool, const I: bool, const A: bool, const W: bool, const C: bool> Spec
+    for Specialised<M, I, A, W, C>
+{
+    const MOTION: bool = M;
+    const INSTANCING: bool = I;
+    const ANY_HIT: bool = A;
+    const WATERTIGHT: bool = W;
+    const CONSERVATIVE: bool = C;
+}
+
+/// Decides the fate of candidates the traversal finds.
+pub trait Handler {
+    /// The end of the ray's interval now: its tmax, or the distance of the committed hit.
+    fn t_max(&self) -> f32;
+    /// Whether traversal must stop (terminated ray, or an exception ended the invocation).
+    fn done(&self) -> bool;
+    /// A built-in primitive (triangle, sphere, curve) hit that passed culling; `fate` is
+    /// `Opaque` or `NonOpaque` after flag resolution.
+    fn candidate<S: Spec>(&mut self, candidate: &Candidate<'_>, path: &Path, fate: CandidateFate);
+    /// A custom primitive whose box the ray meets (and whose flags do not cull it): run its
+    /// intersection program, whose reports carry `fate`.
+    fn custom<S: Spec>(
+        &mut self,
+        primitive: &CustomPrimitive<'_>,
+        path: &Path,
+        fate: CandidateFate,
+    );
+    /// A condition the traversal reports under debug exceptions (invalid traversable,
+    /// unsupported primitive type).
+    fn traversal_exception(&mut self, code: i32);
+}
+
+#[cfg(test)]
+mod tests;

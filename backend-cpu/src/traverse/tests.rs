@@ -1,0 +1,377 @@
+//! Traversal tests without a device: structures built from in-memory buffers, a closest-hit
+//! handler, and the hard cases of research/numerics.md.
+
+use super::*;
+use crate::accel::{Gas, MicromapArrayData, MicromapLookup, SceneTable, Traversable};
+use optik_api::decode::BufferBytes;
+use optik_api::{
+    AccelBuildOptions, Buffer, BufferView, BuildInput, DeviceId, GeometryFlags, Handle,
+    MicromapArray, PrimitiveTypeFlags, RawHandle, RayFlags, Result, TraversableHandle,
+    TriangleArray,
+};
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// Buffers in memory, for builders.
+#[derive(Default)]
+pub(crate) struct Memory {
+    buffers: HashMap<Buffer, Vec<u8>>,
+}
+
+impl Memory {
+    pub(crate) fn add(&mut self, bytes: &[u8]) -> Buffer {
+        let b = Buffer::from_raw(RawHandle {
+            device: DeviceId(0),
+            slot: self.buffers.len() as u32,
+            generation: 0,
+        });
+        self.buffers.insert(b, bytes.to_vec());
+        b
+    }
+}
+
+impl BufferBytes for Memory {
+    fn bytes(&self, buffer: Buffer) -> Result<&[u8]> {
+        Ok(&self.buffers[&buffer])
+    }
+}
+
+impl MicromapLookup for Memory {
+    fn micromap_array(&self, _: MicromapArray) -> Result<Arc<MicromapArrayData>> {
+        Err(optik_api::Error::invalid("no micromaps in these tests"))
+    }
+}
+
+pub(crate) fn triangle_gas(vertices: &[[f32; 3]], indices: &[[u32; 3]]) -> Gas {
+    let mut m = Memory::default();
+    let vb = m.add(bytemuck::cast_slice(vertices));
+    let ib = m.add(bytemuck::cast_slice(indices));
+    let input = TriangleArray::new(
+        BufferView::new(vb),
+        vertices.len() as u32,
+        GeometryFlags::DISABLE_ANYHIT,
+    )
+    .with_indices(BufferView::new(ib), indices.len() as u32);
+    Gas::build(
+        &AccelBuildOptions::default(),
+        &[BuildInput::Triangles(input)],
+        &m,
+        &m,
+    )
+    .unwrap()
+}
+
+/// Keeps the closest candidate, like a pipeline with only closest-hit programs.
+struct Closest {
+    tmax: f32,
+    hit: Option<(f32, u32, u32)>,
+    candidates: u32,
+    exceptions: Vec<i32>,
+}
+
+impl Closest {
+    fn new(tmax: f32) -> Closest {
+        Closest {
+            tmax,
+            hit: None,
+            candidates: 0,
+            exceptions: Vec::new(),
+        }
+    }
+}
+
+impl Handler for Closest {
+    fn t_max(&self) -> f32 {
+        self.tmax
+    }
+    fn done(&self) -> bool {
+        false
+    }
+    fn candidate<S: Spec>(&mut self, c: &Candidate<'_>, _: &Path, _: CandidateFate) {
+        self.candidates += 1;
+        assert!(c.t < self.tmax, "candidates lie before the committed hit");
+        self.tmax = c.t;
+        self.hit = Some((c.t, c.info.primitive_index, c.hit_kind));
+    }
+    fn custom<S: Spec>(&mut self, _: &CustomPrimitive<'_>, _: &Path, _: CandidateFate) {}
+    fn traversal_exception(&mut self, code: i32) {
+        self.exceptions.push(code);
+    }
+}
+
+type Robust = Specialised<false, true, false, true, true>;
+type Fast = Specialised<false, true, false, false, false>;
+
+const CONFIG: TraceConfig = TraceConfig {
+    primitive_types: PrimitiveTypeFlags::ALL,
+    intersection: true,
+    micromaps: true,
+    debug_exceptions: true,
+    max_graph_depth: 16,
+};
+
+fn scene_of(gas: Gas) -> (SceneTable, TraversableHandle) {
+    let mut scene = SceneTable::new(DeviceId(7));
+    let h = scene.set(0, 0, Arc::new(Traversable::Geometry(gas)));
+    (scene, h)
+}
+
+fn ray(origin: [f32; 3], direction: [f32; 3]) -> TraceRay {
+    TraceRay {
+        origin,
+        direction,
+        tmin: 0.0,
+        tmax: f32::INFINITY,
+        time: 0.0,
+        mask: 0xFF,
+        flags: RayFlags::NONE,
+    }
+}
+
+fn closest<S: Spec>(scene: &SceneTable, root: TraversableHandle, r: &TraceRay) -> Closest {
+    let mut h = Closest::new(r.tmax);
+    trace::<S, _>(scene, root, r, &CONFIG, &mut h);
+    h
+}
+
+struct Rng(u64);
+impl Rng {
+    fn f(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+/// research/numerics.md §1.5: a closed 16×16 UV sphere, interior vertices pushed out
+/// radially by up to 50 %, centred at `centre` with radius `scale`.
+fn jittered_sphere(centre: [f64; 3], scale: f64, rng: &mut Rng) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+    let (rings, segs) = (16u32, 16u32);
+    let mut v = Vec::new();
+    let point = |theta: f64, phi: f64, r: f64| -> [f32; 3] {
+        [
+            (centre[0] + scale * r * theta.sin() * phi.cos()) as f32,
+            (centre[1] + scale * r * theta.cos()) as f32,
+            (centre[2] + scale * r * theta.sin() * phi.sin()) as f32,
+        ]
+    };
+    v.push(point(0.0, 0.0, 1.0));
+    for i in 1..rings {
+        for j in 0..segs {
+            let theta = std::f64::consts::PI * i as f64 / rings as f64;
+            let phi = 2.0 * std::f64::consts::PI * j as f64 / segs as f64;
+            v.push(point(theta, phi, 1.0 + 0.5 * rng.f() as f64));
+        }
+    }
+    v.push(point(std::f64::consts::PI, 0.0, 1.0));
+    let south = v.len() as u32 - 1;
+    let at = |i: u32, j: u32| 1 + (i - 1) * segs + j % segs;
+    let mut idx = Vec::new();
+    for j in 0..segs {
+        idx.push([0, at(1, j + 1), at(1, j)]);
+        idx.push([south, at(rings - 1, j), at(rings - 1, j + 1)]);
+    }
+    for i in 1..rings - 1 {
+        for j in 0..segs {
+            idx.push([at(i, j), at(i, j + 1), at(i + 1, j)]);
+            idx.push([at(i, j + 1), at(i + 1, j + 1), at(i + 1, j)]);
+        }
+    }
+    (v, idx)
+}
+
+/// Rays from inside a closed mesh aimed at shared edges and at vertices: the watertight
+/// test with conservative boxes must never miss (numerics.md §1.5).
+#[test]
+fn closed_mesh_never_leaks() {
+    let mut rng = Rng(0x5eed);
+    let mut fast_misses = 0;
+    let configs: &[(f64, f64)] = &[
+        (0.0, 1e-4),
+        (0.0, 1e-2),
+        (0.0, 1.0),
+        (0.0, 1e2),
+        (0.0, 1e4),
+        (1e5, 1.0),
+        (1e5, 1e2),
+        (1e5, 1e4),
+    ];
+    for &(offset, scale) in configs {
+        let centre = [offset, offset * 0.7, offset * 0.3];
+        let (v, idx) = jittered_sphere(centre, scale, &mut rng);
+        let (scene, root) = scene_of(triangle_gas(&v, &idx));
+        for target_kind in ["edge", "vertex"] {
+            let mut misses = 0;
+            for _ in 0..4000 {
+                // Origin uniformly inside the ball of radius scale / 2 (rejection sampling).
+                let o = loop {
+                    let p = [
+                        rng.f() * 2.0 - 1.0,
+                        rng.f() * 2.0 - 1.0,
+                        rng.f() * 2.0 - 1.0,
+                    ];
+                    if p[0] * p[0] + p[1] * p[1] + p[2] * p[2] <= 1.0 {
+                        break std::array::from_fn::<f32, 3, _>(|k| {
+                            (centre[k] + 0.5 * scale * p[k] as f64) as f32
+                        });
+                    }
+                };
+                let tri = idx[(rng.f() * idx.len() as f32) as usize % idx.len()];
+                let target = if target_kind == "vertex" {
+                    v[tri[(rng.f() * 3.0) as usize % 3] as usize]
+                } else {
+                    let (a, b) = (v[tri[0] as usize], v[tri[1] as usize]);
+                    let f = rng.f();
+                    std::array::from_fn(|k| a[k] + (b[k] - a[k]) * f)
+                };
+                let d = [target[0] - o[0], target[1] - o[1], target[2] - o[2]];
+                if d == [0.0; 3] {
+                    continue;
+                }
+                let r = ray(o, d);
+                if closest::<Robust>(&scene, root, &r).hit.is_none() {
+                    misses += 1;
+                }
+                if closest::<Fast>(&scene, root, &r).hit.is_none() {
+                    fast_misses += 1;
+                }
+            }
+            assert_eq!(
+                misses, 0,
+                "offset {offset}, scale {scale}, {target_kind}: watertight traversal leaked"
+            );
+        }
+    }
+    // The same rays leak through Möller–Trumbore: the test can see a leak.
+    assert!(
+        fast_misses > 0,
+        "Möller–Trumbore with plain boxes did not leak once; the test rays are too easy"
+    );
+}
+
+#[test]
+fn signed_zero_rays_give_identical_answers_through_a_bvh() {
+    // numerics.md F0: a 32×32 quad wall at x = 10, rays with d = (1, ±0, 0).
+    let mut v = Vec::new();
+    let mut idx = Vec::new();
+    for i in 0..32u32 {
+        for j in 0..32u32 {
+            let (y, z) = (i as f32 / 32.0, j as f32 / 32.0);
+            let base = v.len() as u32;
+            v.extend([
+                [10.0, y, z],
+                [10.0, y + 1.0 / 32.0, z],
+                [10.0, y + 1.0 / 32.0, z + 1.0 / 32.0],
+                [10.0, y, z + 1.0 / 32.0],
+            ]);
+            idx.push([base, base + 1, base + 2]);
+            idx.push([base, base + 2, base + 3]);
+        }
+    }
+    let (scene, root) = scene_of(triangle_gas(&v, &idx));
+    for i in 0..50 {
+        for j in 0..50 {
+            let o = [0.0, i as f32 / 49.0, j as f32 / 49.0];
+            let plus = closest::<Robust>(&scene, root, &ray(o, [1.0, 0.0, 0.0])).hit;
+            let minus = closest::<Robust>(&scene, root, &ray(o, [1.0, -0.0, -0.0])).hit;
+            assert!(plus.is_some(), "{o:?}");
+            assert_eq!(plus, minus, "{o:?}");
+        }
+    }
+}
+
+#[test]
+fn degenerate_and_nan_triangles_never_hit_nor_disturb_neighbours() {
+    let mut rng = Rng(3);
+    let mut v = Vec::new();
+    let mut good = Vec::new();
+    for i in 0..200u32 {
+        let c = [rng.f() * 10.0, rng.f() * 10.0, 5.0 + rng.f()];
+        v.extend([
+            [c[0], c[1], c[2]],
+            [c[0] + 0.5, c[1], c[2]],
+            [c[0], c[1] + 0.5, c[2]],
+        ]);
+        good.push([3 * i, 3 * i + 1, 3 * i + 2]);
+    }
+    let mut all = good.clone();
+    // Interleave bad triangles sharing the good vertices' neighbourhood.
+    for i in 0..200u32 {
+        let base = v.len() as u32;
+        let c = v[3 * i as usize];
+        let bad: [[f32; 3]; 3] = match i % 4 {
+            0 => [c, c, c],
+            1 => {
+                // Exactly collinear: coordinates on a 1/8 grid.
+                let g = c.map(|x| (x * 8.0).round() / 8.0);
+                [
+                    g,
+                    [g[0] + 1.0, g[1] + 1.0, g[2]],
+                    [g[0] + 2.0, g[1] + 2.0, g[2]],
+                ]
+            }
+            2 => [c, [f32::NAN, c[1], c[2]], [c[0], c[1] + 1.0, c[2]]],
+            _ => [
+                [c[0], c[1], f32::INFINITY],
+                [c[0] + 1.0, c[1], c[2]],
+                [c[0], c[1] + 1.0, c[2]],
+            ],
+        };
+        v.extend(bad);
+        all.push([base, base + 1, base + 2]);
+    }
+    let (clean, clean_root) = scene_of(triangle_gas(&v, &good));
+    let gas = triangle_gas(&v, &all);
+    assert_eq!(gas.num_slots(), 200, "bad triangles get no slot");
+    let (dirty, dirty_root) = scene_of(gas);
+    for _ in 0..3000 {
+        let o = [rng.f() * 10.0, rng.f() * 10.0, 0.0];
+        let r = ray(o, [rng.f() * 0.1, rng.f() * 0.1, 1.0]);
+        let a = closest::<Robust>(&clean, clean_root, &r).hit;
+        let b = closest::<Robust>(&dirty, dirty_root, &r).hit;
+        assert_eq!(a, b);
+        if let Some(h) = b {
+            assert!(h.1 < 200, "a bad triangle was hit");
+        }
+    }
+}
+
+#[test]
+fn unsupported_primitive_types_are_skipped_with_a_debug_exception() {
+    let (scene, root) = scene_of(triangle_gas(
+        &[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]],
+        &[[0, 1, 2]],
+    ));
+    let r = ray([0.2, 0.2, 0.0], [0.0, 0.0, 1.0]);
+    let config = TraceConfig {
+        primitive_types: PrimitiveTypeFlags::SPHERE,
+        ..CONFIG
+    };
+    let mut h = Closest::new(f32::INFINITY);
+    trace::<Robust, _>(&scene, root, &r, &config, &mut h);
+    assert!(h.hit.is_none());
+    assert_eq!(
+        h.exceptions,
+        vec![optik_api::semantics::exception::UNSUPPORTED_PRIMITIVE_TYPE]
+    );
+    // Stale and foreign handles miss with INVALID_TRAVERSABLE.
+    let mut h = Closest::new(f32::INFINITY);
+    let stale = crate::accel::handle::encode(DeviceId(7), 0, 1);
+    trace::<Robust, _>(&scene, stale, &r, &CONFIG, &mut h);
+    let foreign = crate::accel::handle::encode(DeviceId(8), 0, 0);
+    trace::<Robust, _>(&scene, foreign, &r, &CONFIG, &mut h);
+    trace::<Robust, _>(
+        &scene,
+        TraversableHandle(0xdead_beef_0000_0000),
+        &r,
+        &CONFIG,
+        &mut h,
+    );
+    trace::<Robust, _>(&scene, TraversableHandle::NULL, &r, &CONFIG, &mut h);
+    assert!(h.hit.is_none());
+    assert_eq!(
+        h.exceptions,
+        vec![optik_api::semantics::exception::INVALID_TRAVERSABLE; 3]
+    );
+}

@@ -1,0 +1,289 @@
+//! Ray/triangle tests.
+//!
+//! Both report `t` in the open interval `(tmin, tmax)`, barycentrics `(u, v)` (the weights
+//! of vertices 1 and 2, as `rt_triangle_barycentrics`) and the facing in the triangle's own
+//! space: front when `(v1 − v0) × (v2 − v0)` points against the direction (counter-clockwise
+//! seen from the origin). Degenerate triangles (zero area), triangles with NaN or infinite
+//! vertices and zero directions never hit; NaNs fall through every comparison to a miss.
+
+use super::ray::PreparedRay;
+
+/// A triangle hit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriangleHit {
+    /// Distance along the (unnormalised) direction.
+    pub t: f32,
+    /// Weight of vertex 1.
+    pub u: f32,
+    /// Weight of vertex 2.
+    pub v: f32,
+    /// Whether the triangle faces the ray (before instance flips).
+    pub front: bool,
+}
+
+fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// Woop, Benthin and Wald's watertight test (JCGT 2013) with the double-precision fallback:
+/// an edge function that is exactly zero in f32 is recomputed in f64, so rays through
+/// shared edges and vertices of a closed mesh hit exactly one side (numerics.md §1).
+#[inline(always)]
+pub fn watertight(
+    ray: &PreparedRay,
+    tri: &[[f32; 3]; 3],
+    tmin: f32,
+    tmax: f32,
+) -> Option<TriangleHit> {
+    if !ray.moves {
+        return None;
+    }
+    let [kx, ky, kz] = ray.axes;
+    let [sx, sy, sz] = ray.shear;
+    let a = sub(tri[0], ray.origin);
+    let b = sub(tri[1], ray.origin);
+    let c = sub(tri[2], ray.origin);
+    // Shear and scale so the ray runs along +z through the origin.
+    let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
+    let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
+    let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    if u == 0.0 || v == 0.0 || w == 0.0 {
+        let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
+        u = f(cx, by, cy, bx);
+        v = f(ax, cy, ay, cx);
+        w = f(bx, ay, by, ax);
+    }
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return None;
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return None;
+    }
+    let (az, bz, cz) = (sz * a[kz], sz * b[kz], sz * c[kz]);
+    let t = (u * az + v * bz + w * cz) / det;
+    if !(t > tmin && t < tmax) {
+        return None;
+    }
+    let inv = 1.0 / det;
+    Some(TriangleHit {
+        t,
+        u: v * inv,
+        v: w * inv,
+        front: det > 0.0,
+    })
+}
+
+/// Möller–Trumbore: faster, not watertight (rays through shared edges can slip between
+/// neighbours). Only an exactly zero determinant is rejected, so tiny triangles still hit.
+#[inline(always)]
+pub fn moller_trumbore(
+    ray: &PreparedRay,
+    tri: &[[f32; 3]; 3],
+    tmin: f32,
+    tmax: f32,
+) -> Option<TriangleHit> {
+    let cross = |a: [f32; 3], b: [f32; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let e1 = sub(tri[1], tri[0]);
+    let e2 = sub(tri[2], tri[0]);
+    let p = cross(ray.dir, e2);
+    let det = dot(e1, p);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = sub(ray.origin, tri[0]);
+    let u = dot(s, p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = cross(s, e1);
+    let v = dot(ray.dir, q) * inv;
+    if !(v >= 0.0 && u + v <= 1.0) {
+        return None;
+    }
+    let t = dot(e2, q) * inv;
+    if !(t > tmin && t < tmax) {
+        return None;
+    }
+    // det = e1 · (d × e2) = −d · ((v1 − v0) × (v2 − v0)): positive when facing the ray.
+    Some(TriangleHit {
+        t,
+        u,
+        v,
+        front: det > 0.0,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Rng(u64);
+    impl Rng {
+        fn f(&mut self) -> f32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 40) as f32 / (1u64 << 24) as f32
+        }
+        fn v(&mut self, s: f32) -> [f32; 3] {
+            [
+                (self.f() - 0.5) * s,
+                (self.f() - 0.5) * s,
+                (self.f() - 0.5) * s,
+            ]
+        }
+    }
+
+    type Test = fn(&PreparedRay, &[[f32; 3]; 3], f32, f32) -> Option<TriangleHit>;
+    const TESTS: [(&str, Test); 2] = [
+        ("watertight", watertight),
+        ("moller-trumbore", moller_trumbore),
+    ];
+
+    fn ray(o: [f32; 3], d: [f32; 3]) -> PreparedRay {
+        PreparedRay::new(o, d, true)
+    }
+
+    #[test]
+    fn hit_values_and_facing_match_f64() {
+        let mut rng = Rng(99);
+        let mut hits = 0;
+        for _ in 0..5000 {
+            let tri = [rng.v(2.0), rng.v(2.0), rng.v(2.0)];
+            let o = rng.v(8.0);
+            let aim = rng.v(1.0);
+            let d = sub(aim, o);
+            let r = ray(o, d);
+            // f64 reference: n · d decides facing.
+            let e = |i: usize, k: usize| tri[i][k] as f64 - tri[0][k] as f64;
+            let n = [
+                e(1, 1) * e(2, 2) - e(1, 2) * e(2, 1),
+                e(1, 2) * e(2, 0) - e(1, 0) * e(2, 2),
+                e(1, 0) * e(2, 1) - e(1, 1) * e(2, 0),
+            ];
+            let ndotd = n[0] * d[0] as f64 + n[1] * d[1] as f64 + n[2] * d[2] as f64;
+            for (name, test) in TESTS {
+                if let Some(h) = test(&r, &tri, 0.0, f32::INFINITY) {
+                    hits += 1;
+                    assert_eq!(h.front, ndotd < 0.0, "{name} facing");
+                    let p: [f32; 3] = std::array::from_fn(|k| {
+                        tri[0][k] * (1.0 - h.u - h.v) + tri[1][k] * h.u + tri[2][k] * h.v
+                    });
+                    let q: [f32; 3] = std::array::from_fn(|k| o[k] + h.t * d[k]);
+                    for k in 0..3 {
+                        assert!((p[k] - q[k]).abs() < 1e-3, "{name}: {p:?} vs {q:?}");
+                    }
+                }
+            }
+        }
+        assert!(hits > 500, "{hits}");
+    }
+
+    #[test]
+    fn interval_is_open() {
+        let tri = [[-1.0, -1.0, 5.0], [1.0, -1.0, 5.0], [0.0, 1.0, 5.0]];
+        let r = ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
+        for (name, test) in TESTS {
+            assert_eq!(test(&r, &tri, 0.0, 10.0).map(|h| h.t), Some(5.0), "{name}");
+            assert_eq!(
+                test(&r, &tri, 5.0, 10.0),
+                None,
+                "{name}: t == tmin is outside"
+            );
+            assert_eq!(
+                test(&r, &tri, 0.0, 5.0),
+                None,
+                "{name}: t == tmax is outside"
+            );
+            assert!(test(&r, &tri, 4.999999, 5.000001).is_some(), "{name}");
+        }
+    }
+
+    #[test]
+    fn degenerate_nan_and_zero_direction_never_hit() {
+        let r = ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
+        let bad = [
+            [[0.0, 0.0, 5.0], [1.0, 1.0, 5.0], [2.0, 2.0, 5.0]],
+            [[0.0, 0.0, 5.0], [0.0, 0.0, 5.0], [0.0, 0.0, 5.0]],
+            [[-1.0, -1.0, 5.0], [f32::NAN, -1.0, 5.0], [0.0, 1.0, 5.0]],
+            [[-1.0, -1.0, f32::NAN], [1.0, -1.0, 5.0], [0.0, 1.0, 5.0]],
+            [
+                [-1.0, -1.0, 5.0],
+                [f32::INFINITY, -1.0, 5.0],
+                [0.0, 1.0, 5.0],
+            ],
+        ];
+        for (name, test) in TESTS {
+            for tri in &bad {
+                assert_eq!(test(&r, tri, 0.0, f32::INFINITY), None, "{name}: {tri:?}");
+            }
+            let good = [[-1.0, -1.0, 5.0], [1.0, -1.0, 5.0], [0.0, 1.0, 5.0]];
+            assert_eq!(
+                test(&ray([0.0; 3], [0.0; 3]), &good, 0.0, f32::INFINITY),
+                None,
+                "{name}"
+            );
+        }
+    }
+
+    #[test]
+    fn signed_zero_directions_agree() {
+        let mut rng = Rng(7);
+        for _ in 0..2000 {
+            let tri = [rng.v(2.0), rng.v(2.0), rng.v(2.0)];
+            let o = rng.v(4.0);
+            let mut d = rng.v(1.0);
+            let axis = (rng.f() * 3.0) as usize % 3;
+            d[axis] = 0.0;
+            let mut dn = d;
+            dn[axis] = -0.0;
+            for (name, test) in TESTS {
+                assert_eq!(
+                    test(&ray(o, d), &tri, 0.0, 1e30),
+                    test(&ray(o, dn), &tri, 0.0, 1e30),
+                    "{name}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn watertight_never_leaks_through_an_axis_aligned_grid() {
+        // Integer-coordinate quads split in two: rays along the axes through every shared
+        // edge and vertex must hit exactly once (f64 fallback territory: edge functions are
+        // exactly zero). Möller–Trumbore is allowed to fail here.
+        let mut tris = Vec::new();
+        for i in 0..4 {
+            for j in 0..4 {
+                let (x, y) = (i as f32, j as f32);
+                tris.push([[x, y, 3.0], [x + 1.0, y, 3.0], [x + 1.0, y + 1.0, 3.0]]);
+                tris.push([[x, y, 3.0], [x + 1.0, y + 1.0, 3.0], [x, y + 1.0, 3.0]]);
+            }
+        }
+        for i in 1..8 {
+            for j in 1..8 {
+                let o = [i as f32 * 0.5, j as f32 * 0.5, 0.0];
+                for d in [[0.0, 0.0, 1.0], [-0.0, 0.0, 1.0], [0.0, -0.0, 1.0]] {
+                    let r = ray(o, d);
+                    let n = tris
+                        .iter()
+                        .filter(|t| watertight(&r, t, 0.0, f32::INFINITY).is_some())
+                        .count();
+                    assert!(n >= 1, "leak at {o:?}");
+                }
+            }
+        }
+    }
+}

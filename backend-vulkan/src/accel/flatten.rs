@@ -1,0 +1,223 @@
+//! Flattening OptiX's traversable graphs into Vulkan's single instance level.
+//!
+//! OptiX nests instance acceleration structures and transforms to any depth; Vulkan has one
+//! top level over bottom levels. Every traversable here keeps its *flat list*: one entry per
+//! path from it down to a bottom level, with what the path composes:
+//! - transforms multiply (outermost first);
+//! - SBT offsets add (OptiX sums instance offsets along the path); 24 bits count (Vulkan's
+//!   field, `optik_api::semantics::sbt_index::INSTANCE_SBT_OFFSET_MASK`), of each offset and
+//!   of the sum;
+//! - visibility masks: a ray must pass every instance's mask on the path. That is one mask
+//!   test when the masks nest (one's bits contain the other's: the smaller one decides);
+//!   other combinations cannot be expressed by one Vulkan instance and are an error;
+//! - face flipping toggles per flip on the path; culling disabled anywhere stays disabled;
+//!   forcing any-hit on or off: the outermost instance that forces decides (outer overrides
+//!   inner, as the ray overrides instances and instances override geometry);
+//! - `rt_instance_id` / `rt_instance_index` report the instance closest to the geometry.
+
+use optik_api::semantics::affine;
+use optik_api::semantics::sbt_index::{INSTANCE_ID_MASK, INSTANCE_SBT_OFFSET_MASK};
+use optik_api::{Error, IDENTITY_3X4, Instance, InstanceFlags, Matrix3x4, Result};
+
+/// Vulkan instance flag bits (`VkGeometryInstanceFlagBitsKHR`), the same positions as
+/// OptiX's first four instance flags.
+pub mod vk_flags {
+    /// `TRIANGLE_FACING_CULL_DISABLE`.
+    pub const CULL_DISABLE: u32 = 1;
+    /// `TRIANGLE_FLIP_FACING`.
+    pub const FLIP_FACING: u32 = 2;
+    /// `FORCE_OPAQUE`.
+    pub const FORCE_OPAQUE: u32 = 4;
+    /// `FORCE_NO_OPAQUE`.
+    pub const FORCE_NO_OPAQUE: u32 = 8;
+}
+
+/// One path from a traversable down to a bottom level: one Vulkan instance of every top
+/// level that contains the traversable.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlatInstance {
+    /// Object-to-world along the path.
+    pub transform: Matrix3x4,
+    /// Summed SBT offsets.
+    pub sbt_offset: u32,
+    /// The combined visibility mask.
+    pub mask: u8,
+    /// Vulkan instance flags.
+    pub flags: u32,
+    /// The bottom level's address; 0 makes the Vulkan instance inactive (its structure was
+    /// destroyed: instances that name a destroyed traversable miss it).
+    pub blas: u64,
+    /// `rt_instance_id` of hits through this path.
+    pub instance_id: u32,
+    /// `rt_instance_index` of hits through this path.
+    pub instance_index: u32,
+    /// Whether an OptiX instance lies on the path (otherwise id and index are 0).
+    pub in_instance: bool,
+    /// The geometry table record of the bottom level's SBT GAS index 0.
+    pub geometry_base: u32,
+    /// Geometries (SBT records) of the bottom level.
+    pub geometry_count: u32,
+}
+
+impl FlatInstance {
+    /// A bottom level seen directly (a GAS traced without instances).
+    pub fn bottom(blas: u64, flags: u32, geometry_base: u32, geometry_count: u32) -> Self {
+        FlatInstance {
+            transform: IDENTITY_3X4,
+            sbt_offset: 0,
+            mask: 0xFF,
+            flags,
+            blas,
+            instance_id: 0,
+            instance_index: 0,
+            in_instance: false,
+            geometry_base,
+            geometry_count,
+        }
+    }
+
+    /// The largest hit record index a ray through this path can select (SBT offset and
+    /// stride of a trace count 4 bits each).
+    pub fn sbt_reach(&self) -> u64 {
+        self.sbt_offset as u64 + 15 + 15 * self.geometry_count.saturating_sub(1) as u64
+    }
+
+    /// The same path with its bottom level gone.
+    pub fn inactive(mut self) -> Self {
+        self.blas = 0;
+        self
+    }
+}
+
+/// The visibility mask a ray must match for both masks to pass.
+fn combine_masks(outer: u8, inner: u8) -> Option<u8> {
+    if outer & inner == outer {
+        Some(outer)
+    } else if outer & inner == inner {
+        Some(inner)
+    } else {
+        None
+    }
+}
+
+/// Instance flags of a path: `outer` (OptiX bits of the instance above) over `inner`.
+fn combine_flags(outer: u32, inner: u32) -> u32 {
+    use vk_flags::*;
+    let force = FORCE_OPAQUE | FORCE_NO_OPAQUE;
+    let mut outer_force = outer & force;
+    if outer_force == force {
+        // Both set: disabling any-hit wins (optik_api::semantics::opacity).
+        outer_force = FORCE_OPAQUE;
+    }
+    let opacity = if outer_force != 0 {
+        outer_force
+    } else {
+        inner & force
+    };
+    ((outer | inner) & CULL_DISABLE) | ((outer ^ inner) & FLIP_FACING) | opacity
+}
+
+/// The flat list of instance `index` of an instance acceleration structure, over its
+/// child's flat list.
+pub fn through_instance(
+    inst: &Instance,
+    index: u32,
+    child: &[FlatInstance],
+) -> Result<Vec<FlatInstance>> {
+    let outer_mask = (inst.visibility_mask & 0xFF) as u8;
+    let outer_flags = inst.flags & InstanceFlags::ALL.0 & 0xF;
+    child
+        .iter()
+        .map(|c| {
+            let mask = combine_masks(outer_mask, c.mask).ok_or_else(|| {
+                Error::unsupported(format!(
+                    "instance {index} has visibility mask {outer_mask:#04x} over a nested instance with mask {:#04x}: Vulkan has one instance level, and a ray passing both masks is one mask test only when one mask's bits contain the other's",
+                    c.mask
+                ))
+            })?;
+            let sum = (inst.sbt_offset & INSTANCE_SBT_OFFSET_MASK).wrapping_add(c.sbt_offset) & INSTANCE_SBT_OFFSET_MASK;
+            Ok(FlatInstance {
+                transform: affine::mul(&inst.transform, &c.transform),
+                sbt_offset: sum,
+                mask,
+                flags: combine_flags(outer_flags, c.flags),
+                blas: c.blas,
+                instance_id: if c.in_instance { c.instance_id } else { inst.instance_id & INSTANCE_ID_MASK },
+                instance_index: if c.in_instance { c.instance_index } else { index },
+                in_instance: true,
+                geometry_base: c.geometry_base,
+                geometry_count: c.geometry_count,
+            })
+        })
+        .collect()
+}
+
+/// The flat list of a static transform over its child's.
+pub fn through_transform(object_to_world: &Matrix3x4, child: &[FlatInstance]) -> Vec<FlatInstance> {
+    child
+        .iter()
+        .map(|c| FlatInstance {
+            transform: affine::mul(object_to_world, &c.transform),
+            ..*c
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use optik_api::TraversableHandle;
+
+    #[test]
+    fn masks_compose_when_nested() {
+        assert_eq!(combine_masks(0xFF, 0x0F), Some(0x0F));
+        assert_eq!(combine_masks(0x01, 0xFF), Some(0x01));
+        assert_eq!(combine_masks(0x00, 0x0F), Some(0x00));
+        assert_eq!(combine_masks(0x01, 0x02), None);
+    }
+
+    #[test]
+    fn flags_compose_outer_overrides() {
+        use vk_flags::*;
+        assert_eq!(combine_flags(FLIP_FACING, FLIP_FACING), 0);
+        assert_eq!(combine_flags(FLIP_FACING, 0), FLIP_FACING);
+        assert_eq!(combine_flags(CULL_DISABLE, 0), CULL_DISABLE);
+        assert_eq!(
+            combine_flags(FORCE_NO_OPAQUE, FORCE_OPAQUE),
+            FORCE_NO_OPAQUE
+        );
+        assert_eq!(combine_flags(0, FORCE_OPAQUE), FORCE_OPAQUE);
+        assert_eq!(
+            combine_flags(FORCE_OPAQUE | FORCE_NO_OPAQUE, 0),
+            FORCE_OPAQUE
+        );
+    }
+
+    #[test]
+    fn two_levels_sum_offsets_compose_transforms_and_keep_the_inner_instance() {
+        let gas = [FlatInstance::bottom(0x1000, 0, 7, 1)];
+        let mut inner = Instance::new(TraversableHandle(1));
+        inner.instance_id = 5;
+        inner.sbt_offset = 2;
+        inner.transform[3] = 1.0;
+        let level1 = through_instance(&inner, 3, &gas).unwrap();
+        let mut outer = Instance::new(TraversableHandle(2));
+        outer.instance_id = 9;
+        outer.sbt_offset = 10;
+        outer.transform[7] = 2.0;
+        outer.visibility_mask = 0x0F;
+        let level2 = through_instance(&outer, 1, &level1).unwrap();
+        let f = level2[0];
+        assert_eq!(f.sbt_offset, 12);
+        assert_eq!((f.instance_id, f.instance_index), (5, 3));
+        assert_eq!(f.mask, 0x0F);
+        assert_eq!((f.transform[3], f.transform[7]), (1.0, 2.0));
+        assert_eq!(f.geometry_base, 7);
+        let mut clash = outer;
+        clash.visibility_mask = 0x01;
+        let mut inner2 = inner;
+        inner2.visibility_mask = 0x02;
+        let l1 = through_instance(&inner2, 0, &gas).unwrap();
+        assert!(through_instance(&clash, 0, &l1).is_err());
+    }
+}

@@ -1,0 +1,1148 @@
+//! Acceleration structures and transforms (OptiX `optixAccelBuild`, `optixConvert...`).
+//!
+//! - A geometry acceleration structure (GAS) is one or two Vulkan bottom levels (two when
+//!   some of its triangle records disable face culling and others do not: Vulkan culls per
+//!   instance, so those records go to a second bottom level whose instances carry
+//!   `TRIANGLE_FACING_CULL_DISABLE`; both keep every geometry index, the other part's
+//!   geometries empty). Spheres and curves are AABBs intersected by optik's stages.
+//! - Every traversable is traced through a Vulkan top level: an instance acceleration
+//!   structure (IAS) is its flattened top level ([`flatten`]); a GAS and a transform get a
+//!   top level of their own flat list. The traversable handle is that top level's device
+//!   address, which programs convert with `OpConvertUToAccelerationStructureKHR`.
+//! - When a traversable is destroyed or refit, the top levels that contain it are built again
+//!   in place (same instance count, so the same handle): instances that name a destroyed
+//!   traversable become inactive Vulkan instances and miss, and no top level keeps a stale
+//!   bottom level.
+
+pub mod flatten;
+pub mod geometry;
+pub mod tables;
+pub mod vkas;
+
+pub use tables::SceneTables;
+
+use crate::device::Inner;
+use crate::memory::{Allocator, GpuBuffer, Location};
+use ash::vk;
+use flatten::{FlatInstance, vk_flags};
+use geometry::{DecodedGas, GasKind};
+use optik_api::*;
+use std::collections::HashSet;
+use std::hash::{Hash, Hasher};
+use vkas::{AsBuffer, BuildTarget, INSTANCE_SIZE, VkGeometry};
+
+/// A Vulkan top level with its instance buffer and its range of the instance table.
+pub struct Tlas {
+    /// The top level.
+    pub structure: AsBuffer,
+    instances: GpuBuffer,
+    /// Vulkan instances.
+    pub count: u32,
+    /// First entry of its instances in the instance table (the custom index of instance 0).
+    pub table_start: u32,
+    flags: vk::BuildAccelerationStructureFlagsKHR,
+    /// The largest hit record index a ray through it can select.
+    pub sbt_reach: u64,
+}
+
+impl Tlas {
+    /// Frees it (its table range is the caller's to return).
+    pub fn destroy(self, ctx: &crate::context::Context, alloc: &mut Allocator) {
+        self.structure.destroy(ctx, alloc);
+        self.instances.destroy(ctx, alloc);
+    }
+}
+
+/// A geometry acceleration structure.
+pub struct Gas {
+    /// Bottom levels and the instance flags their instances carry.
+    parts: Vec<(AsBuffer, u32)>,
+    /// Per part, which geometries it holds.
+    part_geometries: Vec<Vec<bool>>,
+    wrapper: Tlas,
+    geometry_start: u32,
+    geometry_count: u32,
+    data_start: u32,
+    data_len: u32,
+    kind: GasKind,
+    options: AccelBuildOptions,
+    inputs: Vec<BuildInput>,
+    partition: Vec<Vec<u32>>,
+    /// Which primitives are active (a hash): Vulkan refits keep active primitives active.
+    activity: u64,
+    compacted: bool,
+    features: SceneFeatures,
+}
+
+/// An instance acceleration structure.
+pub struct Ias {
+    tlas: Tlas,
+    instances: Vec<Instance>,
+    children: Vec<Option<Accel>>,
+    /// Flat instances each OptiX instance contributes (fixed for the structure's life).
+    counts: Vec<u32>,
+    flat: Vec<FlatInstance>,
+    options: AccelBuildOptions,
+    inputs: Vec<BuildInput>,
+    features: SceneFeatures,
+}
+
+/// A static transform.
+pub struct Transform {
+    tlas: Tlas,
+    object_to_world: Matrix3x4,
+    child: Option<Accel>,
+    flat: Vec<FlatInstance>,
+    features: SceneFeatures,
+}
+
+/// A traversable object.
+pub enum AccelObject {
+    /// Geometry.
+    Gas(Gas),
+    /// Instances.
+    Ias(Ias),
+    /// A static transform.
+    Transform(Transform),
+}
+
+impl AccelObject {
+    fn tlas(&self) -> &Tlas {
+        match self {
+            AccelObject::Gas(g) => &g.wrapper,
+            AccelObject::Ias(i) => &i.tlas,
+            AccelObject::Transform(t) => &t.tlas,
+        }
+    }
+
+    /// The traversable handle: the top level's device address.
+    pub fn handle(&self) -> u64 {
+        self.tlas().structure.address
+    }
+
+    /// Bytes of its Vulkan structures.
+    pub fn size(&self) -> u64 {
+        match self {
+            AccelObject::Gas(g) => {
+                g.parts.iter().map(|(p, _)| p.size()).sum::<u64>() + g.wrapper.structure.size()
+            }
+            AccelObject::Ias(i) => i.tlas.structure.size(),
+            AccelObject::Transform(t) => t.tlas.structure.size(),
+        }
+    }
+
+    /// What the structure and everything below it contain.
+    pub fn features(&self) -> SceneFeatures {
+        match self {
+            AccelObject::Gas(g) => g.features,
+            AccelObject::Ias(i) => i.features,
+            AccelObject::Transform(t) => t.features,
+        }
+    }
+
+    /// Its flat list (one entry per path to a bottom level).
+    pub fn flat(&self) -> Vec<FlatInstance> {
+        match self {
+            AccelObject::Gas(g) => g
+                .parts
+                .iter()
+                .map(|(p, flags)| {
+                    FlatInstance::bottom(p.address, *flags, g.geometry_start, g.geometry_count)
+                })
+                .collect(),
+            AccelObject::Ias(i) => i.flat.clone(),
+            AccelObject::Transform(t) => t.flat.clone(),
+        }
+    }
+
+    fn children(&self) -> Vec<Accel> {
+        match self {
+            AccelObject::Gas(_) => Vec::new(),
+            AccelObject::Ias(i) => i.children.iter().flatten().copied().collect(),
+            AccelObject::Transform(t) => t.child.into_iter().collect(),
+        }
+    }
+
+    /// The largest hit record index a ray traced against it can select.
+    pub fn sbt_reach(&self) -> u64 {
+        self.tlas().sbt_reach
+    }
+
+    /// Frees its Vulkan objects (table ranges are returned by the caller).
+    pub fn destroy(self, ctx: &crate::context::Context, alloc: &mut Allocator) {
+        match self {
+            AccelObject::Gas(g) => {
+                for (p, _) in g.parts {
+                    p.destroy(ctx, alloc);
+                }
+                g.wrapper.destroy(ctx, alloc);
+            }
+            AccelObject::Ias(i) => i.tlas.destroy(ctx, alloc),
+            AccelObject::Transform(t) => t.tlas.destroy(ctx, alloc),
+        }
+    }
+}
+
+fn vk_build_flags(f: BuildFlags) -> vk::BuildAccelerationStructureFlagsKHR {
+    let mut out = vk::BuildAccelerationStructureFlagsKHR::empty();
+    if f.contains(BuildFlags::ALLOW_UPDATE) {
+        out |= vk::BuildAccelerationStructureFlagsKHR::ALLOW_UPDATE;
+    }
+    if f.contains(BuildFlags::ALLOW_COMPACTION) {
+        out |= vk::BuildAccelerationStructureFlagsKHR::ALLOW_COMPACTION;
+    }
+    // Vulkan forbids both preferences; tracing speed wins.
+    if f.contains(BuildFlags::PREFER_FAST_TRACE) {
+        out |= vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE;
+    } else if f.contains(BuildFlags::PREFER_FAST_BUILD) {
+        out |= vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_BUILD;
+    }
+    out
+}
+
+fn vk_geometry_flags(f: GeometryFlags) -> vk::GeometryFlagsKHR {
+    let mut out = vk::GeometryFlagsKHR::empty();
+    if f.contains(GeometryFlags::DISABLE_ANYHIT) {
+        out |= vk::GeometryFlagsKHR::OPAQUE;
+    }
+    if f.contains(GeometryFlags::REQUIRE_SINGLE_ANYHIT_CALL) {
+        out |= vk::GeometryFlagsKHR::NO_DUPLICATE_ANY_HIT_INVOCATION;
+    }
+    out
+}
+
+/// The buffers an input reads.
+fn input_buffers(input: &BuildInput) -> Vec<Buffer> {
+    let mut v = Vec::new();
+    match input {
+        BuildInput::Triangles(t) => {
+            v.extend(t.vertex_buffers.iter().map(|b| b.buffer));
+            v.extend(t.indices.iter().map(|i| i.buffer.buffer));
+            v.extend(t.sbt_index_offsets.iter().map(|o| o.buffer.buffer));
+            v.extend(t.pre_transform.iter().map(|p| p.buffer));
+        }
+        BuildInput::CustomPrimitives(c) => {
+            v.extend(c.aabb_buffers.iter().map(|b| b.buffer));
+            v.extend(c.sbt_index_offsets.iter().map(|o| o.buffer.buffer));
+        }
+        BuildInput::Spheres(s) => {
+            v.extend(s.vertex_buffers.iter().map(|b| b.buffer));
+            v.extend(s.radius_buffers.iter().map(|b| b.buffer));
+            v.extend(s.sbt_index_offsets.iter().map(|o| o.buffer.buffer));
+        }
+        BuildInput::Curves(c) => {
+            v.extend(c.vertex_buffers.iter().map(|b| b.buffer));
+            v.extend(c.width_buffers.iter().map(|b| b.buffer));
+            v.push(c.index_buffer.buffer);
+        }
+        BuildInput::Instances(i) => v.push(i.instances.buffer),
+    }
+    v
+}
+
+fn motion_unsupported() -> Error {
+    Error::unsupported(
+        "motion blur (motion keys, matrix and SRT motion transforms) is not available on the Vulkan backend yet: DESIGN.md §3 emulates it with the shared WGSL traversal inside intersection programs, which the project does not have yet (use the cpu or wgpu backend)",
+    )
+}
+
+/// Which geometries each bottom level holds, and the instance flags of its instances.
+fn parts_of(kind: GasKind, decoded: &DecodedGas) -> Vec<(Vec<bool>, u32)> {
+    let no_cull: Vec<bool> = decoded
+        .geometries
+        .iter()
+        .map(|g| {
+            kind.is_triangles()
+                && g.flags
+                    .contains(GeometryFlags::DISABLE_TRIANGLE_FACE_CULLING)
+        })
+        .collect();
+    let n = no_cull.len();
+    if no_cull.iter().all(|c| *c) {
+        vec![(vec![true; n], vk_flags::CULL_DISABLE)]
+    } else if no_cull.iter().any(|c| *c) {
+        vec![
+            (no_cull.iter().map(|c| !c).collect(), 0),
+            (no_cull, vk_flags::CULL_DISABLE),
+        ]
+    } else {
+        vec![(vec![true; n], 0)]
+    }
+}
+
+/// Vulkan geometries of one part, with data at `base` (the input buffer's address).
+fn part_geometries(
+    kind: GasKind,
+    decoded: &DecodedGas,
+    holds: &[bool],
+    base: u64,
+) -> Vec<VkGeometry> {
+    decoded
+        .geometries
+        .iter()
+        .zip(holds)
+        .map(|(g, &held)| {
+            let count = if held { g.count } else { 0 };
+            let flags = vk_geometry_flags(g.flags);
+            if kind.is_triangles() {
+                VkGeometry::Triangles {
+                    vertices: base + g.data_offset,
+                    vertex_count: g.vertex_count,
+                    indices: base + g.index_offset,
+                    triangle_count: count,
+                    flags,
+                }
+            } else {
+                VkGeometry::Aabbs {
+                    aabbs: base + g.data_offset,
+                    count,
+                    flags,
+                }
+            }
+        })
+        .collect()
+}
+
+/// A hash of what a refit must keep: each geometry's primitive count and triangle indices
+/// (Vulkan refits move vertices and boxes, nothing else).
+fn activity_of(decoded: &DecodedGas) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for g in &decoded.geometries {
+        g.count.hash(&mut h);
+        if g.vertex_count > 0 {
+            decoded.bytes[g.index_offset as usize..g.index_offset as usize + g.count as usize * 12]
+                .hash(&mut h);
+        }
+    }
+    h.finish()
+}
+
+impl Inner {
+    /// The acceleration structure with no instances (null handles, continuation calls).
+    pub fn create_empty_tlas(&mut self) -> Result<()> {
+        let tlas = self.build_tlas(
+            &[],
+            vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE,
+        )?;
+        self.empty_tlas = Some(tlas);
+        Ok(())
+    }
+
+    /// The union of every live structure's features (pipelines serve all of them).
+    pub fn scene_features(&self) -> Option<SceneFeatures> {
+        self.accels
+            .iter()
+            .map(|(_, a)| a.features())
+            .reduce(SceneFeatures::union)
+    }
+
+    fn instance_entries(flat: &[FlatInstance]) -> Vec<[u32; 4]> {
+        flat.iter()
+            .map(|f| [f.instance_id, f.instance_index, f.geometry_base, 0])
+            .collect()
+    }
+
+    fn vk_instances(
+        flat: &[FlatInstance],
+        table_start: u32,
+    ) -> Vec<vk::AccelerationStructureInstanceKHR> {
+        flat.iter()
+            .enumerate()
+            .map(|(k, f)| {
+                vkas::vk_instance(
+                    &f.transform,
+                    table_start + k as u32,
+                    f.mask,
+                    f.sbt_offset,
+                    f.flags as u8,
+                    f.blas,
+                )
+            })
+            .collect()
+    }
+
+    fn write_instances(
+        buffer: &GpuBuffer,
+        instances: &[vk::AccelerationStructureInstanceKHR],
+    ) -> Result<()> {
+        // SAFETY: the Vulkan instance struct is plain data of INSTANCE_SIZE bytes.
+        let bytes = unsafe {
+            std::slice::from_raw_parts(
+                instances.as_ptr() as *const u8,
+                instances.len() * INSTANCE_SIZE as usize,
+            )
+        };
+        buffer.write(0, bytes)
+    }
+
+    /// A new top level over `flat`.
+    fn build_tlas(
+        &mut self,
+        flat: &[FlatInstance],
+        flags: vk::BuildAccelerationStructureFlagsKHR,
+    ) -> Result<Tlas> {
+        if flat.len() as u64 > self.ctx.info.max_instance_count {
+            return Err(Error::limit(format!(
+                "the flattened instance tree has {} Vulkan instances; this device allows {}",
+                flat.len(),
+                self.ctx.info.max_instance_count
+            )));
+        }
+        let table_start = self.tables.instances.insert(&Self::instance_entries(flat));
+        if table_start as u64 + flat.len() as u64 > (1 << 24) {
+            self.tables.instances.remove(table_start, flat.len() as u32);
+            return Err(Error::limit(
+                "more than 2^24 Vulkan instances are alive on this device (the custom index has 24 bits)",
+            ));
+        }
+        self.tables.touch();
+        let result = (|| {
+            let instances = GpuBuffer::new(
+                &self.ctx,
+                &mut self.alloc,
+                (flat.len() as u64 * INSTANCE_SIZE).max(INSTANCE_SIZE),
+                vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR,
+                Location::HostVisible,
+                16,
+            )?;
+            if let Err(e) =
+                Self::write_instances(&instances, &Self::vk_instances(flat, table_start))
+            {
+                instances.destroy(&self.ctx, &mut self.alloc);
+                return Err(e);
+            }
+            let built = self.build_as(
+                vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+                &[],
+                Some((instances.address, flat.len() as u32)),
+                flags,
+                BuildTarget::New,
+            );
+            match built {
+                Ok(Some(structure)) => Ok(Tlas {
+                    structure,
+                    instances,
+                    count: flat.len() as u32,
+                    table_start,
+                    flags,
+                    sbt_reach: flat.iter().map(FlatInstance::sbt_reach).max().unwrap_or(0),
+                }),
+                Ok(None) => Err(Error::backend("top level build returned nothing")),
+                Err(e) => {
+                    instances.destroy(&self.ctx, &mut self.alloc);
+                    Err(e)
+                }
+            }
+        })();
+        if result.is_err() {
+            self.tables.instances.remove(table_start, flat.len() as u32);
+        }
+        result
+    }
+
+    /// Builds `accel`'s top level again over `flat` (same count).
+    fn rebuild_tlas(&mut self, accel: Accel, flat: &[FlatInstance]) -> Result<()> {
+        let (structure, address, count, table_start, flags) = {
+            let t = self.accels.get(accel)?.tlas();
+            (
+                t.structure.accel,
+                t.instances.address,
+                t.count,
+                t.table_start,
+                t.flags,
+            )
+        };
+        if flat.len() as u32 != count {
+            return Err(Error::invalid(format!(
+                "the flattened instance tree changed from {count} to {} Vulkan instances; Vulkan top levels keep their instance count, so rebuild the structure instead",
+                flat.len()
+            )));
+        }
+        self.tables
+            .instances
+            .write(table_start, &Self::instance_entries(flat));
+        self.tables.touch();
+        Self::write_instances(
+            &self.accels.get(accel)?.tlas().instances,
+            &Self::vk_instances(flat, table_start),
+        )?;
+        self.build_as(
+            vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+            &[],
+            Some((address, count)),
+            flags,
+            BuildTarget::Rebuild(structure),
+        )?;
+        let reach = flat.iter().map(FlatInstance::sbt_reach).max().unwrap_or(0);
+        match self.accels.get_mut(accel)? {
+            AccelObject::Gas(g) => g.wrapper.sbt_reach = reach,
+            AccelObject::Ias(i) => i.tlas.sbt_reach = reach,
+            AccelObject::Transform(t) => t.tlas.sbt_reach = reach,
+        }
+        Ok(())
+    }
+
+    /// The flat list of an instance structure's instances over its children as they are now.
+    fn flatten_instances(
+        &self,
+        instances: &[Instance],
+        children: &[Option<Accel>],
+        previous: Option<(&[u32], &[FlatInstance])>,
+    ) -> Result<(Vec<FlatInstance>, Vec<u32>)> {
+        let mut flat = Vec::new();
+        let mut counts = Vec::with_capacity(instances.len());
+        let mut at = 0usize;
+        for (i, (inst, child)) in instances.iter().zip(children).enumerate() {
+            let entries = match child.map(|c| self.accels.get(c)) {
+                Some(Ok(obj)) => flatten::through_instance(inst, i as u32, &obj.flat())
+                    .map_err(|e| e.context(format!("instance {i}")))?,
+                // A destroyed child: its paths stay, inactive.
+                Some(Err(_)) => match previous {
+                    Some((counts, flat)) => flat[at..at + counts[i] as usize]
+                        .iter()
+                        .map(|f| f.inactive())
+                        .collect(),
+                    None => Vec::new(),
+                },
+                None => Vec::new(),
+            };
+            if let Some((prev_counts, _)) = previous {
+                at += prev_counts[i] as usize;
+            }
+            counts.push(entries.len() as u32);
+            flat.extend(entries);
+        }
+        Ok((flat, counts))
+    }
+
+    /// Builds every top level that contains `changed` again, upwards.
+    fn refresh_dependents(&mut self, changed: Accel) -> Result<()> {
+        let mut queue = vec![changed];
+        let mut done = HashSet::new();
+        while let Some(x) = queue.pop() {
+            let parents: Vec<Accel> = self
+                .accels
+                .iter()
+                .filter(|(_, o)| o.children().contains(&x))
+                .map(|(h, _)| h)
+                .collect();
+            for p in parents {
+                if !done.insert(p) {
+                    continue;
+                }
+                self.refresh(p)?;
+                queue.push(p);
+            }
+        }
+        Ok(())
+    }
+
+    /// Builds an instance structure's or transform's top level again from its children.
+    fn refresh(&mut self, accel: Accel) -> Result<()> {
+        let flat = match self.accels.get(accel)? {
+            AccelObject::Ias(ias) => {
+                let (flat, counts) = self.flatten_instances(
+                    &ias.instances,
+                    &ias.children,
+                    Some((&ias.counts, &ias.flat)),
+                )?;
+                if counts != ias.counts {
+                    return Err(Error::backend("a child's flat instance count changed"));
+                }
+                flat
+            }
+            AccelObject::Transform(t) => match t.child.map(|c| self.accels.get(c)) {
+                Some(Ok(child)) => flatten::through_transform(&t.object_to_world, &child.flat()),
+                _ => t.flat.iter().map(|f| f.inactive()).collect(),
+            },
+            AccelObject::Gas(_) => return Ok(()),
+        };
+        self.rebuild_tlas(accel, &flat)?;
+        match self.accels.get_mut(accel)? {
+            AccelObject::Ias(i) => i.flat = flat,
+            AccelObject::Transform(t) => t.flat = flat,
+            AccelObject::Gas(_) => {}
+        }
+        Ok(())
+    }
+
+    fn check_buildable(&self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<()> {
+        let keys = validate::build_inputs(options, inputs, &self.props, &|b| {
+            self.buffers.get(b).map(|x| x.gpu.size)
+        })?;
+        if keys > 1 {
+            return Err(motion_unsupported());
+        }
+        for (i, input) in inputs.iter().enumerate() {
+            if let BuildInput::Triangles(t) = input
+                && t.opacity_micromap.is_some()
+            {
+                return Err(Error::unsupported(format!(
+                    "build_inputs[{i}] has an opacity micromap; the Vulkan backend does not support micromaps (they need VK_EXT_opacity_micromap)"
+                )));
+            }
+        }
+        let geometries: u64 = inputs.iter().map(|i| i.num_sbt_records() as u64).sum();
+        if geometries > self.ctx.info.max_geometry_count {
+            return Err(Error::limit(format!(
+                "the build inputs have {geometries} SBT records in all; each is a Vulkan geometry and this device allows {} per structure",
+                self.ctx.info.max_geometry_count
+            )));
+        }
+        Ok(())
+    }
+
+    fn decode(&mut self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<DecodedGas> {
+        let buffers: Vec<Buffer> = inputs.iter().flat_map(input_buffers).collect();
+        let downloaded = self.download_for_snapshot(&buffers)?;
+        let snapshot = self.snapshot_view(downloaded, &buffers)?;
+        geometry::decode_gas(options, inputs, &snapshot)
+    }
+
+    fn decode_instances(
+        &mut self,
+        ia: &InstanceArray,
+    ) -> Result<(Vec<Instance>, Vec<Option<Accel>>)> {
+        let downloaded = self.download_for_snapshot(&[ia.instances.buffer])?;
+        let instances =
+            decode::instances(ia, &self.snapshot_view(downloaded, &[ia.instances.buffer])?)?;
+        let mut children = Vec::with_capacity(instances.len());
+        for (i, inst) in instances.iter().enumerate() {
+            if inst.traversable_handle == 0 {
+                children.push(None);
+                continue;
+            }
+            let child = self.by_handle.get(&inst.traversable_handle).copied().ok_or_else(|| {
+                Error::invalid(format!(
+                    "instance {i} names traversable handle {:#x}, which is no live acceleration structure or transform of this device (destroyed, or from another device?)",
+                    inst.traversable_handle
+                ))
+            })?;
+            children.push(Some(child));
+        }
+        Ok((instances, children))
+    }
+
+    pub fn accel_memory_usage(
+        &mut self,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<AccelBufferSizes> {
+        self.check_buildable(options, inputs)?;
+        let tlas_sizes = |me: &Self, n: u32| {
+            me.build_sizes(
+                vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+                &[],
+                Some(n),
+                vk_build_flags(options.flags),
+            )
+        };
+        if let BuildInput::Instances(ia) = &inputs[0] {
+            let (instances, children) = self.decode_instances(ia)?;
+            let (flat, _) = self.flatten_instances(&instances, &children, None)?;
+            let (size, build, update) = tlas_sizes(self, flat.len() as u32);
+            return Ok(AccelBufferSizes {
+                output_size_in_bytes: size,
+                temp_size_in_bytes: build,
+                temp_update_size_in_bytes: update,
+            });
+        }
+        let kind = geometry::gas_kind(inputs)?;
+        let decoded = self.decode(options, inputs)?;
+        let mut sizes = AccelBufferSizes::default();
+        for (holds, _) in parts_of(kind, &decoded) {
+            let geoms = part_geometries(kind, &decoded, &holds, 0);
+            let (size, build, update) = self.build_sizes(
+                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                &geoms,
+                None,
+                vk_build_flags(options.flags),
+            );
+            sizes.output_size_in_bytes += size;
+            sizes.temp_size_in_bytes = sizes.temp_size_in_bytes.max(build);
+            sizes.temp_update_size_in_bytes = sizes.temp_update_size_in_bytes.max(update);
+        }
+        sizes.output_size_in_bytes += tlas_sizes(self, 2).0;
+        Ok(sizes)
+    }
+
+    pub fn accel_build(
+        &mut self,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<Accel> {
+        if options.operation == BuildOperation::Update {
+            return Err(Error::invalid(
+                "accel_build needs build_options.operation = Build; refit an existing structure with accel_update",
+            ));
+        }
+        self.check_buildable(options, inputs)?;
+        let accel = match &inputs[0] {
+            BuildInput::Instances(ia) => self.build_ias(options, inputs, ia)?,
+            _ => self.build_gas(options, inputs)?,
+        };
+        let handle = self.accels.get(accel)?.handle();
+        self.by_handle.insert(handle, accel);
+        Ok(accel)
+    }
+
+    /// Uploads a decoded GAS's input bytes for a build.
+    fn input_buffer(&mut self, decoded: &DecodedGas) -> Result<GpuBuffer> {
+        let buffer = GpuBuffer::new(
+            &self.ctx,
+            &mut self.alloc,
+            decoded.bytes.len() as u64,
+            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR,
+            Location::HostVisible,
+            16,
+        )?;
+        if let Err(e) = buffer.write(0, &decoded.bytes) {
+            buffer.destroy(&self.ctx, &mut self.alloc);
+            return Err(e);
+        }
+        Ok(buffer)
+    }
+
+    fn build_gas(&mut self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<Accel> {
+        let kind = geometry::gas_kind(inputs)?;
+        let decoded = self.decode(options, inputs)?;
+        let input = self.input_buffer(&decoded)?;
+        let flags = vk_build_flags(options.flags);
+        let mut parts: Vec<(AsBuffer, u32)> = Vec::new();
+        let mut part_geometries_held = Vec::new();
+        let mut failure = None;
+        for (holds, instance_flags) in parts_of(kind, &decoded) {
+            let geoms = part_geometries(kind, &decoded, &holds, input.address);
+            match self.build_as(
+                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                &geoms,
+                None,
+                flags,
+                BuildTarget::New,
+            ) {
+                Ok(Some(part)) => {
+                    parts.push((part, instance_flags));
+                    part_geometries_held.push(holds);
+                }
+                Ok(None) => failure = Some(Error::backend("bottom level build returned nothing")),
+                Err(e) => failure = Some(e),
+            }
+            if failure.is_some() {
+                break;
+            }
+        }
+        input.destroy(&self.ctx, &mut self.alloc);
+        if let Some(e) = failure {
+            for (p, _) in parts {
+                p.destroy(&self.ctx, &mut self.alloc);
+            }
+            return Err(e);
+        }
+        let data_start = self.tables.data.insert(&decoded.data);
+        let records: Vec<[u32; 4]> = decoded
+            .records
+            .iter()
+            .map(|r| {
+                let rebase = |v: u32| if v == tables::NONE { v } else { v + data_start };
+                [r[0], rebase(r[1]), rebase(r[2]), r[3]]
+            })
+            .collect();
+        let geometry_start = self.tables.geometries.insert(&records);
+        self.tables.touch();
+        let flat: Vec<FlatInstance> = parts
+            .iter()
+            .map(|(p, f)| FlatInstance::bottom(p.address, *f, geometry_start, records.len() as u32))
+            .collect();
+        let wrapper = match self.build_tlas(
+            &flat,
+            vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE,
+        ) {
+            Ok(w) => w,
+            Err(e) => {
+                for (p, _) in parts {
+                    p.destroy(&self.ctx, &mut self.alloc);
+                }
+                self.tables
+                    .data
+                    .remove(data_start, decoded.data.len() as u32);
+                self.tables
+                    .geometries
+                    .remove(geometry_start, records.len() as u32);
+                return Err(e);
+            }
+        };
+        let features = SceneFeatures::of_geometry(options, inputs);
+        Ok(self.accels.insert(AccelObject::Gas(Gas {
+            parts,
+            part_geometries: part_geometries_held,
+            wrapper,
+            geometry_start,
+            geometry_count: records.len() as u32,
+            data_start,
+            data_len: decoded.data.len() as u32,
+            kind,
+            options: *options,
+            inputs: inputs.to_vec(),
+            partition: decoded.partition.clone(),
+            activity: activity_of(&decoded),
+            compacted: false,
+            features,
+        })))
+    }
+
+    fn build_ias(
+        &mut self,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+        ia: &InstanceArray,
+    ) -> Result<Accel> {
+        let (instances, children) = self.decode_instances(ia)?;
+        let (flat, counts) = self.flatten_instances(&instances, &children, None)?;
+        let child_features: Vec<SceneFeatures> = children
+            .iter()
+            .flatten()
+            .filter_map(|c| self.accels.get(*c).ok())
+            .map(|o| o.features())
+            .collect();
+        let features = SceneFeatures::of_parent(&child_features, MotionKinds::default(), false);
+        let tlas = self.build_tlas(&flat, vk_build_flags(options.flags))?;
+        Ok(self.accels.insert(AccelObject::Ias(Ias {
+            tlas,
+            instances,
+            children,
+            counts,
+            flat,
+            options: *options,
+            inputs: inputs.to_vec(),
+            features,
+        })))
+    }
+
+    pub fn accel_update(
+        &mut self,
+        accel: Accel,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<()> {
+        let (built_options, built_inputs) = match self.accels.get(accel)? {
+            AccelObject::Gas(g) => (g.options, g.inputs.clone()),
+            AccelObject::Ias(i) => (i.options, i.inputs.clone()),
+            AccelObject::Transform(_) => {
+                return Err(Error::invalid(
+                    "accel_update takes an acceleration structure; transforms are created once",
+                ));
+            }
+        };
+        self.check_buildable(options, inputs)?;
+        validate::update(&built_options, &built_inputs, options, inputs)?;
+        match &inputs[0] {
+            BuildInput::Instances(ia) => {
+                let (instances, children) = self.decode_instances(ia)?;
+                let (flat, counts) = self.flatten_instances(&instances, &children, None)?;
+                let old_counts = match self.accels.get(accel)? {
+                    AccelObject::Ias(i) => i.counts.clone(),
+                    _ => Vec::new(),
+                };
+                if counts != old_counts {
+                    return Err(Error::invalid(
+                        "the update changes how many Vulkan instances some instance flattens to (its child has a different instance tree); Vulkan top levels keep their instance count, so build a new structure instead",
+                    ));
+                }
+                self.rebuild_tlas(accel, &flat)?;
+                if let AccelObject::Ias(i) = self.accels.get_mut(accel)? {
+                    i.instances = instances;
+                    i.children = children;
+                    i.flat = flat;
+                    i.inputs = inputs.to_vec();
+                }
+            }
+            _ => self.update_gas(accel, options, inputs)?,
+        }
+        self.refresh_dependents(accel)
+    }
+
+    fn update_gas(
+        &mut self,
+        accel: Accel,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<()> {
+        let decoded = self.decode(options, inputs)?;
+        let (kind, parts, holds, partition, activity, flags) = match self.accels.get(accel)? {
+            AccelObject::Gas(g) => (
+                g.kind,
+                g.parts.iter().map(|(p, _)| p.accel).collect::<Vec<_>>(),
+                g.part_geometries.clone(),
+                g.partition.clone(),
+                g.activity,
+                vk_build_flags(g.options.flags),
+            ),
+            _ => return Err(Error::backend("not a geometry structure")),
+        };
+        if decoded.partition != partition {
+            return Err(Error::invalid(
+                "the update changes which SBT record some primitive uses (sbt_index_offsets); updates keep them, so build a new structure instead",
+            ));
+        }
+        if activity_of(&decoded) != activity {
+            // Primitives became usable or unusable (or triangle indices changed): Vulkan
+            // refits cannot follow, so the bottom levels are built anew under the same handle.
+            return self.rebuild_gas(accel, options, inputs);
+        }
+        let input = self.input_buffer(&decoded)?;
+        let mut result = Ok(());
+        for (structure, held) in parts.iter().zip(&holds) {
+            let geoms = part_geometries(kind, &decoded, held, input.address);
+            if let Err(e) = self.build_as(
+                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                &geoms,
+                None,
+                flags,
+                BuildTarget::Update(*structure),
+            ) {
+                result = Err(e);
+                break;
+            }
+        }
+        input.destroy(&self.ctx, &mut self.alloc);
+        result?;
+        if let AccelObject::Gas(g) = self.accels.get(accel)? {
+            let start = g.data_start;
+            self.tables.data.write(start, &decoded.data);
+            self.tables.touch();
+        }
+        let flat = self.accels.get(accel)?.flat();
+        self.rebuild_tlas(accel, &flat)?;
+        if let AccelObject::Gas(g) = self.accels.get_mut(accel)? {
+            g.inputs = inputs.to_vec();
+        }
+        Ok(())
+    }
+
+    /// Replaces a GAS's bottom levels and tables with new ones built from `decoded`, keeping
+    /// its handle (its top level is built again in place, as are the top levels above it).
+    fn rebuild_gas(
+        &mut self,
+        accel: Accel,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<()> {
+        let fresh = self.build_gas(options, inputs)?;
+        let AccelObject::Gas(mut new) = self.accels.remove(fresh)? else {
+            return Err(Error::backend("a geometry build made something else"));
+        };
+        // The new object's own top level goes; the old one stays and keeps the handle.
+        let new_wrapper_handle = new.wrapper.structure.address;
+        self.by_handle.remove(&new_wrapper_handle);
+        self.tables
+            .instances
+            .remove(new.wrapper.table_start, new.wrapper.count);
+        let AccelObject::Gas(old) = self.accels.get_mut(accel)? else {
+            return Err(Error::backend("not a geometry structure"));
+        };
+        let old_parts = std::mem::replace(&mut old.parts, std::mem::take(&mut new.parts));
+        old.part_geometries = new.part_geometries.clone();
+        let (old_g, old_gn, old_d, old_dn) = (
+            old.geometry_start,
+            old.geometry_count,
+            old.data_start,
+            old.data_len,
+        );
+        old.geometry_start = new.geometry_start;
+        old.geometry_count = new.geometry_count;
+        old.data_start = new.data_start;
+        old.data_len = new.data_len;
+        old.inputs = inputs.to_vec();
+        old.activity = new.activity;
+        old.compacted = false;
+        self.tables.geometries.remove(old_g, old_gn);
+        self.tables.data.remove(old_d, old_dn);
+        self.tables.touch();
+        new.wrapper.destroy(&self.ctx, &mut self.alloc);
+        let flat = self.accels.get(accel)?.flat();
+        self.rebuild_tlas(accel, &flat)?;
+        self.refresh_dependents(accel)?;
+        for (p, _) in old_parts {
+            p.destroy(&self.ctx, &mut self.alloc);
+        }
+        Ok(())
+    }
+
+    pub fn accel_compact(&mut self, accel: Accel) -> Result<Accel> {
+        let copy = match self.accels.get(accel)? {
+            AccelObject::Gas(g) => {
+                if !g.options.flags.contains(BuildFlags::ALLOW_COMPACTION) {
+                    return Err(Error::invalid(
+                        "the acceleration structure was built without BuildFlags::ALLOW_COMPACTION, so it cannot be compacted; rebuild it with that flag",
+                    ));
+                }
+                let parts: Vec<(vk::AccelerationStructureKHR, u32)> =
+                    g.parts.iter().map(|(p, f)| (p.accel, *f)).collect();
+                let records_range = (g.geometry_start, g.geometry_count, g.data_start, g.data_len);
+                let template = (
+                    g.part_geometries.clone(),
+                    g.kind,
+                    g.options,
+                    g.inputs.clone(),
+                    g.partition.clone(),
+                    g.activity,
+                    g.features,
+                );
+                let mut compacted = Vec::new();
+                for (p, f) in parts {
+                    match self.compact_as(p) {
+                        Ok(c) => compacted.push((c, f)),
+                        Err(e) => {
+                            for (c, _) in compacted {
+                                c.destroy(&self.ctx, &mut self.alloc);
+                            }
+                            return Err(e);
+                        }
+                    }
+                }
+                let (g_start, g_count, d_start, d_len) = records_range;
+                let data: Vec<u32> = (0..d_len)
+                    .map(|k| self.tables.data_word(d_start + k))
+                    .collect();
+                let data_start = self.tables.data.insert(&data);
+                let records: Vec<[u32; 4]> = (0..g_count)
+                    .map(|k| {
+                        let r = self.tables.geometry_record(g_start + k);
+                        let rebase = |v: u32| {
+                            if v == tables::NONE {
+                                v
+                            } else {
+                                v - d_start + data_start
+                            }
+                        };
+                        [r[0], rebase(r[1]), rebase(r[2]), r[3]]
+                    })
+                    .collect();
+                let geometry_start = self.tables.geometries.insert(&records);
+                self.tables.touch();
+                let flat: Vec<FlatInstance> = compacted
+                    .iter()
+                    .map(|(p, f)| FlatInstance::bottom(p.address, *f, geometry_start, g_count))
+                    .collect();
+                let wrapper = self.build_tlas(
+                    &flat,
+                    vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE,
+                )?;
+                let (part_geometries_held, kind, options, inputs, partition, activity, features) =
+                    template;
+                AccelObject::Gas(Gas {
+                    parts: compacted,
+                    part_geometries: part_geometries_held,
+                    wrapper,
+                    geometry_start,
+                    geometry_count: g_count,
+                    data_start,
+                    data_len: d_len,
+                    kind,
+                    options,
+                    inputs,
+                    partition,
+                    activity,
+                    compacted: true,
+                    features,
+                })
+            }
+            // Top levels are small and must stay rebuildable in place (when a child goes),
+            // so "compacting" one copies it at full size.
+            AccelObject::Ias(i) => {
+                let (instances, children, counts, flat, options, inputs, features) = (
+                    i.instances.clone(),
+                    i.children.clone(),
+                    i.counts.clone(),
+                    i.flat.clone(),
+                    i.options,
+                    i.inputs.clone(),
+                    i.features,
+                );
+                let tlas = self.build_tlas(&flat, vk_build_flags(options.flags))?;
+                AccelObject::Ias(Ias {
+                    tlas,
+                    instances,
+                    children,
+                    counts,
+                    flat,
+                    options,
+                    inputs,
+                    features,
+                })
+            }
+            AccelObject::Transform(_) => {
+                return Err(Error::invalid(
+                    "accel_compact takes an acceleration structure; transforms cannot be compacted",
+                ));
+            }
+        };
+        let handle = copy.handle();
+        let new = self.accels.insert(copy);
+        self.by_handle.insert(handle, new);
+        Ok(new)
+    }
+
+    pub fn create_transform(&mut self, desc: &TransformDesc) -> Result<Accel> {
+        validate::transform(desc)?;
+        let TransformDesc::Static {
+            child,
+            object_to_world,
+            ..
+        } = desc
+        else {
+            return Err(motion_unsupported());
+        };
+        let child_accel = match child.0 {
+            0 => None,
+            h => Some(self.by_handle.get(&h).copied().ok_or_else(|| {
+                Error::invalid(format!("transform child {h:#x} is no live acceleration structure or transform of this device"))
+            })?),
+        };
+        let (flat, child_features) = match child_accel {
+            Some(c) => {
+                let obj = self.accels.get(c)?;
+                (
+                    flatten::through_transform(object_to_world, &obj.flat()),
+                    vec![obj.features()],
+                )
+            }
+            None => (Vec::new(), Vec::new()),
+        };
+        let features = SceneFeatures::of_parent(&child_features, MotionKinds::default(), true);
+        let tlas = self.build_tlas(
+            &flat,
+            vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE,
+        )?;
+        let handle = tlas.structure.address;
+        let accel = self.accels.insert(AccelObject::Transform(Transform {
+            tlas,
+            object_to_world: *object_to_world,
+            child: child_accel,
+            flat,
+            features,
+        }));
+        self.by_handle.insert(handle, accel);
+        Ok(accel)
+    }
+
+    pub fn destroy_accel(&mut self, accel: Accel) -> Result<()> {
+        self.accels.get(accel)?;
+        self.wait_launches()?;
+        let obj = self.accels.remove(accel)?;
+        self.by_handle.remove(&obj.handle());
+        let t = obj.tlas();
+        self.tables.instances.remove(t.table_start, t.count);
+        if let AccelObject::Gas(g) = &obj {
+            self.tables
+                .geometries
+                .remove(g.geometry_start, g.geometry_count);
+            self.tables.data.remove(g.data_start, g.data_len);
+        }
+        self.tables.touch();
+        // Parents drop their paths into it before its bottom levels go.
+        let refreshed = self.refresh_dependents(accel);
+        obj.destroy(&self.ctx, &mut self.alloc);
+        refreshed
+    }
+}

@@ -1,0 +1,479 @@
+//! [`VulkanDevice`]: the `optik_api::Device` of this backend, and the state behind its lock.
+//!
+//! The trait methods lock the state and call the `impl Inner` methods of the modules named
+//! as in every backend (`accel`, `pipeline`, `sbt`, `launch`), plus `buffer` and `texture`.
+
+use crate::accel::{AccelObject, SceneTables, Tlas};
+use crate::cache::PipelineCache;
+use crate::commands::{Commands, Submission};
+use crate::context::{Context, VulkanOptions};
+use crate::launch::InFlight;
+use crate::memory::{Allocator, GpuBuffer};
+use crate::pipeline::{GroupObject, ModuleObject, PipelineObject};
+use crate::probe::VulkanDeviceInfo;
+use crate::texture::TextureObject;
+use ash::vk;
+use optik_api::*;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, MutexGuard};
+
+/// A user buffer.
+pub struct UserBuffer {
+    /// The Vulkan buffer.
+    pub gpu: GpuBuffer,
+    /// Bumped on every write (host writes, and launches that bind it writable), so cached
+    /// SBT translations know when to read it again.
+    pub generation: u64,
+}
+
+/// Everything a device owns, behind its lock.
+pub struct Inner {
+    /// The instance and device.
+    pub ctx: Arc<Context>,
+    /// optik's properties of the device.
+    pub props: DeviceProperties,
+    /// Device memory.
+    pub alloc: Allocator,
+    /// The command pool.
+    pub commands: Commands,
+    /// User buffers.
+    pub buffers: HandleTable<Buffer, UserBuffer>,
+    /// Textures.
+    pub textures: HandleTable<Texture, TextureObject>,
+    /// Samplers, one per description.
+    pub samplers: HashMap<SamplerDesc, vk::Sampler>,
+    /// Compiled modules.
+    pub modules: HandleTable<Module, ModuleObject>,
+    /// Program groups.
+    pub groups: HandleTable<ProgramGroup, GroupObject>,
+    /// Pipelines.
+    pub pipelines: HandleTable<Pipeline, PipelineObject>,
+    /// Acceleration structures and transforms.
+    pub accels: HandleTable<Accel, AccelObject>,
+    /// Traversable handle (a TLAS device address) → its object.
+    pub by_handle: HashMap<u64, Accel>,
+    /// The instance, geometry and data tables programs read.
+    pub tables: SceneTables,
+    /// An acceleration structure with no instances: null handles and continuation calls
+    /// trace against it.
+    pub empty_tlas: Option<Tlas>,
+    /// Launches the host has not waited for.
+    pub in_flight: Vec<InFlight>,
+    /// The pipeline cache.
+    pub cache: PipelineCache,
+    /// Counter for buffer generations.
+    pub next_generation: u64,
+}
+
+/// A Vulkan ray tracing device.
+pub struct VulkanDevice {
+    id: DeviceId,
+    ctx: Arc<Context>,
+    props: DeviceProperties,
+    inner: Mutex<Inner>,
+    lost: std::sync::atomic::AtomicBool,
+}
+
+impl VulkanDevice {
+    /// Opens the device `options` ask for.
+    pub fn open(options: &VulkanOptions) -> Result<VulkanDevice> {
+        let ctx = Arc::new(Context::new(options)?);
+        let id = DeviceId::next();
+        let props = properties(&ctx.info);
+        let commands = Commands::new(&ctx)?;
+        let cache = PipelineCache::open(&ctx, options.pipeline_cache, options.cache_dir.clone());
+        let mut inner = Inner {
+            ctx: ctx.clone(),
+            props: props.clone(),
+            alloc: Allocator::default(),
+            commands,
+            buffers: HandleTable::new(id),
+            textures: HandleTable::new(id),
+            samplers: HashMap::new(),
+            modules: HandleTable::new(id),
+            groups: HandleTable::new(id),
+            pipelines: HandleTable::new(id),
+            accels: HandleTable::new(id),
+            by_handle: HashMap::new(),
+            tables: SceneTables::default(),
+            empty_tlas: None,
+            in_flight: Vec::new(),
+            cache,
+            next_generation: 1,
+        };
+        inner.create_empty_tlas()?;
+        Ok(VulkanDevice {
+            id,
+            ctx,
+            props,
+            inner: Mutex::new(inner),
+            lost: false.into(),
+        })
+    }
+
+    /// The physical device's properties.
+    pub fn info(&self) -> &VulkanDeviceInfo {
+        &self.ctx.info
+    }
+
+    /// The validation layer's messages since the last call (always empty without
+    /// validation). Tests fail on any.
+    pub fn take_validation_messages(&self) -> Vec<String> {
+        self.ctx.log.take()
+    }
+
+    /// The validation layer's message log, which outlives the device: messages the layer
+    /// reports while the device is destroyed arrive there too.
+    pub fn validation_log(&self) -> Arc<crate::validation::MessageLog> {
+        self.ctx.log.clone()
+    }
+
+    /// The pipeline cache file, when the cache is kept on disk.
+    pub fn pipeline_cache_path(&self) -> Option<std::path::PathBuf> {
+        self.lock().cache.path().cloned()
+    }
+
+    /// Whether buffers live in device-local memory behind staging copies.
+    pub fn uses_staging(&self) -> bool {
+        self.ctx.staging
+    }
+
+    fn lock(&self) -> MutexGuard<'_, Inner> {
+        self.inner.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Runs `f` on the state; a lost device stays lost.
+    fn with<T>(&self, f: impl FnOnce(&mut Inner) -> Result<T>) -> Result<T> {
+        use std::sync::atomic::Ordering;
+        if self.lost.load(Ordering::Relaxed) {
+            return Err(Error::new(
+                ErrorKind::DeviceLost,
+                "the Vulkan device was lost earlier; open a new optik device",
+            ));
+        }
+        let mut inner = self.lock();
+        let r = f(&mut inner);
+        if let Err(e) = &r
+            && e.kind() == ErrorKind::DeviceLost
+        {
+            self.lost.store(true, Ordering::Relaxed);
+        }
+        r
+    }
+}
+
+/// optik's device properties from the Vulkan device's.
+fn properties(info: &VulkanDeviceInfo) -> DeviceProperties {
+    let clamp = |v: u64| v.min(u32::MAX as u64) as u32;
+    // A user record's data follows the handle in Vulkan's record: the largest user stride is
+    // what fits maxShaderGroupStride after swapping the 32-byte header for the handle.
+    let max_stride = (info.max_shader_group_stride as u64 + sbt::SBT_RECORD_HEADER_SIZE as u64)
+        .saturating_sub(info.shader_group_handle_size as u64)
+        / sbt::SBT_RECORD_ALIGNMENT as u64
+        * sbt::SBT_RECORD_ALIGNMENT as u64;
+    DeviceProperties {
+        max_trace_depth: info.max_ray_recursion_depth.min(31),
+        // Instance trees are flattened into one Vulkan level, so any depth works; deep trees
+        // multiply instances.
+        max_traversable_graph_depth: 16,
+        max_primitives_per_build_input: clamp(info.max_primitive_count),
+        max_instances_per_ias: clamp(info.max_instance_count),
+        max_instance_id: semantics::sbt_index::INSTANCE_ID_MASK + 1,
+        max_sbt_offset: semantics::sbt_index::INSTANCE_SBT_OFFSET_MASK + 1,
+        num_bits_instance_visibility_mask: 8,
+        // Each record of a build input is one Vulkan geometry.
+        max_sbt_records_per_build_input: clamp(info.max_geometry_count),
+        sbt_record_header_size: sbt::SBT_RECORD_HEADER_SIZE,
+        sbt_record_alignment: sbt::SBT_RECORD_ALIGNMENT,
+        max_sbt_record_stride: clamp(max_stride),
+        max_payload_values: 32,
+        max_attribute_values: 8,
+        max_launch_size: info.max_ray_dispatch_invocation_count as u64,
+        max_buffer_size: info.device_local_heap.max(1 << 30),
+        backend: BackendKind::Vulkan,
+        device_name: format!("{} (Vulkan, {})", info.name, info.driver_name),
+    }
+}
+
+impl Inner {
+    /// A fresh buffer generation.
+    pub fn generation(&mut self) -> u64 {
+        self.next_generation += 1;
+        self.next_generation
+    }
+
+    /// Waits for every launch and frees what they held.
+    pub fn wait_launches(&mut self) -> Result<()> {
+        let mut first_error = None;
+        for f in std::mem::take(&mut self.in_flight) {
+            if let Err(e) = self.commands.wait(&self.ctx, &f.submission) {
+                first_error.get_or_insert(e);
+            }
+            self.retire(f);
+        }
+        first_error.map_or(Ok(()), Err)
+    }
+
+    /// Frees the launches that are done.
+    pub fn reap_launches(&mut self) -> Result<()> {
+        let mut still = Vec::new();
+        for f in std::mem::take(&mut self.in_flight) {
+            if self.commands.is_done(&self.ctx, &f.submission)? {
+                self.retire(f);
+            } else {
+                still.push(f);
+            }
+        }
+        self.in_flight = still;
+        Ok(())
+    }
+
+    /// Runs recorded work and waits (after earlier launches finish).
+    pub fn run_commands(
+        &mut self,
+        record: impl FnOnce(vk::CommandBuffer) -> Result<()>,
+    ) -> Result<()> {
+        self.wait_launches()?;
+        self.commands.run(&self.ctx, record)
+    }
+
+    /// Submits recorded work without waiting.
+    pub fn submit_commands(
+        &mut self,
+        record: impl FnOnce(vk::CommandBuffer) -> Result<()>,
+    ) -> Result<Submission> {
+        self.commands.submit(&self.ctx, record)
+    }
+}
+
+impl Drop for VulkanDevice {
+    fn drop(&mut self) {
+        let mut inner = self.lock();
+        let _ = inner.wait_launches();
+        // SAFETY: nothing is pending after the wait (or the device is lost).
+        let _ = unsafe { inner.ctx.device.device_wait_idle() };
+        inner.cache.save(&inner.ctx);
+        inner.destroy_everything();
+    }
+}
+
+impl Inner {
+    /// Frees every object (device destruction).
+    fn destroy_everything(&mut self) {
+        let ctx = self.ctx.clone();
+        let pipelines: Vec<Pipeline> = self.pipelines.iter().map(|(h, _)| h).collect();
+        for p in pipelines {
+            if let Ok(obj) = self.pipelines.remove(p) {
+                obj.destroy(&ctx, &mut self.alloc);
+            }
+        }
+        let accels: Vec<Accel> = self.accels.iter().map(|(h, _)| h).collect();
+        for a in accels {
+            if let Ok(obj) = self.accels.remove(a) {
+                obj.destroy(&ctx, &mut self.alloc);
+            }
+        }
+        if let Some(t) = self.empty_tlas.take() {
+            t.destroy(&ctx, &mut self.alloc);
+        }
+        self.tables.destroy(&ctx, &mut self.alloc);
+        let buffers: Vec<Buffer> = self.buffers.iter().map(|(h, _)| h).collect();
+        for b in buffers {
+            if let Ok(obj) = self.buffers.remove(b) {
+                obj.gpu.destroy(&ctx, &mut self.alloc);
+            }
+        }
+        let textures: Vec<Texture> = self.textures.iter().map(|(h, _)| h).collect();
+        for t in textures {
+            if let Ok(obj) = self.textures.remove(t) {
+                obj.destroy(&ctx, &mut self.alloc);
+            }
+        }
+        for (_, s) in self.samplers.drain() {
+            // SAFETY: idle device.
+            unsafe { ctx.device.destroy_sampler(s, None) };
+        }
+        self.cache.destroy(&ctx);
+        self.commands.destroy(&ctx);
+        self.alloc.destroy(&ctx);
+    }
+}
+
+impl Device for VulkanDevice {
+    fn id(&self) -> DeviceId {
+        self.id
+    }
+
+    fn backend(&self) -> BackendKind {
+        BackendKind::Vulkan
+    }
+
+    fn properties(&self) -> &DeviceProperties {
+        &self.props
+    }
+
+    fn accuracy(&self) -> Accuracy {
+        // The driver intersects triangles and boxes; DESIGN.md §5: the Vulkan backend reports
+        // what the driver does, measured by the conformance suite. Its setting is the default.
+        Accuracy::default()
+    }
+
+    fn set_accuracy(&self, accuracy: Accuracy) -> Result<()> {
+        if accuracy == Accuracy::default() {
+            return Ok(());
+        }
+        Err(Error::unsupported(format!(
+            "the Vulkan backend cannot choose the triangle and box tests ({accuracy:?} asked): the driver's traversal decides them; use the cpu or wgpu backend to choose"
+        )))
+    }
+
+    fn create_buffer(&self, size: u64) -> Result<Buffer> {
+        self.with(|i| i.create_buffer(size))
+    }
+
+    fn write_buffer(&self, buffer: Buffer, offset: u64, data: &[u8]) -> Result<()> {
+        self.with(|i| i.write_buffer(buffer, offset, data))
+    }
+
+    fn read_buffer(&self, buffer: Buffer, offset: u64, out: &mut [u8]) -> Result<()> {
+        self.with(|i| i.read_buffer(buffer, offset, out))
+    }
+
+    fn buffer_size(&self, buffer: Buffer) -> Result<u64> {
+        self.with(|i| Ok(i.buffers.get(buffer)?.gpu.size))
+    }
+
+    fn destroy_buffer(&self, buffer: Buffer) -> Result<()> {
+        self.with(|i| i.destroy_buffer(buffer))
+    }
+
+    fn create_texture(&self, desc: &TextureDesc) -> Result<Texture> {
+        self.with(|i| i.create_texture(desc))
+    }
+
+    fn write_texture(&self, texture: Texture, data: &[u8]) -> Result<()> {
+        self.with(|i| i.write_texture(texture, data))
+    }
+
+    fn destroy_texture(&self, texture: Texture) -> Result<()> {
+        self.with(|i| i.destroy_texture(texture))
+    }
+
+    fn accel_memory_usage(
+        &self,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<AccelBufferSizes> {
+        self.with(|i| i.accel_memory_usage(options, inputs))
+    }
+
+    fn accel_build(&self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<Accel> {
+        self.with(|i| i.accel_build(options, inputs))
+    }
+
+    fn accel_update(
+        &self,
+        accel: Accel,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<()> {
+        self.with(|i| i.accel_update(accel, options, inputs))
+    }
+
+    fn accel_compact(&self, accel: Accel) -> Result<Accel> {
+        self.with(|i| i.accel_compact(accel))
+    }
+
+    fn accel_size(&self, accel: Accel) -> Result<u64> {
+        self.with(|i| Ok(i.accels.get(accel)?.size()))
+    }
+
+    fn create_transform(&self, desc: &TransformDesc) -> Result<Accel> {
+        self.with(|i| i.create_transform(desc))
+    }
+
+    fn create_opacity_micromap_array(
+        &self,
+        desc: &OpacityMicromapArrayDesc,
+    ) -> Result<MicromapArray> {
+        validate::micromap_array(desc)?;
+        Err(Error::unsupported(
+            "opacity micromaps are not available on the Vulkan backend: they need VK_EXT_opacity_micromap, which optik does not use yet (use the cpu or wgpu backend, or an any-hit program)",
+        ))
+    }
+
+    fn traversable_handle(&self, accel: Accel) -> Result<TraversableHandle> {
+        self.with(|i| Ok(TraversableHandle(i.accels.get(accel)?.handle())))
+    }
+
+    fn destroy_accel(&self, accel: Accel) -> Result<()> {
+        self.with(|i| i.destroy_accel(accel))
+    }
+
+    fn destroy_micromap_array(&self, array: MicromapArray) -> Result<()> {
+        Err(Error::new(
+            ErrorKind::InvalidHandle,
+            format!(
+                "opacity micromap array {:?} does not exist: the Vulkan backend creates none",
+                array.raw()
+            ),
+        ))
+    }
+
+    fn create_module(
+        &self,
+        module_options: &ModuleCompileOptions,
+        pipeline_options: &PipelineCompileOptions,
+        source: &ProgramSource,
+    ) -> Result<(Module, String)> {
+        self.with(|i| i.create_module(module_options, pipeline_options, source))
+    }
+
+    fn destroy_module(&self, module: Module) -> Result<()> {
+        self.with(|i| i.modules.remove(module).map(|_| ()))
+    }
+
+    fn create_program_groups(&self, descs: &[ProgramGroupDesc]) -> Result<Vec<ProgramGroup>> {
+        self.with(|i| i.create_program_groups(descs))
+    }
+
+    fn destroy_program_group(&self, group: ProgramGroup) -> Result<()> {
+        self.with(|i| i.groups.remove(group).map(|_| ()))
+    }
+
+    fn create_pipeline(
+        &self,
+        pipeline_options: &PipelineCompileOptions,
+        link_options: &PipelineLinkOptions,
+        groups: &[ProgramGroup],
+    ) -> Result<Pipeline> {
+        self.with(|i| i.create_pipeline(pipeline_options, link_options, groups))
+    }
+
+    fn pipeline_features(&self, pipeline: Pipeline) -> Result<FeatureSet> {
+        self.with(|i| Ok(i.pipelines.get(pipeline)?.features))
+    }
+
+    fn destroy_pipeline(&self, pipeline: Pipeline) -> Result<()> {
+        self.with(|i| i.destroy_pipeline(pipeline))
+    }
+
+    fn sbt_record_pack_header(&self, group: ProgramGroup) -> Result<[u8; 32]> {
+        self.with(|i| Ok(SbtHeader::pack(group, i.groups.get(group)?.desc.region())))
+    }
+
+    fn launch(
+        &self,
+        pipeline: Pipeline,
+        params: &[u8],
+        resources: &[Resource],
+        sbt: &ShaderBindingTable,
+        size: LaunchSize,
+    ) -> Result<()> {
+        self.with(|i| i.launch(pipeline, params, resources, sbt, size))
+    }
+
+    fn synchronize(&self) -> Result<()> {
+        self.with(|i| i.wait_launches())
+    }
+}

@@ -1,0 +1,197 @@
+//! What a pipeline asks of the lowering: the settings every stage of one pipeline shares, and
+//! the stages it needs.
+
+use optik_api::{ExceptionFlags, ProgramKind};
+
+/// Settings shared by every stage of a pipeline. Derived from the pipeline's resolved
+/// [`optik_api::FeatureSet`] and its programs; each emulation below is compiled in only when
+/// the pipeline needs it (DESIGN.md §6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct LoweringConfig {
+    /// Registers in `RtPayload` (at least 1).
+    pub payload_len: u32,
+    /// The pipeline's `max_trace_depth`.
+    pub max_trace_depth: u32,
+    /// The pipeline's `max_direct_callable_depth`.
+    pub max_direct_callable_depth: u32,
+    /// The pipeline's `max_continuation_callable_depth`.
+    pub max_continuation_callable_depth: u32,
+    /// Exceptions checked.
+    pub exceptions: ExceptionFlags,
+    /// Whether the pipeline has an exception program (run as callable 0).
+    pub exception_program: bool,
+    /// Rays carry their time (`uses_motion_blur`); otherwise `rt_ray_time` is 0.
+    pub motion: bool,
+    /// The trace depth is tracked per launch index (hit, miss and callable programs trace or
+    /// read `rt_remaining_trace_depth`); otherwise it is known statically (0 in raygen, 1
+    /// elsewhere).
+    pub track_depth: bool,
+    /// A program reads `rt_ray_flags` or `rt_ray_mask`, so rays carry them.
+    pub track_ray_flags: bool,
+    /// A direct callable calls direct callables, so their depth is guarded.
+    pub guard_direct_calls: bool,
+    /// Some program calls continuation callables, whose depth is guarded.
+    pub continuation_calls: bool,
+}
+
+impl LoweringConfig {
+    /// Whether stages keep per-launch-index state (the `_optik_state` buffer).
+    pub fn uses_state(&self) -> bool {
+        self.motion
+            || self.track_depth
+            || self.track_ray_flags
+            || self.guard_direct_calls
+            || self.continuation_calls
+            || !self.exceptions.is_empty()
+    }
+
+    /// Whether stages check for and unwind exceptions.
+    pub fn unwinds(&self) -> bool {
+        !self.exceptions.is_empty()
+    }
+}
+
+impl Default for LoweringConfig {
+    fn default() -> Self {
+        LoweringConfig {
+            payload_len: 1,
+            max_trace_depth: 1,
+            max_direct_callable_depth: 4,
+            max_continuation_callable_depth: 4,
+            exceptions: ExceptionFlags::NONE,
+            exception_program: false,
+            motion: false,
+            track_depth: false,
+            track_ray_flags: false,
+            guard_direct_calls: false,
+            continuation_calls: false,
+        }
+    }
+}
+
+/// The primitive a hit group's closest-hit and any-hit programs serve: it decides what
+/// `rt_hit_kind`, `rt_triangle_vertices`, `rt_sphere` and `rt_curve_parameter` read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum HitContext {
+    /// Triangles, intersected by the driver.
+    Triangles,
+    /// Custom primitives with the user's intersection program.
+    Custom,
+    /// Spheres, with optik's sphere intersection stage.
+    Sphere,
+    /// Curves, with optik's curve intersection stage.
+    Curve,
+}
+
+impl HitContext {
+    /// The value of the prelude's `_optik_ctx`.
+    pub fn code(self) -> u32 {
+        match self {
+            HitContext::Triangles => 0,
+            HitContext::Custom => 1,
+            HitContext::Sphere => 2,
+            HitContext::Curve => 3,
+        }
+    }
+}
+
+/// The Vulkan shader stage a stage is compiled to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum VkStage {
+    /// `RayGenerationKHR`.
+    Raygen,
+    /// `MissKHR`.
+    Miss,
+    /// `ClosestHitKHR`.
+    ClosestHit,
+    /// `AnyHitKHR`.
+    AnyHit,
+    /// `IntersectionKHR`.
+    Intersection,
+    /// `CallableKHR`.
+    Callable,
+}
+
+/// What one stage runs, and as which Vulkan stage.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum StageRole {
+    /// A user program, run as the stage its kind maps to; hit programs carry the primitive
+    /// they serve.
+    Program {
+        /// The program's function name (`closesthit__radiance`).
+        name: String,
+        /// Its kind.
+        kind: ProgramKind,
+        /// The hit group's primitive, for closest-hit and any-hit programs.
+        context: Option<HitContext>,
+    },
+    /// optik's sphere intersection stage (built-in sphere hit groups).
+    SphereIntersection,
+    /// optik's curve intersection stage for one basis (`optik_api::wgsl::curve_basis`).
+    CurveIntersection(u32),
+    /// The callable that stands in for callable records without a direct callable, and for
+    /// indices past the table.
+    NullCallable,
+    /// The miss stage that stands in for callable records without a continuation callable.
+    NullContinuation,
+}
+
+impl StageRole {
+    /// The Vulkan stage.
+    pub fn vk_stage(&self) -> VkStage {
+        match self {
+            StageRole::Program { kind, .. } => match kind {
+                ProgramKind::Raygen => VkStage::Raygen,
+                ProgramKind::Miss => VkStage::Miss,
+                ProgramKind::ClosestHit => VkStage::ClosestHit,
+                ProgramKind::AnyHit => VkStage::AnyHit,
+                ProgramKind::Intersection => VkStage::Intersection,
+                ProgramKind::DirectCallable | ProgramKind::Exception => VkStage::Callable,
+                // Vulkan callables cannot trace; continuation callables run as miss stages
+                // reached by a trace against the empty acceleration structure.
+                ProgramKind::ContinuationCallable => VkStage::Miss,
+            },
+            StageRole::SphereIntersection | StageRole::CurveIntersection(_) => {
+                VkStage::Intersection
+            }
+            StageRole::NullCallable => VkStage::Callable,
+            StageRole::NullContinuation => VkStage::Miss,
+        }
+    }
+
+    /// The program kind the stage behaves as (the prelude's `_optik_stage`).
+    pub fn behaves_as(&self) -> ProgramKind {
+        match self {
+            StageRole::Program { kind, .. } => *kind,
+            StageRole::SphereIntersection | StageRole::CurveIntersection(_) => {
+                ProgramKind::Intersection
+            }
+            StageRole::NullCallable => ProgramKind::DirectCallable,
+            StageRole::NullContinuation => ProgramKind::ContinuationCallable,
+        }
+    }
+
+    /// The entry point name the stage gets in its SPIR-V module.
+    pub fn entry_name(&self) -> String {
+        match self {
+            StageRole::Program {
+                name,
+                context: Some(ctx),
+                ..
+            } => format!("{name}.{}", ctx.code()),
+            StageRole::Program { name, .. } => name.clone(),
+            StageRole::SphereIntersection => "optik_sphere_intersection".into(),
+            StageRole::CurveIntersection(b) => format!("optik_curve_intersection_{b}"),
+            StageRole::NullCallable => "optik_null_callable".into(),
+            StageRole::NullContinuation => "optik_null_continuation".into(),
+        }
+    }
+}
+
+/// The prelude's `_optik_stage` value of a program kind: its index in [`ProgramKind::ALL`].
+pub fn stage_code(kind: ProgramKind) -> u32 {
+    ProgramKind::ALL
+        .iter()
+        .position(|k| *k == kind)
+        .unwrap_or(0) as u32
+}

@@ -1,0 +1,668 @@
+//! The Vulkan backend's prelude: the device API (DESIGN.md §3) written in WGSL on top of a few
+//! intrinsics, plus the stage wrappers.
+//!
+//! The front end validated the user's module against the API prelude, whose bodies are
+//! stand-ins. The backend compiles the same user source followed by this prelude instead: the
+//! same aliases, constants and `rt_*` signatures, with bodies that implement the device API.
+//! Everything that needs a SPIR-V ray tracing instruction, built-in or storage class is an
+//! intrinsic (`_optik_*` in [`super::intrinsic`]) whose stand-in body the post-pass replaces;
+//! the rest (invalid-ray policy, flag masking, depth and exception bookkeeping, the tables
+//! behind `rt_instance_id` and friends) is plain WGSL, validated by naga.
+//!
+//! Per launch index, stages share a state word in `_optik_state` (only when the pipeline needs
+//! one, [`LoweringConfig::uses_state`]), laid out as `vec4<u32>`:
+//! - `x`: the current ray's time (f32 bits);
+//! - `y`: bits 0..8 the ray's visibility mask, 8..16 the trace depth, 16..24 the continuation
+//!   call depth, 24..32 the direct call depth;
+//! - `z`: bits 0..16 the ray's flags as given to `rt_trace`, 16..18 the exception status
+//!   (0 none, 1 raised and unhandled, 2 handled: the launch index is ending);
+//! - `w`: the exception code.
+//!
+//! Only one traversal per launch index is in flight at a time (closest-hit and miss programs
+//! run after their traversal ends), so `rt_trace` saves the ray fields, sets the new ray's and
+//! restores them when the trace returns: intersection programs, which cannot read payloads on
+//! Vulkan, read the current ray's time, flags and mask there.
+
+use super::config::{HitContext, LoweringConfig, StageRole, stage_code};
+use super::intrinsic::Intrinsic;
+use optik_api::frontend::{OFFSET_RAY_BODY, PRELUDE_CONSTANTS, PRELUDE_EXCEPTION_CODES};
+use optik_api::{ExceptionFlags, ProgramKind};
+
+/// Words of shader record data a program can address (`rt_sbt_data_u32` indices are clamped
+/// below this); the translated SBT buffer is padded by as many bytes so no read leaves it.
+pub const SBT_DATA_WORDS: u32 = 1024;
+
+/// Callable SBT index of the exception program.
+pub const CALLABLE_EXCEPTION: u32 = 0;
+/// Callable SBT index of the null callable (out-of-range indices land here).
+pub const CALLABLE_NULL: u32 = 1;
+/// Callable SBT index of the user's callable record 0.
+pub const CALLABLE_FIRST_USER: u32 = 2;
+
+/// Marks a geometry-table field that is absent.
+pub const NONE: u32 = 0xFFFF_FFFF;
+
+/// The prelude for a pipeline with settings `c`.
+pub fn prelude(c: &LoweringConfig) -> String {
+    let mut s = String::new();
+    s.push_str("\n// ---- optik Vulkan prelude (backend-vulkan/src/program/prelude.rs) ----\n");
+    s.push_str("alias RtHandle = vec2<u32>;\n");
+    s.push_str(&format!(
+        "alias RtPayload = array<u32, {}>;\n",
+        c.payload_len.max(1)
+    ));
+    s.push_str("alias RtAttributes = array<u32, 8>;\n");
+    for (name, ty, value) in PRELUDE_CONSTANTS {
+        s.push_str(&format!("const {name}: {ty} = {value}u;\n"));
+    }
+    for (name, value) in PRELUDE_EXCEPTION_CODES {
+        s.push_str(&format!("const {name}: i32 = {value}i;\n"));
+    }
+    for kind in ProgramKind::ALL {
+        s.push_str(&format!(
+            "const _OPTIK_STAGE_{}: u32 = {}u;\n",
+            stage_const(kind),
+            stage_code(kind)
+        ));
+    }
+    for ctx in [
+        HitContext::Triangles,
+        HitContext::Custom,
+        HitContext::Sphere,
+        HitContext::Curve,
+    ] {
+        s.push_str(&format!(
+            "const _OPTIK_CTX_{}: u32 = {}u;\n",
+            format!("{ctx:?}").to_uppercase(),
+            ctx.code()
+        ));
+    }
+    s.push_str(RESOURCES);
+    for i in Intrinsic::ALL {
+        s.push_str(&format!(
+            "fn {}{} {}\n",
+            i.name(),
+            i.signature(),
+            i.stand_in_body()
+        ));
+    }
+    s.push_str(&HELPERS.replace("$SBT_DATA_LAST", &(SBT_DATA_WORDS - 1).to_string()));
+    s.push_str(&state_functions(c));
+    s.push_str(&device_functions(c));
+    s
+}
+
+fn stage_const(kind: ProgramKind) -> &'static str {
+    match kind {
+        ProgramKind::Raygen => "RAYGEN",
+        ProgramKind::Intersection => "INTERSECTION",
+        ProgramKind::AnyHit => "ANYHIT",
+        ProgramKind::ClosestHit => "CLOSESTHIT",
+        ProgramKind::Miss => "MISS",
+        ProgramKind::Exception => "EXCEPTION",
+        ProgramKind::DirectCallable => "DIRECT_CALLABLE",
+        ProgramKind::ContinuationCallable => "CONTINUATION_CALLABLE",
+    }
+}
+
+/// The backend's resources (DESIGN.md §3: groups 1 and up belong to the backends).
+const RESOURCES: &str = r#"
+struct _OptikLaunch {
+    empty_tlas: vec2<u32>,
+    miss_count: u32,
+    callable_count: u32,
+}
+// Per-launch constants: the empty acceleration structure (null handles and continuation
+// calls trace against it) and the user's miss and callable record counts.
+@group(1) @binding(0) var<uniform> _optik_launch: _OptikLaunch;
+// Per launch index state (see the module documentation of prelude.rs).
+@group(1) @binding(1) var<storage, read_write> _optik_state: array<vec4<u32>>;
+// Per Vulkan instance (its custom index): OptiX instance id, instance index, first record of
+// its geometry acceleration structure in `_optik_geometries`.
+@group(1) @binding(2) var<storage, read> _optik_instances: array<vec4<u32>>;
+// Per geometry: primitive index offset, primitive remap table (or NONE), data (vertices,
+// spheres, curve segments; or NONE), curve basis.
+@group(1) @binding(3) var<storage, read> _optik_geometries: array<vec4<u32>>;
+@group(1) @binding(4) var<storage, read> _optik_data: array<u32>;
+
+// Set by the stage wrapper: which program kind the stage runs, and for hit programs the
+// primitive their hit group serves. Constant per stage, so drivers fold the branches on them.
+var<private> _optik_stage: u32;
+var<private> _optik_ctx: u32;
+"#;
+
+/// Helpers every configuration has.
+const HELPERS: &str = r#"
+fn _optik_slot() -> u32 {
+    let id = _optik_launch_id();
+    let n = _optik_launch_size();
+    return id.x + n.x * (id.y + n.y * id.z);
+}
+
+fn _optik_finite3(v: vec3<f32>) -> bool {
+    let e = bitcast<vec3<u32>>(v) & vec3<u32>(0x7F800000u);
+    return all(e != vec3<u32>(0x7F800000u));
+}
+
+// The invalid-ray policy of optik_api::semantics::ray, on bit patterns so that no compiler's
+// fast-math can fold the NaN cases away.
+fn _optik_ray_valid(origin: vec3<f32>, direction: vec3<f32>, tmin: f32, tmax: f32) -> bool {
+    if !_optik_finite3(origin) || !_optik_finite3(direction) {
+        return false;
+    }
+    let bmin = bitcast<u32>(tmin);
+    // tmin must be +0.0..+inf or -0.0; negatives and NaNs fail.
+    if bmin > 0x7F800000u && bmin != 0x80000000u {
+        return false;
+    }
+    if (bitcast<u32>(tmax) & 0x7FFFFFFFu) > 0x7F800000u {
+        return false;
+    }
+    return !(tmin > tmax);
+}
+
+// Vulkan allows only one of OpaqueKHR, NoOpaqueKHR, CullOpaqueKHR and CullNoOpaqueKHR, and not
+// both face-culling flags; optik_api::semantics::opacity defines every combination. Folds the
+// flags into one Vulkan allows, with the same outcome: combinations that cull every candidate
+// clear the mask instead. Both face-culling flags keep back-face culling only (documented).
+fn _optik_vk_ray_flags(flags: u32, mask: ptr<function, u32>) -> u32 {
+    var f = flags & 0xFFu;
+    let cull_disabled = (f & 64u) != 0u;
+    let cull_enforced = (f & 128u) != 0u;
+    if (f & 1u) != 0u {
+        if cull_disabled {
+            *mask = 0u;
+        }
+        f = f & ~(2u | 64u | 128u);
+    } else if (f & 2u) != 0u {
+        if cull_enforced {
+            *mask = 0u;
+        }
+        f = f & ~(64u | 128u);
+    } else if cull_disabled && cull_enforced {
+        *mask = 0u;
+        f = f & ~(64u | 128u);
+    }
+    if (f & 48u) == 48u {
+        f = f & ~32u;
+    }
+    return f;
+}
+
+fn _optik_geometry_record() -> vec4<u32> {
+    let inst = _optik_instances[_optik_instance_custom_index()];
+    return _optik_geometries[inst.z + _optik_geometry_index()];
+}
+
+fn _optik_data_vec3(i: u32) -> vec3<f32> {
+    return bitcast<vec3<f32>>(vec3<u32>(_optik_data[i], _optik_data[i + 1u], _optik_data[i + 2u]));
+}
+
+fn _optik_data_vec4(i: u32) -> vec4<f32> {
+    return bitcast<vec4<f32>>(vec4<u32>(_optik_data[i], _optik_data[i + 1u], _optik_data[i + 2u], _optik_data[i + 3u]));
+}
+
+fn _optik_attribute_f32(i: u32) -> f32 {
+    return bitcast<f32>(_optik_attribute_get(i));
+}
+
+fn _optik_sbt_word(i: u32) -> u32 {
+    return _optik_sbt_u32(min(i, $SBT_DATA_LAST));
+}
+"#;
+
+/// The state bookkeeping: depth, ray fields, exceptions. Bodies shrink to constants when the
+/// configuration has no state.
+fn state_functions(c: &LoweringConfig) -> String {
+    let mut s = String::new();
+    let state = c.uses_state();
+    // The trace depth of the program running: the ray it serves (0 in raygen).
+    if c.track_depth {
+        s.push_str(
+            "fn _optik_depth() -> u32 {\n    return (_optik_state[_optik_slot()].y >> 8u) & 0xFFu;\n}\n",
+        );
+    } else {
+        s.push_str("fn _optik_depth() -> u32 {\n    return select(1u, 0u, _optik_stage == _OPTIK_STAGE_RAYGEN);\n}\n");
+    }
+    if state {
+        s.push_str(STATE_FUNCTIONS);
+    }
+    if c.unwinds() {
+        s.push_str(&EXCEPTION_FUNCTIONS.replace(
+            "$RUN_EXCEPTION_PROGRAM",
+            if c.exception_program {
+                "var data: RtPayload;\n        _optik_execute_callable(0u, &data);"
+            } else {
+                "// No exception program: the launch index ends, as with OptiX's default handler."
+            },
+        ));
+    } else {
+        s.push_str("fn _optik_unwinding() -> bool {\n    return false;\n}\n");
+    }
+    s
+}
+
+const STATE_FUNCTIONS: &str = r#"
+fn _optik_state_init() {
+    _optik_state[_optik_slot()] = vec4<u32>(0u, 0u, 0u, 0u);
+}
+
+// Sets the ray fields for a new trace at `depth`; returns the caller's, for _optik_trace_leave.
+fn _optik_trace_enter(depth: u32, time: f32, mask: u32, flags: u32) -> vec3<u32> {
+    let s = _optik_slot();
+    let old = _optik_state[s];
+    _optik_state[s] = vec4<u32>(
+        bitcast<u32>(time),
+        (old.y & 0xFFFF0000u) | ((depth & 0xFFu) << 8u) | (mask & 0xFFu),
+        (old.z & 0xFFFF0000u) | (flags & 0xFFFFu),
+        old.w);
+    return old.xyz;
+}
+
+fn _optik_trace_leave(saved: vec3<u32>) {
+    let s = _optik_slot();
+    let cur = _optik_state[s];
+    _optik_state[s] = vec4<u32>(saved.x, (cur.y & 0xFFFF0000u) | (saved.y & 0xFFFFu), (cur.z & 0xFFFF0000u) | (saved.z & 0xFFFFu), cur.w);
+}
+
+// The 8-bit counter at bit `shift` of state.y (continuation and direct call depths).
+fn _optik_counter(shift: u32) -> u32 {
+    return (_optik_state[_optik_slot()].y >> shift) & 0xFFu;
+}
+
+fn _optik_counter_set(shift: u32, value: u32) {
+    let s = _optik_slot();
+    let cur = _optik_state[s];
+    _optik_state[s] = vec4<u32>(cur.x, (cur.y & ~(0xFFu << shift)) | ((value & 0xFFu) << shift), cur.z, cur.w);
+}
+"#;
+
+const EXCEPTION_FUNCTIONS: &str = r#"
+// Raises an exception: the first one of a launch index counts. Programs then unwind (the
+// lowering returns from every function after a call that may raise) to their stage wrapper,
+// which runs the exception program where Vulkan allows a callable (raygen, closest-hit, miss,
+// callables); intersection and any-hit stages end their traversal instead and leave it to the
+// stage that traced.
+fn _optik_raise(code: i32) {
+    _optik_unwound = true;
+    let s = _optik_slot();
+    let cur = _optik_state[s];
+    if (cur.z >> 16u) == 0u {
+        _optik_state[s] = vec4<u32>(cur.x, cur.y, (cur.z & 0xFFFFu) | (1u << 16u), bitcast<u32>(code));
+    }
+}
+
+// Set when this stage raised, or a stage it traced or called did: user functions return.
+var<private> _optik_unwound: bool;
+
+// Whether an exception was raised for this launch index: the program must return at once.
+fn _optik_unwinding() -> bool {
+    return (_optik_state[_optik_slot()].z >> 16u) != 0u;
+}
+
+// At the end of a raygen, closest-hit, miss or callable stage: runs the exception program
+// for an exception not handled yet. The exception is marked handled first, so the stages the
+// exception program runs in (and the null callable standing in for a missing one) do not
+// run it again.
+fn _optik_exit_stage() {
+    let s = _optik_slot();
+    let cur = _optik_state[s];
+    if (cur.z >> 16u) == 1u {
+        _optik_state[s] = vec4<u32>(cur.x, cur.y, (cur.z & 0xFFFFu) | (2u << 16u), cur.w);
+        $RUN_EXCEPTION_PROGRAM
+    }
+}
+"#;
+
+/// `_optik_raise(code)` when `flag` is checked, else nothing.
+fn raise_if(c: &LoweringConfig, flag: ExceptionFlags, code: &str) -> String {
+    if c.exceptions.contains(flag) {
+        format!("_optik_raise({code});")
+    } else {
+        String::new()
+    }
+}
+
+/// The device functions with their Vulkan bodies, in the API prelude's order and signatures.
+fn device_functions(c: &LoweringConfig) -> String {
+    use optik_api::frontend::DeviceFunction as F;
+    let last_payload = c.payload_len.max(1) - 1;
+    let state = c.uses_state();
+    let mut s = String::new();
+    for f in F::ALL {
+        let body: String = match f {
+            F::LaunchIndex => "return _optik_launch_id();".into(),
+            F::LaunchDimensions => "return _optik_launch_size();".into(),
+            F::Trace => trace_body(c),
+            F::GetPayload => format!("return _optik_payload_get(min(i, {last_payload}u));"),
+            F::SetPayload => format!("_optik_payload_set(min(i, {last_payload}u), value);"),
+            F::GetAttribute => "return _optik_attribute_get(min(i, 7u));".into(),
+            // OptiX keeps 7 bits of a reported hit kind; Vulkan reserves 128..255 too.
+            F::ReportIntersection => "return _optik_report_intersection(t, hit_kind & 0x7Fu, attributes);".into(),
+            F::IgnoreIntersection => "_optik_ignore_intersection();".into(),
+            F::TerminateRay => "_optik_terminate_ray();".into(),
+            F::WorldRayOrigin => "return _optik_world_ray_origin();".into(),
+            F::WorldRayDirection => "return _optik_world_ray_direction();".into(),
+            F::ObjectRayOrigin => "return _optik_object_ray_origin();".into(),
+            F::ObjectRayDirection => "return _optik_object_ray_direction();".into(),
+            F::RayTmin => "return _optik_ray_tmin();".into(),
+            F::RayTmax => "return _optik_ray_tmax();".into(),
+            F::RayTime if c.motion => "return bitcast<f32>(_optik_state[_optik_slot()].x);".into(),
+            // Without motion, rays carry no time (OptiX returns 0).
+            F::RayTime => "return 0.0;".into(),
+            F::RayFlags if c.track_ray_flags => "return _optik_state[_optik_slot()].z & 0xFFFFu;".into(),
+            F::RayFlags => "return _optik_ray_flags();".into(),
+            F::RayMask if c.track_ray_flags => "return _optik_state[_optik_slot()].y & 0xFFu;".into(),
+            F::RayMask => "return 0xFFu;".into(),
+            F::PrimitiveIndex => PRIMITIVE_INDEX.into(),
+            // Each SBT record of a build input is its own Vulkan geometry, numbered as OptiX
+            // numbers records, so the geometry index is the SBT GAS index.
+            F::SbtGasIndex => "return _optik_geometry_index();".into(),
+            F::InstanceId => "return _optik_instances[_optik_instance_custom_index()].x;".into(),
+            F::InstanceIndex => "return _optik_instances[_optik_instance_custom_index()].y;".into(),
+            F::HitKind => HIT_KIND.into(),
+            F::IsFrontFaceHit => {
+                "let k = rt_hit_kind();\n    if k >= 0x80u {\n        return k == RT_HIT_KIND_TRIANGLE_FRONT_FACE;\n    }\n    return (k & 1u) == 0u;".into()
+            }
+            F::TriangleBarycentrics => "return vec2<f32>(_optik_attribute_f32(0u), _optik_attribute_f32(1u));".into(),
+            F::TriangleVertices => TRIANGLE_VERTICES.into(),
+            F::Sphere => {
+                "if _optik_ctx != _OPTIK_CTX_SPHERE {\n        return vec4<f32>();\n    }\n    return vec4<f32>(_optik_attribute_f32(0u), _optik_attribute_f32(1u), _optik_attribute_f32(2u), _optik_attribute_f32(3u));".into()
+            }
+            F::CurveParameter => {
+                "if _optik_ctx != _OPTIK_CTX_CURVE {\n        return 0.0;\n    }\n    return _optik_attribute_f32(0u);".into()
+            }
+            F::ObjectToWorld => "return _optik_object_to_world();".into(),
+            F::WorldToObject => "return _optik_world_to_object();".into(),
+            F::SbtDataU32 => "return _optik_sbt_word(i);".into(),
+            F::SbtDataF32 => "return bitcast<f32>(_optik_sbt_word(i));".into(),
+            F::DirectCall => direct_call_body(c),
+            F::ContinuationCall => continuation_call_body(c),
+            F::ThrowException => raise_if(c, ExceptionFlags::USER, "i32(code & 0x3FFFFFFFu)"),
+            F::ExceptionCode if state => "return bitcast<i32>(_optik_state[_optik_slot()].w);".into(),
+            F::ExceptionCode => "return 0i;".into(),
+            F::RemainingTraceDepth => {
+                format!("return {max}u - min(_optik_depth(), {max}u);", max = c.max_trace_depth)
+            }
+            F::OffsetRay => {
+                s.push_str(&format!("fn {}{} {}\n", f.name(), f.signature(), OFFSET_RAY_BODY));
+                continue;
+            }
+        };
+        s.push_str(&format!(
+            "fn {}{} {{\n    {}\n}}\n",
+            f.name(),
+            f.signature(),
+            body
+        ));
+    }
+    s
+}
+
+const PRIMITIVE_INDEX: &str = "let g = _optik_geometry_record();
+    var p = _optik_primitive_id();
+    if g.y != 0xFFFFFFFFu {
+        p = _optik_data[g.y + p];
+    }
+    return p + g.x;";
+
+const HIT_KIND: &str = "let k = _optik_hit_kind();
+    // optik's sphere and curve stages report 0 (entering) or 1 (leaving); programs see the
+    // face kinds built-in primitives have (optik_api::wgsl, sphere.wgsl).
+    if _optik_ctx >= _OPTIK_CTX_SPHERE {
+        return select(RT_HIT_KIND_TRIANGLE_BACK_FACE, RT_HIT_KIND_TRIANGLE_FRONT_FACE, k == 0u);
+    }
+    return k;";
+
+const TRIANGLE_VERTICES: &str = "if _optik_ctx != _OPTIK_CTX_TRIANGLES {
+        return array<vec3<f32>, 3>();
+    }
+    let g = _optik_geometry_record();
+    if g.z == 0xFFFFFFFFu {
+        return array<vec3<f32>, 3>();
+    }
+    let b = g.z + _optik_primitive_id() * 9u;
+    return array<vec3<f32>, 3>(_optik_data_vec3(b), _optik_data_vec3(b + 3u), _optik_data_vec3(b + 6u));";
+
+fn trace_body(c: &LoweringConfig) -> String {
+    let state = c.uses_state();
+    let mut b = String::new();
+    b.push_str("if !_optik_ray_valid(origin, direction, tmin, tmax) {\n");
+    b.push_str(&format!(
+        "        {}\n",
+        raise_if(c, ExceptionFlags::DEBUG, "RT_EXCEPTION_CODE_INVALID_RAY")
+    ));
+    b.push_str("        return;\n    }\n");
+    b.push_str("    let depth = _optik_depth();\n");
+    b.push_str(&format!("    if depth >= {}u {{\n", c.max_trace_depth));
+    b.push_str(&format!(
+        "        {}\n",
+        raise_if(
+            c,
+            ExceptionFlags::TRACE_DEPTH,
+            "RT_EXCEPTION_CODE_TRACE_DEPTH_EXCEEDED"
+        )
+    ));
+    b.push_str("        return;\n    }\n");
+    b.push_str("    var miss = miss_index & 0xFFFFu;\n");
+    b.push_str("    if miss >= _optik_launch.miss_count {\n");
+    if c.exceptions.contains(ExceptionFlags::DEBUG) {
+        b.push_str("        _optik_raise(RT_EXCEPTION_CODE_INVALID_MISS_SBT);\n        return;\n");
+    } else {
+        // The record after the user's is a null miss record: hits still run, misses run nothing.
+        b.push_str("        miss = _optik_launch.miss_count;\n");
+    }
+    b.push_str("    }\n");
+    b.push_str("    var accel = handle;\n");
+    b.push_str("    if accel.x == 0u && accel.y == 0u {\n        accel = _optik_launch.empty_tlas;\n    }\n");
+    b.push_str("    var vk_mask = mask & 0xFFu;\n");
+    b.push_str("    let vk_flags = _optik_vk_ray_flags(flags, &vk_mask);\n");
+    if state {
+        b.push_str("    let saved = _optik_trace_enter(depth + 1u, time, mask, flags);\n");
+    }
+    b.push_str(
+        "    _optik_trace(accel, vk_flags, vk_mask, sbt_offset & 0xFu, sbt_stride & 0xFu, miss, origin, tmin, direction, tmax, payload);\n",
+    );
+    if state {
+        b.push_str("    _optik_trace_leave(saved);");
+    }
+    if c.unwinds() {
+        b.push_str("\n    _optik_unwound = _optik_unwinding();");
+    }
+    b
+}
+
+/// A callable call's body: the index checked against the user's callable records, the call
+/// nested inside a depth guard (the 8-bit counter at bit `counter` of the state's `y`, up to
+/// `max_depth`) when `guarded`, and the unwinding flag refreshed after it.
+fn call_body(c: &LoweringConfig, call: &str, guarded: Option<(u32, u32)>) -> String {
+    let mut b = String::new();
+    b.push_str("if index >= _optik_launch.callable_count {\n");
+    b.push_str(&format!(
+        "        {}\n        return;\n    }}\n",
+        raise_if(
+            c,
+            ExceptionFlags::DEBUG,
+            "RT_EXCEPTION_CODE_CALLABLE_INVALID_SBT"
+        )
+    ));
+    if let Some((counter, max_depth)) = guarded {
+        b.push_str(&format!("    let depth = _optik_counter({counter}u);\n"));
+        b.push_str(&format!("    if depth >= {}u {{\n", max_depth.min(255)));
+        b.push_str(&format!(
+            "        {}\n        return;\n    }}\n",
+            raise_if(
+                c,
+                ExceptionFlags::STACK_OVERFLOW,
+                "RT_EXCEPTION_CODE_STACK_OVERFLOW"
+            )
+        ));
+        b.push_str(&format!(
+            "    _optik_counter_set({counter}u, depth + 1u);\n"
+        ));
+    }
+    b.push_str(&format!("    {call}"));
+    if let Some((counter, _)) = guarded {
+        b.push_str(&format!("\n    _optik_counter_set({counter}u, depth);"));
+    }
+    if c.unwinds() {
+        b.push_str("\n    _optik_unwound = _optik_unwinding();");
+    }
+    b
+}
+
+fn direct_call_body(c: &LoweringConfig) -> String {
+    let call = format!("_optik_execute_callable(index + {CALLABLE_FIRST_USER}u, args);");
+    call_body(
+        c,
+        &call,
+        c.guard_direct_calls
+            .then_some((24, c.max_direct_callable_depth)),
+    )
+}
+
+fn continuation_call_body(c: &LoweringConfig) -> String {
+    if !c.continuation_calls {
+        return String::new();
+    }
+    // Vulkan callables cannot trace: continuation callables are miss stages placed after the
+    // user's miss records (and the null miss record), reached by a ray that misses the empty
+    // acceleration structure.
+    let call = "_optik_trace(_optik_launch.empty_tlas, 0u, 0xFFu, 0u, 0u, _optik_launch.miss_count + 1u + index, vec3<f32>(0.0), 0.0, vec3<f32>(0.0, 0.0, 1.0), 0.0, args);";
+    call_body(c, call, Some((16, c.max_continuation_callable_depth)))
+}
+
+/// The compute wrapper naga writes for a stage: it sets the stage's constants, runs the
+/// program, and does the stage's part of the exception scheme.
+pub fn wrapper(entry_fn: &str, role: &StageRole, c: &LoweringConfig) -> String {
+    let kind = role.behaves_as();
+    let ctx = match role {
+        StageRole::Program {
+            context: Some(ctx), ..
+        } => *ctx,
+        StageRole::SphereIntersection => HitContext::Sphere,
+        StageRole::CurveIntersection(_) => HitContext::Curve,
+        _ => HitContext::Triangles,
+    };
+    let program = match role {
+        StageRole::Program { name, .. } => name.clone(),
+        StageRole::SphereIntersection => "_optik_builtin_sphere".into(),
+        StageRole::CurveIntersection(_) => "_optik_builtin_curve".into(),
+        StageRole::NullCallable | StageRole::NullContinuation => "_optik_null_callable".into(),
+    };
+    let mut b = String::new();
+    b.push_str(&format!(
+        "\n@compute @workgroup_size(1)\nfn {entry_fn}() {{\n"
+    ));
+    b.push_str(&format!(
+        "    _optik_stage = {}u;\n    _optik_ctx = {}u;\n",
+        stage_code(kind),
+        ctx.code()
+    ));
+    let unwinds = c.unwinds();
+    match kind {
+        ProgramKind::Raygen => {
+            if c.uses_state() {
+                b.push_str("    _optik_state_init();\n");
+            }
+            b.push_str(&format!("    {program}();\n"));
+        }
+        ProgramKind::Exception => b.push_str(&format!("    {program}();\n")),
+        ProgramKind::AnyHit => {
+            if unwinds {
+                b.push_str("    if _optik_unwinding() {\n        _optik_terminate_ray();\n    }\n");
+            }
+            b.push_str(&format!("    {program}();\n"));
+            if unwinds {
+                b.push_str("    if _optik_unwinding() {\n        _optik_terminate_ray();\n    }\n");
+            }
+        }
+        ProgramKind::Intersection => {
+            if unwinds {
+                b.push_str("    if _optik_unwinding() {\n        return;\n    }\n");
+            }
+            b.push_str(&format!("    {program}();\n"));
+        }
+        _ => {
+            if unwinds {
+                b.push_str("    if _optik_unwinding() {\n        return;\n    }\n");
+            }
+            b.push_str(&format!("    {program}();\n"));
+        }
+    }
+    if unwinds
+        && !matches!(
+            kind,
+            ProgramKind::AnyHit | ProgramKind::Intersection | ProgramKind::Exception
+        )
+    {
+        b.push_str("    _optik_exit_stage();\n");
+    }
+    b.push_str("}\n");
+    b
+}
+
+/// The WGSL of optik's own programs: the built-in sphere and curve intersection stages and
+/// the null callable. Compiled with the shared intersectors of `optik_api::wgsl` and the
+/// prelude, like a user module.
+pub fn internal_programs(c: &LoweringConfig, curve_basis: u32) -> String {
+    let null_body = raise_if(
+        c,
+        ExceptionFlags::DEBUG,
+        "RT_EXCEPTION_CODE_CALLABLE_INVALID_SBT",
+    );
+    format!(
+        r#"{sphere}
+{curve}
+
+// A sphere of a sphere build input: its centre and radius are in the data table (object
+// space). Reports the entry hit (kind 0) and, when that is out of range or ignored, the exit
+// (kind 1); the object-space sphere goes into attributes 0..3 for rt_sphere.
+fn _optik_builtin_sphere() {{
+    let g = _optik_geometry_record();
+    let s = _optik_data_vec4(g.z + _optik_primitive_id() * 4u);
+    let tmin = _optik_ray_tmin();
+    let roots = optik_sphere_roots(s.xyz, s.w, _optik_object_ray_origin(), _optik_object_ray_direction());
+    if roots.z == 0.0 {{
+        return;
+    }}
+    var attributes: RtAttributes;
+    attributes[0] = bitcast<u32>(s.x);
+    attributes[1] = bitcast<u32>(s.y);
+    attributes[2] = bitcast<u32>(s.z);
+    attributes[3] = bitcast<u32>(s.w);
+    if roots.x >= tmin && roots.x <= _optik_ray_tmax() {{
+        if _optik_report_intersection(roots.x, 0u, attributes) {{
+            return;
+        }}
+    }}
+    if roots.y >= tmin && roots.y <= _optik_ray_tmax() {{
+        _optik_report_intersection(roots.y, 1u, attributes);
+    }}
+}}
+
+// A curve segment of a curve build input: 4 control points (xyz, radius) and the cap flags
+// (bit 0 start, bit 1 end) in the data table. The curve parameter goes into attribute 0.
+fn _optik_builtin_curve() {{
+    let g = _optik_geometry_record();
+    let b = g.z + _optik_primitive_id() * 17u;
+    let caps = _optik_data[b + 16u];
+    let hit = optik_curve_intersect({curve_basis}u, _optik_data_vec4(b), _optik_data_vec4(b + 4u), _optik_data_vec4(b + 8u), _optik_data_vec4(b + 12u),
+        (caps & 1u) != 0u, (caps & 2u) != 0u, _optik_object_ray_origin(), _optik_object_ray_direction(), _optik_ray_tmin(), _optik_ray_tmax());
+    if hit.z != 0.0 {{
+        var attributes: RtAttributes;
+        attributes[0] = bitcast<u32>(hit.y);
+        _optik_report_intersection(hit.x, 0u, attributes);
+    }}
+}}
+
+// Stands in for callable records without the kind of callable called, and for indices past
+// the table.
+fn _optik_null_callable() {{
+    {null_body}
+}}
+"#,
+        sphere = optik_api::wgsl::SPHERE,
+        curve = optik_api::wgsl::CURVE,
+    )
+}

@@ -1,0 +1,449 @@
+//! The user's shader binding table (OptiX layout: 32-byte headers from
+//! `sbt_record_pack_header`, 16-byte aligned records) translated into Vulkan's at launch.
+//!
+//! Each user record becomes a Vulkan record: the shader group handle of the group its header
+//! names (the device's `shaderGroupHandleSize` bytes), then the user's data. Strides are the
+//! user's data plus the handle, aligned to `shaderGroupHandleAlignment`; regions start on
+//! `shaderGroupBaseAlignment`; strides past `maxShaderGroupStride` are an error that says
+//! which stride to use. Regions (Vulkan indices):
+//! - raygen: the raygen record;
+//! - miss: the user's miss records `0..M`, a null record at `M` (misses with an index past the
+//!   table run nothing), then the continuation callables of the user's callable records at
+//!   `M + 1 + i` (continuation callables run as miss stages) and a null continuation;
+//! - hit: the user's hit records, then null records up to the highest index a ray of the
+//!   live scene can select (bounded), so an index past the table runs no program instead of
+//!   reading past the buffer;
+//! - callable: the exception program at 0, the null callable at 1, the direct callables of
+//!   the user's callable records from 2.
+//!
+//! Translations are cached per pipeline and keyed by the table, the buffers' generations and
+//! the scene's reach, so a launch loop over an unchanged table reads nothing back.
+
+use crate::device::Inner;
+use crate::memory::{Allocator, GpuBuffer, Location};
+use crate::pipeline::{GroupHandles, PipelineObject};
+use crate::program::prelude::SBT_DATA_WORDS;
+use ash::vk;
+use optik_api::decode::BufferBytes;
+use optik_api::*;
+use std::sync::Arc;
+
+/// Null hit records added past the user's at most (bounded padding).
+const MAX_HIT_PADDING: u64 = 1 << 16;
+/// Cached translations per pipeline.
+const CACHE_ENTRIES: usize = 4;
+
+/// What decides a translation.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SbtKey {
+    table: ShaderBindingTable,
+    generations: Vec<(Buffer, u64)>,
+    hit_reach: u64,
+}
+
+/// A Vulkan shader binding table.
+pub struct TranslatedSbt {
+    key: SbtKey,
+    buffer: GpuBuffer,
+    /// The raygen region.
+    pub raygen: vk::StridedDeviceAddressRegionKHR,
+    /// The miss region (misses, then continuation callables).
+    pub miss: vk::StridedDeviceAddressRegionKHR,
+    /// The hit group region.
+    pub hit: vk::StridedDeviceAddressRegionKHR,
+    /// The callable region (exception, null, direct callables).
+    pub callable: vk::StridedDeviceAddressRegionKHR,
+    /// The user's miss records.
+    pub miss_count: u32,
+    /// The user's callable records.
+    pub callable_count: u32,
+}
+
+impl TranslatedSbt {
+    /// Frees the buffer.
+    pub fn destroy(self, ctx: &crate::context::Context, alloc: &mut Allocator) {
+        self.buffer.destroy(ctx, alloc);
+    }
+}
+
+fn align(v: u64, a: u64) -> u64 {
+    if a <= 1 { v } else { v.div_ceil(a) * a }
+}
+
+/// One record to write: a handle (or zeros) and data.
+struct Record {
+    handle: Option<Vec<u8>>,
+    data: Vec<u8>,
+}
+
+/// A region to lay out.
+struct Region {
+    name: &'static str,
+    records: Vec<Record>,
+    /// The user's stride when records come from an array (for the error message).
+    user_stride: Option<u32>,
+}
+
+/// Reads and checks user records.
+struct Reader<'a> {
+    bytes: &'a dyn BufferBytes,
+    pipeline: &'a PipelineObject,
+}
+
+impl Reader<'_> {
+    /// The handles of the group a record's header names; checks the group is in the pipeline
+    /// and belongs in `region`.
+    fn header(
+        &self,
+        what: &str,
+        buffer: Buffer,
+        offset: u64,
+        region: GroupRegion,
+    ) -> Result<&GroupHandles> {
+        let bytes = self.bytes.bytes(buffer)?;
+        let header = bytes
+            .get(offset as usize..offset as usize + sbt::SBT_RECORD_HEADER_SIZE as usize)
+            .and_then(SbtHeader::unpack)
+            .ok_or_else(|| {
+                Error::invalid(format!(
+                    "{what} at byte {offset} holds no record header; write the 32 bytes sbt_record_pack_header returns at the start of every record"
+                ))
+            })?;
+        let (group_region, handles) = self.pipeline.handles.get(&header.group).ok_or_else(|| {
+            Error::invalid(format!(
+                "{what}: its header names program group {:?}, which is not one of this pipeline's groups (pack headers for the groups the pipeline was created with)",
+                header.group
+            ))
+        })?;
+        if *group_region != region {
+            return Err(Error::invalid(format!(
+                "{what}: its header names a {} group, but the record is in the {} region",
+                group_region.name(),
+                region.name()
+            )));
+        }
+        Ok(handles)
+    }
+
+    fn data(&self, buffer: Buffer, offset: u64, len: u64) -> Result<Vec<u8>> {
+        let bytes = self.bytes.bytes(buffer)?;
+        let start = (offset + sbt::SBT_RECORD_HEADER_SIZE as u64) as usize;
+        let end = (start + len as usize).min(bytes.len());
+        Ok(bytes
+            .get(start..end)
+            .map(|b| b.to_vec())
+            .unwrap_or_default())
+    }
+
+    fn array(
+        &self,
+        what: &str,
+        r: &SbtRegion,
+        region: GroupRegion,
+    ) -> Result<Vec<(GroupHandles, Vec<u8>)>> {
+        (0..r.count)
+            .map(|k| {
+                let offset = r.offset + k as u64 * r.stride as u64;
+                let handles = self
+                    .header(&format!("{what} record {k}"), r.buffer, offset, region)?
+                    .clone();
+                let data = self.data(
+                    r.buffer,
+                    offset,
+                    (r.stride - sbt::SBT_RECORD_HEADER_SIZE) as u64,
+                )?;
+                Ok((handles, data))
+            })
+            .collect()
+    }
+}
+
+impl Inner {
+    /// The Vulkan table for a launch of `pipeline` with `table`: cached, or translated now.
+    pub fn translate_sbt(
+        &mut self,
+        pipeline: Pipeline,
+        table: &ShaderBindingTable,
+    ) -> Result<Arc<TranslatedSbt>> {
+        let mut buffers = vec![table.raygen.buffer];
+        buffers.extend(table.exception.iter().map(|r| r.buffer));
+        buffers.extend(
+            [table.miss, table.hitgroup, table.callables]
+                .iter()
+                .flatten()
+                .map(|r| r.buffer),
+        );
+        buffers.sort();
+        buffers.dedup();
+        let mut generations = Vec::with_capacity(buffers.len());
+        for b in &buffers {
+            generations.push((*b, self.buffers.get(*b)?.generation));
+        }
+        let hit_reach = self
+            .accels
+            .iter()
+            .map(|(_, a)| a.sbt_reach())
+            .max()
+            .unwrap_or(0);
+        let key = SbtKey {
+            table: *table,
+            generations,
+            hit_reach,
+        };
+        if let Some(t) = self
+            .pipelines
+            .get(pipeline)?
+            .sbt_cache
+            .iter()
+            .find(|t| t.key == key)
+        {
+            return Ok(t.clone());
+        }
+        // Reading the table waits for launches that may write it.
+        let snapshot_buffers = buffers.clone();
+        let max_stride = self.ctx.info.max_shader_group_stride as u64;
+        let handle_size = self.ctx.info.shader_group_handle_size as u64;
+        let regions = {
+            let downloaded = self.download_for_snapshot(&snapshot_buffers)?;
+            let snapshot = self.snapshot_view(downloaded, &snapshot_buffers)?;
+            let reader = Reader {
+                bytes: &snapshot,
+                pipeline: self.pipelines.get(pipeline)?,
+            };
+            read_regions(
+                &reader,
+                table,
+                hit_reach,
+                max_stride.saturating_sub(handle_size),
+            )?
+        };
+        let translated = self.lay_out(key, regions, table)?;
+        let p = self.pipelines.get_mut(pipeline)?;
+        let translated = Arc::new(translated);
+        p.sbt_cache.insert(0, translated.clone());
+        let evicted: Vec<Arc<TranslatedSbt>> = if p.sbt_cache.len() > CACHE_ENTRIES {
+            p.sbt_cache.split_off(CACHE_ENTRIES)
+        } else {
+            Vec::new()
+        };
+        for t in evicted {
+            // In-flight launches hold their table; the last holder frees it (launch.rs).
+            if let Ok(t) = Arc::try_unwrap(t) {
+                t.destroy(&self.ctx, &mut self.alloc);
+            }
+        }
+        Ok(translated)
+    }
+
+    /// Writes the regions into a new buffer in Vulkan's layout.
+    fn lay_out(
+        &mut self,
+        key: SbtKey,
+        regions: [Region; 4],
+        table: &ShaderBindingTable,
+    ) -> Result<TranslatedSbt> {
+        let info = &self.ctx.info;
+        let (hs, ha, ba, max_stride) = (
+            info.shader_group_handle_size as u64,
+            info.shader_group_handle_alignment.max(1) as u64,
+            info.shader_group_base_alignment.max(1) as u64,
+            info.max_shader_group_stride as u64,
+        );
+        let mut layout = Vec::with_capacity(4);
+        let mut size = 0u64;
+        for r in &regions {
+            let data = r
+                .records
+                .iter()
+                .map(|x| x.data.len() as u64)
+                .max()
+                .unwrap_or(0);
+            let stride = align(hs + data, ha);
+            if stride > max_stride {
+                let advice = match r.user_stride {
+                    Some(s) => format!(
+                        " (user stride {s}); keep the stride at most {}",
+                        (max_stride - hs + sbt::SBT_RECORD_HEADER_SIZE as u64) / 16 * 16
+                    ),
+                    None => String::new(),
+                };
+                return Err(Error::limit(format!(
+                    "the {} region's records need {stride} bytes in Vulkan's table (a {hs}-byte handle and {data} bytes of data), more than this device's maxShaderGroupStride of {max_stride}{advice}",
+                    r.name
+                )));
+            }
+            let start = align(size, ba);
+            size = start + stride * r.records.len() as u64;
+            layout.push((start, stride));
+        }
+        let total = align(size, 16) + SBT_DATA_WORDS as u64 * 4;
+        let mut bytes = vec![0u8; total as usize];
+        for (r, (start, stride)) in regions.iter().zip(&layout) {
+            for (k, rec) in r.records.iter().enumerate() {
+                let at = (start + k as u64 * stride) as usize;
+                if let Some(h) = &rec.handle {
+                    bytes[at..at + h.len()].copy_from_slice(h);
+                }
+                let d = at + hs as usize;
+                bytes[d..d + rec.data.len()].copy_from_slice(&rec.data);
+            }
+        }
+        let buffer = GpuBuffer::new(
+            &self.ctx,
+            &mut self.alloc,
+            total,
+            vk::BufferUsageFlags::SHADER_BINDING_TABLE_KHR,
+            Location::HostVisible,
+            ba,
+        )?;
+        if let Err(e) = buffer.write(0, &bytes) {
+            buffer.destroy(&self.ctx, &mut self.alloc);
+            return Err(e);
+        }
+        let region = |i: usize, n: usize| vk::StridedDeviceAddressRegionKHR {
+            device_address: buffer.address + layout[i].0,
+            stride: layout[i].1,
+            size: layout[i].1 * n as u64,
+        };
+        let raygen = region(0, 1);
+        let miss = region(1, regions[1].records.len());
+        let hit = region(2, regions[2].records.len());
+        let callable = region(3, regions[3].records.len());
+        Ok(TranslatedSbt {
+            key,
+            raygen,
+            miss,
+            hit,
+            callable,
+            miss_count: table.miss.map_or(0, |m| m.count),
+            callable_count: table.callables.map_or(0, |c| c.count),
+            buffer,
+        })
+    }
+}
+
+/// Reads the user's records into the four Vulkan regions.
+fn read_regions(
+    reader: &Reader,
+    table: &ShaderBindingTable,
+    hit_reach: u64,
+    max_data: u64,
+) -> Result<[Region; 4]> {
+    let single_data = |buffer: Buffer, offset: u64| -> Result<Vec<u8>> {
+        // A single record's data runs to the end of its buffer; Vulkan's record holds as much
+        // of it as the largest stride allows.
+        let len = reader.bytes.bytes(buffer)?.len() as u64;
+        let available = len.saturating_sub(offset + sbt::SBT_RECORD_HEADER_SIZE as u64);
+        reader.data(buffer, offset, available.min(max_data) / 4 * 4)
+    };
+    let p = reader.pipeline;
+    let rg = reader.header(
+        "sbt.raygen",
+        table.raygen.buffer,
+        table.raygen.offset,
+        GroupRegion::Raygen,
+    )?;
+    let raygen = Region {
+        name: "raygen",
+        records: vec![Record {
+            handle: rg.primary.clone(),
+            data: single_data(table.raygen.buffer, table.raygen.offset)?,
+        }],
+        user_stride: None,
+    };
+
+    let mut miss = Region {
+        name: "miss",
+        records: Vec::new(),
+        user_stride: table.miss.map(|m| m.stride),
+    };
+    if let Some(m) = &table.miss {
+        for (handles, data) in reader.array("sbt.miss", m, GroupRegion::Miss)? {
+            miss.records.push(Record {
+                handle: handles.primary,
+                data,
+            });
+        }
+    }
+    miss.records.push(Record {
+        handle: None,
+        data: Vec::new(),
+    });
+    let callables = match &table.callables {
+        Some(c) => reader.array("sbt.callables", c, GroupRegion::Callables)?,
+        None => Vec::new(),
+    };
+    if let Some(null_cc) = &p.null_continuation {
+        for (handles, data) in &callables {
+            miss.records.push(Record {
+                handle: Some(
+                    handles
+                        .continuation
+                        .clone()
+                        .unwrap_or_else(|| null_cc.clone()),
+                ),
+                data: data.clone(),
+            });
+        }
+        miss.records.push(Record {
+            handle: Some(null_cc.clone()),
+            data: Vec::new(),
+        });
+    }
+
+    let mut hit = Region {
+        name: "hit group",
+        records: Vec::new(),
+        user_stride: table.hitgroup.map(|h| h.stride),
+    };
+    if let Some(h) = &table.hitgroup {
+        for (handles, data) in reader.array("sbt.hitgroup", h, GroupRegion::HitGroup)? {
+            hit.records.push(Record {
+                handle: handles.primary,
+                data,
+            });
+        }
+    }
+    let wanted = (hit_reach + 1)
+        .min(hit.records.len() as u64 + MAX_HIT_PADDING)
+        .max(1);
+    while (hit.records.len() as u64) < wanted {
+        hit.records.push(Record {
+            handle: None,
+            data: Vec::new(),
+        });
+    }
+
+    let exception = match &table.exception {
+        Some(e) => {
+            let handles =
+                reader.header("sbt.exception", e.buffer, e.offset, GroupRegion::Exception)?;
+            Record {
+                handle: handles.primary.clone(),
+                data: single_data(e.buffer, e.offset)?,
+            }
+        }
+        None => Record {
+            handle: Some(p.null_callable.clone()),
+            data: Vec::new(),
+        },
+    };
+    let mut callable = Region {
+        name: "callables",
+        records: vec![
+            exception,
+            Record {
+                handle: Some(p.null_callable.clone()),
+                data: Vec::new(),
+            },
+        ],
+        user_stride: table.callables.map(|c| c.stride),
+    };
+    for (handles, data) in callables {
+        callable.records.push(Record {
+            handle: Some(handles.primary.unwrap_or_else(|| p.null_callable.clone())),
+            data,
+        });
+    }
+    Ok([raygen, miss, hit, callable])
+}

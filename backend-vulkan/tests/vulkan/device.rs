@@ -1,0 +1,190 @@
+//! The device: probing, properties from the driver, pipeline features, the on-disk pipeline
+//! cache, textures.
+
+use crate::common::*;
+use optik_api::*;
+use optik_vulkan::VulkanOptions;
+
+#[test]
+fn probe_lists_devices_with_their_properties() {
+    let devices = optik_vulkan::probe().unwrap();
+    let usable: Vec<_> = devices.iter().filter(|d| d.usable()).collect();
+    assert!(!usable.is_empty(), "{devices:?}");
+    let d = usable[0];
+    assert!(d.extensions.ray_tracing_pipeline && d.extensions.acceleration_structure);
+    assert!(
+        d.shader_group_handle_size >= 32
+            && d.max_ray_recursion_depth >= 1
+            && d.max_shader_group_stride >= 4096
+    );
+    let text = d.to_string();
+    for needle in [
+        "handle size",
+        "max recursion depth",
+        "max stride",
+        "max instances",
+        "usable by optik",
+    ] {
+        assert!(text.contains(needle), "{needle} missing from:\n{text}");
+    }
+    let dev = device();
+    let p = dev.properties();
+    assert_eq!(p.backend, BackendKind::Vulkan);
+    assert_eq!(p.max_trace_depth, d.max_ray_recursion_depth.min(31));
+    assert_eq!(
+        p.max_launch_size,
+        d.max_ray_dispatch_invocation_count as u64
+    );
+    assert_eq!(
+        p.max_sbt_record_stride,
+        (d.max_shader_group_stride + 32 - d.shader_group_handle_size) / 16 * 16
+    );
+}
+
+#[test]
+fn pipelines_compile_what_the_scene_and_programs_use() {
+    let dev = device();
+    let src = format!(
+        "{RAY_HEADER}{}",
+        r#"
+fn raygen__rg() {
+    var p: RtPayload;
+    rt_trace(params.handle, vec3<f32>(0.0), vec3<f32>(0.0, 0.0, -1.0), 0.0, 10.0, 0.0, 0xFFu, 0u, 0u, 1u, 0u, &p);
+    out[0] = p[0] + p[2];
+}
+fn closesthit__ch() { rt_set_payload(1u, 1u); }
+"#
+    );
+    let m = dev.module(&src);
+    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
+    let ch = dev.group(ProgramGroupDesc::closest_hit(prog(m, "closesthit__ch")));
+    let _gas = dev.triangles(&[[0.0; 3]; 3], GeometryFlags::NONE);
+    let p = dev.pipeline(&[rg, ch], 1);
+    let f = dev.pipeline_features(p).unwrap();
+    assert_eq!(f.primitive_types, PrimitiveTypeFlags::TRIANGLE);
+    assert_eq!(f.traversable_graph, TraversableGraph::SingleGas);
+    assert!(!f.motion && !f.any_hit && !f.intersection && !f.direct_callables);
+    assert_eq!(f.exceptions, ExceptionFlags::NONE);
+    assert_eq!(f.num_payload_values, 3);
+}
+
+#[test]
+fn the_pipeline_cache_is_kept_on_disk() {
+    let dir = std::env::temp_dir().join(format!("optik-vulkan-cache-test-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let options = VulkanOptions {
+        validation: true,
+        device: None,
+        force_staging: false,
+        pipeline_cache: true,
+        cache_dir: Some(dir.clone()),
+    };
+    let path = {
+        let dev = device_with_options(options.clone());
+        let m = dev.module("fn raygen__rg() { }");
+        let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
+        dev.pipeline(&[rg], 1);
+        dev.pipeline_cache_path().expect("a cache file")
+    };
+    let data = std::fs::read(&path).expect("the cache was written");
+    assert!(data.len() >= 32, "a Vulkan pipeline cache header");
+    assert_eq!(
+        u32::from_le_bytes(data[4..8].try_into().unwrap()),
+        1,
+        "header version one"
+    );
+    // A second device loads it and works as before.
+    let dev = device_with_options(options);
+    let m = dev.module("fn raygen__rg() { }");
+    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
+    dev.pipeline(&[rg], 1);
+    drop(dev);
+    let _ = std::fs::remove_dir_all(&dir);
+    let off = VulkanOptions {
+        validation: true,
+        device: None,
+        force_staging: false,
+        pipeline_cache: false,
+        cache_dir: Some(std::env::temp_dir()),
+    };
+    assert!(
+        device_with_options(off).pipeline_cache_path().is_none(),
+        "OPTIK_CACHE_DISABLE keeps it off disk"
+    );
+}
+
+#[test]
+fn textures_are_sampled_by_programs() {
+    let dev = device();
+    let src = r#"
+struct Params { handle: vec2<u32>, n: u32, pad: u32 }
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read_write> out: array<f32>;
+@group(0) @binding(2) var tex: texture_2d<f32>;
+@group(0) @binding(3) var samp: sampler;
+fn raygen__rg() {
+    let i = rt_launch_index().x;
+    let c = textureSampleLevel(tex, samp, vec2<f32>((f32(i) + 0.5) / 2.0, 0.5), 0.0);
+    out[i] = c.x;
+}
+"#;
+    let m = dev.module(src);
+    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
+    let p = dev.pipeline(&[rg], 0);
+    let tex = dev
+        .create_texture(&TextureDesc {
+            width: 2,
+            height: 1,
+            format: TextureFormat::R32Float,
+        })
+        .unwrap();
+    dev.write_texture(tex, bytemuck::cast_slice(&[0.25f32, 0.75]))
+        .unwrap();
+    let sbt = Table::new(rg).build(&dev);
+    let out = dev.create_buffer(8).unwrap();
+    let resources = [
+        Resource::buffer(1, out),
+        Resource::Texture {
+            binding: 2,
+            texture: tex,
+        },
+        Resource::Sampler {
+            binding: 3,
+            sampler: SamplerDesc::default(),
+        },
+    ];
+    dev.launch(
+        p,
+        &params(TraversableHandle::NULL, 2, 1),
+        &resources,
+        &sbt,
+        LaunchSize::new(2, 1, 1),
+    )
+    .unwrap();
+    let v: Vec<f32> = dev
+        .read_u32(out)
+        .iter()
+        .map(|b| f32::from_bits(*b))
+        .collect();
+    assert_eq!(v, vec![0.25, 0.75]);
+    dev.destroy_texture(tex).unwrap();
+}
+
+#[test]
+fn naming_a_device_that_does_not_exist_lists_the_devices() {
+    let options = VulkanOptions {
+        validation: false,
+        device: Some("no such gpu".into()),
+        force_staging: false,
+        pipeline_cache: false,
+        cache_dir: None,
+    };
+    let e = optik_vulkan::VulkanDevice::open(&options)
+        .err()
+        .expect("no device has that name");
+    assert_eq!(e.kind(), ErrorKind::InvalidArgument);
+    assert!(
+        e.message().contains("no such gpu") && e.message().contains("[0]"),
+        "{e}"
+    );
+}

@@ -1,0 +1,284 @@
+//! Error paths: every bad input is an error that names what was wrong, never a panic or
+//! undefined behaviour on the GPU.
+
+use crate::common::*;
+use optik_api::*;
+
+const PROGRAMS: &str = r#"
+fn raygen__rg() {
+    var p: RtPayload;
+    rt_trace(params.handle, vec3<f32>(0.0), vec3<f32>(0.0, 0.0, -1.0), 0.0, 10.0, 0.0, 0xFFu, 0u, 0u, 1u, 0u, &p);
+    out[0] = p[0];
+}
+fn miss__ms() {
+    rt_set_payload(0u, 1u);
+}
+fn closesthit__ch() {
+    rt_set_payload(0u, 2u);
+}
+"#;
+
+fn setup(dev: &TestDevice) -> Basic {
+    basic(dev, PROGRAMS)
+}
+
+fn launch(dev: &TestDevice, s: &Basic, sbt: &ShaderBindingTable) -> Result<()> {
+    let out = dev.create_buffer(16).unwrap();
+    dev.launch(
+        s.pipeline,
+        &params(TraversableHandle::NULL, 1, 1),
+        &[Resource::buffer(1, out)],
+        sbt,
+        LaunchSize::new(1, 1, 1),
+    )
+}
+
+#[test]
+fn shader_binding_table_mistakes() {
+    let dev = device();
+    let s = setup(&dev);
+    // A record without a header.
+    let mut bad = Table::new(s.rg);
+    bad.miss.push((s.ms, &[]));
+    let mut sbt = bad.build(&dev);
+    let zeros = dev.create_buffer(256).unwrap();
+    sbt.miss = Some(SbtRegion {
+        buffer: zeros,
+        offset: 0,
+        stride: 32,
+        count: 1,
+    });
+    let e = launch(&dev, &s, &sbt).unwrap_err();
+    assert!(
+        e.message().contains("sbt.miss record 0") && e.message().contains("no record header"),
+        "{e}"
+    );
+    // A hit group's header in the miss region.
+    let mut wrong = Table::new(s.rg);
+    wrong.miss.push((s.ch, &[]));
+    let e = launch(&dev, &s, &wrong.build(&dev)).unwrap_err();
+    assert!(
+        e.message().contains("hit group group") && e.message().contains("miss region"),
+        "{e}"
+    );
+    // A group of another pipeline.
+    let m = dev.module(&format!("{RAY_HEADER}{PROGRAMS}"));
+    let other = dev.group(ProgramGroupDesc::Miss(Some(prog(m, "miss__ms"))));
+    let mut foreign = Table::new(s.rg);
+    foreign.miss.push((other, &[]));
+    let e = launch(&dev, &s, &foreign.build(&dev)).unwrap_err();
+    assert!(
+        e.message().contains("not one of this pipeline's groups"),
+        "{e}"
+    );
+    // A stride the device cannot hold.
+    let mut table = Table::new(s.rg);
+    table.hit.push((s.ch, &[]));
+    let mut sbt = table.build(&dev);
+    let limit = dev.properties().max_sbt_record_stride;
+    let big = dev.create_buffer(limit as u64 * 2).unwrap();
+    sbt.hitgroup = Some(SbtRegion {
+        buffer: big,
+        offset: 0,
+        stride: limit + 16,
+        count: 1,
+    });
+    let e = launch(&dev, &s, &sbt).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::LimitExceeded, "{e}");
+    // A good table still works after all that.
+    let mut good = Table::new(s.rg);
+    good.miss.push((s.ms, &[]));
+    good.hit.push((s.ch, &[]));
+    launch(&dev, &s, &good.build(&dev)).unwrap();
+}
+
+#[test]
+fn launch_resource_mistakes_and_empty_launches() {
+    let dev = device();
+    let s = setup(&dev);
+    let mut table = Table::new(s.rg);
+    table.miss.push((s.ms, &[]));
+    let sbt = table.build(&dev);
+    let p = params(TraversableHandle::NULL, 1, 1);
+    let e = dev
+        .launch(s.pipeline, &p, &[], &sbt, LaunchSize::new(1, 1, 1))
+        .unwrap_err();
+    assert!(
+        e.message().contains("no resource given for binding 1"),
+        "{e}"
+    );
+    let e = dev
+        .launch(
+            s.pipeline,
+            &p[..4],
+            &[Resource::buffer(1, dev.create_buffer(16).unwrap())],
+            &sbt,
+            LaunchSize::new(1, 1, 1),
+        )
+        .unwrap_err();
+    assert!(e.message().contains("params is 4 bytes"), "{e}");
+    let tex = dev
+        .create_texture(&TextureDesc {
+            width: 1,
+            height: 1,
+            format: TextureFormat::R32Float,
+        })
+        .unwrap();
+    let e = dev
+        .launch(
+            s.pipeline,
+            &p,
+            &[Resource::Texture {
+                binding: 1,
+                texture: tex,
+            }],
+            &sbt,
+            LaunchSize::new(1, 1, 1),
+        )
+        .unwrap_err();
+    assert!(e.message().contains("storage buffer"), "{e}");
+    // Zero-sized launches are no-ops.
+    let out = dev.create_buffer(16).unwrap();
+    dev.launch(
+        s.pipeline,
+        &p,
+        &[Resource::buffer(1, out)],
+        &sbt,
+        LaunchSize::new(0, 4, 1),
+    )
+    .unwrap();
+    let e = dev
+        .launch(
+            s.pipeline,
+            &p,
+            &[Resource::buffer(1, out)],
+            &sbt,
+            LaunchSize::new(u32::MAX, u32::MAX, 1),
+        )
+        .unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::LimitExceeded);
+}
+
+#[test]
+fn handles_of_destroyed_objects_and_other_devices() {
+    let dev = device();
+    let s = setup(&dev);
+    let other = device();
+    let b = other.create_buffer(16).unwrap();
+    let e = dev.write_buffer(b, 0, &[0; 4]).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::InvalidHandle);
+    let mine = dev.create_buffer(16).unwrap();
+    let e = dev.write_buffer(mine, 12, &[0; 8]).unwrap_err();
+    assert!(e.message().contains("outside the buffer"), "{e}");
+    dev.destroy_buffer(mine).unwrap();
+    assert_eq!(
+        dev.read_buffer(mine, 0, &mut [0; 4]).unwrap_err().kind(),
+        ErrorKind::InvalidHandle
+    );
+    dev.destroy_pipeline(s.pipeline).unwrap();
+    let mut table = Table::new(s.rg);
+    table.miss.push((s.ms, &[]));
+    let e = launch(&dev, &s, &table.build(&dev)).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::InvalidHandle);
+    // An instance naming a traversable that does not exist.
+    let mut inst = Instance::new(TraversableHandle(0xDEAD_BEEF));
+    inst.flags = 0;
+    let ib = dev.buffer_with(bytemuck::cast_slice(&[inst]));
+    let e = dev
+        .accel_build(
+            &AccelBuildOptions::default(),
+            &[BuildInput::Instances(InstanceArray {
+                instances: BufferView::new(ib),
+                num_instances: 1,
+            })],
+        )
+        .unwrap_err();
+    assert!(e.message().contains("0xdeadbeef"), "{e}");
+}
+
+#[test]
+fn what_the_backend_does_not_do_is_refused_with_a_reason() {
+    let dev = device();
+    let vb = dev.f32_buffer(&[0.0; 18]);
+    let mut t = TriangleArray::new(BufferView::new(vb), 3, GeometryFlags::NONE);
+    t.vertex_buffers.push(BufferView::new(vb));
+    let motion = AccelBuildOptions {
+        motion: Some(MotionOptions {
+            num_keys: 2,
+            flags: MotionFlags::NONE,
+            time_begin: 0.0,
+            time_end: 1.0,
+        }),
+        ..Default::default()
+    };
+    let e = dev
+        .accel_build(&motion, &[BuildInput::Triangles(t)])
+        .unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::Unsupported);
+    assert!(e.message().contains("motion"), "{e}");
+    let gas = dev.triangles(&[[0.0; 3]; 3], GeometryFlags::NONE);
+    let desc = TransformDesc::SrtMotion {
+        child: dev.traversable_handle(gas).unwrap(),
+        motion: MotionOptions {
+            num_keys: 2,
+            flags: MotionFlags::NONE,
+            time_begin: 0.0,
+            time_end: 1.0,
+        },
+        keys: vec![SrtData::identity(); 2],
+    };
+    assert_eq!(
+        dev.create_transform(&desc).unwrap_err().kind(),
+        ErrorKind::Unsupported
+    );
+    let omm = OpacityMicromapArrayDesc {
+        micromaps: vec![],
+        data: vec![],
+    };
+    assert_eq!(
+        dev.create_opacity_micromap_array(&omm).unwrap_err().kind(),
+        ErrorKind::Unsupported
+    );
+    assert_eq!(
+        dev.set_accuracy(Accuracy::FAST).unwrap_err().kind(),
+        ErrorKind::Unsupported
+    );
+    dev.set_accuracy(Accuracy::ROBUST).unwrap();
+    let link = PipelineLinkOptions {
+        max_trace_depth: 40,
+        ..Default::default()
+    };
+    let m = dev.module("fn raygen__rg() { }");
+    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
+    let e = dev
+        .create_pipeline(&PipelineCompileOptions::default(), &link, &[rg])
+        .unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::LimitExceeded, "{e}");
+}
+
+#[test]
+fn compile_errors_point_at_the_users_line() {
+    let dev = device();
+    let e = dev
+        .create_module(
+            &ModuleCompileOptions::default(),
+            &PipelineCompileOptions::default(),
+            &ProgramSource::new(
+                "bad.wgsl",
+                "fn raygen__rg() {\n    rt_get_payload(0u);\n}\n",
+            ),
+        )
+        .unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::Compile);
+    let d = &e.diagnostics()[0];
+    assert_eq!((d.file.as_str(), d.line), ("bad.wgsl", 2), "{e}");
+    let m = dev.module("fn raygen__rg() { }");
+    let e = dev
+        .create_program_groups(&[ProgramGroupDesc::Miss(Some(prog(m, "miss__nothere")))])
+        .unwrap_err();
+    assert!(e.message().contains("no program `miss__nothere`"), "{e}");
+    let e = dev
+        .create_program_groups(&[ProgramGroupDesc::Miss(Some(prog(m, "raygen__rg")))])
+        .unwrap_err();
+    assert!(e.message().contains("is a raygen program"), "{e}");
+}

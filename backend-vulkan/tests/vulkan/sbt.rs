@@ -1,0 +1,171 @@
+//! Shader binding table: SBT offset, stride and miss index with garbage in the high bits,
+//! record data, per-primitive SBT records flattened into geometries (SBT GAS index,
+//! primitive index remap and offset), and miss indices past the table.
+
+use crate::common::*;
+use optik_api::*;
+
+const PROGRAMS: &str = r#"
+fn raygen__rg() {
+    let i = rt_launch_index().x;
+    var p: RtPayload;
+    p[0] = 0xDEADu;
+    let x = f32(i) + 0.25;
+    // Offset 1 and stride 2 with high bits set; miss index 1 with high bits set, except ray 5
+    // whose miss index lies past the table.
+    let miss = select(0x70001u, 7u, i == 5u);
+    rt_trace(params.handle, vec3<f32>(x, 0.25, 1.0), vec3<f32>(0.0, 0.0, -1.0), 0.0, 10.0, 0.0, 0x1FFu, 0u, 0x31u, 0xF2u, miss, &p);
+    for (var k = 0u; k < 3u; k++) {
+        out[i * 3u + k] = p[k];
+    }
+}
+
+fn closesthit__ch() {
+    rt_set_payload(0u, rt_sbt_data_u32(0u));
+    rt_set_payload(1u, rt_sbt_gas_index());
+    rt_set_payload(2u, rt_primitive_index());
+}
+
+fn miss__ms() {
+    rt_set_payload(0u, rt_sbt_data_u32(0u));
+    rt_set_payload(1u, u32(rt_sbt_data_f32(1u)));
+}
+"#;
+
+fn tri_at(k: f32) -> [[f32; 3]; 3] {
+    [[k, 0.0, 0.0], [k + 1.0, 0.0, 0.0], [k, 1.0, 0.0]]
+}
+
+#[test]
+fn offsets_strides_miss_indices_and_per_primitive_records() {
+    let dev = device();
+    // Input 0: three triangles with three SBT records, chosen per primitive as 2, 0, 1.
+    let v0: Vec<f32> = (0..3).flat_map(|k| tri_at(k as f32)).flatten().collect();
+    let vb0 = dev.f32_buffer(&v0);
+    let offsets = dev.buffer_with(&[2u8, 0, 1, 0]);
+    let mut input0 = TriangleArray::new(BufferView::new(vb0), 9, GeometryFlags::NONE);
+    input0.flags = vec![GeometryFlags::NONE; 3];
+    input0.sbt_index_offsets = Some(SbtIndexOffsets {
+        buffer: BufferView::new(offsets),
+        size_in_bytes: 1,
+        stride: 0,
+    });
+    // Input 1: one triangle, one record, primitive indices offset by 10.
+    let v1: Vec<f32> = tri_at(3.0).iter().flatten().copied().collect();
+    let vb1 = dev.f32_buffer(&v1);
+    let mut input1 = TriangleArray::new(BufferView::new(vb1), 3, GeometryFlags::NONE);
+    input1.primitive_index_offset = 10;
+    let gas = dev
+        .accel_build(
+            &AccelBuildOptions::default(),
+            &[BuildInput::Triangles(input0), BuildInput::Triangles(input1)],
+        )
+        .unwrap();
+
+    let m = dev.module(&format!("{RAY_HEADER}{PROGRAMS}"));
+    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
+    let ms = dev.group(ProgramGroupDesc::Miss(Some(prog(m, "miss__ms"))));
+    let ch = dev.group(ProgramGroupDesc::closest_hit(prog(m, "closesthit__ch")));
+    let pipeline = dev.pipeline(&[rg, ms, ch], 1);
+    let data: Vec<[u32; 1]> = (0..8).map(|k| [1000 + k]).collect();
+    let miss_data = [[200u32, 0.0f32.to_bits()], [201u32, 7.0f32.to_bits()]];
+    let mut table = Table::new(rg);
+    table.miss = miss_data.iter().map(|d| (ms, &d[..])).collect();
+    table.hit = data.iter().map(|d| (ch, &d[..])).collect();
+    let sbt = table.build(&dev);
+    let w = run_rays(
+        &dev,
+        pipeline,
+        &sbt,
+        dev.traversable_handle(gas).unwrap(),
+        6,
+        3,
+        &[],
+    );
+    let ray = |i: usize| [w[i * 3], w[i * 3 + 1], w[i * 3 + 2]];
+    // record = offset 1 + gas index × stride 2.
+    assert_eq!(
+        ray(0),
+        [1000 + 1 + 2 * 2, 2, 0],
+        "primitive 0 uses its input's record 2"
+    );
+    assert_eq!(ray(1), [1000 + 1, 0, 1]);
+    assert_eq!(ray(2), [1000 + 1 + 2, 1, 2]);
+    assert_eq!(
+        ray(3),
+        [1000 + 1 + 3 * 2, 3, 10],
+        "input 1 starts at SBT GAS index 3; primitive index offset 10"
+    );
+    assert_eq!(
+        &ray(4)[..2],
+        &[201, 7],
+        "miss index 0x70001 selects miss record 1"
+    );
+    assert_eq!(
+        ray(5)[0],
+        0xDEAD,
+        "a miss index past the table runs no program"
+    );
+}
+
+#[test]
+fn per_primitive_offsets_past_the_records_are_errors() {
+    let dev = device();
+    let vb = dev.f32_buffer(&tri_at(0.0).iter().flatten().copied().collect::<Vec<_>>());
+    let offsets = dev.buffer_with(&[3u8, 0, 0, 0]);
+    let mut input = TriangleArray::new(BufferView::new(vb), 3, GeometryFlags::NONE);
+    input.flags = vec![GeometryFlags::NONE; 2];
+    input.sbt_index_offsets = Some(SbtIndexOffsets {
+        buffer: BufferView::new(offsets),
+        size_in_bytes: 1,
+        stride: 0,
+    });
+    let e = dev
+        .accel_build(
+            &AccelBuildOptions::default(),
+            &[BuildInput::Triangles(input)],
+        )
+        .unwrap_err();
+    assert!(e.message().contains("sbt_index_offsets[0] is 3"), "{e}");
+}
+
+#[test]
+fn hit_indices_past_the_table_run_no_program() {
+    let dev = device();
+    let src = r#"
+fn raygen__rg() {
+    let i = rt_launch_index().x;
+    var p: RtPayload;
+    p[0] = 7u;
+    // Ray 0 selects hit record 0, ray 1 record 9 (past the single record).
+    rt_trace(params.handle, vec3<f32>(0.25, 0.25, 1.0), vec3<f32>(0.0, 0.0, -1.0), 0.0, 10.0, 0.0, 0xFFu, 0u, i * 9u, 0u, 0u, &p);
+    out[i] = p[0];
+}
+fn closesthit__ch() { rt_set_payload(0u, 1u); }
+fn miss__ms() { rt_set_payload(0u, 2u); }
+"#;
+    let gas = dev.triangles(&tri_at(0.0), GeometryFlags::DISABLE_ANYHIT);
+    let m = dev.module(&format!("{RAY_HEADER}{src}"));
+    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
+    let ms = dev.group(ProgramGroupDesc::Miss(Some(prog(m, "miss__ms"))));
+    let ch = dev.group(ProgramGroupDesc::closest_hit(prog(m, "closesthit__ch")));
+    let pipeline = dev.pipeline(&[rg, ms, ch], 1);
+    let mut table = Table::new(rg);
+    table.miss.push((ms, &[]));
+    table.hit.push((ch, &[]));
+    let sbt = table.build(&dev);
+    let w = run_rays(
+        &dev,
+        pipeline,
+        &sbt,
+        dev.traversable_handle(gas).unwrap(),
+        2,
+        1,
+        &[],
+    );
+    assert_eq!(
+        w,
+        vec![1, 7],
+        "the null record past the table: a hit, no program"
+    );
+}

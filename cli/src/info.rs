@@ -1,0 +1,33 @@
+//! `optik info`: which backends run here, on what.
+
+/// Runs the command; returns the exit status.
+pub fn run() -> u8 {
+    outln!("backends:");
+    for s in optik::backend_statuses() {
+        match &s.availability {
+            Ok(device) => outln!("  {:<7} available: {device}", s.kind.name()),
+            Err(why) => outln!("  {:<7} not available: {why}", s.kind.name()),
+        }
+    }
+    outln!();
+    match optik::backends::vulkan::probe() {
+        Ok(devices) => {
+            outln!("Vulkan devices ({}):", devices.len());
+            for d in &devices {
+                for line in d.to_string().lines() {
+                    outln!("  {line}");
+                }
+            }
+        }
+        Err(e) => outln!("Vulkan devices: none ({})", e.message()),
+    }
+    outln!();
+    let adapters = optik::backends::wgpu::probe();
+    outln!("wgpu adapters ({}):", adapters.len());
+    for a in &adapters {
+        for line in a.to_string().lines() {
+            outln!("  {line}");
+        }
+    }
+    0
+}

@@ -1,0 +1,98 @@
+//! `optik compile` end to end: listings of valid modules, and errors at the user's
+//! `FILE:LINE:COLUMN`.
+
+use std::process::Command;
+
+fn optik(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_optik"))
+        .args(args)
+        .output()
+        .expect("run optik");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn write_temp(name: &str, text: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("optik-cli-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn lists_programs_of_a_valid_module() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../examples/wgsl/first_triangle.wgsl"
+    );
+    let (code, out, err) = optik(&["compile", path]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains(": 3 programs"), "{out}");
+    let raygen = out
+        .lines()
+        .find(|l| l.contains("raygen__camera"))
+        .expect(&out);
+    assert!(raygen.trim_start().starts_with("raygen"), "{raygen}");
+    assert!(
+        raygen.contains("rt_launch_index") && raygen.contains("rt_trace"),
+        "{raygen}"
+    );
+    let ch = out
+        .lines()
+        .find(|l| l.contains("closesthit__shade"))
+        .expect(&out);
+    assert!(
+        ch.contains("closest-hit")
+            && ch.contains("rt_set_payload")
+            && ch.contains("rt_triangle_barycentrics"),
+        "{ch}"
+    );
+    assert!(
+        out.lines()
+            .any(|l| l.contains("miss") && l.contains("miss__background")),
+        "{out}"
+    );
+}
+
+#[test]
+fn type_error_points_at_line_and_column() {
+    let path = write_temp(
+        "type_error.wgsl",
+        "fn raygen__a() {\n    let x: f32 = 1.0;\n    let y: u32 = x;\n}\n",
+    );
+    let (code, _, err) = optik(&["compile", path.to_str().unwrap()]);
+    assert_eq!(code, 1);
+    let first = err.lines().next().unwrap_or("");
+    let prefix = format!("{}:3:", path.display());
+    assert!(first.starts_with(&prefix), "{err}");
+    assert!(
+        err.contains("    let y: u32 = x;"),
+        "the source line is shown: {err}"
+    );
+}
+
+#[test]
+fn set_payload_in_raygen_points_at_the_call() {
+    let path = write_temp(
+        "payload.wgsl",
+        "fn raygen__main() {\n  var p: RtPayload;\n  rt_set_payload(0u, 1u);\n}\n",
+    );
+    let (code, _, err) = optik(&["compile", path.to_str().unwrap()]);
+    assert_eq!(code, 1);
+    let expected = format!(
+        "{}:3:3: `rt_set_payload` cannot be used in a raygen program (`raygen__main`)",
+        path.display()
+    );
+    assert!(err.starts_with(&expected), "{err}");
+}
+
+#[test]
+fn unreadable_file_is_a_clear_error() {
+    let (code, _, err) = optik(&["compile", "/nonexistent/x.wgsl"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("/nonexistent/x.wgsl: cannot read"), "{err}");
+}

@@ -1,0 +1,21 @@
+//! `optik info` names every backend with its availability, and the wgpu adapters found.
+
+use std::process::Command;
+
+#[test]
+fn lists_every_backend() {
+    let out = Command::new(env!("CARGO_BIN_EXE_optik"))
+        .arg("info")
+        .output()
+        .expect("run optik");
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    for backend in ["cpu", "wgpu", "vulkan"] {
+        let line = text
+            .lines()
+            .find(|l| l.trim_start().starts_with(backend))
+            .unwrap_or_else(|| panic!("no line for {backend}:\n{text}"));
+        assert!(line.contains("available"), "{line}");
+    }
+    assert!(text.contains("wgpu adapters ("), "{text}");
+}
