@@ -328,7 +328,7 @@ pub fn write_out_dir(
          body{font-family:sans-serif;background:#111;color:#ddd;margin:16px}\n\
          table{border-collapse:collapse}td,th{border:1px solid #333;padding:4px;vertical-align:top;font-size:12px}\n\
          th{background:#222}.pass{color:#6c6}.fail{color:#f55;font-weight:bold}.skip{color:#999}\n\
-         img{image-rendering:pixelated;border:1px solid #444;max-width:160px}.detail{max-width:320px;font-size:11px;color:#aaa}\n\
+         img{image-rendering:pixelated;border:1px solid #444;max-width:160px;max-height:160px}.detail{max-width:320px;font-size:11px;color:#aaa}\n\
          figure{display:inline-block;margin:2px;text-align:center}figcaption{font-size:10px;color:#888}\n\
          </style></head><body>\n<h1>optik conformance</h1>\n",
     );

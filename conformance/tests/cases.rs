@@ -7,7 +7,8 @@
 //! reason, never as passed.
 //!
 //! Arguments: a substring filter (as libtest), `--list`, `--exact`; other flags are accepted
-//! and ignored.
+//! and ignored. `OPTIK_BACKENDS=cpu,vulkan` limits the backends opened (the others are
+//! reported as ignored, with that reason).
 
 use optik::BackendKind;
 use optik_conformance::catalog;
@@ -43,8 +44,15 @@ fn main() {
     let filtered_out = names.len() - selected;
     println!("\nrunning {selected} tests");
     let any_backend = names.iter().any(|n| matches(n) && !n.ends_with("::oracle"));
+    let chosen: Vec<BackendKind> = match std::env::var("OPTIK_BACKENDS") {
+        Ok(list) => backends
+            .into_iter()
+            .filter(|b| list.split(',').any(|n| n.trim() == b.name()))
+            .collect(),
+        Err(_) => backends.to_vec(),
+    };
     let devices = if any_backend {
-        Devices::open(&backends)
+        Devices::open(&chosen)
     } else {
         Devices::open(&[])
     };
@@ -115,11 +123,11 @@ fn main() {
                 }
             }
         }
-        // Backends not opened at all (no backend test selected for this case).
+        // Backends not opened at all.
         for b in backends {
             let name = format!("{}::{}", case.name, b.name());
             if matches(&name) && !devices.iter().any(|(k, _)| k == b) {
-                println!("test {name} ... ignored, not opened");
+                println!("test {name} ... ignored, not selected by OPTIK_BACKENDS");
                 ignored += 1;
             }
         }

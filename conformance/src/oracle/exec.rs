@@ -478,7 +478,7 @@ impl<'c> Engine<'c> {
                         let ri = if *single { 0 } else { i };
                         let (ra, rb) = at(radii.len());
                         let radius = lerp(radii[ra][ri], radii[rb][ri]);
-                        if let Some(c) = geometry::sphere(centre, radius, &obj, rnd) {
+                        if let Some(c) = geometry::sphere(centre, radius, &obj, rnd, true) {
                             out.push(make(Geo::Round(
                                 c,
                                 Some([centre[0], centre[1], centre[2], radius]),
@@ -779,6 +779,18 @@ impl<'c> Engine<'c> {
                     if self.beyond(st.chooser, tr, b.t_enter, 0.0, true) {
                         continue;
                     }
+                    // A box's opacity is known from the flags alone, so culling happens before
+                    // its intersection program runs (Vulkan's order: culling, then AABB
+                    // candidates).
+                    let fate = opacity::resolve(
+                        c.geom_flags,
+                        c.path.inst_flags,
+                        RayFlags(tr.ray.flags),
+                        None,
+                    );
+                    if fate == opacity::CandidateFate::Culled {
+                        continue;
+                    }
                     let Some(is) = group.intersection.clone() else {
                         continue;
                     };
@@ -844,7 +856,14 @@ impl<'c> Engine<'c> {
                     {
                         continue;
                     }
-                    let info = self.hit_info(&c, t, 0, [0; 8], entry.data.clone());
+                    // Built-in spheres and curves use the triangle hit kinds
+                    // (docs/decisions.md); curves carry their parameter in attribute 0.
+                    let kind = facing::triangle_hit_kind(rc.front);
+                    let mut attrs = [0u32; 8];
+                    if matches!(c.geo, Geo::Round(_, None)) {
+                        attrs[0] = (rc.u as f32).to_bits();
+                    }
+                    let info = self.hit_info(&c, t, kind, attrs, entry.data.clone());
                     self.candidate(st, tr, info, dt, entry.group)?;
                 }
             }

@@ -274,10 +274,11 @@ pub struct BoxContact {
     pub ambiguous: bool,
 }
 
-/// The slab test of a box `[min.xyz, max.xyz]` against the ray's interval. `None`: certainly
-/// missed, or an invalid box (NaN, or min > max). Ambiguous when only the box grown by the
-/// rounding radius is met (implementations may enlarge boxes, so an extra intersection-program
-/// call near a box is admissible, a missing one for a box the ray meets is not).
+/// The slab test of a box `[min.xyz, max.xyz]` against the ray's interval. `None`: the line
+/// certainly misses the box, or an invalid box (NaN, or min > max). Definite when the closed
+/// box is met within [tmin, tmax]; ambiguous when only the box grown by the rounding radius is
+/// met, or only outside the interval (an extra intersection-program call is admissible there,
+/// a missing one for a box the ray meets in its interval is not).
 pub fn aabb(b: [f64; 6], ray: &ObjRay, tmin: f64, tmax: f64, rnd: &Rounding) -> Option<BoxContact> {
     if b.iter().any(|x| x.is_nan()) || (0..3).any(|i| b[i] > b[i + 3]) {
         return None;
@@ -309,7 +310,13 @@ pub fn aabb(b: [f64; 6], ray: &ObjRay, tmin: f64, tmax: f64, rnd: &Rounding) -> 
     };
     let (glo, ghi) = interval(r)?;
     if glo > tmax + tb || ghi < tmin - tb {
-        return None;
+        // The line meets the box only outside the ray's interval: an implementation may
+        // still run the intersection program (Vulkan does not forbid it; its reports are
+        // judged against [tmin, tmax] as any other).
+        return Some(BoxContact {
+            t_enter: glo.max(tmin),
+            ambiguous: true,
+        });
     }
     // The closed box itself: a ray that meets it must run the intersection program (a box
     // may be enlarged, never shrunk); one that misses it only by rounding may.
@@ -333,12 +340,21 @@ pub struct RoundContact {
     pub ambiguous: bool,
     /// The hit point's parameter along a capsule's axis (0 for spheres).
     pub u: f64,
+    /// Entering the surface (hit kind 0xFE) rather than leaving it (0xFF).
+    pub front: bool,
 }
 
-/// The entry hit of a sphere of centre `c` and radius `radius` (the stable quadratic); rays
-/// that start inside do not hit (OptiX's built-in spheres cull them), those that start on
-/// the surface are ambiguous.
-pub fn sphere(c: V3, radius: f64, ray: &ObjRay, rnd: &Rounding) -> Option<RoundContact> {
+/// The hit of a sphere of centre `c` and radius `radius` (the stable quadratic): the entry
+/// (front, hit kind 0xFE) for a ray from outside; with `exits`, the exit (back, 0xFF) for a ray
+/// from inside (docs/decisions.md: built-in spheres report both). A ray within rounding of the
+/// silhouette, or starting within rounding of the surface, is ambiguous.
+pub fn sphere(
+    c: V3,
+    radius: f64,
+    ray: &ObjRay,
+    rnd: &Rounding,
+    exits: bool,
+) -> Option<RoundContact> {
     if !radius.is_finite() || radius <= 0.0 || c.iter().any(|x| !x.is_finite()) {
         return None;
     }
@@ -352,18 +368,26 @@ pub fn sphere(c: V3, radius: f64, ray: &ObjRay, rnd: &Rounding) -> Option<RoundC
     let perp = sub(f, scale(dn, along));
     let dist2 = dot(perp, perp);
     let dist = dist2.sqrt();
-    let rs = rnd.radius(length(f) + radius + ray.extra);
     let flen = length(f);
-    if dist > radius + rs || along > 0.0 && flen > radius + rs {
-        // Misses the silhouette, or the sphere lies behind the origin.
+    let rs = rnd.radius(flen + radius + ray.extra);
+    if dist > radius + rs {
         return None;
     }
-    let start_ambiguous = (flen - radius).abs() <= rs;
-    if flen < radius - rs {
-        return None;
-    }
+    let on_surface = (flen - radius).abs() <= rs;
+    let inside = flen < radius - rs;
     let half = (radius * radius - dist2).max(0.0).sqrt();
-    let t = (-along - half) / a.sqrt();
+    let (t, front) = if inside || (on_surface && along >= 0.0) {
+        if !exits {
+            return None;
+        }
+        ((-along + half) / a.sqrt(), false)
+    } else {
+        if along > 0.0 && !on_surface {
+            // Outside and moving away: the sphere lies behind the origin.
+            return None;
+        }
+        ((-along - half) / a.sqrt(), true)
+    };
     // Moving the surface by rs moves t by rs / cos(incidence), at most by the tangent bound.
     let surface = (rs * radius / half.max(f64::MIN_POSITIVE)).min(rs + (2.0 * radius * rs).sqrt());
     let dt = if rnd.exact {
@@ -374,8 +398,9 @@ pub fn sphere(c: V3, radius: f64, ray: &ObjRay, rnd: &Rounding) -> Option<RoundC
     Some(RoundContact {
         t,
         dt,
-        ambiguous: dist >= radius - rs || start_ambiguous,
+        ambiguous: dist >= radius - rs || on_surface,
         u: 0.0,
+        front,
     })
 }
 
@@ -390,7 +415,7 @@ pub fn capsule(p0: V3, p1: V3, radius: f64, ray: &ObjRay, rnd: &Rounding) -> Opt
         }
     };
     for (end, u) in [(p0, 0.0), (p1, 1.0)] {
-        if let Some(mut c) = sphere(end, radius, ray, rnd) {
+        if let Some(mut c) = sphere(end, radius, ray, rnd, false) {
             c.u = u;
             consider(c);
         }
@@ -421,6 +446,7 @@ pub fn capsule(p0: V3, p1: V3, radius: f64, ray: &ObjRay, rnd: &Rounding) -> Opt
                         dt,
                         ambiguous,
                         u: s,
+                        front: true,
                     });
                 }
             }
@@ -559,44 +585,69 @@ mod tests {
             )
             .is_none()
         );
-        assert!(
-            aabb(
-                b,
-                &ray([0.5, 0.5, -1.0], [0.0, 0.0, 1.0]),
-                0.0,
-                0.5,
-                &Rounding::F32
-            )
-            .is_none()
-        );
+        // Beyond tmax: the program may run, it need not.
+        let beyond = aabb(
+            b,
+            &ray([0.5, 0.5, -1.0], [0.0, 0.0, 1.0]),
+            0.0,
+            0.5,
+            &Rounding::F32,
+        )
+        .unwrap();
+        assert!(beyond.ambiguous);
     }
 
     #[test]
     fn sphere_entry_and_silhouette() {
+        let f = Rounding::F32;
         let c = sphere(
             [0.0, 0.0, 10.0],
             1.0,
             &ray([0.0; 3], [0.0, 0.0, 2.0]),
-            &Rounding::F32,
+            &f,
+            true,
         )
         .unwrap();
-        assert!((c.t - 4.5).abs() < 1e-12 && !c.ambiguous);
+        assert!((c.t - 4.5).abs() < 1e-12 && !c.ambiguous && c.front);
         let s = sphere(
             [0.0, 0.0, 10.0],
             1.0,
             &ray([1.0, 0.0, 0.0], [0.0, 0.0, 1.0]),
-            &Rounding::F32,
+            &f,
+            true,
         )
         .unwrap();
         assert!(s.ambiguous);
+        // From inside: the exit, a back-face hit, for spheres; nothing for curve caps.
+        let inside = sphere(
+            [0.0, 0.0, 10.0],
+            1.0,
+            &ray([0.0, 0.0, 10.0], [0.0, 0.0, 1.0]),
+            &f,
+            true,
+        )
+        .unwrap();
+        assert!((inside.t - 1.0).abs() < 1e-12 && !inside.front);
         assert!(
             sphere(
                 [0.0, 0.0, 10.0],
                 1.0,
                 &ray([0.0, 0.0, 10.0], [0.0, 0.0, 1.0]),
-                &Rounding::F32
+                &f,
+                false
             )
             .is_none()
+        );
+        assert!(
+            sphere(
+                [0.0, 0.0, -10.0],
+                1.0,
+                &ray([0.0; 3], [0.0, 0.0, 1.0]),
+                &f,
+                true
+            )
+            .is_none(),
+            "behind"
         );
         let cap = capsule(
             [0.0, 0.0, 5.0],
