@@ -132,7 +132,7 @@ impl<'d> RayCaster<'d> {
 
         let (module, _log) = device.create_module(
             &ModuleCompileOptions::default(),
-            &pipeline_options,
+            pipeline_options,
             &ProgramSource::new("raycast.wgsl", PROGRAMS),
         )?;
         let groups = device.create_program_groups(&[
@@ -141,7 +141,7 @@ impl<'d> RayCaster<'d> {
             ProgramGroupDesc::closest_hit(ProgramRef::new(module, "closesthit__record")),
         ])?;
         let pipeline =
-            device.create_pipeline(&pipeline_options, &PipelineLinkOptions::default(), &groups)?;
+            device.create_pipeline(pipeline_options, &PipelineLinkOptions::default(), &groups)?;
         let mut table = Vec::new();
         for g in &groups {
             table.extend_from_slice(&device.sbt_record_pack_header(*g)?);

@@ -284,7 +284,7 @@ fn throughput(opts: &ReportOptions, scenes: &[Scene], report: &mut Vec<Value>) {
                         format!("{} camera prims differ", disagreements(c, &hits))
                     });
                     for (label, cam, inc) in [
-                        (format!("Embree robust, 1 thread"), cam1, inc1),
+                        ("Embree robust, 1 thread".to_string(), cam1, inc1),
                         (format!("Embree robust, {threads} threads"), camn, incn),
                     ] {
                         let (cr, ir) = (mrays(n_cam, cam), mrays(n_inc, inc));

@@ -67,14 +67,14 @@ pub fn run(args: &ReportArgs) -> u8 {
         peer_script: report::default_peer_script(),
     };
     let figures = report::run(&opts);
-    if let Some(path) = &args.json {
-        if let Err(e) = std::fs::write(
+    if let Some(path) = &args.json
+        && let Err(e) = std::fs::write(
             path,
             serde_json::to_string_pretty(&figures).unwrap_or_default(),
-        ) {
-            eprintln!("{}: {e}", path.display());
-            return 1;
-        }
+        )
+    {
+        eprintln!("{}: {e}", path.display());
+        return 1;
     }
     0
 }
