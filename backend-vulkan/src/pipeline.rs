@@ -14,7 +14,9 @@
 use crate::device::Inner;
 use crate::error::VkResultExt;
 use crate::memory::Allocator;
-use crate::program::{self, HitContext, LoweringConfig, ModuleText, StageRole, VkStage};
+use crate::program::{
+    self, HitContext, LoweringConfig, ModuleText, StageRole, TriangleMode, VkStage,
+};
 use crate::sbt::TranslatedSbt;
 use ash::vk;
 use optik_api::frontend::{BindingInfo, BindingKind, CompiledModule, DeviceFunction};
@@ -65,6 +67,10 @@ pub struct PipelineObject {
     pub null_callable: Vec<u8>,
     /// optik's null continuation (when continuation callables are called).
     pub null_continuation: Option<Vec<u8>>,
+    /// The hit group of records past the user's (a hit without programs, or
+    /// `INVALID_HIT_SBT` under debug exceptions), when the pipeline's primitives allow one
+    /// group for all; else those records are null records.
+    pub past_table: Option<Vec<u8>>,
     /// The stack size to set at launch.
     pub stack_size: u32,
     /// Recent SBT translations.
@@ -156,6 +162,17 @@ struct GroupPlan {
     user: Vec<(RawHandle, GroupRegion, Option<usize>, Option<usize>)>,
     null_callable: usize,
     null_continuation: Option<usize>,
+    past_table: Option<usize>,
+}
+
+/// What the device and its live scene add to a pipeline's lowering.
+struct DeviceSide {
+    /// How triangles are intersected (the device's accuracy).
+    triangles: TriangleMode,
+    /// Live structures have motion.
+    scene_motion: bool,
+    /// Live structures have opacity micromaps.
+    scene_micromaps: bool,
 }
 
 /// Settings for the lowering from the resolved features and the programs.
@@ -164,6 +181,7 @@ fn lowering_config(
     link: &PipelineLinkOptions,
     descs: &[&ProgramGroupDesc],
     module_of: &dyn Fn(&ProgramRef) -> Option<Arc<CompiledModule>>,
+    device: &DeviceSide,
 ) -> LoweringConfig {
     let calls = |pred: &dyn Fn(ProgramKind, DeviceFunction) -> bool| {
         descs.iter().flat_map(|d| d.programs()).any(|(kind, p)| {
@@ -181,8 +199,18 @@ fn lowering_config(
                     DeviceFunction::Trace | DeviceFunction::RemainingTraceDepth
                 )
         });
+    let triangles = features
+        .primitive_types
+        .contains(PrimitiveTypeFlags::TRIANGLE);
+    let micromaps = device.triangles.emulated()
+        && triangles
+        && (features.opacity_micromaps || device.scene_micromaps);
+    // optik's triangle stage reads the ray's flags (face culling, micromap 2-state) from the
+    // state word, as do its opacity checks with micromaps.
     let track_ray_flags =
-        calls(&|_, f| matches!(f, DeviceFunction::RayFlags | DeviceFunction::RayMask));
+        calls(&|_, f| matches!(f, DeviceFunction::RayFlags | DeviceFunction::RayMask))
+            || (device.triangles.emulated() && triangles)
+            || micromaps;
     let guard_direct_calls =
         calls(&|k, f| k == ProgramKind::DirectCallable && f == DeviceFunction::DirectCall);
     let exception_program = descs
@@ -200,6 +228,11 @@ fn lowering_config(
         track_ray_flags,
         guard_direct_calls,
         continuation_calls,
+        triangles: device.triangles,
+        motion_structures: features.motion || device.scene_motion,
+        micromaps,
+        micromap_states: micromaps && features.opacity_micromaps,
+        primitive_types: features.primitive_types.0,
     }
 }
 
@@ -321,7 +354,19 @@ impl Inner {
             &program_features,
             self.props.max_trace_depth,
         )?;
-        let config = lowering_config(&features, link, &desc_refs, &module_of);
+        let scene = self.scene_features().unwrap_or_default();
+        let device = DeviceSide {
+            triangles: match self.accuracy.triangle {
+                TriangleTest::Driver => TriangleMode::Native,
+                TriangleTest::MollerTrumbore => TriangleMode::MollerTrumbore,
+                TriangleTest::Watertight => TriangleMode::Watertight {
+                    f64: self.ctx.info.shader_float64,
+                },
+            },
+            scene_motion: scene.motion.any(),
+            scene_micromaps: scene.opacity_micromaps,
+        };
+        let config = lowering_config(&features, link, &desc_refs, &module_of, &device);
 
         let recursion = config.max_trace_depth
             + if config.continuation_calls {
@@ -351,7 +396,7 @@ impl Inner {
             }
         }
         let bindings = merged_bindings(modules.values())?;
-        let (plan, group_plan) = plan_stages(groups, &descs, &config);
+        let (plan, group_plan) = plan_stages(groups, &descs, &config, &features);
         let stages = self.lower(&plan, &modules, &config)?;
         self.link(stages, group_plan, features, config, bindings, recursion)
     }
@@ -498,7 +543,7 @@ impl Inner {
         let dynamic = [vk::DynamicState::RAY_TRACING_PIPELINE_STACK_SIZE_KHR];
         let dynamic_info = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic);
         let create = vk::RayTracingPipelineCreateInfoKHR::default()
-            .flags(self.skip_flags(&features))
+            .flags(self.skip_flags(&features, &config))
             .stages(&stage_infos)
             .groups(&group_infos)
             .max_pipeline_ray_recursion_depth(recursion)
@@ -582,6 +627,7 @@ impl Inner {
             handles,
             null_callable: handle(group_plan.null_callable),
             null_continuation: group_plan.null_continuation.map(handle),
+            past_table: group_plan.past_table.map(handle),
             stack_size,
             sbt_cache: Vec::new(),
         };
@@ -590,20 +636,26 @@ impl Inner {
 
     /// Vulkan's skip flags for the primitive types the pipeline does not intersect (DESIGN.md
     /// §6), where the device can skip them.
-    fn skip_flags(&self, features: &FeatureSet) -> vk::PipelineCreateFlags {
+    fn skip_flags(
+        &self,
+        features: &FeatureSet,
+        config: &LoweringConfig,
+    ) -> vk::PipelineCreateFlags {
         let mut flags = vk::PipelineCreateFlags::empty();
         if !self.ctx.info.primitive_culling {
             return flags;
         }
-        if !features
+        let triangles = features
             .primitive_types
-            .contains(PrimitiveTypeFlags::TRIANGLE)
-        {
+            .contains(PrimitiveTypeFlags::TRIANGLE);
+        if !triangles || config.triangles.emulated() {
             flags |= vk::PipelineCreateFlags::RAY_TRACING_SKIP_TRIANGLES_KHR;
         }
         let on_aabbs =
             PrimitiveTypeFlags::CUSTOM | PrimitiveTypeFlags::SPHERE | PrimitiveTypeFlags::CURVES;
-        if !features.primitive_types.intersects(on_aabbs) {
+        if !features.primitive_types.intersects(on_aabbs)
+            && !(triangles && config.triangles.emulated())
+        {
             flags |= vk::PipelineCreateFlags::RAY_TRACING_SKIP_AABBS_KHR;
         }
         flags
@@ -760,6 +812,7 @@ fn plan_stages(
     groups: &[ProgramGroup],
     descs: &[ProgramGroupDesc],
     config: &LoweringConfig,
+    features: &FeatureSet,
 ) -> (StagePlan, GroupPlan) {
     let mut plan = StagePlan::default();
     let mut vk_groups: Vec<VkGroup> = Vec::new();
@@ -822,24 +875,28 @@ fn plan_stages(
                     let (s, r) = program(p, ProgramKind::AnyHit, Some(context));
                     plan.stage(s, r)
                 });
-                let is =
-                    match (intersection, builtin) {
-                        (Some(p), _) => {
-                            let (s, r) = program(p, ProgramKind::Intersection, None);
-                            Some(plan.stage(s, r))
-                        }
-                        (None, BuiltinIntersector::Sphere) => {
-                            Some(plan.stage(Source::Internal(0), StageRole::SphereIntersection))
-                        }
-                        (None, BuiltinIntersector::Curve(t)) => {
-                            let basis = optik_api::wgsl::curve_basis(*t);
-                            Some(plan.stage(
+                let is = match (intersection, builtin) {
+                    (Some(p), _) => {
+                        let (s, r) = program(p, ProgramKind::Intersection, None);
+                        Some(plan.stage(s, r))
+                    }
+                    (None, BuiltinIntersector::Sphere) => {
+                        Some(plan.stage(Source::Internal(0), StageRole::SphereIntersection))
+                    }
+                    (None, BuiltinIntersector::Curve(t)) => {
+                        let basis = optik_api::wgsl::curve_basis(*t);
+                        Some(
+                            plan.stage(
                                 Source::Internal(basis),
                                 StageRole::CurveIntersection(basis),
-                            ))
-                        }
-                        (None, BuiltinIntersector::Triangle) => None,
-                    };
+                            ),
+                        )
+                    }
+                    (None, BuiltinIntersector::Triangle) => config
+                        .triangles
+                        .emulated()
+                        .then(|| plan.stage(Source::Internal(0), StageRole::TriangleIntersection)),
+                };
                 (
                     Some(add(
                         &mut vk_groups,
@@ -884,6 +941,10 @@ fn plan_stages(
         ));
         vk_groups.len() - 1
     });
+    let past_table = past_table_group(&mut plan, config, features).map(|g| {
+        vk_groups.push(g);
+        vk_groups.len() - 1
+    });
     (
         plan,
         GroupPlan {
@@ -891,6 +952,41 @@ fn plan_stages(
             user,
             null_callable,
             null_continuation,
+            past_table,
         },
     )
+}
+
+/// The hit group of the records past the user's: a candidate is a hit without programs
+/// (custom primitives, which need an intersection program, are never hit), or raises
+/// `INVALID_HIT_SBT` under debug exceptions. One Vulkan group serves one geometry type, so it
+/// exists when the pipeline's primitives are all AABBs for Vulkan (emulated triangles,
+/// custom primitives, spheres, curves), or all native triangles under debug exceptions
+/// (without them, the null record is the same); a pipeline with both keeps null records
+/// (docs/vulkan-backend.md §10).
+fn past_table_group(
+    plan: &mut StagePlan,
+    config: &LoweringConfig,
+    features: &FeatureSet,
+) -> Option<VkGroup> {
+    let types = features.primitive_types;
+    let triangles = types.contains(PrimitiveTypeFlags::TRIANGLE);
+    let native = triangles && !config.triangles.emulated();
+    let boxes = types.intersects(
+        PrimitiveTypeFlags::CUSTOM | PrimitiveTypeFlags::SPHERE | PrimitiveTypeFlags::CURVES,
+    ) || (triangles && config.triangles.emulated());
+    let internal = Source::Internal(0);
+    match (native, boxes) {
+        (false, _) => Some(VkGroup::Hit {
+            closest: None,
+            any: None,
+            intersection: Some(plan.stage(internal, StageRole::PastTableIntersection)),
+        }),
+        (true, false) if config.exceptions.contains(ExceptionFlags::DEBUG) => Some(VkGroup::Hit {
+            closest: Some(plan.stage(internal, StageRole::InvalidHitClosestHit)),
+            any: Some(plan.stage(internal, StageRole::InvalidHitAnyHit)),
+            intersection: None,
+        }),
+        (true, _) => None,
+    }
 }

@@ -11,8 +11,8 @@
 //!   table run nothing), then the continuation callables of the user's callable records at
 //!   `M + 1 + i` (continuation callables run as miss stages) and a null continuation;
 //! - hit: the user's hit records, then null records up to the highest index a ray of the
-//!   live scene can select (bounded), so an index past the table runs no program instead of
-//!   reading past the buffer;
+//!   live scene can select (bounded), so an index past the table runs no program (or raises
+//!   `INVALID_HIT_SBT` under debug exceptions) instead of reading past the buffer;
 //! - callable: the exception program at 0, the null callable at 1, the direct callables of
 //!   the user's callable records from 2.
 //!
@@ -404,12 +404,14 @@ fn read_regions(
             });
         }
     }
+    // Records past the user's: hits without programs, or raising INVALID_HIT_SBT under debug
+    // exceptions (pipeline.rs).
     let wanted = (hit_reach + 1)
         .min(hit.records.len() as u64 + MAX_HIT_PADDING)
         .max(1);
     while (hit.records.len() as u64) < wanted {
         hit.records.push(Record {
-            handle: None,
+            handle: p.past_table.clone(),
             data: Vec::new(),
         });
     }

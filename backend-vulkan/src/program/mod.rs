@@ -9,12 +9,13 @@
 //! tracing stage with the intrinsics' real bodies.
 
 pub mod config;
+pub mod internal;
 pub mod intrinsic;
 pub mod postpass;
 pub mod prelude;
 mod unwind;
 
-pub use config::{HitContext, LoweringConfig, StageRole, VkStage};
+pub use config::{HitContext, LoweringConfig, StageRole, TriangleMode, VkStage};
 
 use optik_api::{Error, ProgramKind, Result};
 use postpass::{PostPassError, StageShape};
@@ -67,7 +68,7 @@ fn spv_options() -> naga::back::spv::Options<'static> {
 pub fn vulkan_source(text: ModuleText, config: &LoweringConfig, roles: &[StageRole]) -> String {
     let mut source = match text {
         ModuleText::User(wgsl) => wgsl.to_string(),
-        ModuleText::Internal { curve_basis } => prelude::internal_programs(config, curve_basis),
+        ModuleText::Internal { curve_basis } => internal::internal_programs(config, curve_basis),
     };
     if !source.ends_with('\n') {
         source.push('\n');
@@ -100,12 +101,15 @@ pub fn lower_stages(
     if config.unwinds() {
         unwind::insert_unwinding(&mut module).map_err(|e| internal("exception unwinding", e))?;
     }
-    let info = naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::default(),
-    )
-    .validate(&module)
-    .map_err(|e| internal("validation", e.emit_to_string(&source)))?;
+    // The watertight triangle test's exact fallback uses f64 (when the device has it).
+    let mut capabilities = naga::valid::Capabilities::default();
+    capabilities.set(
+        naga::valid::Capabilities::FLOAT64,
+        matches!(config.triangles, TriangleMode::Watertight { f64: true }),
+    );
+    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), capabilities)
+        .validate(&module)
+        .map_err(|e| internal("validation", e.emit_to_string(&source)))?;
     let options = spv_options();
     let mut stages = Vec::with_capacity(roles.len());
     for (i, role) in roles.iter().enumerate() {

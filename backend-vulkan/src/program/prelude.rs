@@ -22,6 +22,14 @@
 //! run after their traversal ends), so `rt_trace` saves the ray fields, sets the new ray's and
 //! restores them when the trace returns: intersection programs, which cannot read payloads on
 //! Vulkan, read the current ray's time, flags and mask there.
+//!
+//! Emulation (each compiled in only when the pipeline needs it, [`LoweringConfig`]): optik's
+//! triangle stage reads the ray's flags from the state word (face culling of both faces, the
+//! micromap 2-state flag); motion interpolates primitives at the ray's time and composes the
+//! motion chain of the instance (the transforms below the Vulkan instance, tables.rs), which
+//! the object-space device functions apply on top of Vulkan's built-ins; with micromaps,
+//! optik's stages decide opacity culling (`_optik_fate`, `optik_api::semantics::opacity`),
+//! because a micromap state can change a candidate's opacity after the driver's culling.
 
 use super::config::{HitContext, LoweringConfig, StageRole, stage_code};
 use super::intrinsic::Intrinsic;
@@ -86,8 +94,32 @@ pub fn prelude(c: &LoweringConfig) -> String {
             i.stand_in_body()
         ));
     }
-    s.push_str(&HELPERS.replace("$SBT_DATA_LAST", &(SBT_DATA_WORDS - 1).to_string()));
+    if c.triangles.emulated() || c.motion_structures {
+        s.push_str(optik_api::wgsl::RAY);
+    }
+    if c.motion_structures {
+        let options = optik_api::wgsl::SnippetOptions {
+            conservative_boxes: true,
+            f64_fallback: false,
+        };
+        s.push_str(optik_api::wgsl::MOTION);
+        s.push_str(&optik_api::wgsl::specialise(optik_api::wgsl::SLAB, options));
+    }
+    s.push_str(
+        &HELPERS
+            .replace("$SBT_DATA_LAST", &(SBT_DATA_WORDS - 1).to_string())
+            .replace(
+                "$STRIP_OPACITY_CULLING",
+                if c.micromaps {
+                    "// A micromap state changes a candidate's opacity after the driver would cull it:\n    // optik's stages cull by opacity instead.\n    f = f & ~(64u | 128u);"
+                } else {
+                    ""
+                },
+            ),
+    );
     s.push_str(&state_functions(c));
+    s.push_str(&motion_functions(c));
+    s.push_str(&opacity_functions(c));
     s.push_str(&device_functions(c));
     s
 }
@@ -117,11 +149,12 @@ struct _OptikLaunch {
 @group(1) @binding(0) var<uniform> _optik_launch: _OptikLaunch;
 // Per launch index state (see the module documentation of prelude.rs).
 @group(1) @binding(1) var<storage, read_write> _optik_state: array<vec4<u32>>;
-// Per Vulkan instance (its custom index): OptiX instance id, instance index, first record of
-// its geometry acceleration structure in `_optik_geometries`.
+// Two vec4 per Vulkan instance (its custom index): [OptiX instance id, instance index, first
+// record of its geometry acceleration structure, instance flags of the path], [motion chain
+// or NONE, 0, 0, 0] (accel/tables.rs).
 @group(1) @binding(2) var<storage, read> _optik_instances: array<vec4<u32>>;
-// Per geometry: primitive index offset, primitive remap table (or NONE), data (vertices,
-// spheres, curve segments; or NONE), curve basis.
+// Two vec4 per geometry: [primitive index offset, remap table, primitive data, info (curve
+// basis, primitive kind, geometry flags)], [motion keys, micromap block, primitives, 0].
 @group(1) @binding(3) var<storage, read> _optik_geometries: array<vec4<u32>>;
 @group(1) @binding(4) var<storage, read> _optik_data: array<u32>;
 
@@ -186,12 +219,27 @@ fn _optik_vk_ray_flags(flags: u32, mask: ptr<function, u32>) -> u32 {
     if (f & 48u) == 48u {
         f = f & ~32u;
     }
+    $STRIP_OPACITY_CULLING
     return f;
 }
 
+// The instance table record of the hit's Vulkan instance (the first of its two vec4).
+fn _optik_instance_record() -> u32 {
+    return 2u * _optik_instance_custom_index();
+}
+
+// The geometry table record of the hit's geometry (the first of its two vec4).
+fn _optik_geometry_slot() -> u32 {
+    let inst = _optik_instances[_optik_instance_record()];
+    return 2u * (inst.z + _optik_geometry_index());
+}
+
 fn _optik_geometry_record() -> vec4<u32> {
-    let inst = _optik_instances[_optik_instance_custom_index()];
-    return _optik_geometries[inst.z + _optik_geometry_index()];
+    return _optik_geometries[_optik_geometry_slot()];
+}
+
+fn _optik_geometry_extra() -> vec4<u32> {
+    return _optik_geometries[_optik_geometry_slot() + 1u];
 }
 
 fn _optik_data_vec3(i: u32) -> vec3<f32> {
@@ -314,8 +362,380 @@ fn _optik_exit_stage() {
 }
 "#;
 
+/// Where primitives and instances are at the ray's time: key resolution, primitive data per
+/// key (key-major, tables.rs), the motion chain of a path, and the object space they give.
+/// Without motion structures everything reads key 0 and the object space is Vulkan's.
+fn motion_functions(c: &LoweringConfig) -> String {
+    let mut s = String::new();
+    s.push_str(
+        r#"
+fn _optik_time() -> f32 {
+    $TIME
+}
+"#
+        .replace(
+            "$TIME",
+            if c.motion {
+                "return bitcast<f32>(_optik_state[_optik_slot()].x);"
+            } else {
+                "return 0.0;"
+            },
+        )
+        .as_str(),
+    );
+    if !c.motion_structures {
+        s.push_str(STATIC_PRIMITIVES);
+        return s;
+    }
+    s.push_str(&MOTION_PRIMITIVES.replace(
+        "$KEY",
+        if c.motion {
+            "return optk_motion_key(num_keys, begin, end, flags, _optik_time());"
+        } else {
+            // Pipelines compiled without motion use key 0 (as the CPU backend's).
+            "return OptkKey(0, 0.0);"
+        },
+    ));
+    s
+}
+
+/// Primitive data of static scenes: key 0 only, Vulkan's object space.
+const STATIC_PRIMITIVES: &str = r#"
+struct _OptikTriangle {
+    v0: vec3<f32>,
+    v1: vec3<f32>,
+    v2: vec3<f32>,
+    live: bool,
+}
+
+fn _optik_triangle(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> _OptikTriangle {
+    let a = g0.z + p * 9u;
+    return _OptikTriangle(_optik_data_vec3(a), _optik_data_vec3(a + 3u), _optik_data_vec3(a + 6u), true);
+}
+
+fn _optik_sphere_at(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> vec4<f32> {
+    return _optik_data_vec4(g0.z + p * 4u);
+}
+
+// A curve segment's control points (xyz, radius) and cap bits; `live` false when it vanished.
+struct _OptikSegment {
+    p0: vec4<f32>,
+    p1: vec4<f32>,
+    p2: vec4<f32>,
+    p3: vec4<f32>,
+    caps: u32,
+    live: bool,
+}
+
+fn _optik_segment(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> _OptikSegment {
+    let b = g0.z + p * 17u;
+    return _OptikSegment(_optik_data_vec4(b), _optik_data_vec4(b + 4u), _optik_data_vec4(b + 8u), _optik_data_vec4(b + 12u), _optik_data[b + 16u], true);
+}
+
+fn _optik_obj_origin() -> vec3<f32> {
+    return _optik_object_ray_origin();
+}
+
+fn _optik_obj_direction() -> vec3<f32> {
+    return _optik_object_ray_direction();
+}
+
+fn _optik_obj_to_world() -> mat4x3<f32> {
+    return _optik_object_to_world();
+}
+
+fn _optik_world_to_obj() -> mat4x3<f32> {
+    return _optik_world_to_object();
+}
+
+fn _optik_vanished() -> bool {
+    return false;
+}
+"#;
+
+/// Primitive data and object space of scenes with motion.
+const MOTION_PRIMITIVES: &str = r#"
+fn _optik_key(num_keys: u32, flags: u32, begin: f32, end: f32) -> OptkKey {
+    $KEY
+}
+
+// The key position of a geometry's primitives (key 0 when the geometry has no motion keys).
+fn _optik_geometry_key(g1: vec4<u32>) -> OptkKey {
+    if g1.x == 0xFFFFFFFFu {
+        return OptkKey(0, 0.0);
+    }
+    let m = g1.x;
+    return _optik_key(_optik_data[m], _optik_data[m + 1u], bitcast<f32>(_optik_data[m + 2u]), bitcast<f32>(_optik_data[m + 3u]));
+}
+
+struct _OptikTriangle {
+    v0: vec3<f32>,
+    v1: vec3<f32>,
+    v2: vec3<f32>,
+    live: bool,
+}
+
+fn _optik_triangle(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> _OptikTriangle {
+    let k = _optik_geometry_key(g1);
+    if k.key < 0 {
+        return _OptikTriangle(vec3<f32>(), vec3<f32>(), vec3<f32>(), false);
+    }
+    let a = g0.z + (u32(k.key) * g1.z + p) * 9u;
+    var t = _OptikTriangle(_optik_data_vec3(a), _optik_data_vec3(a + 3u), _optik_data_vec3(a + 6u), true);
+    if k.frac > 0.0 {
+        let b = a + g1.z * 9u;
+        t.v0 = t.v0 * (1.0 - k.frac) + _optik_data_vec3(b) * k.frac;
+        t.v1 = t.v1 * (1.0 - k.frac) + _optik_data_vec3(b + 3u) * k.frac;
+        t.v2 = t.v2 * (1.0 - k.frac) + _optik_data_vec3(b + 6u) * k.frac;
+    }
+    return t;
+}
+
+// A sphere (centre, radius) at the ray's time; radius -1 when it vanished.
+fn _optik_sphere_at(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> vec4<f32> {
+    let k = _optik_geometry_key(g1);
+    if k.key < 0 {
+        return vec4<f32>(0.0, 0.0, 0.0, -1.0);
+    }
+    let a = g0.z + (u32(k.key) * g1.z + p) * 4u;
+    var s = _optik_data_vec4(a);
+    if k.frac > 0.0 {
+        s = s * (1.0 - k.frac) + _optik_data_vec4(a + g1.z * 4u) * k.frac;
+    }
+    return s;
+}
+
+// A curve segment's control points (xyz, radius) and cap bits; `live` false when it vanished.
+struct _OptikSegment {
+    p0: vec4<f32>,
+    p1: vec4<f32>,
+    p2: vec4<f32>,
+    p3: vec4<f32>,
+    caps: u32,
+    live: bool,
+}
+
+fn _optik_segment(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> _OptikSegment {
+    let k = _optik_geometry_key(g1);
+    if k.key < 0 {
+        return _OptikSegment(vec4<f32>(), vec4<f32>(), vec4<f32>(), vec4<f32>(), 0u, false);
+    }
+    let a = g0.z + (u32(k.key) * g1.z + p) * 17u;
+    var c = _OptikSegment(_optik_data_vec4(a), _optik_data_vec4(a + 4u), _optik_data_vec4(a + 8u), _optik_data_vec4(a + 12u), _optik_data[a + 16u], true);
+    if k.frac > 0.0 {
+        let b = a + g1.z * 17u;
+        let f = k.frac;
+        c.p0 = c.p0 * (1.0 - f) + _optik_data_vec4(b) * f;
+        c.p1 = c.p1 * (1.0 - f) + _optik_data_vec4(b + 4u) * f;
+        c.p2 = c.p2 * (1.0 - f) + _optik_data_vec4(b + 8u) * f;
+        c.p3 = c.p3 * (1.0 - f) + _optik_data_vec4(b + 12u) * f;
+    }
+    return c;
+}
+
+fn _optik_data_xform(a: u32) -> OptkXform {
+    return OptkXform(_optik_data_vec4(a), _optik_data_vec4(a + 4u), _optik_data_vec4(a + 8u));
+}
+
+fn _optik_data_srt(a: u32) -> array<vec4<f32>, 4> {
+    return array<vec4<f32>, 4>(_optik_data_vec4(a), _optik_data_vec4(a + 4u), _optik_data_vec4(a + 8u), _optik_data_vec4(a + 12u));
+}
+
+// A path's transform below its Vulkan instance at the ray's time (object to instance space)
+// and its inverse; `live` false when a motion transform on it vanished.
+struct _OptikPath {
+    to_instance: OptkXform,
+    from_instance: OptkXform,
+    moving: bool,
+    live: bool,
+}
+
+// Composes the motion chain at `at` (accel/motion.rs writes it): a link count, then per link
+// [kind (0 static, 1 matrix motion, 2 SRT motion), keys, flags, time begin, time end] and
+// its 3x4 matrix (static), its matrix keys or its SRT keys, outermost first.
+fn _optik_chain(at: u32) -> _OptikPath {
+    var m = optk_xform_identity();
+    let n = _optik_data[at];
+    var c = at + 1u;
+    for (var i = 0u; i < n; i = i + 1u) {
+        let kind = _optik_data[c];
+        let keys = _optik_data[c + 1u];
+        let flags = _optik_data[c + 2u];
+        let begin = bitcast<f32>(_optik_data[c + 3u]);
+        let end = bitcast<f32>(_optik_data[c + 4u]);
+        c = c + 5u;
+        var x = optk_xform_identity();
+        if kind == 0u {
+            x = _optik_data_xform(c);
+            c = c + 12u;
+        } else {
+            let k = _optik_key(keys, flags, begin, end);
+            if k.key < 0 {
+                return _OptikPath(m, m, true, false);
+            }
+            if kind == 1u {
+                let a = c + u32(k.key) * 12u;
+                x = _optik_data_xform(a);
+                if k.frac > 0.0 {
+                    x = optk_lerp_xform(x, _optik_data_xform(a + 12u), k.frac);
+                }
+                c = c + keys * 12u;
+            } else {
+                let a = c + u32(k.key) * 16u;
+                x = optk_srt_lerp(_optik_data_srt(a), _optik_data_srt(a + select(0u, 16u, k.frac > 0.0)), k.frac);
+                c = c + keys * 16u;
+            }
+        }
+        m = optk_xform_mul(m, x);
+    }
+    return _OptikPath(m, optk_xform_inverse(m), true, true);
+}
+
+var<private> _optik_path_cache: _OptikPath;
+var<private> _optik_path_ready: bool;
+
+// The hit's path below its Vulkan instance (identity without a motion chain), composed once
+// per stage invocation.
+fn _optik_path() -> _OptikPath {
+    if !_optik_path_ready {
+        let chain = _optik_instances[_optik_instance_record() + 1u].x;
+        if chain == 0xFFFFFFFFu {
+            _optik_path_cache = _OptikPath(optk_xform_identity(), optk_xform_identity(), false, true);
+        } else {
+            _optik_path_cache = _optik_chain(chain);
+        }
+        _optik_path_ready = true;
+    }
+    return _optik_path_cache;
+}
+
+fn _optik_obj_origin() -> vec3<f32> {
+    let o = _optik_object_ray_origin();
+    let path = _optik_path();
+    if !path.moving {
+        return o;
+    }
+    return optk_xform_point(path.from_instance, o);
+}
+
+fn _optik_obj_direction() -> vec3<f32> {
+    let d = _optik_object_ray_direction();
+    let path = _optik_path();
+    if !path.moving {
+        return d;
+    }
+    return optk_xform_vector(path.from_instance, d);
+}
+
+fn _optik_xform_of(m: mat4x3<f32>) -> OptkXform {
+    return OptkXform(vec4<f32>(m[0].x, m[1].x, m[2].x, m[3].x), vec4<f32>(m[0].y, m[1].y, m[2].y, m[3].y), vec4<f32>(m[0].z, m[1].z, m[2].z, m[3].z));
+}
+
+fn _optik_mat_of(x: OptkXform) -> mat4x3<f32> {
+    return mat4x3<f32>(vec3<f32>(x.r0.x, x.r1.x, x.r2.x), vec3<f32>(x.r0.y, x.r1.y, x.r2.y), vec3<f32>(x.r0.z, x.r1.z, x.r2.z), vec3<f32>(x.r0.w, x.r1.w, x.r2.w));
+}
+
+fn _optik_obj_to_world() -> mat4x3<f32> {
+    let path = _optik_path();
+    if !path.moving {
+        return _optik_object_to_world();
+    }
+    return _optik_mat_of(optk_xform_mul(_optik_xform_of(_optik_object_to_world()), path.to_instance));
+}
+
+fn _optik_world_to_obj() -> mat4x3<f32> {
+    let path = _optik_path();
+    if !path.moving {
+        return _optik_world_to_object();
+    }
+    return _optik_mat_of(optk_xform_mul(path.from_instance, _optik_xform_of(_optik_world_to_object())));
+}
+
+// Whether the hit's primitive does not exist at the ray's time (a vanish flag of its motion
+// chain or of its geometry's keys), or, for custom primitives with motion keys, the ray
+// misses the primitive's box at that time (the CPU backend runs intersection programs only
+// for rays that meet the interpolated box).
+fn _optik_vanished() -> bool {
+    if !_optik_path().live {
+        return true;
+    }
+    let g0 = _optik_geometry_record();
+    let g1 = _optik_geometry_extra();
+    let k = _optik_geometry_key(g1);
+    if k.key < 0 {
+        return true;
+    }
+    if ((g0.w >> 8u) & 0xFFu) != 1u || g1.x == 0xFFFFFFFFu || g0.z == 0xFFFFFFFFu {
+        return false;
+    }
+    let a = g0.z + (u32(k.key) * g1.z + _optik_primitive_id()) * 6u;
+    var lo = _optik_data_vec3(a);
+    var hi = _optik_data_vec3(a + 3u);
+    if k.frac > 0.0 {
+        let b = a + g1.z * 6u;
+        lo = lo * (1.0 - k.frac) + _optik_data_vec3(b) * k.frac;
+        hi = hi * (1.0 - k.frac) + _optik_data_vec3(b + 3u) * k.frac;
+    }
+    let r = optk_slab_ray(_optik_obj_origin(), optk_canonical_direction(_optik_obj_direction()));
+    return !optk_box1(r, lo, hi, _optik_ray_tmin(), _optik_ray_tmax());
+}
+"#;
+
+/// Opacity and culling decided by optik's stages (`optik_api::semantics::opacity`): the
+/// flags of the current ray (from the state word), the candidate's fate.
+fn opacity_functions(c: &LoweringConfig) -> String {
+    let mut s = String::new();
+    // Without flags in the state (no triangles in the pipeline), Vulkan's flags stand in.
+    s.push_str(if c.track_ray_flags {
+        "\nfn _optik_current_ray_flags() -> u32 {\n    return _optik_state[_optik_slot()].z & 0xFFFFu;\n}\n"
+    } else {
+        "\nfn _optik_current_ray_flags() -> u32 {\n    return _optik_ray_flags();\n}\n"
+    });
+    if c.micromaps {
+        s.push_str(FATE);
+    }
+    s
+}
+
+/// `optik_api::semantics::opacity::resolve` in WGSL.
+const FATE: &str = r#"
+// The fate of a candidate: 0 culled, 1 opaque, 2 non-opaque; `state` is its micromap state
+// (0..3), or 4 without one.
+fn _optik_fate(geometry: u32, instance: u32, ray: u32, state: u32) -> u32 {
+    let force_2_state = (ray & 1024u) != 0u || (instance & 16u) != 0u;
+    var opaque = (geometry & 1u) != 0u;
+    if state < 4u && (instance & 32u) == 0u {
+        if state == 0u || (state == 2u && force_2_state) {
+            return 0u;
+        }
+        opaque = state == 1u || (state == 3u && force_2_state);
+    }
+    if (instance & 4u) != 0u {
+        opaque = true;
+    } else if (instance & 8u) != 0u {
+        opaque = false;
+    }
+    if (ray & 1u) != 0u {
+        opaque = true;
+    } else if (ray & 2u) != 0u {
+        opaque = false;
+    }
+    if (opaque && (ray & 64u) != 0u) || (!opaque && (ray & 128u) != 0u) {
+        return 0u;
+    }
+    return select(2u, 1u, opaque);
+}
+
+// Whether the hit's candidate is culled by opacity (primitives without micromaps).
+fn _optik_opacity_culled() -> bool {
+    let inst = _optik_instances[_optik_instance_record()].w;
+    let geometry = (_optik_geometry_record().w >> 16u) & 0xFFu;
+    return _optik_fate(geometry, inst, _optik_current_ray_flags(), 4u) == 0u;
+}
+"#;
+
 /// `_optik_raise(code)` when `flag` is checked, else nothing.
-fn raise_if(c: &LoweringConfig, flag: ExceptionFlags, code: &str) -> String {
+pub(crate) fn raise_if(c: &LoweringConfig, flag: ExceptionFlags, code: &str) -> String {
     if c.exceptions.contains(flag) {
         format!("_optik_raise({code});")
     } else {
@@ -343,8 +763,8 @@ fn device_functions(c: &LoweringConfig) -> String {
             F::TerminateRay => "_optik_terminate_ray();".into(),
             F::WorldRayOrigin => "return _optik_world_ray_origin();".into(),
             F::WorldRayDirection => "return _optik_world_ray_direction();".into(),
-            F::ObjectRayOrigin => "return _optik_object_ray_origin();".into(),
-            F::ObjectRayDirection => "return _optik_object_ray_direction();".into(),
+            F::ObjectRayOrigin => "return _optik_obj_origin();".into(),
+            F::ObjectRayDirection => "return _optik_obj_direction();".into(),
             F::RayTmin => "return _optik_ray_tmin();".into(),
             F::RayTmax => "return _optik_ray_tmax();".into(),
             F::RayTime if c.motion => "return bitcast<f32>(_optik_state[_optik_slot()].x);".into(),
@@ -358,13 +778,14 @@ fn device_functions(c: &LoweringConfig) -> String {
             // Each SBT record of a build input is its own Vulkan geometry, numbered as OptiX
             // numbers records, so the geometry index is the SBT GAS index.
             F::SbtGasIndex => "return _optik_geometry_index();".into(),
-            F::InstanceId => "return _optik_instances[_optik_instance_custom_index()].x;".into(),
-            F::InstanceIndex => "return _optik_instances[_optik_instance_custom_index()].y;".into(),
-            F::HitKind => HIT_KIND.into(),
+            F::InstanceId => "return _optik_instances[_optik_instance_record()].x;".into(),
+            F::InstanceIndex => "return _optik_instances[_optik_instance_record()].y;".into(),
+            F::HitKind => hit_kind_body(c),
             F::IsFrontFaceHit => {
                 "let k = rt_hit_kind();\n    if k >= 0x80u {\n        return k == RT_HIT_KIND_TRIANGLE_FRONT_FACE;\n    }\n    return (k & 1u) == 0u;".into()
             }
             F::TriangleBarycentrics => "return vec2<f32>(_optik_attribute_f32(0u), _optik_attribute_f32(1u));".into(),
+            F::TriangleVertices if c.triangles.emulated() => EMULATED_TRIANGLE_VERTICES.into(),
             F::TriangleVertices => TRIANGLE_VERTICES.into(),
             F::Sphere => {
                 "if _optik_ctx != _OPTIK_CTX_SPHERE {\n        return vec4<f32>();\n    }\n    return vec4<f32>(_optik_attribute_f32(0u), _optik_attribute_f32(1u), _optik_attribute_f32(2u), _optik_attribute_f32(3u));".into()
@@ -372,8 +793,8 @@ fn device_functions(c: &LoweringConfig) -> String {
             F::CurveParameter => {
                 "if _optik_ctx != _OPTIK_CTX_CURVE {\n        return 0.0;\n    }\n    return _optik_attribute_f32(0u);".into()
             }
-            F::ObjectToWorld => "return _optik_object_to_world();".into(),
-            F::WorldToObject => "return _optik_world_to_object();".into(),
+            F::ObjectToWorld => "return _optik_obj_to_world();".into(),
+            F::WorldToObject => "return _optik_world_to_obj();".into(),
             F::SbtDataU32 => "return _optik_sbt_word(i);".into(),
             F::SbtDataF32 => "return bitcast<f32>(_optik_sbt_word(i));".into(),
             F::DirectCall => direct_call_body(c),
@@ -406,13 +827,31 @@ const PRIMITIVE_INDEX: &str = "let g = _optik_geometry_record();
     }
     return p + g.x;";
 
-const HIT_KIND: &str = "let k = _optik_hit_kind();
-    // optik's sphere and curve stages report 0 (entering) or 1 (leaving); programs see the
-    // face kinds built-in primitives have (optik_api::wgsl, sphere.wgsl).
-    if _optik_ctx >= _OPTIK_CTX_SPHERE {
-        return select(RT_HIT_KIND_TRIANGLE_BACK_FACE, RT_HIT_KIND_TRIANGLE_FRONT_FACE, k == 0u);
+/// `rt_hit_kind`: optik's sphere and curve stages report 0 (entering) or 1 (leaving), and its
+/// triangle stage bit 0 for the face (0 front) and bit 1 for an opacity its any-hit wrapper
+/// applies; programs see the face kinds of built-in primitives (optik_api::wgsl, sphere.wgsl).
+fn hit_kind_body(c: &LoweringConfig) -> String {
+    let triangles = if c.triangles.emulated() {
+        "\n    if _optik_ctx == _OPTIK_CTX_TRIANGLES {\n        return select(RT_HIT_KIND_TRIANGLE_BACK_FACE, RT_HIT_KIND_TRIANGLE_FRONT_FACE, (k & 1u) == 0u);\n    }"
+    } else {
+        ""
+    };
+    format!(
+        "let k = _optik_hit_kind();
+    if _optik_ctx >= _OPTIK_CTX_SPHERE {{
+        return select(RT_HIT_KIND_TRIANGLE_BACK_FACE, RT_HIT_KIND_TRIANGLE_FRONT_FACE, (k & 1u) == 0u);
+    }}{triangles}
+    return k;"
+    )
+}
+
+/// `rt_triangle_vertices` of optik's triangles: the vertices it tested, at the ray's time
+/// (always kept, as on the CPU backend).
+const EMULATED_TRIANGLE_VERTICES: &str = "if _optik_ctx != _OPTIK_CTX_TRIANGLES {
+        return array<vec3<f32>, 3>();
     }
-    return k;";
+    let t = _optik_triangle(_optik_geometry_record(), _optik_geometry_extra(), _optik_primitive_id());
+    return array<vec3<f32>, 3>(t.v0, t.v1, t.v2);";
 
 const TRIANGLE_VERTICES: &str = "if _optik_ctx != _OPTIK_CTX_TRIANGLES {
         return array<vec3<f32>, 3>();
@@ -532,6 +971,28 @@ fn continuation_call_body(c: &LoweringConfig) -> String {
     call_body(c, call, Some((16, c.max_continuation_callable_depth)))
 }
 
+/// The primitive types an intersection stage serves when the pipeline does not intersect
+/// them (its wrapper then skips every candidate).
+fn skipped_types(role: &StageRole, c: &LoweringConfig) -> Option<&'static str> {
+    use optik_api::PrimitiveTypeFlags as T;
+    let (types, name) = match role {
+        StageRole::Program { .. } => (T::CUSTOM, "custom primitives"),
+        StageRole::SphereIntersection => (T::SPHERE, "spheres"),
+        StageRole::CurveIntersection(basis) => (
+            match basis {
+                0 => T::ROUND_LINEAR,
+                1 => T::ROUND_QUADRATIC_BSPLINE,
+                2 => T::ROUND_CUBIC_BSPLINE,
+                _ => T::ROUND_CATMULLROM,
+            },
+            "curves of this basis",
+        ),
+        StageRole::TriangleIntersection => (T::TRIANGLE, "triangles"),
+        _ => return None,
+    };
+    (!c.intersects(types)).then_some(name)
+}
+
 /// The compute wrapper naga writes for a stage: it sets the stage's constants, runs the
 /// program, and does the stage's part of the exception scheme.
 pub fn wrapper(entry_fn: &str, role: &StageRole, c: &LoweringConfig) -> String {
@@ -548,6 +1009,11 @@ pub fn wrapper(entry_fn: &str, role: &StageRole, c: &LoweringConfig) -> String {
         StageRole::Program { name, .. } => name.clone(),
         StageRole::SphereIntersection => "_optik_builtin_sphere".into(),
         StageRole::CurveIntersection(_) => "_optik_builtin_curve".into(),
+        StageRole::TriangleIntersection => "_optik_builtin_triangle".into(),
+        StageRole::PastTableIntersection => "_optik_builtin_past_table".into(),
+        StageRole::InvalidHitAnyHit | StageRole::InvalidHitClosestHit => {
+            "_optik_invalid_hit_program".into()
+        }
         StageRole::NullCallable | StageRole::NullContinuation => "_optik_null_callable".into(),
     };
     let mut b = String::new();
@@ -572,6 +1038,11 @@ pub fn wrapper(entry_fn: &str, role: &StageRole, c: &LoweringConfig) -> String {
             if unwinds {
                 b.push_str("    if _optik_unwinding() {\n        _optik_terminate_ray();\n    }\n");
             }
+            if c.micromaps && c.triangles.emulated() && ctx == HitContext::Triangles {
+                // optik's triangle stage found the candidate opaque (a micromap state) where
+                // Vulkan saw it non-opaque: accepted without the any-hit program.
+                b.push_str("    if (_optik_hit_kind() & 2u) != 0u {\n        return;\n    }\n");
+            }
             b.push_str(&format!("    {program}();\n"));
             if unwinds {
                 b.push_str("    if _optik_unwinding() {\n        _optik_terminate_ray();\n    }\n");
@@ -580,6 +1051,31 @@ pub fn wrapper(entry_fn: &str, role: &StageRole, c: &LoweringConfig) -> String {
         ProgramKind::Intersection => {
             if unwinds {
                 b.push_str("    if _optik_unwinding() {\n        return;\n    }\n");
+            }
+            let culled_by_opacity = matches!(
+                role,
+                StageRole::Program { .. }
+                    | StageRole::SphereIntersection
+                    | StageRole::CurveIntersection(_)
+            );
+            if c.micromaps && culled_by_opacity {
+                // The driver does not cull by opacity in pipelines with micromaps (the
+                // triangle stage decides its own candidates' opacity).
+                b.push_str("    if _optik_opacity_culled() {\n        return;\n    }\n");
+            }
+            if let Some(types) = skipped_types(role, c) {
+                // Vulkan's skip flags cannot skip AABBs of one kind only.
+                let raise = raise_if(
+                    c,
+                    ExceptionFlags::DEBUG,
+                    "RT_EXCEPTION_CODE_UNSUPPORTED_PRIMITIVE_TYPE",
+                );
+                b.push_str(&format!(
+                    "    // The pipeline does not intersect {types}.\n    {raise}\n    return;\n"
+                ));
+            }
+            if c.motion_structures && matches!(role, StageRole::Program { .. }) {
+                b.push_str("    if _optik_vanished() {\n        return;\n    }\n");
             }
             b.push_str(&format!("    {program}();\n"));
         }
@@ -600,69 +1096,4 @@ pub fn wrapper(entry_fn: &str, role: &StageRole, c: &LoweringConfig) -> String {
     }
     b.push_str("}\n");
     b
-}
-
-/// The WGSL of optik's own programs: the built-in sphere and curve intersection stages and
-/// the null callable. Compiled with the shared intersectors of `optik_api::wgsl` and the
-/// prelude, like a user module.
-pub fn internal_programs(c: &LoweringConfig, curve_basis: u32) -> String {
-    let null_body = raise_if(
-        c,
-        ExceptionFlags::DEBUG,
-        "RT_EXCEPTION_CODE_CALLABLE_INVALID_SBT",
-    );
-    format!(
-        r#"{sphere}
-{curve}
-
-// A sphere of a sphere build input: its centre and radius are in the data table (object
-// space). Reports the entry hit (kind 0) and, when that is out of range or ignored, the exit
-// (kind 1); the object-space sphere goes into attributes 0..3 for rt_sphere.
-fn _optik_builtin_sphere() {{
-    let g = _optik_geometry_record();
-    let s = _optik_data_vec4(g.z + _optik_primitive_id() * 4u);
-    let tmin = _optik_ray_tmin();
-    let roots = optik_sphere_roots(s.xyz, s.w, _optik_object_ray_origin(), _optik_object_ray_direction());
-    if roots.z == 0.0 {{
-        return;
-    }}
-    var attributes: RtAttributes;
-    attributes[0] = bitcast<u32>(s.x);
-    attributes[1] = bitcast<u32>(s.y);
-    attributes[2] = bitcast<u32>(s.z);
-    attributes[3] = bitcast<u32>(s.w);
-    if roots.x >= tmin && roots.x <= _optik_ray_tmax() {{
-        if _optik_report_intersection(roots.x, 0u, attributes) {{
-            return;
-        }}
-    }}
-    if roots.y >= tmin && roots.y <= _optik_ray_tmax() {{
-        _optik_report_intersection(roots.y, 1u, attributes);
-    }}
-}}
-
-// A curve segment of a curve build input: 4 control points (xyz, radius) and the cap flags
-// (bit 0 start, bit 1 end) in the data table. The curve parameter goes into attribute 0.
-fn _optik_builtin_curve() {{
-    let g = _optik_geometry_record();
-    let b = g.z + _optik_primitive_id() * 17u;
-    let caps = _optik_data[b + 16u];
-    let hit = optik_curve_intersect({curve_basis}u, _optik_data_vec4(b), _optik_data_vec4(b + 4u), _optik_data_vec4(b + 8u), _optik_data_vec4(b + 12u),
-        (caps & 1u) != 0u, (caps & 2u) != 0u, _optik_object_ray_origin(), _optik_object_ray_direction(), _optik_ray_tmin(), _optik_ray_tmax());
-    if hit.z != 0.0 {{
-        var attributes: RtAttributes;
-        attributes[0] = bitcast<u32>(hit.y);
-        _optik_report_intersection(hit.x, 0u, attributes);
-    }}
-}}
-
-// Stands in for callable records without the kind of callable called, and for indices past
-// the table.
-fn _optik_null_callable() {{
-    {null_body}
-}}
-"#,
-        sphere = optik_api::wgsl::SPHERE,
-        curve = optik_api::wgsl::CURVE,
-    )
 }

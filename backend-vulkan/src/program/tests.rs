@@ -194,6 +194,11 @@ pub(crate) fn largest_config() -> LoweringConfig {
         track_ray_flags: true,
         guard_direct_calls: true,
         continuation_calls: true,
+        triangles: TriangleMode::Watertight { f64: true },
+        motion_structures: true,
+        micromaps: true,
+        micromap_states: true,
+        primitive_types: optik_api::PrimitiveTypeFlags::ALL.0,
     }
 }
 
@@ -258,4 +263,77 @@ fn internal_stages_validate() {
             &format!("internal-small{basis}"),
         );
     }
+}
+
+#[test]
+fn optik_stages_validate_for_every_triangle_mode_and_emulation() {
+    use optik_api::PrimitiveTypeFlags as T;
+    let roles = [
+        StageRole::TriangleIntersection,
+        StageRole::PastTableIntersection,
+        StageRole::SphereIntersection,
+        StageRole::CurveIntersection(2),
+        StageRole::NullCallable,
+    ];
+    for triangles in [
+        TriangleMode::Watertight { f64: true },
+        TriangleMode::Watertight { f64: false },
+        TriangleMode::MollerTrumbore,
+    ] {
+        for (motion, micromaps) in [(false, false), (true, false), (false, true), (true, true)] {
+            let config = LoweringConfig {
+                triangles,
+                motion,
+                motion_structures: motion,
+                micromaps,
+                micromap_states: micromaps,
+                track_ray_flags: true,
+                exceptions: ExceptionFlags::DEBUG,
+                ..LoweringConfig::default()
+            };
+            let what = format!("{triangles:?}-motion{motion}-omm{micromaps}");
+            lower_and_validate(
+                ModuleText::Internal { curve_basis: 2 },
+                &config,
+                &roles,
+                &what,
+            );
+        }
+    }
+    // A pipeline of custom primitives only: optik's stages skip what it does not intersect.
+    let config = LoweringConfig {
+        triangles: TriangleMode::MollerTrumbore,
+        track_ray_flags: true,
+        primitive_types: T::CUSTOM.0,
+        ..LoweringConfig::default()
+    };
+    lower_and_validate(
+        ModuleText::Internal { curve_basis: 0 },
+        &config,
+        &roles[..1],
+        "skip",
+    );
+    // Native triangles under debug exceptions: the any-hit and closest-hit of records past the
+    // user's.
+    let config = LoweringConfig {
+        exceptions: ExceptionFlags::DEBUG,
+        ..LoweringConfig::default()
+    };
+    lower_and_validate(
+        ModuleText::Internal { curve_basis: 0 },
+        &config,
+        &[StageRole::InvalidHitAnyHit, StageRole::InvalidHitClosestHit],
+        "invalid-hit-native",
+    );
+}
+
+#[test]
+fn user_stages_validate_with_emulated_triangles_motion_and_micromaps() {
+    let config = LoweringConfig {
+        triangles: TriangleMode::MollerTrumbore,
+        micromap_states: false,
+        ..largest_config()
+    };
+    let roles = user_roles(EVERYTHING);
+    lower_and_validate(ModuleText::User(EVERYTHING), &config, &roles, "emulated");
 }
