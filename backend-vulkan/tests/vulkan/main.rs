@@ -13,4 +13,5 @@ mod geometry;
 mod instances;
 mod rays;
 mod sbt;
+mod triangle_paths;
 mod triangles;
