@@ -653,9 +653,9 @@ impl Inner {
         }
         let on_aabbs =
             PrimitiveTypeFlags::CUSTOM | PrimitiveTypeFlags::SPHERE | PrimitiveTypeFlags::CURVES;
-        if !features.primitive_types.intersects(on_aabbs)
-            && !(triangles && config.triangles.emulated())
-        {
+        let aabbs = features.primitive_types.intersects(on_aabbs)
+            || (triangles && config.triangles.emulated());
+        if !aabbs {
             flags |= vk::PipelineCreateFlags::RAY_TRACING_SKIP_AABBS_KHR;
         }
         flags

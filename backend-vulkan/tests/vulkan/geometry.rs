@@ -231,7 +231,7 @@ fn pre_transform_nan_triangles_and_per_record_culling_with(dev: &TestDevice, acc
         )
         .unwrap();
     let out = trace(
-        &dev,
+        dev,
         &s,
         gas,
         &[2.25, 2.9, 0.25, 4.25, 6.25],
