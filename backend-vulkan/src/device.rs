@@ -3,7 +3,7 @@
 //! The trait methods lock the state and call the `impl Inner` methods of the modules named
 //! as in every backend (`accel`, `pipeline`, `sbt`, `launch`), plus `buffer` and `texture`.
 
-use crate::accel::{AccelObject, SceneTables, Tlas};
+use crate::accel::{AccelObject, Proxy, SceneTables, Tlas};
 use crate::cache::PipelineCache;
 use crate::commands::{Commands, Submission};
 use crate::context::{Context, VulkanOptions};
@@ -68,6 +68,11 @@ pub struct Inner {
     pub accuracy: Accuracy,
     /// Opacity micromap arrays (their states, copied into the structures that use them).
     pub micromap_arrays: HandleTable<MicromapArray, Arc<OpacityMicromapArrayDesc>>,
+    /// The proxy bottom levels of paths through motion transforms, by address (owned by
+    /// their transforms, accel/transform.rs).
+    pub proxies: HashMap<u64, Proxy>,
+    /// Proxies replaced while top levels above them are refreshed, freed afterwards.
+    pub retired_proxies: Vec<u64>,
 }
 
 /// A Vulkan ray tracing device.
@@ -107,6 +112,8 @@ impl VulkanDevice {
             next_generation: 1,
             accuracy: Accuracy::ROBUST,
             micromap_arrays: HandleTable::new(id),
+            proxies: HashMap::new(),
+            retired_proxies: Vec::new(),
         };
         inner.create_empty_tlas()?;
         Ok(VulkanDevice {
@@ -313,6 +320,9 @@ impl Inner {
             if let Ok(obj) = self.accels.remove(a) {
                 obj.destroy(&ctx, &mut self.alloc);
             }
+        }
+        for (_, p) in std::mem::take(&mut self.proxies) {
+            p.structure.destroy(&ctx, &mut self.alloc);
         }
         if let Some(t) = self.empty_tlas.take() {
             t.destroy(&ctx, &mut self.alloc);

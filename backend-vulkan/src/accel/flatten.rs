@@ -33,6 +33,16 @@ pub mod vk_flags {
     pub const FORCE_NO_OPAQUE: u32 = 8;
 }
 
+/// Which object owns a path's bottom level, and so its primitives' boxes (what motion
+/// transforms above bound again).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FlatSource {
+    /// A part of a geometry acceleration structure.
+    Gas(optik_api::Accel),
+    /// A motion transform's proxy for the path (its address, `Inner::proxies`).
+    Proxy(u64),
+}
+
 /// One path from a traversable down to a bottom level: one Vulkan instance of every top
 /// level that contains the traversable.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -61,6 +71,8 @@ pub struct FlatInstance {
     /// The path's motion chain in the data table (the transforms between the Vulkan
     /// instance and the geometry, when one of them moves), or NONE.
     pub chain: u32,
+    /// The owner of the bottom level (none in unit tests).
+    pub source: Option<FlatSource>,
 }
 
 impl FlatInstance {
@@ -78,7 +90,14 @@ impl FlatInstance {
             geometry_base,
             geometry_count,
             chain: super::tables::NONE,
+            source: None,
         }
+    }
+
+    /// The same path with its owner named.
+    pub fn owned_by(mut self, source: FlatSource) -> Self {
+        self.source = Some(source);
+        self
     }
 
     /// The largest hit record index a ray through this path can select (SBT offset and

@@ -488,13 +488,22 @@ pub fn decode_gas(
                         basis: 0,
                         kind: GasKind::Custom,
                     };
+                    // With motion, the keys' boxes: intersection programs run only when the
+                    // ray meets the box at its time (prelude.rs, `_optik_vanished`).
                     b.push_boxes(all, records > 1, record, None, |p| BoxItem {
                         bbox: per_key
                             .iter()
                             .map(|k| k[p as usize])
                             .reduce(|a, x| union(&a, &x))
                             .unwrap_or([f32::NAN; 6]),
-                        data: Vec::new(),
+                        data: if keys > 1 {
+                            per_key
+                                .iter()
+                                .flat_map(|k| k[p as usize].map(f32::to_bits))
+                                .collect()
+                        } else {
+                            Vec::new()
+                        },
                         micromap: None,
                     });
                 }

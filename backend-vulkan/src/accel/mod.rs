@@ -16,10 +16,13 @@
 
 pub mod flatten;
 pub mod geometry;
+pub mod motion;
 pub mod tables;
+pub mod transform;
 pub mod vkas;
 
 pub use tables::SceneTables;
+pub use transform::{Proxy, Transform};
 
 use crate::device::Inner;
 use crate::memory::{Allocator, GpuBuffer, Location};
@@ -92,22 +95,13 @@ pub struct Ias {
     features: SceneFeatures,
 }
 
-/// A static transform.
-pub struct Transform {
-    tlas: Tlas,
-    object_to_world: Matrix3x4,
-    child: Option<Accel>,
-    flat: Vec<FlatInstance>,
-    features: SceneFeatures,
-}
-
 /// A traversable object.
 pub enum AccelObject {
     /// Geometry.
     Gas(Gas),
     /// Instances.
     Ias(Ias),
-    /// A static transform.
+    /// A static or motion transform.
     Transform(Transform),
 }
 
@@ -524,9 +518,16 @@ impl Inner {
         let mut counts = Vec::with_capacity(instances.len());
         let mut at = 0usize;
         for (i, (inst, child)) in instances.iter().zip(children).enumerate() {
+            let live = child.filter(|c| self.accels.get(*c).is_ok());
             let entries = match child.map(|c| self.accels.get(c)) {
-                Some(Ok(obj)) => flatten::through_instance(inst, i as u32, &obj.flat())
-                    .map_err(|e| e.context(format!("instance {i}")))?,
+                Some(Ok(_)) => {
+                    let child_flat = match live {
+                        Some(c) => self.flat_of(c)?,
+                        None => Vec::new(),
+                    };
+                    flatten::through_instance(inst, i as u32, &child_flat)
+                        .map_err(|e| e.context(format!("instance {i}")))?
+                }
                 // A destroyed child: its paths stay, inactive.
                 Some(Err(_)) => match previous {
                     Some((counts, flat)) => flat[at..at + counts[i] as usize]
@@ -565,6 +566,8 @@ impl Inner {
                 queue.push(p);
             }
         }
+        let retired = std::mem::take(&mut self.retired_proxies);
+        self.free_proxies(&retired);
         Ok(())
     }
 
@@ -582,10 +585,7 @@ impl Inner {
                 }
                 flat
             }
-            AccelObject::Transform(t) => match t.child.map(|c| self.accels.get(c)) {
-                Some(Ok(child)) => flatten::through_transform(&t.object_to_world, &child.flat()),
-                _ => t.flat.iter().map(|f| f.inactive()).collect(),
-            },
+            AccelObject::Transform(_) => return self.refresh_transform(accel),
             AccelObject::Gas(_) => return Ok(()),
         };
         self.rebuild_tlas(accel, &flat)?;
@@ -1144,49 +1144,6 @@ impl Inner {
         Ok(new)
     }
 
-    pub fn create_transform(&mut self, desc: &TransformDesc) -> Result<Accel> {
-        validate::transform(desc)?;
-        let TransformDesc::Static {
-            child,
-            object_to_world,
-            ..
-        } = desc
-        else {
-            return Err(Error::unsupported("motion transforms: not yet"));
-        };
-        let child_accel = match child.0 {
-            0 => None,
-            h => Some(self.by_handle.get(&h).copied().ok_or_else(|| {
-                Error::invalid(format!("transform child {h:#x} is no live acceleration structure or transform of this device"))
-            })?),
-        };
-        let (flat, child_features) = match child_accel {
-            Some(c) => {
-                let obj = self.accels.get(c)?;
-                (
-                    flatten::through_transform(object_to_world, &obj.flat()),
-                    vec![obj.features()],
-                )
-            }
-            None => (Vec::new(), Vec::new()),
-        };
-        let features = SceneFeatures::of_parent(&child_features, MotionKinds::default(), true);
-        let tlas = self.build_tlas(
-            &flat,
-            vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE,
-        )?;
-        let handle = tlas.structure.address;
-        let accel = self.accels.insert(AccelObject::Transform(Transform {
-            tlas,
-            object_to_world: *object_to_world,
-            child: child_accel,
-            flat,
-            features,
-        }));
-        self.by_handle.insert(handle, accel);
-        Ok(accel)
-    }
-
     pub fn destroy_accel(&mut self, accel: Accel) -> Result<()> {
         self.accels.get(accel)?;
         self.wait_launches()?;
@@ -1203,6 +1160,9 @@ impl Inner {
         self.tables.touch();
         // Parents drop their paths into it before its bottom levels go.
         let refreshed = self.refresh_dependents(accel);
+        if let AccelObject::Transform(t) = &obj {
+            self.free_proxies(&t.proxies);
+        }
         obj.destroy(&self.ctx, &mut self.alloc);
         refreshed
     }
