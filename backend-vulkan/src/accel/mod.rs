@@ -225,6 +225,11 @@ fn input_buffers(input: &BuildInput) -> Vec<Buffer> {
             v.extend(t.indices.iter().map(|i| i.buffer.buffer));
             v.extend(t.sbt_index_offsets.iter().map(|o| o.buffer.buffer));
             v.extend(t.pre_transform.iter().map(|p| p.buffer));
+            v.extend(
+                t.opacity_micromap
+                    .iter()
+                    .filter_map(|o| o.index_buffer.map(|b| b.buffer)),
+            );
         }
         BuildInput::CustomPrimitives(c) => {
             v.extend(c.aabb_buffers.iter().map(|b| b.buffer));

@@ -11,6 +11,7 @@ mod errors;
 mod exceptions;
 mod geometry;
 mod instances;
+mod micromaps;
 mod motion;
 mod rays;
 mod sbt;
