@@ -389,7 +389,7 @@ impl Inner {
             },
             vk::DescriptorPoolSize {
                 ty: vk::DescriptorType::STORAGE_BUFFER,
-                descriptor_count: count(vk::DescriptorType::STORAGE_BUFFER) + 4,
+                descriptor_count: count(vk::DescriptorType::STORAGE_BUFFER) + 5,
             },
         ];
         if textures > 0 {
@@ -464,6 +464,15 @@ impl Inner {
                     vk::DescriptorType::STORAGE_BUFFER,
                     vk::DescriptorBufferInfo {
                         buffer: tables[2],
+                        offset: 0,
+                        range: vk::WHOLE_SIZE,
+                    },
+                ),
+                (
+                    5,
+                    vk::DescriptorType::STORAGE_BUFFER,
+                    vk::DescriptorBufferInfo {
+                        buffer: sbt.callable_table.buffer,
                         offset: 0,
                         range: vk::WHOLE_SIZE,
                     },

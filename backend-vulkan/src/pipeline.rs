@@ -45,6 +45,9 @@ pub struct GroupHandles {
     pub primary: Option<Vec<u8>>,
     /// The continuation callable's miss group handle.
     pub continuation: Option<Vec<u8>>,
+    /// The direct callable's program id in the callable table of calls inlined into
+    /// intersection and any-hit stages (program/inline.rs).
+    pub direct_id: Option<u32>,
 }
 
 /// A linked pipeline.
@@ -213,6 +216,10 @@ fn lowering_config(
             || micromaps;
     let guard_direct_calls =
         calls(&|k, f| k == ProgramKind::DirectCallable && f == DeviceFunction::DirectCall);
+    let inline_calls = calls(&|k, f| {
+        matches!(k, ProgramKind::Intersection | ProgramKind::AnyHit)
+            && f == DeviceFunction::DirectCall
+    });
     let exception_program = descs
         .iter()
         .any(|d| matches!(d, ProgramGroupDesc::Exception(_)));
@@ -228,6 +235,7 @@ fn lowering_config(
         track_ray_flags,
         guard_direct_calls,
         continuation_calls,
+        inline_calls,
         triangles: device.triangles,
         motion_structures: features.motion || device.scene_motion,
         micromaps,
@@ -396,9 +404,22 @@ impl Inner {
             }
         }
         let bindings = merged_bindings(modules.values())?;
+        let direct = DirectCallables::of(&descs, &modules, &config)?;
         let (plan, group_plan) = plan_stages(groups, &descs, &config, &features);
-        let stages = self.lower(&plan, &modules, &config)?;
-        self.link(stages, group_plan, features, config, bindings, recursion)
+        let stages = self.lower(&plan, &modules, &config, &direct)?;
+        let direct_ids: HashMap<RawHandle, u32> = groups
+            .iter()
+            .zip(&descs)
+            .filter_map(|(g, d)| match d {
+                ProgramGroupDesc::Callables {
+                    direct: Some(p), ..
+                } => Some((optik_api::Handle::raw(g), direct.id(p)?)),
+                _ => None,
+            })
+            .collect();
+        self.link(
+            stages, group_plan, direct_ids, features, config, bindings, recursion,
+        )
     }
 
     /// Lowers every planned stage, one naga pass per source.
@@ -407,6 +428,7 @@ impl Inner {
         plan: &StagePlan,
         modules: &HashMap<Module, Arc<CompiledModule>>,
         config: &LoweringConfig,
+        direct: &DirectCallables,
     ) -> Result<Vec<program::LoweredStage>> {
         let mut by_source: Vec<(Source, Vec<(usize, StageRole)>)> = Vec::new();
         for (i, (source, role)) in plan.stages.iter().enumerate() {
@@ -423,10 +445,12 @@ impl Inner {
                     let compiled = modules
                         .get(&m)
                         .ok_or_else(|| Error::backend("module vanished"))?;
+                    let callables = direct.of_module(m);
                     program::lower_stages(
                         ModuleText::User(&compiled.user_source),
                         config,
                         &role_list,
+                        Some((compiled, &callables)),
                     )
                     .map_err(|e| e.context(format!("module {}", compiled.file_name)))?
                 }
@@ -434,6 +458,7 @@ impl Inner {
                     ModuleText::Internal { curve_basis: basis },
                     config,
                     &role_list,
+                    None,
                 )?,
             };
             for ((i, _), stage) in roles.into_iter().zip(lowered) {
@@ -451,6 +476,7 @@ impl Inner {
         &mut self,
         stages: Vec<program::LoweredStage>,
         group_plan: GroupPlan,
+        direct_ids: HashMap<RawHandle, u32>,
         features: FeatureSet,
         config: LoweringConfig,
         bindings: Vec<BindingInfo>,
@@ -612,6 +638,7 @@ impl Inner {
                     GroupHandles {
                         primary: primary.map(handle),
                         continuation: continuation.map(handle),
+                        direct_id: direct_ids.get(raw).copied(),
                     },
                 ),
             );
@@ -680,7 +707,7 @@ impl Inner {
                     .stage_flags(stages)
             })
             .collect();
-        let backend: Vec<vk::DescriptorSetLayoutBinding> = (0..5)
+        let backend: Vec<vk::DescriptorSetLayoutBinding> = (0..6)
             .map(|b| {
                 let ty = if b == 0 {
                     vk::DescriptorType::UNIFORM_BUFFER
@@ -772,6 +799,81 @@ impl Inner {
         let per_level = ch.max(ms).max(is + ah) + callable_depth * callable;
         let total = rg + callable_depth * callable + recursion as u64 * per_level;
         total.min(u32::MAX as u64) as u32
+    }
+}
+
+/// The direct callables of a pipeline, numbered for the callable table of calls inlined
+/// into intersection and any-hit stages (program/inline.rs).
+struct DirectCallables {
+    /// Program id → module and function name.
+    programs: Vec<(Module, String)>,
+}
+
+impl DirectCallables {
+    /// The direct callables of `descs`. With inlined calls, every direct callable must be in
+    /// the module of each intersection and any-hit program that calls one: the stages are
+    /// compiled from their module's source.
+    fn of(
+        descs: &[ProgramGroupDesc],
+        modules: &HashMap<Module, Arc<CompiledModule>>,
+        config: &LoweringConfig,
+    ) -> Result<DirectCallables> {
+        let mut programs: Vec<(Module, String)> = Vec::new();
+        for d in descs {
+            if let ProgramGroupDesc::Callables {
+                direct: Some(p), ..
+            } = d
+                && !programs
+                    .iter()
+                    .any(|(m, n)| *m == p.module && *n == p.entry)
+            {
+                programs.push((p.module, p.entry.clone()));
+            }
+        }
+        if config.inline_calls {
+            for (kind, p) in descs.iter().flat_map(|d| d.programs()) {
+                let calls = matches!(kind, ProgramKind::Intersection | ProgramKind::AnyHit)
+                    && modules
+                        .get(&p.module)
+                        .and_then(|m| m.program(&p.entry))
+                        .is_some_and(|info| info.calls(DeviceFunction::DirectCall));
+                if !calls {
+                    continue;
+                }
+                if let Some((m, name)) = programs.iter().find(|(m, _)| *m != p.module) {
+                    let file = |m: &Module| {
+                        modules
+                            .get(m)
+                            .map_or_else(String::new, |c| c.file_name.clone())
+                    };
+                    return Err(Error::unsupported(format!(
+                        "`{}` ({}) calls rt_direct_call from a {kind} program, and the pipeline's direct callable `{name}` is in another module ({}): Vulkan runs no callables from intersection and any-hit stages, so the Vulkan backend compiles the direct callables into them, which it does for callables of the same module only; put them in one module",
+                        p.entry,
+                        file(&p.module),
+                        file(m)
+                    )));
+                }
+            }
+        }
+        Ok(DirectCallables { programs })
+    }
+
+    /// The program id of direct callable `p`.
+    fn id(&self, p: &ProgramRef) -> Option<u32> {
+        self.programs
+            .iter()
+            .position(|(m, n)| *m == p.module && *n == p.entry)
+            .map(|i| i as u32)
+    }
+
+    /// The ids and names of `module`'s direct callables.
+    fn of_module(&self, module: Module) -> Vec<(u32, String)> {
+        self.programs
+            .iter()
+            .enumerate()
+            .filter(|(_, (m, _))| *m == module)
+            .map(|(i, (_, n))| (i as u32, n.clone()))
+            .collect()
     }
 }
 

@@ -54,6 +54,9 @@ pub struct LoweringConfig {
     pub guard_direct_calls: bool,
     /// Some program calls continuation callables, whose depth is guarded.
     pub continuation_calls: bool,
+    /// Some intersection or any-hit program calls direct callables: they are compiled into
+    /// those stages (program/inline.rs).
+    pub inline_calls: bool,
     /// How triangles are intersected.
     pub triangles: TriangleMode,
     /// The scene has motion (keys, motion transforms): stages interpolate primitives and
@@ -108,6 +111,7 @@ impl Default for LoweringConfig {
             track_ray_flags: false,
             guard_direct_calls: false,
             continuation_calls: false,
+            inline_calls: false,
             triangles: TriangleMode::Native,
             motion_structures: false,
             micromaps: false,

@@ -107,6 +107,14 @@ pub fn prelude(c: &LoweringConfig) -> String {
     }
     s.push_str(
         &HELPERS
+            .replace(
+                "$INLINE_SBT",
+                if c.inline_calls {
+                    "// A direct callable inlined into an intersection or any-hit stage reads its own\n    // record's data from the callable table.\n    if _optik_inline_depth > 0u {\n        return _optik_callables[_optik_inline_data + min(i, $SBT_DATA_LAST)];\n    }"
+                } else {
+                    ""
+                },
+            )
             .replace("$SBT_DATA_LAST", &(SBT_DATA_WORDS - 1).to_string())
             .replace(
                 "$STRIP_OPACITY_CULLING",
@@ -157,11 +165,19 @@ struct _OptikLaunch {
 // basis, primitive kind, geometry flags)], [motion keys, micromap block, primitives, 0].
 @group(1) @binding(3) var<storage, read> _optik_geometries: array<vec4<u32>>;
 @group(1) @binding(4) var<storage, read> _optik_data: array<u32>;
+// The launch's callable records for calls inlined into intersection and any-hit stages
+// (program/inline.rs): per record [program id, data offset], then the records' data.
+@group(1) @binding(5) var<storage, read> _optik_callables: array<u32>;
 
 // Set by the stage wrapper: which program kind the stage runs, and for hit programs the
 // primitive their hit group serves. Constant per stage, so drivers fold the branches on them.
 var<private> _optik_stage: u32;
 var<private> _optik_ctx: u32;
+// A direct call inlined into an intersection or any-hit stage (program/inline.rs): its
+// nesting (0 outside one), arguments and record data in the callable table.
+var<private> _optik_inline_depth: u32;
+var<private> _optik_args: RtPayload;
+var<private> _optik_inline_data: u32;
 "#;
 
 /// Helpers every configuration has.
@@ -255,6 +271,7 @@ fn _optik_attribute_f32(i: u32) -> f32 {
 }
 
 fn _optik_sbt_word(i: u32) -> u32 {
+    $INLINE_SBT
     return _optik_sbt_u32(min(i, $SBT_DATA_LAST));
 }
 "#;
@@ -754,7 +771,13 @@ fn device_functions(c: &LoweringConfig) -> String {
             F::LaunchIndex => "return _optik_launch_id();".into(),
             F::LaunchDimensions => "return _optik_launch_size();".into(),
             F::Trace => trace_body(c),
+            F::GetPayload if c.inline_calls => format!(
+                "if _optik_inline_depth > 0u {{\n        return _optik_args[min(i, {last_payload}u)];\n    }}\n    return _optik_payload_get(min(i, {last_payload}u));"
+            ),
             F::GetPayload => format!("return _optik_payload_get(min(i, {last_payload}u));"),
+            F::SetPayload if c.inline_calls => format!(
+                "if _optik_inline_depth > 0u {{\n        _optik_args[min(i, {last_payload}u)] = value;\n        return;\n    }}\n    _optik_payload_set(min(i, {last_payload}u), value);"
+            ),
             F::SetPayload => format!("_optik_payload_set(min(i, {last_payload}u), value);"),
             F::GetAttribute => "return _optik_attribute_get(min(i, 7u));".into(),
             // OptiX keeps 7 bits of a reported hit kind; Vulkan reserves 128..255 too.
@@ -952,12 +975,20 @@ fn call_body(c: &LoweringConfig, call: &str, guarded: Option<(u32, u32)>) -> Str
 
 fn direct_call_body(c: &LoweringConfig) -> String {
     let call = format!("_optik_execute_callable(index + {CALLABLE_FIRST_USER}u, args);");
-    call_body(
+    let inline = if c.inline_calls {
+        // Intersection and any-hit stages cannot execute callables: the callables are
+        // compiled into them (program/inline.rs).
+        "if _optik_stage == _OPTIK_STAGE_INTERSECTION || _optik_stage == _OPTIK_STAGE_ANYHIT {\n        _optik_inline_call_1(index, args);\n        return;\n    }\n    "
+    } else {
+        ""
+    };
+    let body = call_body(
         c,
         &call,
         c.guard_direct_calls
             .then_some((24, c.max_direct_callable_depth)),
-    )
+    );
+    format!("{inline}{body}")
 }
 
 fn continuation_call_body(c: &LoweringConfig) -> String {
