@@ -176,6 +176,8 @@ struct DeviceSide {
     scene_motion: bool,
     /// Live structures have opacity micromaps.
     scene_micromaps: bool,
+    /// The device has `rayTraversalPrimitiveCulling`.
+    primitive_culling: bool,
 }
 
 /// Settings for the lowering from the resolved features and the programs.
@@ -208,11 +210,13 @@ fn lowering_config(
     let micromaps = device.triangles.emulated()
         && triangles
         && (features.opacity_micromaps || device.scene_micromaps);
-    // optik's triangle stage reads the ray's flags (face culling, micromap 2-state) from the
-    // state word, as do its opacity checks with micromaps.
+    // optik's triangle stage reads the ray's face-culling flags from Vulkan's (both faces as
+    // SkipTrianglesKHR), or from the state word where the device lacks that flag; its
+    // opacity checks with micromaps need the 2-state flag, which only the state keeps.
+    let skip_triangles_flag = device.triangles.emulated() && device.primitive_culling;
     let track_ray_flags =
         calls(&|_, f| matches!(f, DeviceFunction::RayFlags | DeviceFunction::RayMask))
-            || (device.triangles.emulated() && triangles)
+            || (device.triangles.emulated() && triangles && !skip_triangles_flag)
             || micromaps;
     let guard_direct_calls =
         calls(&|k, f| k == ProgramKind::DirectCallable && f == DeviceFunction::DirectCall);
@@ -237,6 +241,7 @@ fn lowering_config(
         continuation_calls,
         inline_calls,
         triangles: device.triangles,
+        skip_triangles_flag,
         motion_structures: features.motion || device.scene_motion,
         micromaps,
         micromap_states: micromaps && features.opacity_micromaps,
@@ -373,6 +378,7 @@ impl Inner {
             },
             scene_motion: scene.motion.any(),
             scene_micromaps: scene.opacity_micromaps,
+            primitive_culling: self.ctx.info.primitive_culling,
         };
         let config = lowering_config(&features, link, &desc_refs, &module_of, &device);
 

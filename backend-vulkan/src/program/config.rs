@@ -59,6 +59,11 @@ pub struct LoweringConfig {
     pub inline_calls: bool,
     /// How triangles are intersected.
     pub triangles: TriangleMode,
+    /// The device has `rayTraversalPrimitiveCulling`: with optik's triangle stage (and so no
+    /// Vulkan triangles), a ray asking to cull both faces carries Vulkan's `SkipTrianglesKHR`
+    /// instead, which the stage reads back, so rays need not carry their flags in the
+    /// state.
+    pub skip_triangles_flag: bool,
     /// The scene has motion (keys, motion transforms): stages interpolate primitives and
     /// follow motion chains, at the ray's time when `motion` is on and at key 0 otherwise
     /// (as the CPU backend does for pipelines compiled without motion).
@@ -113,6 +118,7 @@ impl Default for LoweringConfig {
             continuation_calls: false,
             inline_calls: false,
             triangles: TriangleMode::Native,
+            skip_triangles_flag: false,
             motion_structures: false,
             micromaps: false,
             micromap_states: false,

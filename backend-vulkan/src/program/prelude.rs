@@ -117,6 +117,14 @@ pub fn prelude(c: &LoweringConfig) -> String {
             )
             .replace("$SBT_DATA_LAST", &(SBT_DATA_WORDS - 1).to_string())
             .replace(
+                "$BOTH_FACES",
+                if c.skip_triangles_flag {
+                    "f = (f & ~48u) | 256u;"
+                } else {
+                    "f = f & ~32u;"
+                },
+            )
+            .replace(
                 "$STRIP_OPACITY_CULLING",
                 if c.micromaps {
                     "// A micromap state changes a candidate's opacity after the driver would cull it:\n    // optik's stages cull by opacity instead.\n    f = f & ~(64u | 128u);"
@@ -213,7 +221,9 @@ fn _optik_ray_valid(origin: vec3<f32>, direction: vec3<f32>, tmin: f32, tmax: f3
 // Vulkan allows only one of OpaqueKHR, NoOpaqueKHR, CullOpaqueKHR and CullNoOpaqueKHR, and not
 // both face-culling flags; optik_api::semantics::opacity defines every combination. Folds the
 // flags into one Vulkan allows, with the same outcome: combinations that cull every candidate
-// clear the mask instead. Both face-culling flags keep back-face culling only (documented).
+// clear the mask instead. Both face-culling flags: for optik's triangle stage, where the
+// device has it, SkipTrianglesKHR (no Vulkan triangles exist) carries them to the stage;
+// otherwise the stage reads the state and native triangles keep back-face culling only.
 fn _optik_vk_ray_flags(flags: u32, mask: ptr<function, u32>) -> u32 {
     var f = flags & 0xFFu;
     let cull_disabled = (f & 64u) != 0u;
@@ -233,7 +243,7 @@ fn _optik_vk_ray_flags(flags: u32, mask: ptr<function, u32>) -> u32 {
         f = f & ~(64u | 128u);
     }
     if (f & 48u) == 48u {
-        f = f & ~32u;
+        $BOTH_FACES
     }
     $STRIP_OPACITY_CULLING
     return f;
@@ -702,11 +712,12 @@ fn _optik_vanished() -> bool {
 /// flags of the current ray (from the state word), the candidate's fate.
 fn opacity_functions(c: &LoweringConfig) -> String {
     let mut s = String::new();
-    // Without flags in the state (no triangles in the pipeline), Vulkan's flags stand in.
+    // Without flags in the state, Vulkan's stand in (SkipTrianglesKHR meaning both faces, as
+    // the fold in `_optik_vk_ray_flags` writes it).
     s.push_str(if c.track_ray_flags {
         "\nfn _optik_current_ray_flags() -> u32 {\n    return _optik_state[_optik_slot()].z & 0xFFFFu;\n}\n"
     } else {
-        "\nfn _optik_current_ray_flags() -> u32 {\n    return _optik_ray_flags();\n}\n"
+        "\nfn _optik_current_ray_flags() -> u32 {\n    let f = _optik_ray_flags();\n    return select(f, f | 48u, (f & 256u) != 0u);\n}\n"
     });
     if c.micromaps {
         s.push_str(FATE);

@@ -196,6 +196,7 @@ pub(crate) fn largest_config() -> LoweringConfig {
         continuation_calls: true,
         inline_calls: true,
         triangles: TriangleMode::Watertight { f64: true },
+        skip_triangles_flag: true,
         motion_structures: true,
         micromaps: true,
         micromap_states: true,
@@ -297,6 +298,18 @@ fn optik_stages_validate_for_every_triangle_mode_and_emulation() {
             );
         }
     }
+    // Face-culling flags read from Vulkan's (SkipTrianglesKHR for both faces).
+    let config = LoweringConfig {
+        triangles: TriangleMode::Watertight { f64: false },
+        skip_triangles_flag: true,
+        ..LoweringConfig::default()
+    };
+    lower_and_validate(
+        ModuleText::Internal { curve_basis: 0 },
+        &config,
+        &roles[..1],
+        "skip-flag",
+    );
     // A pipeline of custom primitives only: optik's stages skip what it does not intersect.
     let config = LoweringConfig {
         triangles: TriangleMode::MollerTrumbore,

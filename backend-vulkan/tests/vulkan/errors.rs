@@ -245,8 +245,23 @@ fn what_the_backend_does_not_do_is_refused_with_a_reason() {
         .accel_build(&AccelBuildOptions::default(), &[BuildInput::Triangles(t)])
         .unwrap_err();
     assert!(e.message().contains("opacity micromap"), "{e}");
-    // The triangle path cannot change under live triangle structures.
+    // Native triangles cannot move under a motion transform either.
     let gas = dev.triangles(&[[0.0; 3]; 3], GeometryFlags::NONE);
+    let e = dev
+        .create_transform(&TransformDesc::SrtMotion {
+            child: dev.traversable_handle(gas).unwrap(),
+            motion: MotionOptions {
+                num_keys: 2,
+                flags: MotionFlags::NONE,
+                time_begin: 0.0,
+                time_end: 1.0,
+            },
+            keys: vec![SrtData::identity(); 2],
+        })
+        .unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::Unsupported);
+    assert!(e.message().contains("TriangleTest::Driver"), "{e}");
+    // The triangle path cannot change under live triangle structures.
     let e = dev.set_accuracy(Accuracy::ROBUST).unwrap_err();
     assert!(e.message().contains("destroy them first"), "{e}");
     dev.destroy_accel(gas).unwrap();
