@@ -2,10 +2,13 @@
 //! run: the same mesh and rays under `TriangleTest::Watertight` (the default),
 //! `MollerTrumbore` and `Driver` (native Vulkan triangles).
 //!
-//! `cargo run -p optik-vulkan --example triangle_cost [subdivisions] [width]` prints, per
-//! test, the build time, the best of 5 launches, the rays per second and the ratio to the
-//! driver's. The mesh is an icosphere (20 · 4^subdivisions triangles, default 6 = 81 920)
-//! seen by a pinhole camera of width × width rays (default 512), about half of which hit.
+//! `cargo run -p optik-vulkan --example triangle_cost [subdivisions] [width] [rounds]`
+//! prints, per test, the build time, the best launch, the rays per second and the ratio to
+//! the driver's. The mesh is an icosphere (20 · 4^subdivisions triangles, default 6 =
+//! 81 920) seen by a pinhole camera of width × width rays (default 512), about 37% of which
+//! hit. Each test has its own device (the triangle path is a device setting); launches of
+//! the three alternate for `rounds` rounds (default 20), so that load from other processes
+//! falls on all of them alike, and the best of each counts.
 
 use optik_api::*;
 use optik_vulkan::{VulkanDevice, VulkanOptions};
@@ -99,150 +102,176 @@ fn icosphere(subdivisions: u32) -> (Vec<f32>, Vec<u32>) {
     (vertices, tris.into_iter().flatten().collect())
 }
 
-/// Builds the mesh and traces the camera under `accuracy`: (build s, best trace s, hits).
-fn measure(
-    dev: &VulkanDevice,
-    accuracy: Accuracy,
-    mesh: &(Vec<f32>, Vec<u32>),
+/// A device set up to trace the camera under one accuracy.
+struct Setup {
+    dev: VulkanDevice,
+    pipeline: Pipeline,
+    sbt: ShaderBindingTable,
+    out: Buffer,
+    params: Vec<u8>,
     width: u32,
-) -> Result<(f64, f64, usize)> {
-    dev.set_accuracy(accuracy)?;
-    let upload = |bytes: &[u8]| -> Result<Buffer> {
-        let b = dev.create_buffer(bytes.len().max(4) as u64)?;
-        dev.write_buffer(b, 0, bytes)?;
-        Ok(b)
-    };
-    let vb = upload(bytemuck::cast_slice(&mesh.0))?;
-    let ib = upload(bytemuck::cast_slice(&mesh.1))?;
-    let start = Instant::now();
-    let input = TriangleArray::new(
-        BufferView::new(vb),
-        (mesh.0.len() / 3) as u32,
-        GeometryFlags::DISABLE_ANYHIT,
-    )
-    .with_indices(BufferView::new(ib), (mesh.1.len() / 3) as u32);
-    let options = AccelBuildOptions {
-        flags: BuildFlags::PREFER_FAST_TRACE,
-        ..Default::default()
-    };
-    let gas = dev.accel_build(&options, &[BuildInput::Triangles(input)])?;
-    dev.synchronize()?;
-    let build = start.elapsed().as_secs_f64();
-    let (m, _) = dev.create_module(
-        &ModuleCompileOptions::default(),
-        &PipelineCompileOptions::default(),
-        &ProgramSource::new("triangle_cost.wgsl", PROGRAMS),
-    )?;
-    let groups = dev.create_program_groups(&[
-        ProgramGroupDesc::Raygen(ProgramRef::new(m, "raygen__rg")),
-        ProgramGroupDesc::Miss(Some(ProgramRef::new(m, "miss__ms"))),
-        ProgramGroupDesc::closest_hit(ProgramRef::new(m, "closesthit__ch")),
-    ])?;
-    let pipeline = dev.create_pipeline(
-        &PipelineCompileOptions::default(),
-        &PipelineLinkOptions::default(),
-        &groups,
-    )?;
-    let mut table = Vec::new();
-    for g in &groups {
-        table.extend_from_slice(&dev.sbt_record_pack_header(*g)?);
-    }
-    let sbt_buffer = upload(&table)?;
-    let region = |offset: u64| SbtRegion {
-        buffer: sbt_buffer,
-        offset,
-        stride: 32,
-        count: 1,
-    };
-    let sbt = ShaderBindingTable {
-        raygen: SbtRecord {
-            buffer: sbt_buffer,
-            offset: 0,
-        },
-        exception: None,
-        miss: Some(region(32)),
-        hitgroup: Some(region(64)),
-        callables: None,
-    };
-    let out = dev.create_buffer(width as u64 * width as u64 * 4)?;
-    let handle = dev.traversable_handle(gas)?.to_words();
-    let params: Vec<u8> = [handle[0], handle[1], width, 0]
-        .iter()
-        .flat_map(|w| w.to_le_bytes())
-        .collect();
-    let mut best = f64::INFINITY;
-    // The first launch compiles the pipeline in the driver; it is not counted.
-    for run in 0..6 {
-        dev.synchronize()?;
+    /// Seconds the acceleration structure build took.
+    build: f64,
+}
+
+impl Setup {
+    /// Opens a device, builds the mesh and the pipeline under `accuracy`.
+    fn new(accuracy: Accuracy, mesh: &(Vec<f32>, Vec<u32>), width: u32) -> Result<Setup> {
+        let options = VulkanOptions {
+            validation: false,
+            pipeline_cache: false,
+            ..VulkanOptions::from_env()
+        };
+        let dev = VulkanDevice::open(&options)?;
+        dev.set_accuracy(accuracy)?;
+        let upload = |bytes: &[u8]| -> Result<Buffer> {
+            let b = dev.create_buffer(bytes.len().max(4) as u64)?;
+            dev.write_buffer(b, 0, bytes)?;
+            Ok(b)
+        };
+        let vb = upload(bytemuck::cast_slice(&mesh.0))?;
+        let ib = upload(bytemuck::cast_slice(&mesh.1))?;
         let start = Instant::now();
-        dev.launch(
-            pipeline,
-            &params,
-            &[Resource::buffer(1, out)],
-            &sbt,
-            LaunchSize::new(width, width, 1),
-        )?;
+        let input = TriangleArray::new(
+            BufferView::new(vb),
+            (mesh.0.len() / 3) as u32,
+            GeometryFlags::DISABLE_ANYHIT,
+        )
+        .with_indices(BufferView::new(ib), (mesh.1.len() / 3) as u32);
+        let options = AccelBuildOptions {
+            flags: BuildFlags::PREFER_FAST_TRACE,
+            ..Default::default()
+        };
+        let gas = dev.accel_build(&options, &[BuildInput::Triangles(input)])?;
         dev.synchronize()?;
-        if run > 0 {
-            best = best.min(start.elapsed().as_secs_f64());
+        let build = start.elapsed().as_secs_f64();
+        let (m, _) = dev.create_module(
+            &ModuleCompileOptions::default(),
+            &PipelineCompileOptions::default(),
+            &ProgramSource::new("triangle_cost.wgsl", PROGRAMS),
+        )?;
+        let groups = dev.create_program_groups(&[
+            ProgramGroupDesc::Raygen(ProgramRef::new(m, "raygen__rg")),
+            ProgramGroupDesc::Miss(Some(ProgramRef::new(m, "miss__ms"))),
+            ProgramGroupDesc::closest_hit(ProgramRef::new(m, "closesthit__ch")),
+        ])?;
+        let pipeline = dev.create_pipeline(
+            &PipelineCompileOptions::default(),
+            &PipelineLinkOptions::default(),
+            &groups,
+        )?;
+        let mut table = Vec::new();
+        for g in &groups {
+            table.extend_from_slice(&dev.sbt_record_pack_header(*g)?);
         }
+        let sbt_buffer = upload(&table)?;
+        let region = |offset: u64| SbtRegion {
+            buffer: sbt_buffer,
+            offset,
+            stride: 32,
+            count: 1,
+        };
+        let sbt = ShaderBindingTable {
+            raygen: SbtRecord {
+                buffer: sbt_buffer,
+                offset: 0,
+            },
+            exception: None,
+            miss: Some(region(32)),
+            hitgroup: Some(region(64)),
+            callables: None,
+        };
+        let out = dev.create_buffer(width as u64 * width as u64 * 4)?;
+        let handle = dev.traversable_handle(gas)?.to_words();
+        let params: Vec<u8> = [handle[0], handle[1], width, 0]
+            .iter()
+            .flat_map(|w| w.to_le_bytes())
+            .collect();
+        let setup = Setup {
+            dev,
+            pipeline,
+            sbt,
+            out,
+            params,
+            width,
+            build,
+        };
+        // The first launch compiles the pipeline in the driver; it is not counted.
+        setup.launch()?;
+        Ok(setup)
     }
-    let mut bytes = vec![0u8; width as usize * width as usize * 4];
-    dev.read_buffer(out, 0, &mut bytes)?;
-    let hits = bytes
-        .chunks_exact(4)
-        .filter(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]) != u32::MAX)
-        .count();
-    dev.destroy_pipeline(pipeline)?;
-    dev.destroy_accel(gas)?;
-    for b in [vb, ib, sbt_buffer, out] {
-        dev.destroy_buffer(b)?;
+
+    /// One launch, waited for; its seconds.
+    fn launch(&self) -> Result<f64> {
+        self.dev.synchronize()?;
+        let start = Instant::now();
+        self.dev.launch(
+            self.pipeline,
+            &self.params,
+            &[Resource::buffer(1, self.out)],
+            &self.sbt,
+            LaunchSize::new(self.width, self.width, 1),
+        )?;
+        self.dev.synchronize()?;
+        Ok(start.elapsed().as_secs_f64())
     }
-    Ok((build, best, hits))
+
+    /// Rays that hit something.
+    fn hits(&self) -> Result<usize> {
+        let mut bytes = vec![0u8; self.width as usize * self.width as usize * 4];
+        self.dev.read_buffer(self.out, 0, &mut bytes)?;
+        Ok(bytes
+            .chunks_exact(4)
+            .filter(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]) != u32::MAX)
+            .count())
+    }
 }
 
 fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);
     let subdivisions: u32 = args.next().and_then(|a| a.parse().ok()).unwrap_or(6);
     let width: u32 = args.next().and_then(|a| a.parse().ok()).unwrap_or(512);
+    let rounds: u32 = args.next().and_then(|a| a.parse().ok()).unwrap_or(20);
     let mesh = icosphere(subdivisions);
-    let options = VulkanOptions {
-        validation: false,
-        pipeline_cache: false,
-        ..VulkanOptions::from_env()
-    };
-    let dev = VulkanDevice::open(&options)?;
-    println!(
-        "{}: {} triangles, {}x{} rays",
-        dev.properties().device_name,
-        mesh.1.len() / 3,
-        width,
-        width
-    );
     let tests = [
         TriangleTest::Driver,
         TriangleTest::Watertight,
         TriangleTest::MollerTrumbore,
     ];
-    let mut results = Vec::new();
-    for triangle in tests {
-        let accuracy = Accuracy {
-            triangle,
-            box_test: BoxTest::Conservative,
-        };
-        results.push((triangle, measure(&dev, accuracy, &mesh, width)?));
+    let setups: Vec<Setup> = tests
+        .iter()
+        .map(|&triangle| {
+            let accuracy = Accuracy {
+                triangle,
+                box_test: BoxTest::Conservative,
+            };
+            Setup::new(accuracy, &mesh, width)
+        })
+        .collect::<Result<_>>()?;
+    println!(
+        "{}: {} triangles, {}x{} rays, best of {rounds} alternating rounds",
+        setups[0].dev.properties().device_name,
+        mesh.1.len() / 3,
+        width,
+        width
+    );
+    let mut best = [f64::INFINITY; 3];
+    for _ in 0..rounds {
+        for (b, s) in best.iter_mut().zip(&setups) {
+            *b = b.min(s.launch()?);
+        }
     }
-    let driver_trace = results[0].1.1;
     let rays = width as f64 * width as f64;
     println!("test            build ms  trace ms  Mrays/s  trace / driver  hits");
-    for (triangle, (build, trace, hits)) in results {
+    for ((triangle, s), trace) in tests.iter().zip(&setups).zip(best) {
         println!(
-            "{:<15} {:>8.1}  {:>8.2}  {:>7.2}  {:>14.2}  {hits}",
+            "{:<15} {:>8.1}  {:>8.2}  {:>7.2}  {:>14.2}  {}",
             format!("{triangle:?}"),
-            build * 1e3,
+            s.build * 1e3,
             trace * 1e3,
             rays / trace / 1e6,
-            trace / driver_trace
+            trace / best[0],
+            s.hits()?
         );
     }
     Ok(())
