@@ -297,3 +297,22 @@ pub trait Device: Send + Sync {
     /// Waits for every launch to finish.
     fn synchronize(&self) -> Result<()>;
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn accuracy_names_parse() {
+        assert_eq!(Accuracy::parse("robust"), Some(Accuracy::ROBUST));
+        assert_eq!(Accuracy::parse("fast"), Some(Accuracy::FAST));
+        assert_eq!(
+            Accuracy::parse("driver+conservative"),
+            Some(Accuracy {
+                triangle: TriangleTest::Driver,
+                box_test: BoxTest::Conservative,
+            })
+        );
+        assert_eq!(Accuracy::parse("driver"), None);
+    }
+}
