@@ -257,19 +257,33 @@ fn _optik_micromap_state(block: u32, p: u32, u: f32, v: f32) -> u32 {
 /// program, are never hit); under debug exceptions it raises `INVALID_HIT_SBT`, as the CPU
 /// backend does when it looks the candidate's record up.
 fn past_table_stages(c: &LoweringConfig) -> String {
-    let triangles = if c.triangles.emulated() {
+    use optik_api::PrimitiveTypeFlags as T;
+    // Only the kinds the pipeline intersects.
+    let triangles = if c.triangles.emulated() && c.intersects(T::TRIANGLE) {
         "\n    if kind == 0u {\n        h = _optik_triangle_candidate();\n    }"
     } else {
         ""
     };
-    let debug = c.exceptions.contains(ExceptionFlags::DEBUG);
-    let (custom, found) = if debug {
-        (
-            "\n    if kind == 1u {\n        h.hit = true;\n    }",
-            "_optik_raise(RT_EXCEPTION_CODE_INVALID_HIT_SBT);",
-        )
+    let spheres = if c.intersects(T::SPHERE) {
+        "\n    if kind == 2u {\n        h = _optik_sphere_candidate();\n    }"
     } else {
-        ("", "_optik_report_intersection(h.t, h.kind, h.attributes);")
+        ""
+    };
+    let curves = if c.intersects(T::CURVES) {
+        "\n    if kind == 3u {\n        h = _optik_curve_candidate(g0.w & 0xFFu);\n    }"
+    } else {
+        ""
+    };
+    let debug = c.exceptions.contains(ExceptionFlags::DEBUG);
+    let custom = if debug && c.intersects(T::CUSTOM) {
+        "\n    if kind == 1u {\n        h.hit = true;\n    }"
+    } else {
+        ""
+    };
+    let found = if debug {
+        "_optik_raise(RT_EXCEPTION_CODE_INVALID_HIT_SBT);"
+    } else {
+        "_optik_report_intersection(h.t, h.kind, h.attributes);"
     };
     let mut s = format!(
         r#"
@@ -277,13 +291,7 @@ fn past_table_stages(c: &LoweringConfig) -> String {
 fn _optik_builtin_past_table() {{
     let g0 = _optik_geometry_record();
     let kind = (g0.w >> 8u) & 0xFFu;
-    var h: _OptikCandidate;{triangles}{custom}
-    if kind == 2u {{
-        h = _optik_sphere_candidate();
-    }}
-    if kind == 3u {{
-        h = _optik_curve_candidate(g0.w & 0xFFu);
-    }}
+    var h: _OptikCandidate;{triangles}{spheres}{curves}{custom}
     if h.hit {{
         {found}
     }}

@@ -561,3 +561,79 @@ fn pipelines_created_before_motion_structures_are_refused_at_launch() {
         .unwrap_err();
     assert!(e.message().contains("motion"), "{e}");
 }
+
+#[test]
+fn moving_curves_follow_their_keys() {
+    let dev = device();
+    // A linear segment from (0, 0, 0) to (1, 0, 0), radius 0.25, moving +2 in x and growing
+    // to radius 0.5.
+    let key = |dx: f32| dev.f32_buffer(&[dx, 0.0, 0.0, dx + 1.0, 0.0, 0.0]);
+    let radius = |r: f32| dev.f32_buffer(&[r, r]);
+    let curves = CurveArray {
+        curve_type: CurveType::RoundLinear,
+        num_primitives: 1,
+        vertex_buffers: vec![BufferView::new(key(0.0)), BufferView::new(key(2.0))],
+        num_vertices: 2,
+        vertex_stride: 0,
+        width_buffers: vec![BufferView::new(radius(0.25)), BufferView::new(radius(0.5))],
+        width_stride: 0,
+        index_buffer: BufferView::new(dev.u32_buffer(&[0])),
+        index_stride: 0,
+        flag: GeometryFlags::DISABLE_ANYHIT,
+        primitive_index_offset: 0,
+        endcaps: CurveEndcaps::Default,
+    };
+    let options = AccelBuildOptions {
+        motion: Some(motion_options(MotionFlags::NONE)),
+        ..Default::default()
+    };
+    let gas = dev
+        .accel_build(&options, &[BuildInput::Curves(curves)])
+        .unwrap();
+    let (m, _) = dev
+        .create_module(
+            &ModuleCompileOptions::default(),
+            &PipelineCompileOptions::default(),
+            &ProgramSource::new("motion.wgsl", PROGRAMS),
+        )
+        .unwrap();
+    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
+    let ms = dev.group(ProgramGroupDesc::Miss(Some(prog(m, "miss__ms"))));
+    let curve = dev.group(ProgramGroupDesc::HitGroup {
+        closest_hit: Some(prog(m, "closesthit__custom")),
+        any_hit: None,
+        intersection: None,
+        builtin: BuiltinIntersector::Curve(CurveType::RoundLinear),
+    });
+    let pipeline = dev.pipeline(&[rg, ms, curve], 1);
+    let mut table = Table::new(rg);
+    table.miss.push((ms, &[]));
+    table.hit.push((curve, &[]));
+    let k = Kit {
+        pipeline,
+        sbt: table.build(&dev),
+    };
+    let rays = [
+        down(0.5, 0.0, 0.0),
+        down(1.5, 0.0, 0.5),
+        down(0.5, 0.0, 0.5),
+        down(2.5, 0.0, 1.0),
+    ];
+    let out = cast(&dev, &k, dev.traversable_handle(gas).unwrap(), &rays);
+    assert_eq!(out[0][0], 0, "key 0");
+    assert!(
+        (f(out[0][1]) - 4.75).abs() < 1e-4,
+        "radius 0.25 at key 0: t {}",
+        f(out[0][1])
+    );
+    assert_eq!(out[1][0], 0, "halfway");
+    assert!(
+        (f(out[1][1]) - 4.625).abs() < 1e-4,
+        "radius 0.375 halfway: t {}",
+        f(out[1][1])
+    );
+    assert_eq!(out[2][0], 0xFFFF, "moved away");
+    assert_eq!(out[3][0], 0, "key 1");
+    assert!((f(out[3][1]) - 4.5).abs() < 1e-4);
+    dev.assert_no_messages();
+}
