@@ -9,6 +9,7 @@
 //! tracing stage with the intrinsics' real bodies.
 
 pub mod config;
+mod emulation;
 pub mod inline;
 pub mod internal;
 pub mod intrinsic;
