@@ -420,7 +420,9 @@ fn device_functions(c: &LoweringConfig) -> String {
                 "if _optik_inline_depth > 0u {{\n        _optik_args[min(i, {last_payload}u)] = value;\n        return;\n    }}\n    _optik_payload_set(min(i, {last_payload}u), value);"
             ),
             F::SetPayload => format!("_optik_payload_set(min(i, {last_payload}u), value);"),
-            F::GetAttribute => "return _optik_attribute_get(min(i, 7u));".into(),
+            // Triangles have two attributes (the barycentrics); Vulkan leaves the rest of a
+            // native triangle's attribute memory undefined, and the CPU backend reads 0.
+            F::GetAttribute => "if _optik_ctx == _OPTIK_CTX_TRIANGLES && i >= 2u {\n        return 0u;\n    }\n    return _optik_attribute_get(min(i, 7u));".into(),
             // OptiX keeps 7 bits of a reported hit kind; Vulkan reserves 128..255 too.
             F::ReportIntersection => "return _optik_report_intersection(t, hit_kind & 0x7Fu, attributes);".into(),
             F::IgnoreIntersection => "_optik_ignore_intersection();".into(),
