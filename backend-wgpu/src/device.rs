@@ -350,6 +350,11 @@ impl optik_api::Device for WgpuDevice {
     }
 
     fn set_accuracy(&self, accuracy: Accuracy) -> Result<()> {
+        if accuracy.triangle == optik_api::TriangleTest::Driver {
+            return Err(Error::unsupported(
+                "TriangleTest::Driver is the Vulkan driver's own triangle test; the wgpu backend intersects triangles itself: choose TriangleTest::Watertight or TriangleTest::MollerTrumbore",
+            ));
+        }
         self.lock()?.accuracy = accuracy;
         Ok(())
     }

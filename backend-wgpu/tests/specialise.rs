@@ -131,4 +131,13 @@ fn accuracy_selects_the_tests_compiled() {
     let p = pipeline(d, &g, 1);
     let src = dev.kernel_source(p).unwrap();
     assert!(src.contains("optk_tri_watertight(") && src.contains("far_x * OPTK_SLAB_WIDEN"));
+    // The driver's triangle test is the Vulkan backend's.
+    let driver = Accuracy {
+        triangle: TriangleTest::Driver,
+        ..Accuracy::ROBUST
+    };
+    let e = d.set_accuracy(driver).unwrap_err();
+    assert_eq!(e.kind(), optik_api::ErrorKind::Unsupported);
+    assert!(e.message().contains("TriangleTest::Driver"), "{e}");
+    assert_eq!(d.accuracy(), Accuracy::ROBUST);
 }

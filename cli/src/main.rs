@@ -13,6 +13,7 @@ macro_rules! outln {
 
 mod compile;
 mod info;
+mod report;
 mod trace;
 
 use clap::{Parser, Subcommand};
@@ -34,6 +35,8 @@ enum Command {
     Info,
     /// Casts rays (a float32 .npy of shape (N, 8)) against a mesh and writes hits to a .npz.
     Trace(trace::TraceArgs),
+    /// Measures backends, accuracy options, specialisation and scaling side by side (DESIGN.md §8).
+    BenchReport(report::ReportArgs),
 }
 
 fn main() -> ExitCode {
@@ -42,6 +45,7 @@ fn main() -> ExitCode {
         Command::Compile(args) => compile::run(&args),
         Command::Info => info::run(),
         Command::Trace(args) => trace::run(&args),
+        Command::BenchReport(args) => report::run(&args),
     };
     ExitCode::from(code)
 }

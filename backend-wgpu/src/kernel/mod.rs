@@ -201,7 +201,7 @@ fn snippets(c: &KernelConfig<'_>, out: &mut String) {
     if c.triangles() {
         // Only the chosen triangle test.
         let unused = match c.accuracy.triangle {
-            TriangleTest::Watertight => "optk_tri_moller_trumbore",
+            TriangleTest::Watertight | TriangleTest::Driver => "optk_tri_moller_trumbore",
             TriangleTest::MollerTrumbore => "optk_tri_watertight",
         };
         let text = wgsl::specialise(wgsl::TRIANGLE, options);

@@ -408,7 +408,8 @@ fn triangles(c: &KernelConfig<'_>, out: &mut String) {
         );
     }
     out.push_str(match c.accuracy.triangle {
-        TriangleTest::Watertight => "        let t = optk_tri_watertight((*lv).woop, (*lv).origin, v0, v1, v2, optk_ray.tmin, optk_best.t);\n",
+        // `Driver` is refused by `set_accuracy`; it never reaches a kernel.
+        TriangleTest::Watertight | TriangleTest::Driver => "        let t = optk_tri_watertight((*lv).woop, (*lv).origin, v0, v1, v2, optk_ray.tmin, optk_best.t);\n",
         TriangleTest::MollerTrumbore => "        let t = optk_tri_moller_trumbore((*lv).origin, (*lv).direction, v0, v1, v2, optk_ray.tmin, optk_best.t);\n",
     });
     out.push_str(
