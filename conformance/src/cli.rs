@@ -54,6 +54,20 @@ pub enum ConformanceCommand {
     Bless,
 }
 
+/// Writes `text` to stdout. When stdout is closed (`optik conformance --list | head`) the
+/// process ends quietly instead of panicking, as the `optik` command's other output does.
+fn out(text: &str) {
+    use std::io::Write as _;
+    let mut stdout = std::io::stdout().lock();
+    if stdout
+        .write_all(text.as_bytes())
+        .and_then(|_| stdout.flush())
+        .is_err()
+    {
+        std::process::exit(0);
+    }
+}
+
 /// Parses `--backend`.
 pub fn parse_backends(s: &str) -> Result<Vec<BackendKind>, String> {
     if s == "all" {
@@ -94,20 +108,20 @@ pub fn run(args: &ConformanceArgs) -> i32 {
     let cases = selected(args);
     if args.explain {
         for c in &cases {
-            print!("{}", report::explain(c));
+            out(&report::explain(c));
         }
         return 0;
     }
     if args.list || args.rules {
         if args.rules {
-            print!("{}", report::rules_text(&cases));
+            out(&report::rules_text(&cases));
         } else if args.json {
-            println!(
-                "{}",
+            out(&format!(
+                "{}\n",
                 serde_json::to_string_pretty(&report::list_json(&cases)).unwrap_or_default()
-            );
+            ));
         } else {
-            print!("{}", report::list_text(&cases));
+            out(&report::list_text(&cases));
         }
         return 0;
     }
@@ -142,20 +156,20 @@ pub fn run(args: &ConformanceArgs) -> i32 {
         }
     });
     if args.json {
-        println!(
-            "{}",
+        out(&format!(
+            "{}\n",
             serde_json::to_string_pretty(&report::json(&results)).unwrap_or_default()
-        );
+        ));
     } else {
-        print!("{}", report::table(&results, &backends));
+        out(&report::table(&results, &backends));
     }
-    if let Some(out) = &args.out {
-        if let Err(e) = report::write_out_dir(out, &results, &backends) {
+    if let Some(dir) = &args.out {
+        if let Err(e) = report::write_out_dir(dir, &results, &backends) {
             eprintln!("optik conformance: {e}");
             return 2;
         }
         if !args.json {
-            println!("report: {}", out.join("index.html").display());
+            out(&format!("report: {}\n", dir.join("index.html").display()));
         }
     }
     let (_, failed, _) = report::counts(&results);
@@ -263,7 +277,7 @@ pub fn bless(args: &ConformanceArgs) -> i32 {
         }
         for (path, image) in written {
             match exrio::write(&path, &image) {
-                Ok(()) => println!("blessed {}", path.display()),
+                Ok(()) => out(&format!("blessed {}\n", path.display())),
                 Err(e) => {
                     eprintln!("{e}");
                     failures += 1;
