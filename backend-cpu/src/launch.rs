@@ -17,10 +17,16 @@
 //!   (as the Vulkan backend's null records), or raises `INVALID_HIT_SBT` under debug
 //!   exceptions; a miss index past the miss records runs nothing (or raises
 //!   `INVALID_MISS_SBT`).
+//!
+//! Cost: nothing here allocates. What a running program sees ([`ProgramFrame`]: its view and
+//! the [`DeviceState`] compiled programs read instead of calling getters) and what a trace
+//! keeps ([`TraceState`], the payload registers) live in the stack frames of the calls that
+//! run programs and trace; the invocation points at the innermost ones, so nesting copies
+//! nothing but the payload words in use.
 
 use crate::accel::SceneTable;
 use crate::pipeline::{Callable, TraceFn};
-use crate::program::abi::{Bindings, BoundResource, DeviceCalls};
+use crate::program::abi::{Bindings, DeviceCalls, DeviceState};
 use crate::sbt::{Record, ResolvedSbt};
 use crate::traverse::{
     self, Candidate, CustomPrimitive, Handler, HitData, Path, Spec, TraceConfig, TraceRay,
@@ -32,15 +38,20 @@ use optik_api::{
     ExceptionFlags, FeatureSet, IDENTITY_3X4, Matrix3x4, PipelineLinkOptions, ProgramKind,
     RayFlags, TraversableHandle,
 };
+use std::cell::UnsafeCell;
 
 /// Most payload (and callable argument) registers.
 const MAX_PAYLOAD: usize = 32;
+
+/// Launch indices one rayon task runs: enough to make scheduling cheap per ray, few enough
+/// to balance rays of very different cost over the threads.
+const INDICES_PER_TASK: usize = 64;
 
 /// What every invocation of a launch shares.
 pub(crate) struct LaunchShared<'l> {
     pub sbt: ResolvedSbt<'l>,
     pub scene: &'l SceneTable,
-    pub resources: Vec<BoundResource>,
+    pub bindings: &'l Bindings<'l>,
     pub size: [u32; 3],
     pub config: TraceConfig,
     pub features: FeatureSet,
@@ -58,18 +69,23 @@ pub(crate) fn run(shared: &LaunchShared<'_>, pool: &rayon::ThreadPool) {
     let Some(raygen) = shared.sbt.raygen.programs.main else {
         return;
     };
+    let view = View {
+        kind: ProgramKind::Raygen,
+        record: Some(&shared.sbt.raygen),
+        ..View::EMPTY
+    };
+    let (w, h) = (w as u64, h as u64);
     pool.install(|| {
-        (0..count).into_par_iter().with_min_len(16).for_each(|i| {
-            let (i, w, h) = (i as u64, w as u64, h as u64);
-            let index = [(i % w) as u32, ((i / w) % h) as u32, (i / (w * h)) as u32];
-            let mut inv = Invocation::new(shared, index);
-            let view = View {
-                kind: ProgramKind::Raygen,
-                record: Some(&shared.sbt.raygen),
-                ..View::EMPTY
-            };
-            inv.run(raygen, view);
-        })
+        (0..count.div_ceil(INDICES_PER_TASK))
+            .into_par_iter()
+            .for_each(|task| {
+                let first = task * INDICES_PER_TASK;
+                for i in first..(first + INDICES_PER_TASK).min(count) {
+                    let i = i as u64;
+                    let index = [(i % w) as u32, ((i / w) % h) as u32, (i / (w * h)) as u32];
+                    Invocation::new(shared, index).run(raygen, view);
+                }
+            })
     });
 }
 
@@ -150,6 +166,14 @@ impl View<'_> {
     };
 }
 
+/// A running program: its view and the values it reads as memory. Lives in the stack
+/// frame of [`Invocation::run`]; compiled code reads `state` through a raw pointer, so the
+/// frame sits in an `UnsafeCell`.
+struct ProgramFrame<'l> {
+    view: View<'l>,
+    state: DeviceState,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum AnyHitOutcome {
     Accept,
@@ -165,8 +189,7 @@ struct IntersectionContext<'l> {
     fate: CandidateFate,
 }
 
-/// The state of the innermost `rt_trace`.
-#[derive(Clone, Copy)]
+/// The state of one `rt_trace`, in the stack frame of [`Invocation::trace`].
 struct TraceState<'l> {
     ray: RayState,
     sbt_offset: u32,
@@ -190,10 +213,13 @@ pub(crate) struct Invocation<'l> {
     continuation_depth: u32,
     /// An exception ended this launch index.
     ending: bool,
-    view: View<'l>,
-    payload: [u32; MAX_PAYLOAD],
+    /// The innermost running program (null before the raygen starts).
+    frame: *mut ProgramFrame<'l>,
+    /// The innermost trace (null outside traces).
+    trace: *mut TraceState<'l>,
+    /// The payload registers of the innermost trace or callable call (null outside them).
+    payload: *mut u32,
     payload_len: usize,
-    trace: TraceState<'l>,
 }
 
 /// Traces for a pipeline compiled as `S`.
@@ -215,19 +241,10 @@ impl<'l> Invocation<'l> {
             direct_depth: 0,
             continuation_depth: 0,
             ending: false,
-            view: View::EMPTY,
-            payload: [0; MAX_PAYLOAD],
+            frame: std::ptr::null_mut(),
+            trace: std::ptr::null_mut(),
+            payload: std::ptr::null_mut(),
             payload_len: 0,
-            trace: TraceState {
-                ray: View::EMPTY.ray,
-                sbt_offset: 0,
-                sbt_stride: 0,
-                committed: None,
-                terminated: false,
-                any_hit: AnyHitOutcome::Accept,
-                intersection: None,
-                intersection_exit: false,
-            },
         }
     }
 
@@ -235,15 +252,106 @@ impl<'l> Invocation<'l> {
         self.shared.features.exceptions
     }
 
-    /// Runs a program with `view`, restoring the caller's view after.
+    /// What the running program sees.
+    #[inline]
+    fn view(&self) -> &View<'l> {
+        if self.frame.is_null() {
+            &View::EMPTY
+        } else {
+            // SAFETY: `frame` points into the stack frame of the `run` call of the running
+            // program, which outlives every device call the program makes.
+            unsafe { &(*self.frame).view }
+        }
+    }
+
+    /// The innermost trace. Only called while one runs (from the traversal's handler
+    /// calls, or from programs it runs).
+    #[inline]
+    fn tr(&self) -> &TraceState<'l> {
+        debug_assert!(!self.trace.is_null());
+        // SAFETY: `trace` points into the stack frame of the `trace` call in progress.
+        unsafe { &*self.trace }
+    }
+
+    #[inline]
+    fn tr_mut(&mut self) -> &mut TraceState<'l> {
+        debug_assert!(!self.trace.is_null());
+        // SAFETY: as in `tr`; `&mut self` makes this the only reference.
+        unsafe { &mut *self.trace }
+    }
+
+    /// Runs a program with `view`; the caller's view comes back after.
     fn run(&mut self, program: Callable<'l>, view: View<'l>) {
-        let saved = std::mem::replace(&mut self.view, view);
-        let shared = self.shared;
-        let bindings = Bindings {
-            resources: &shared.resources,
+        let frame = UnsafeCell::new(ProgramFrame {
+            view,
+            state: DeviceState::EMPTY,
+        });
+        let saved = std::mem::replace(&mut self.frame, frame.get());
+        let bits = program.state_bits();
+        if bits != 0 {
+            self.fill_state(bits);
+        }
+        let bindings = self.shared.bindings;
+        program.call(bindings, self);
+        self.frame = saved;
+    }
+
+    /// Writes the values of `bits` for the running program into its `DeviceState`: the
+    /// same answers the `DeviceCalls` methods give, read as memory by compiled code.
+    fn fill_state(&mut self, bits: u32) {
+        type S = DeviceState;
+        let mut s = DeviceState {
+            present: bits & !S::PAYLOAD,
+            ..S::EMPTY
         };
-        program.call(&bindings, self);
-        self.view = saved;
+        if bits & S::LAUNCH_INDEX != 0 {
+            s.launch_index = self.launch_index();
+        }
+        if bits & S::LAUNCH_DIMENSIONS != 0 {
+            s.launch_dimensions = self.launch_dimensions();
+        }
+        if bits & S::WORLD_RAY != 0 {
+            s.world_ray_origin = self.world_ray_origin();
+            s.world_ray_direction = self.world_ray_direction();
+        }
+        if bits & S::OBJECT_RAY != 0 {
+            s.object_ray_origin = self.object_ray_origin();
+            s.object_ray_direction = self.object_ray_direction();
+        }
+        if bits & S::RAY != 0 {
+            s.ray_tmin = self.ray_tmin();
+            s.ray_tmax = self.ray_tmax();
+            s.ray_time = self.ray_time();
+            s.ray_flags = self.ray_flags();
+            s.ray_mask = self.ray_mask();
+        }
+        if bits & S::PRIMITIVE != 0 {
+            s.primitive_index = self.primitive_index();
+            s.sbt_gas_index = self.sbt_gas_index();
+            s.instance_id = self.instance_id();
+            s.instance_index = self.instance_index();
+        }
+        if bits & S::HIT != 0 {
+            s.hit_kind = self.hit_kind();
+            s.triangle_barycentrics = self.triangle_barycentrics();
+        }
+        if bits & S::TRANSFORMS != 0 {
+            s.object_to_world = self.object_to_world();
+            s.world_to_object = self.world_to_object();
+        }
+        if bits & S::TRACE_DEPTH != 0 {
+            s.remaining_trace_depth = self.remaining_trace_depth();
+        }
+        // Writes in place are right only while they are not dropped (before an exception
+        // ends the index; no program starts after that).
+        if bits & S::PAYLOAD != 0 && !self.payload.is_null() && !self.ending {
+            s.present |= S::PAYLOAD;
+            s.payload = self.payload;
+            s.payload_len = self.payload_len as u32;
+        }
+        // SAFETY: `frame` is the running program's frame (set by `run`); no reference to
+        // its state is alive.
+        unsafe { (*self.frame).state = s };
     }
 
     /// Raises an exception: runs the exception program, then ends the launch index.
@@ -258,7 +366,7 @@ impl<'l> Invocation<'l> {
                 kind: ProgramKind::Exception,
                 record: Some(rec),
                 exception_code,
-                ..self.view
+                ..*self.view()
             };
             self.run(p, view);
         }
@@ -269,13 +377,15 @@ impl<'l> Invocation<'l> {
     /// without programs (the hit counts, nothing runs; custom primitives, which need an
     /// intersection program, cannot be hit), or raises `INVALID_HIT_SBT` under debug
     /// exceptions (`None`).
+    #[inline]
     fn hit_record(&mut self, path: &Path, sbt_gas_index: u32) -> Option<&'l Record<'l>> {
         let shared = self.shared;
+        let tr = self.tr();
         let i = sbt_index::hit_record_index(
             path.sbt_offset,
             sbt_gas_index,
-            self.trace.sbt_offset,
-            self.trace.sbt_stride,
+            tr.sbt_offset,
+            tr.sbt_stride,
         );
         match shared.sbt.hitgroup.get(i as usize) {
             Some(rec) => Some(rec),
@@ -294,10 +404,10 @@ impl<'l> Invocation<'l> {
         record: &'l Record<'l>,
         hit: HitState,
     ) -> Option<AnyHitOutcome> {
-        let saved = std::mem::replace(&mut self.trace.any_hit, AnyHitOutcome::Accept);
+        let saved = std::mem::replace(&mut self.tr_mut().any_hit, AnyHitOutcome::Accept);
         let ray = RayState {
             tmax: hit.t,
-            ..self.trace.ray
+            ..self.tr().ray
         };
         self.run(
             program,
@@ -309,22 +419,24 @@ impl<'l> Invocation<'l> {
                 exception_code: 0,
             },
         );
-        let outcome = std::mem::replace(&mut self.trace.any_hit, saved);
+        let outcome = std::mem::replace(&mut self.tr_mut().any_hit, saved);
         (!self.ending).then_some(outcome)
     }
 
     /// Commits a hit; `terminate` ends the traversal.
+    #[inline]
     fn commit(&mut self, hit: HitState, record: &'l Record<'l>, terminate: bool) {
-        self.trace.committed = Some((hit, record));
-        self.trace.ray.tmax = hit.t;
-        if terminate || RayFlags(self.trace.ray.flags).contains(RayFlags::TERMINATE_ON_FIRST_HIT) {
-            self.trace.terminated = true;
+        let tr = self.tr_mut();
+        tr.committed = Some((hit, record));
+        tr.ray.tmax = hit.t;
+        if terminate || RayFlags(tr.ray.flags).contains(RayFlags::TERMINATE_ON_FIRST_HIT) {
+            tr.terminated = true;
         }
     }
 
     /// After traversal: the closest-hit or miss program.
     fn finish_trace(&mut self, world: RayState, miss_index: u32) {
-        match self.trace.committed {
+        match self.tr().committed {
             Some((hit, record)) => {
                 if RayFlags(world.flags).contains(RayFlags::DISABLE_CLOSESTHIT) {
                     return;
@@ -412,10 +524,10 @@ impl<'l> Invocation<'l> {
             return;
         }
         let n = args.len().min(MAX_PAYLOAD);
+        let mut registers = [0u32; MAX_PAYLOAD];
+        registers[..n].copy_from_slice(&args[..n]);
         let saved = (self.payload, self.payload_len);
-        self.payload = [0; MAX_PAYLOAD];
-        self.payload[..n].copy_from_slice(&args[..n]);
-        self.payload_len = n;
+        (self.payload, self.payload_len) = (registers.as_mut_ptr(), n);
         let kind = if continuation {
             ProgramKind::ContinuationCallable
         } else {
@@ -426,41 +538,41 @@ impl<'l> Invocation<'l> {
         } else {
             self.direct_depth += 1;
         }
-        self.run(
-            program,
-            View {
-                kind,
-                record: Some(record),
-                ..self.view
-            },
-        );
+        let view = View {
+            kind,
+            record: Some(record),
+            ..*self.view()
+        };
+        self.run(program, view);
         if continuation {
             self.continuation_depth -= 1;
         } else {
             self.direct_depth -= 1;
         }
-        if !self.ending {
-            args[..n].copy_from_slice(&self.payload[..n]);
-        }
         (self.payload, self.payload_len) = saved;
+        if !self.ending {
+            args[..n].copy_from_slice(&registers[..n]);
+        }
     }
 
+    #[inline]
     fn hit(&self) -> Option<&HitState> {
-        self.view.hit.as_ref()
+        self.view().hit.as_ref()
     }
 }
 
 impl Handler for Invocation<'_> {
     #[inline]
     fn t_max(&self) -> f32 {
-        self.trace.ray.tmax
+        self.tr().ray.tmax
     }
 
     #[inline]
     fn done(&self) -> bool {
-        self.trace.terminated || self.ending
+        self.tr().terminated || self.ending
     }
 
+    #[inline]
     fn candidate<S: Spec>(&mut self, c: &Candidate<'_>, path: &Path, fate: CandidateFate) {
         let Some(record) = self.hit_record(path, c.info.sbt_gas_index) else {
             return;
@@ -501,18 +613,20 @@ impl Handler for Invocation<'_> {
             return;
         };
         let base = HitState::at(p.info, path);
-        self.trace.intersection = Some(IntersectionContext { base, record, fate });
-        self.trace.intersection_exit = false;
+        let tr = self.tr_mut();
+        tr.intersection = Some(IntersectionContext { base, record, fate });
+        tr.intersection_exit = false;
         let view = View {
             kind: ProgramKind::Intersection,
             record: Some(record),
-            ray: self.trace.ray,
+            ray: tr.ray,
             hit: Some(base),
             exception_code: 0,
         };
         self.run(is, view);
-        self.trace.intersection = None;
-        self.trace.intersection_exit = false;
+        let tr = self.tr_mut();
+        tr.intersection = None;
+        tr.intersection_exit = false;
     }
 
     fn traversal_exception(&mut self, exception_code: i32) {
@@ -521,10 +635,12 @@ impl Handler for Invocation<'_> {
 }
 
 impl DeviceCalls for Invocation<'_> {
+    #[inline]
     fn launch_index(&self) -> [u32; 3] {
         self.index
     }
 
+    #[inline]
     fn launch_dimensions(&self) -> [u32; 3] {
         self.shared.size
     }
@@ -571,11 +687,9 @@ impl DeviceCalls for Invocation<'_> {
             mask,
         };
         let n = payload.len().min(MAX_PAYLOAD);
-        let saved_payload = (self.payload, self.payload_len);
-        self.payload = [0; MAX_PAYLOAD];
-        self.payload[..n].copy_from_slice(&payload[..n]);
-        self.payload_len = n;
-        let fresh = TraceState {
+        let mut registers = [0u32; MAX_PAYLOAD];
+        registers[..n].copy_from_slice(&payload[..n]);
+        let mut state = TraceState {
             ray: world,
             sbt_offset,
             sbt_stride,
@@ -585,7 +699,9 @@ impl DeviceCalls for Invocation<'_> {
             intersection: None,
             intersection_exit: false,
         };
-        let saved_trace = std::mem::replace(&mut self.trace, fresh);
+        let saved_trace = std::mem::replace(&mut self.trace, &mut state);
+        let saved_payload = (self.payload, self.payload_len);
+        (self.payload, self.payload_len) = (registers.as_mut_ptr(), n);
         self.depth += 1;
         let ray = TraceRay {
             origin,
@@ -601,16 +717,17 @@ impl DeviceCalls for Invocation<'_> {
             self.finish_trace(world, miss_index);
         }
         self.depth -= 1;
-        if !self.ending {
-            payload[..n].copy_from_slice(&self.payload[..n]);
-        }
         self.trace = saved_trace;
         (self.payload, self.payload_len) = saved_payload;
+        if !self.ending {
+            payload[..n].copy_from_slice(&registers[..n]);
+        }
     }
 
     fn get_payload(&self, i: u32) -> u32 {
         if (i as usize) < self.payload_len {
-            self.payload[i as usize]
+            // SAFETY: `payload` holds `payload_len` registers of the call in progress.
+            unsafe { *self.payload.add(i as usize) }
         } else {
             0
         }
@@ -618,7 +735,8 @@ impl DeviceCalls for Invocation<'_> {
 
     fn set_payload(&mut self, i: u32, v: u32) {
         if (i as usize) < self.payload_len && !self.ending {
-            self.payload[i as usize] = v;
+            // SAFETY: as in `get_payload`.
+            unsafe { *self.payload.add(i as usize) = v };
         }
     }
 
@@ -630,15 +748,17 @@ impl DeviceCalls for Invocation<'_> {
 
     fn report_intersection(&mut self, t: f32, hit_kind: u32, attributes: &[u32; 8]) -> bool {
         if self.ending
-            || self.trace.intersection_exit
-            || self.view.kind != ProgramKind::Intersection
+            || self.view().kind != ProgramKind::Intersection
+            || self.trace.is_null()
+            || self.tr().intersection_exit
         {
             return false;
         }
-        let Some(ctx) = self.trace.intersection else {
+        let Some(ctx) = self.tr().intersection else {
             return false;
         };
-        if !semantics::ray::reported_t_accepted(t, self.trace.ray.tmin, self.trace.ray.tmax) {
+        let ray = self.tr().ray;
+        if !semantics::ray::reported_t_accepted(t, ray.tmin, ray.tmax) {
             return false;
         }
         let hit = HitState {
@@ -659,77 +779,98 @@ impl DeviceCalls for Invocation<'_> {
             }
         }
         self.commit(hit, ctx.record, terminate);
-        self.trace.intersection_exit = self.trace.terminated;
-        // The intersection program now sees the new end of the interval.
-        self.view.ray.tmax = t;
+        let tr = self.tr_mut();
+        tr.intersection_exit = tr.terminated;
+        // The intersection program now sees the new end of the interval, through the
+        // methods and through its state.
+        // SAFETY: `frame` is the intersection program's frame (it is running).
+        unsafe {
+            (*self.frame).view.ray.tmax = t;
+            (*self.frame).state.ray_tmax = t;
+        }
         true
     }
 
     fn ignore_intersection(&mut self) {
-        if self.view.kind == ProgramKind::AnyHit {
-            self.trace.any_hit = AnyHitOutcome::Ignore;
+        if self.view().kind == ProgramKind::AnyHit {
+            self.tr_mut().any_hit = AnyHitOutcome::Ignore;
         }
     }
 
     fn terminate_ray(&mut self) {
-        if self.view.kind == ProgramKind::AnyHit {
-            self.trace.any_hit = AnyHitOutcome::Terminate;
+        if self.view().kind == ProgramKind::AnyHit {
+            self.tr_mut().any_hit = AnyHitOutcome::Terminate;
         }
     }
 
+    #[inline]
     fn world_ray_origin(&self) -> [f32; 3] {
-        self.view.ray.origin
+        self.view().ray.origin
     }
 
+    #[inline]
     fn world_ray_direction(&self) -> [f32; 3] {
-        self.view.ray.direction
+        self.view().ray.direction
     }
 
+    #[inline]
     fn object_ray_origin(&self) -> [f32; 3] {
-        self.hit().map_or(self.view.ray.origin, |h| h.object_origin)
+        self.hit()
+            .map_or(self.view().ray.origin, |h| h.object_origin)
     }
 
+    #[inline]
     fn object_ray_direction(&self) -> [f32; 3] {
         self.hit()
-            .map_or(self.view.ray.direction, |h| h.object_direction)
+            .map_or(self.view().ray.direction, |h| h.object_direction)
     }
 
+    #[inline]
     fn ray_tmin(&self) -> f32 {
-        self.view.ray.tmin
+        self.view().ray.tmin
     }
 
+    #[inline]
     fn ray_tmax(&self) -> f32 {
-        self.view.ray.tmax
+        self.view().ray.tmax
     }
 
+    #[inline]
     fn ray_time(&self) -> f32 {
-        self.view.ray.time
+        self.view().ray.time
     }
 
+    #[inline]
     fn ray_flags(&self) -> u32 {
-        self.view.ray.flags
+        self.view().ray.flags
     }
 
+    #[inline]
     fn ray_mask(&self) -> u32 {
-        self.view.ray.mask
+        self.view().ray.mask
     }
 
+    #[inline]
     fn primitive_index(&self) -> u32 {
         self.hit().map_or(0, |h| h.primitive_index)
     }
 
+    #[inline]
     fn sbt_gas_index(&self) -> u32 {
         self.hit().map_or(0, |h| h.sbt_gas_index)
     }
 
+    #[inline]
     fn instance_id(&self) -> u32 {
         self.hit().map_or(0, |h| h.instance_id)
     }
 
+    #[inline]
     fn instance_index(&self) -> u32 {
         self.hit().map_or(0, |h| h.instance_index)
     }
 
+    #[inline]
     fn hit_kind(&self) -> u32 {
         self.hit().map_or(0, |h| h.hit_kind)
     }
@@ -739,6 +880,7 @@ impl DeviceCalls for Invocation<'_> {
             .is_some_and(|h| facing::hit_kind_is_front(h.hit_kind))
     }
 
+    #[inline]
     fn triangle_barycentrics(&self) -> [f32; 2] {
         match self.hit().and_then(|h| h.data) {
             Some(HitData::Triangle { barycentrics, .. }) => barycentrics,
@@ -767,16 +909,18 @@ impl DeviceCalls for Invocation<'_> {
         }
     }
 
+    #[inline]
     fn object_to_world(&self) -> [f32; 12] {
         self.hit().map_or(IDENTITY_3X4, |h| h.object_to_world)
     }
 
+    #[inline]
     fn world_to_object(&self) -> [f32; 12] {
         self.hit().map_or(IDENTITY_3X4, |h| h.world_to_object)
     }
 
     fn sbt_data_u32(&self, i: u32) -> u32 {
-        self.view.record.map_or(0, |r| r.data_u32(i))
+        self.view().record.map_or(0, |r| r.data_u32(i))
     }
 
     fn direct_call(&mut self, index: u32, args: &mut [u32]) {
@@ -794,9 +938,10 @@ impl DeviceCalls for Invocation<'_> {
     }
 
     fn exception_code(&self) -> i32 {
-        self.view.exception_code
+        self.view().exception_code
     }
 
+    #[inline]
     fn remaining_trace_depth(&self) -> u32 {
         self.shared
             .features
@@ -805,6 +950,18 @@ impl DeviceCalls for Invocation<'_> {
     }
 
     fn unwinding(&self) -> bool {
-        self.ending || (self.view.kind == ProgramKind::Intersection && self.trace.intersection_exit)
+        self.ending
+            || (self.view().kind == ProgramKind::Intersection
+                && !self.trace.is_null()
+                && self.tr().intersection_exit)
+    }
+
+    fn state(&self) -> *const DeviceState {
+        if self.frame.is_null() {
+            std::ptr::null()
+        } else {
+            // SAFETY: the running program's frame; only its address is taken.
+            unsafe { &raw const (*self.frame).state }
+        }
     }
 }

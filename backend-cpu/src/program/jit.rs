@@ -56,8 +56,8 @@ type EntryFn = unsafe extern "C-unwind" fn(*mut CallContext<'_>);
 
 /// The compiled programs of one module and the memory holding their code.
 pub(crate) struct Inner {
-    /// Entry points, and whether each reads `DeviceState` fields.
-    programs: HashMap<String, (EntryFn, bool)>,
+    /// Entry points, and the `DeviceState` bits each reads.
+    programs: HashMap<String, (EntryFn, u32)>,
     /// The binding number of each buffer-table slot (`None`: a buffer without a binding).
     slot_bindings: Vec<Option<u32>>,
     stats: CompileStats,
@@ -106,9 +106,9 @@ impl std::fmt::Debug for JitModule {
 #[derive(Clone, Copy)]
 pub struct ProgramFn<'m> {
     entry: EntryFn,
-    /// Whether the program (or a helper) calls a getter `DeviceState` can answer; only
-    /// then is `DeviceCalls::state` asked for.
-    reads_state: bool,
+    /// The `DeviceState` bits of the getters the program (or a helper) calls; only when
+    /// there are some is `DeviceCalls::state` asked for.
+    state_bits: u32,
     slot_bindings: &'m [Option<u32>],
 }
 
@@ -155,6 +155,13 @@ fn buffer_table(slot_bindings: &[Option<u32>], bindings: &Bindings<'_>) -> Vec<B
 }
 
 impl ProgramFn<'_> {
+    /// The [`DeviceState`] bits (`DeviceState::RAY`, ...) of the values this program may
+    /// read from the state: a runtime that fills the state per call only needs these.
+    #[inline]
+    pub fn state_bits(&self) -> u32 {
+        self.state_bits
+    }
+
     /// Runs the program once with `bindings`, answering device-API calls with `calls`.
     ///
     /// Buffer accesses are bounds-checked against the bound lengths; the runtime's part of
@@ -193,7 +200,7 @@ impl ProgramFn<'_> {
     }
 
     fn run(&self, table: *const BufferSlot, bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
-        let state = if self.reads_state {
+        let state = if self.state_bits != 0 {
             calls.state()
         } else {
             std::ptr::null()
@@ -241,10 +248,10 @@ impl JitModule {
 
     /// The program named `name` (with its prefix, e.g. `closesthit__radiance`).
     pub fn program(&self, name: &str) -> Option<ProgramFn<'_>> {
-        let (entry, reads_state) = *self.inner.programs.get(name)?;
+        let (entry, state_bits) = *self.inner.programs.get(name)?;
         Some(ProgramFn {
             entry,
-            reads_state,
+            state_bits,
             slot_bindings: &self.inner.slot_bindings,
         })
     }
@@ -376,20 +383,20 @@ fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner
         jit.clear_context(&mut ctx);
         stats.functions += 1;
         stats.disk_cache_hits += hit as usize;
-        let reads_state = program
+        let state_bits = program
             .device_functions
             .iter()
-            .any(|&f| lower::reads_state(f));
-        ids.push((program.name.clone(), id, unwind_info, reads_state));
+            .fold(0, |bits, &f| bits | lower::state_bits(f));
+        ids.push((program.name.clone(), id, unwind_info, state_bits));
     }
     jit.finalize_definitions().map_err(module_err)?;
     let mut programs = HashMap::new();
     let mut frames = Vec::new();
-    for (name, id, unwind_info, reads_state) in ids {
+    for (name, id, unwind_info, state_bits) in ids {
         let ptr = jit.get_finalized_function(id);
         // SAFETY: the function was compiled with exactly this signature.
         let entry: EntryFn = unsafe { std::mem::transmute::<*const u8, EntryFn>(ptr) };
-        programs.insert(name, (entry, reads_state));
+        programs.insert(name, (entry, state_bits));
         frames.extend(unwind_info.map(|info| (ptr as usize, info)));
     }
     #[cfg(target_os = "linux")]
