@@ -69,11 +69,6 @@ pub(crate) fn run(shared: &LaunchShared<'_>, pool: &rayon::ThreadPool) {
     let Some(raygen) = shared.sbt.raygen.programs.main else {
         return;
     };
-    let view = View {
-        kind: ProgramKind::Raygen,
-        record: Some(&shared.sbt.raygen),
-        ..View::EMPTY
-    };
     let (w, h) = (w as u64, h as u64);
     pool.install(|| {
         (0..count.div_ceil(INDICES_PER_TASK))
@@ -83,6 +78,11 @@ pub(crate) fn run(shared: &LaunchShared<'_>, pool: &rayon::ThreadPool) {
                 for i in first..(first + INDICES_PER_TASK).min(count) {
                     let i = i as u64;
                     let index = [(i % w) as u32, ((i / w) % h) as u32, (i / (w * h)) as u32];
+                    let view = View {
+                        kind: ProgramKind::Raygen,
+                        record: Some(&shared.sbt.raygen),
+                        ..View::EMPTY
+                    };
                     Invocation::new(shared, index).run(raygen, view);
                 }
             })
@@ -144,7 +144,10 @@ struct View<'l> {
     kind: ProgramKind,
     record: Option<&'l Record<'l>>,
     ray: RayState,
-    hit: Option<HitState>,
+    /// The primitive, or null: a hit kept by a caller of the program's `run` (the committed
+    /// hit of the trace, the candidate of an any-hit, the primitive of an intersection), so
+    /// views stay small to copy.
+    hit: *const HitState,
     exception_code: i32,
 }
 
@@ -161,17 +164,18 @@ impl View<'_> {
             flags: 0,
             mask: 0,
         },
-        hit: None,
+        hit: std::ptr::null(),
         exception_code: 0,
     };
 }
 
 /// A running program: its view and the values it reads as memory. Lives in the stack
 /// frame of [`Invocation::run`]; compiled code reads `state` through a raw pointer, so the
-/// frame sits in an `UnsafeCell`.
+/// frame sits in an `UnsafeCell`. Only the fields of `state.present` are written (the
+/// program reads no others).
 struct ProgramFrame<'l> {
     view: View<'l>,
-    state: DeviceState,
+    state: std::mem::MaybeUninit<DeviceState>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -284,13 +288,10 @@ impl<'l> Invocation<'l> {
     fn run(&mut self, program: Callable<'l>, view: View<'l>) {
         let frame = UnsafeCell::new(ProgramFrame {
             view,
-            state: DeviceState::EMPTY,
+            state: std::mem::MaybeUninit::uninit(),
         });
         let saved = std::mem::replace(&mut self.frame, frame.get());
-        let bits = program.state_bits();
-        if bits != 0 {
-            self.fill_state(bits);
-        }
+        self.fill_state(program.state_bits());
         let bindings = self.shared.bindings;
         program.call(bindings, self);
         self.frame = saved;
@@ -298,60 +299,76 @@ impl<'l> Invocation<'l> {
 
     /// Writes the values of `bits` for the running program into its `DeviceState`: the
     /// same answers the `DeviceCalls` methods give, read as memory by compiled code.
+    #[inline]
     fn fill_state(&mut self, bits: u32) {
         type S = DeviceState;
-        let mut s = DeviceState {
-            present: bits & !S::PAYLOAD,
-            ..S::EMPTY
-        };
+        // SAFETY (every write below): `frame` is the running program's frame, set by `run`;
+        // nothing else refers to its state, and the fields are plain data written through
+        // the pointer (never read before they are written).
+        let s = unsafe { (*self.frame).state.as_mut_ptr() };
+        unsafe { (*s).present = bits & !S::PAYLOAD };
+        if bits == 0 {
+            return;
+        }
         if bits & S::LAUNCH_INDEX != 0 {
-            s.launch_index = self.launch_index();
+            unsafe { (*s).launch_index = self.launch_index() };
         }
         if bits & S::LAUNCH_DIMENSIONS != 0 {
-            s.launch_dimensions = self.launch_dimensions();
+            unsafe { (*s).launch_dimensions = self.launch_dimensions() };
         }
         if bits & S::WORLD_RAY != 0 {
-            s.world_ray_origin = self.world_ray_origin();
-            s.world_ray_direction = self.world_ray_direction();
+            unsafe {
+                (*s).world_ray_origin = self.world_ray_origin();
+                (*s).world_ray_direction = self.world_ray_direction();
+            }
         }
         if bits & S::OBJECT_RAY != 0 {
-            s.object_ray_origin = self.object_ray_origin();
-            s.object_ray_direction = self.object_ray_direction();
+            unsafe {
+                (*s).object_ray_origin = self.object_ray_origin();
+                (*s).object_ray_direction = self.object_ray_direction();
+            }
         }
         if bits & S::RAY != 0 {
-            s.ray_tmin = self.ray_tmin();
-            s.ray_tmax = self.ray_tmax();
-            s.ray_time = self.ray_time();
-            s.ray_flags = self.ray_flags();
-            s.ray_mask = self.ray_mask();
+            unsafe {
+                (*s).ray_tmin = self.ray_tmin();
+                (*s).ray_tmax = self.ray_tmax();
+                (*s).ray_time = self.ray_time();
+                (*s).ray_flags = self.ray_flags();
+                (*s).ray_mask = self.ray_mask();
+            }
         }
         if bits & S::PRIMITIVE != 0 {
-            s.primitive_index = self.primitive_index();
-            s.sbt_gas_index = self.sbt_gas_index();
-            s.instance_id = self.instance_id();
-            s.instance_index = self.instance_index();
+            unsafe {
+                (*s).primitive_index = self.primitive_index();
+                (*s).sbt_gas_index = self.sbt_gas_index();
+                (*s).instance_id = self.instance_id();
+                (*s).instance_index = self.instance_index();
+            }
         }
         if bits & S::HIT != 0 {
-            s.hit_kind = self.hit_kind();
-            s.triangle_barycentrics = self.triangle_barycentrics();
+            unsafe {
+                (*s).hit_kind = self.hit_kind();
+                (*s).triangle_barycentrics = self.triangle_barycentrics();
+            }
         }
         if bits & S::TRANSFORMS != 0 {
-            s.object_to_world = self.object_to_world();
-            s.world_to_object = self.world_to_object();
+            unsafe {
+                (*s).object_to_world = self.object_to_world();
+                (*s).world_to_object = self.world_to_object();
+            }
         }
         if bits & S::TRACE_DEPTH != 0 {
-            s.remaining_trace_depth = self.remaining_trace_depth();
+            unsafe { (*s).remaining_trace_depth = self.remaining_trace_depth() };
         }
         // Writes in place are right only while they are not dropped (before an exception
         // ends the index; no program starts after that).
         if bits & S::PAYLOAD != 0 && !self.payload.is_null() && !self.ending {
-            s.present |= S::PAYLOAD;
-            s.payload = self.payload;
-            s.payload_len = self.payload_len as u32;
+            unsafe {
+                (*s).present |= S::PAYLOAD;
+                (*s).payload = self.payload;
+                (*s).payload_len = self.payload_len as u32;
+            }
         }
-        // SAFETY: `frame` is the running program's frame (set by `run`); no reference to
-        // its state is alive.
-        unsafe { (*self.frame).state = s };
     }
 
     /// Raises an exception: runs the exception program, then ends the launch index.
@@ -415,7 +432,7 @@ impl<'l> Invocation<'l> {
                 kind: ProgramKind::AnyHit,
                 record: Some(record),
                 ray,
-                hit: Some(hit),
+                hit: &hit,
                 exception_code: 0,
             },
         );
@@ -436,8 +453,8 @@ impl<'l> Invocation<'l> {
 
     /// After traversal: the closest-hit or miss program.
     fn finish_trace(&mut self, world: RayState, miss_index: u32) {
-        match self.tr().committed {
-            Some((hit, record)) => {
+        match &self.tr().committed {
+            &Some((ref hit, record)) => {
                 if RayFlags(world.flags).contains(RayFlags::DISABLE_CLOSESTHIT) {
                     return;
                 }
@@ -446,13 +463,14 @@ impl<'l> Invocation<'l> {
                         tmax: hit.t,
                         ..world
                     };
+                    let hit: *const HitState = hit;
                     self.run(
                         ch,
                         View {
                             kind: ProgramKind::ClosestHit,
                             record: Some(record),
                             ray,
-                            hit: Some(hit),
+                            hit,
                             exception_code: 0,
                         },
                     );
@@ -473,7 +491,7 @@ impl<'l> Invocation<'l> {
                                     kind: ProgramKind::Miss,
                                     record: Some(record),
                                     ray: world,
-                                    hit: None,
+                                    hit: std::ptr::null(),
                                     exception_code: 0,
                                 },
                             );
@@ -557,7 +575,9 @@ impl<'l> Invocation<'l> {
 
     #[inline]
     fn hit(&self) -> Option<&HitState> {
-        self.view().hit.as_ref()
+        // SAFETY: a view's hit is kept alive by the caller of the program's `run` for as
+        // long as the program runs (see `View::hit`).
+        unsafe { self.view().hit.as_ref() }
     }
 }
 
@@ -620,7 +640,7 @@ impl Handler for Invocation<'_> {
             kind: ProgramKind::Intersection,
             record: Some(record),
             ray: tr.ray,
-            hit: Some(base),
+            hit: &base,
             exception_code: 0,
         };
         self.run(is, view);
@@ -783,10 +803,11 @@ impl DeviceCalls for Invocation<'_> {
         tr.intersection_exit = tr.terminated;
         // The intersection program now sees the new end of the interval, through the
         // methods and through its state.
-        // SAFETY: `frame` is the intersection program's frame (it is running).
+        // SAFETY: `frame` is the intersection program's frame (it is running); its state
+        // was written by `run`.
         unsafe {
             (*self.frame).view.ray.tmax = t;
-            (*self.frame).state.ray_tmax = t;
+            (*(*self.frame).state.as_mut_ptr()).ray_tmax = t;
         }
         true
     }
@@ -961,7 +982,7 @@ impl DeviceCalls for Invocation<'_> {
             std::ptr::null()
         } else {
             // SAFETY: the running program's frame; only its address is taken.
-            unsafe { &raw const (*self.frame).state }
+            unsafe { (*self.frame).state.as_ptr() }
         }
     }
 }
