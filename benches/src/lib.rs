@@ -5,3 +5,4 @@ pub mod mesh;
 pub mod npy;
 pub mod raycast;
 pub mod rays;
+pub mod scenes;
