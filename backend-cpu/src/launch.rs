@@ -36,8 +36,8 @@ use optik_api::semantics::exception as code;
 use optik_api::semantics::opacity::CandidateFate;
 use optik_api::semantics::{self, facing, sbt_index};
 use optik_api::{
-    ExceptionFlags, FeatureSet, IDENTITY_3X4, PipelineLinkOptions, ProgramKind,
-    RayFlags, TraversableHandle,
+    ExceptionFlags, FeatureSet, IDENTITY_3X4, PipelineLinkOptions, ProgramKind, RayFlags,
+    TraversableHandle,
 };
 
 /// Most payload (and callable argument) registers.
@@ -462,7 +462,13 @@ impl<'l> Invocation<'l> {
 
     /// Commits a hit below `path` (null: no instances); `terminate` ends the traversal.
     #[inline(always)]
-    fn commit(&mut self, hit: HitState, path: *const Path, record: &'l Record<'l>, terminate: bool) {
+    fn commit(
+        &mut self,
+        hit: HitState,
+        path: *const Path,
+        record: &'l Record<'l>,
+        terminate: bool,
+    ) {
         let tr = self.tr_mut();
         tr.ray.tmax = hit.t;
         tr.committed = Some((hit, record));
@@ -638,7 +644,11 @@ impl Handler for Invocation<'_> {
             return;
         };
         // Without instancing the path is the ray's own: programs need not see it.
-        let path: *const Path = if S::INSTANCING { path } else { std::ptr::null() };
+        let path: *const Path = if S::INSTANCING {
+            path
+        } else {
+            std::ptr::null()
+        };
         let any_hit = match record.programs.any_hit {
             Some(ah) if S::ANY_HIT && fate == CandidateFate::NonOpaque => ah,
             _ => return self.commit(HitState::of(c), path, record, false),
@@ -659,7 +669,11 @@ impl Handler for Invocation<'_> {
         let Some(is) = record.programs.intersection else {
             return;
         };
-        let path: *const Path = if S::INSTANCING { path } else { std::ptr::null() };
+        let path: *const Path = if S::INSTANCING {
+            path
+        } else {
+            std::ptr::null()
+        };
         let base = HitState::at(p.info);
         let tr = self.tr_mut();
         tr.intersection = Some(IntersectionContext {
@@ -871,7 +885,8 @@ impl DeviceCalls for Invocation<'_> {
 
     #[inline]
     fn object_ray_origin(&self) -> [f32; 3] {
-        self.path().map_or(self.view().ray.origin, |p| p.object_origin)
+        self.path()
+            .map_or(self.view().ray.origin, |p| p.object_origin)
     }
 
     #[inline]

@@ -321,7 +321,7 @@ impl Scene {
                 Hit {
                     s: DeviceState {
                         // The payload is offered by `offer_state`, pointing at `payload`.
-                        present: u32::MAX & !DeviceState::PAYLOAD,
+                        present: !DeviceState::PAYLOAD,
                         launch_index: [i as u32 % WIDTH, i as u32 / WIDTH, 0],
                         launch_dimensions: [WIDTH, WIDTH, 1],
                         primitive_index: (rnd() * TRIANGLES as f32) as u32,

@@ -3,9 +3,9 @@
 
 use super::aabb::Aabb;
 use super::bvh::{BuildQuality, Bvh};
-use super::wide::WideBvh;
 use super::curve_basis::BezierSegment;
 use super::micromap::MicromapArrayData;
+use super::wide::WideBvh;
 use optik_api::decode::{self, BufferBytes};
 use optik_api::semantics::sbt_index;
 use optik_api::{

@@ -246,7 +246,11 @@ mod tests {
                     assert_eq!(leaf_slots.len(), count as usize);
                     for s in leaf_slots {
                         seen[s as usize] += 1;
-                        assert_eq!(b.union(&slot_box(s as usize)), b, "slot {s} in its leaf box");
+                        assert_eq!(
+                            b.union(&slot_box(s as usize)),
+                            b,
+                            "slot {s} in its leaf box"
+                        );
                     }
                 } else if b.is_valid() {
                     assert!(node.first[lane] as usize > n, "children after parents");
@@ -295,9 +299,9 @@ mod tests {
                 if s == u32::MAX {
                     continue;
                 }
-                for v in 0..3 {
-                    for a in 0..3 {
-                        assert_eq!(block.vertices[v][a][lane], slotted[s as usize][v][a]);
+                for (v, vertex) in slotted[s as usize].iter().enumerate() {
+                    for (a, &c) in vertex.iter().enumerate() {
+                        assert_eq!(block.vertices[v][a][lane], c);
                     }
                 }
             }

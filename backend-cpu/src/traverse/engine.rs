@@ -4,8 +4,8 @@
 use super::ray::{PreparedRay, WideRay};
 use super::simd::F4;
 use super::{Handler, Spec, curve, slab, sphere, triangle};
-use crate::accel::wide::{TriangleBlock, WideBvh};
 use crate::accel::curve_basis::BezierSegment;
+use crate::accel::wide::{TriangleBlock, WideBvh};
 use crate::accel::{
     Aabb, Bvh, Gas, Geometry, Ias, InstanceRecord, MicromapRef, PrimitiveInfo, Resolved,
     SceneTable, Transform, Traversable,
@@ -320,8 +320,9 @@ impl<S: Spec> Walker<'_, S> {
                                 mask &= mask - 1;
                                 let hit = hits.lane(lane);
                                 // A hit an earlier lane's commit moved beyond the interval
-                                // is one the scalar order would not have found.
-                                if !(hit.t < h.t_max()) {
+                                // is one the scalar order would not have found (`t` of a
+                                // hit is a number, so `>=` is `!<`).
+                                if hit.t >= h.t_max() {
                                     continue;
                                 }
                                 let s = block.slots[lane] as usize;
@@ -338,7 +339,8 @@ impl<S: Spec> Walker<'_, S> {
                                 let tri = std::array::from_fn(|v| {
                                     std::array::from_fn(|a| block.vertices[v][a][lane])
                                 });
-                                let Some(hit) = triangle::moller_trumbore(&pr, &tri, tmin, h.t_max())
+                                let Some(hit) =
+                                    triangle::moller_trumbore(&pr, &tri, tmin, h.t_max())
                                 else {
                                     continue;
                                 };

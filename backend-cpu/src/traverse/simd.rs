@@ -291,8 +291,16 @@ mod tests {
         let min = a.min(b).to_array();
         let max = a.max(b).to_array();
         for i in 0..4 {
-            assert_eq!(min[i].to_bits(), scalar_min(aa[i], bb[i]).to_bits(), "min {i}");
-            assert_eq!(max[i].to_bits(), scalar_max(aa[i], bb[i]).to_bits(), "max {i}");
+            assert_eq!(
+                min[i].to_bits(),
+                scalar_min(aa[i], bb[i]).to_bits(),
+                "min {i}"
+            );
+            assert_eq!(
+                max[i].to_bits(),
+                scalar_max(aa[i], bb[i]).to_bits(),
+                "max {i}"
+            );
         }
         assert_eq!(a.lt(b).bits(), 0b0001);
         assert_eq!(a.le(b).bits(), 0b1001);

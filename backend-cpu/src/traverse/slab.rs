@@ -99,29 +99,41 @@ mod tests {
                     node.max[a][3] = f32::NEG_INFINITY;
                 }
             }
-            let mut o = [(rnd() - 0.5) * 20.0, (rnd() - 0.5) * 20.0, (rnd() - 0.5) * 20.0];
+            let mut o = [
+                (rnd() - 0.5) * 20.0,
+                (rnd() - 0.5) * 20.0,
+                (rnd() - 0.5) * 20.0,
+            ];
             let mut d = [rnd() - 0.5, rnd() - 0.5, rnd() - 0.5];
             if i % 3 == 0 {
                 // Axis-parallel rays, origins on slab planes: the NaN cases.
                 d[i % 2] = specials[i % 2];
                 o[(i / 3) % 3] = node.min[(i / 3) % 3][i % 4];
             }
-            let (tmin, tmax) = if i % 5 == 0 { (2.0, 3.0) } else { (0.0, f32::INFINITY) };
+            let (tmin, tmax) = if i % 5 == 0 {
+                (2.0, 3.0)
+            } else {
+                (0.0, f32::INFINITY)
+            };
             for conservative in [false, true] {
                 let r = PreparedRay::new(o, d, conservative);
                 let (mask, t) = entry4(&WideRay::new(&r), &node, F4::splat(tmin), F4::splat(tmax));
-                for lane in 0..4 {
+                for (lane, &entered) in t.iter().enumerate() {
                     let min = std::array::from_fn(|a| node.min[a][lane]);
                     let max = std::array::from_fn(|a| node.max[a][lane]);
                     let want = entry(&r, &min, &max, tmin, tmax);
-                    let got = (mask >> lane & 1 == 1).then_some(t[lane]);
+                    let got = (mask >> lane & 1 == 1).then_some(entered);
                     assert_eq!(
                         want.map(f32::to_bits),
                         got.map(f32::to_bits),
                         "{o:?} {d:?} lane {lane}"
                     );
                 }
-                assert_eq!(mask >> 3 & (i % 7 == 0) as u32, 0, "empty boxes are never entered");
+                assert_eq!(
+                    mask >> 3 & (i % 7 == 0) as u32,
+                    0,
+                    "empty boxes are never entered"
+                );
             }
         }
     }

@@ -129,7 +129,11 @@ pub fn watertight4(
     let [sx, sy, sz] = ray.shear;
     let o = &ray.origin;
     let rel = |v: usize, k: usize| F4::load(&block.vertices[v][k]) - o[k];
-    let (a, b, c) = ([rel(0, kx), rel(0, ky), rel(0, kz)], [rel(1, kx), rel(1, ky), rel(1, kz)], [rel(2, kx), rel(2, ky), rel(2, kz)]);
+    let (a, b, c) = (
+        [rel(0, kx), rel(0, ky), rel(0, kz)],
+        [rel(1, kx), rel(1, ky), rel(1, kz)],
+        [rel(2, kx), rel(2, ky), rel(2, kz)],
+    );
     let (ax, ay) = (a[0] - sx * a[2], a[1] - sy * a[2]);
     let (bx, by) = (b[0] - sx * b[2], b[1] - sy * b[2]);
     let (cx, cy) = (c[0] - sx * c[2], c[1] - sy * c[2]);
@@ -364,9 +368,9 @@ mod tests {
             slots: [u32::MAX; 4],
         };
         for (lane, t) in tris.iter().enumerate() {
-            for v in 0..3 {
-                for a in 0..3 {
-                    b.vertices[v][a][lane] = t[v][a];
+            for (v, vertex) in t.iter().enumerate() {
+                for (a, &c) in vertex.iter().enumerate() {
+                    b.vertices[v][a][lane] = c;
                 }
             }
             b.slots[lane] = lane as u32;
@@ -393,7 +397,11 @@ mod tests {
                 })
                 .collect();
             let (o, d) = if i % 4 == 0 {
-                let o = [(rng.f() * 4.0).round() * 0.5, (rng.f() * 4.0).round() * 0.5, 0.0];
+                let o = [
+                    (rng.f() * 4.0).round() * 0.5,
+                    (rng.f() * 4.0).round() * 0.5,
+                    0.0,
+                ];
                 (o, [0.0, if i % 8 == 0 { -0.0 } else { 0.0 }, 1.0])
             } else {
                 let o = rng.v(8.0);
@@ -404,7 +412,11 @@ mod tests {
                 continue;
             }
             let lanes = if i % 3 == 0 { 0b0111 } else { 0b1111 };
-            let (tmin, tmax) = if i % 5 == 0 { (1.0, 4.0) } else { (0.0, f32::INFINITY) };
+            let (tmin, tmax) = if i % 5 == 0 {
+                (1.0, 4.0)
+            } else {
+                (0.0, f32::INFINITY)
+            };
             let got = watertight4(&WideRay::new(&r), &block(&tris), lanes, tmin, tmax);
             for (lane, tri) in tris.iter().enumerate() {
                 let want = if lanes >> lane & 1 == 1 {

@@ -259,14 +259,17 @@ fn run_scene(
     Ok(Some(build))
 }
 
-/// Builds, traces `repeat` times and returns the best launch time, the build time and the
-/// hit triangles and distances.
+/// What one optik run gives: the best launch time, the build time, the hit triangles and
+/// distances.
+type OptikRun = (f64, f64, (Vec<u32>, Vec<f32>));
+
+/// Builds, traces `repeat` times and returns what the run gives.
 fn trace_optik(
     device: &dyn Device,
     mesh: &Mesh,
     set: &RaySet,
     repeat: usize,
-) -> optik::Result<(f64, f64, (Vec<u32>, Vec<f32>))> {
+) -> optik::Result<OptikRun> {
     let mut caster = RayCaster::new(device, mesh)?;
     let (hits, seconds) = caster.cast(&set.rays, repeat)?;
     Ok((seconds, caster.build_seconds, (hits.prim, hits.t)))
