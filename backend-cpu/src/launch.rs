@@ -301,7 +301,15 @@ impl<'l> Invocation<'l> {
     }
 
     /// Runs a program with `view`; the caller's view comes back after.
-    fn run(&mut self, program: Callable<'l>, mut view: View<'l>) {
+    #[inline]
+    fn run(&mut self, program: Callable<'l>, view: View<'l>) {
+        // An empty program (a miss program that leaves the payload alone) has no effect.
+        if !program.does_nothing() {
+            self.run_program(program, view);
+        }
+    }
+
+    fn run_program(&mut self, program: Callable<'l>, mut view: View<'l>) {
         // Compiled code reads the state through a raw pointer: only written fields are read.
         let mut state = std::mem::MaybeUninit::<DeviceState>::uninit();
         let saved = (

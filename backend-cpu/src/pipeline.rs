@@ -170,6 +170,17 @@ impl Callable<'_> {
         }
     }
 
+    /// Whether calling the program has no effect (an empty WGSL program), so it can be
+    /// skipped.
+    #[inline]
+    pub fn does_nothing(&self) -> bool {
+        match self {
+            #[cfg(feature = "jit")]
+            Callable::Jit(f, _) => f.does_nothing(),
+            Callable::Native(_) => false,
+        }
+    }
+
     /// The `DeviceState` bits the program may read (0: it reads none, or is native and
     /// calls the methods).
     #[inline]

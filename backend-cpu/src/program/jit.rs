@@ -56,8 +56,8 @@ type EntryFn = unsafe extern "C-unwind" fn(*mut CallContext<'_>);
 
 /// The compiled programs of one module and the memory holding their code.
 pub(crate) struct Inner {
-    /// Entry points, and the `DeviceState` bits each reads.
-    programs: HashMap<String, (EntryFn, u32)>,
+    /// Entry points, the `DeviceState` bits each reads, and whether it does nothing.
+    programs: HashMap<String, (EntryFn, u32, bool)>,
     /// The binding number of each buffer-table slot (`None`: a buffer without a binding).
     slot_bindings: Vec<Option<u32>>,
     stats: CompileStats,
@@ -109,6 +109,9 @@ pub struct ProgramFn<'m> {
     /// The `DeviceState` bits of the getters the program (or a helper) calls; only when
     /// there are some is `DeviceCalls::state` asked for.
     state_bits: u32,
+    /// The program's body has no statement with an effect (see
+    /// [`ProgramFn::does_nothing`]).
+    empty: bool,
     slot_bindings: &'m [Option<u32>],
 }
 
@@ -160,6 +163,14 @@ impl ProgramFn<'_> {
     #[inline]
     pub fn state_bits(&self) -> u32 {
         self.state_bits
+    }
+
+    /// Whether calling the program can have no effect: its body is empty (expressions
+    /// evaluated for nothing at most), as a miss program that leaves the payload alone
+    /// often is. A runtime may skip the call.
+    #[inline]
+    pub fn does_nothing(&self) -> bool {
+        self.empty
     }
 
     /// Runs the program once with `bindings`, answering device-API calls with `calls`.
@@ -248,10 +259,11 @@ impl JitModule {
 
     /// The program named `name` (with its prefix, e.g. `closesthit__radiance`).
     pub fn program(&self, name: &str) -> Option<ProgramFn<'_>> {
-        let (entry, state_bits) = *self.inner.programs.get(name)?;
+        let (entry, state_bits, empty) = *self.inner.programs.get(name)?;
         Some(ProgramFn {
             entry,
             state_bits,
+            empty,
             slot_bindings: &self.inner.slot_bindings,
         })
     }
@@ -387,16 +399,25 @@ fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner
             .device_functions
             .iter()
             .fold(0, |bits, &f| bits | lower::state_bits(f));
-        ids.push((program.name.clone(), id, unwind_info, state_bits));
+        let empty = module.module.functions[program.function]
+            .body
+            .iter()
+            .all(|s| {
+                matches!(
+                    s,
+                    naga::Statement::Emit(_) | naga::Statement::Return { value: None }
+                )
+            });
+        ids.push((program.name.clone(), id, unwind_info, state_bits, empty));
     }
     jit.finalize_definitions().map_err(module_err)?;
     let mut programs = HashMap::new();
     let mut frames = Vec::new();
-    for (name, id, unwind_info, state_bits) in ids {
+    for (name, id, unwind_info, state_bits, empty) in ids {
         let ptr = jit.get_finalized_function(id);
         // SAFETY: the function was compiled with exactly this signature.
         let entry: EntryFn = unsafe { std::mem::transmute::<*const u8, EntryFn>(ptr) };
-        programs.insert(name, (entry, state_bits));
+        programs.insert(name, (entry, state_bits, empty));
         frames.extend(unwind_info.map(|info| (ptr as usize, info)));
     }
     #[cfg(target_os = "linux")]

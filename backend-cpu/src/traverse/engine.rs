@@ -638,9 +638,9 @@ struct Pending {
     entry: f32,
 }
 
-/// Entries kept on the native stack; deeper walks spill to the heap. A node pushes at most
-/// three, so this holds trees up to 64 levels deep.
-const WIDE_STACK: usize = 192;
+/// Entries kept on the native stack: trees up to 62 levels deep (a node pushes at most
+/// three); deeper ones get a heap stack for the walk.
+const WIDE_STACK: usize = 190;
 
 /// Walks a wide BVH front to back: at each node the children the ray enters are visited
 /// nearest first (the others wait on a stack with their entry distances), and
@@ -652,17 +652,36 @@ fn walk_wide<H: Handler>(
     ray: &WideRay,
     tmin: f32,
     h: &mut H,
-    mut leaf: impl FnMut(&mut H, u32, u32),
+    leaf: impl FnMut(&mut H, u32, u32),
 ) {
-    let nodes = wide.nodes.as_slice();
-    if nodes.is_empty() {
+    if wide.nodes.is_empty() {
         return;
     }
+    // Pending children are siblings of the nodes on the path from the root: at most three
+    // per level; and a node writes up to three entries above the top.
+    let needed = 3 * wide.depth as usize + 4;
+    if needed <= WIDE_STACK {
+        let mut stack = [const { std::mem::MaybeUninit::<Pending>::uninit() }; WIDE_STACK];
+        walk_wide_with(wide, ray, tmin, h, leaf, &mut stack);
+    } else {
+        let mut heap: Vec<Pending> = Vec::with_capacity(needed);
+        walk_wide_with(wide, ray, tmin, h, leaf, heap.spare_capacity_mut());
+    }
+}
+
+/// [`walk_wide`] with a stack of enough entries (`3 * depth + 4`).
+#[inline(always)]
+fn walk_wide_with<H: Handler>(
+    wide: &WideBvh,
+    ray: &WideRay,
+    tmin: f32,
+    h: &mut H,
+    mut leaf: impl FnMut(&mut H, u32, u32),
+    stack: &mut [std::mem::MaybeUninit<Pending>],
+) {
+    let nodes = wide.nodes.as_slice();
     let tmin4 = F4::splat(tmin);
-    // Not initialised: entries below `len` are always written before they are read.
-    let mut stack = [const { std::mem::MaybeUninit::<Pending>::uninit() }; WIDE_STACK];
     let mut len = 0usize;
-    let mut spill: Vec<Pending> = Vec::new();
     let mut current = Pending {
         first: 0,
         count: 0,
@@ -679,55 +698,55 @@ fn walk_wide<H: Handler>(
             let node = &nodes[current.first as usize];
             let (mask, entry) = slab::entry4(ray, node, tmin4, F4::splat(h.t_max()));
             if mask != 0 {
-                let child = |lane: usize| Pending {
-                    first: node.first[lane],
-                    count: node.count[lane],
-                    entry: entry[lane],
+                // Children by entry distance, without branches on how many the ray enters:
+                // keys (distance bits, lane) sorted by a network, unused lanes last. Entry
+                // distances are at least tmin >= -0.0; `+ 0.0` makes -0.0 zero, so the bits of
+                // these non-negative floats order as integers. Ties keep child order.
+                let key = |lane: usize| {
+                    if mask >> lane & 1 == 1 {
+                        ((entry[lane] + 0.0).to_bits() as u64) << 32 | lane as u64
+                    } else {
+                        u64::MAX
+                    }
                 };
-                if mask & (mask - 1) == 0 {
-                    next = Some(child(mask.trailing_zeros() as usize));
-                } else {
-                    // Up to four children, sorted by entry distance (insertion sort; ties
-                    // keep child order, so the walk is deterministic).
-                    let mut hit = [child(0); 4];
-                    let mut n = 0;
-                    let mut bits = mask;
-                    while bits != 0 {
-                        let c = child(bits.trailing_zeros() as usize);
-                        bits &= bits - 1;
-                        let mut i = n;
-                        while i > 0 && c.entry < hit[i - 1].entry {
-                            hit[i] = hit[i - 1];
-                            i -= 1;
-                        }
-                        hit[i] = c;
-                        n += 1;
-                    }
-                    // Farthest first, so the nearest waiting child is on top.
-                    for &c in hit[1..n].iter().rev() {
-                        if len < WIDE_STACK {
-                            stack[len].write(c);
-                            len += 1;
-                        } else {
-                            spill.push(c);
-                        }
-                    }
-                    next = Some(hit[0]);
+                let mut k = [key(0), key(1), key(2), key(3)];
+                for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
+                    let (lo, hi) = (k[a].min(k[b]), k[a].max(k[b]));
+                    k[a] = lo;
+                    k[b] = hi;
                 }
+                let child = |key: u64| {
+                    let lane = (key & 3) as usize;
+                    Pending {
+                        first: node.first[lane],
+                        count: node.count[lane],
+                        entry: entry[lane],
+                    }
+                };
+                // The nearest is next; the others wait, the farthest deepest. Writes past
+                // the ones that count land in a scratch entry above them.
+                let entered = mask.count_ones() as usize;
+                for (i, &key) in k.iter().enumerate().skip(1) {
+                    let at = if i < entered {
+                        len + entered - 1 - i
+                    } else {
+                        len + 3
+                    };
+                    stack[at].write(child(key));
+                }
+                len += entered - 1;
+                next = Some(child(k[0]));
             }
         }
         current = match next {
             Some(c) => c,
             None => loop {
-                let popped = if let Some(e) = spill.pop() {
-                    e
-                } else if len > 0 {
-                    len -= 1;
-                    // SAFETY: entries below `len` were written by a push.
-                    unsafe { stack[len].assume_init() }
-                } else {
+                if len == 0 {
                     return;
-                };
+                }
+                len -= 1;
+                // SAFETY: entries below `len` were written by a push.
+                let popped = unsafe { stack[len].assume_init() };
                 // A child entered beyond the closest hit found since it was pushed can hold
                 // nothing nearer.
                 if popped.entry <= h.t_max() {

@@ -651,3 +651,22 @@ fn state_bits_name_what_programs_read() {
     let code = module.program("exception__code").expect("compiled");
     assert_eq!(code.state_bits(), 0, "rt_exception_code has no state field");
 }
+
+#[test]
+fn empty_programs_say_they_do_nothing() {
+    let module = jit(r#"
+@group(0) @binding(1) var<storage, read_write> out: array<u32>;
+fn miss__empty() {}
+fn miss__only_values() { let x = 3u * 7u; let y = out[2]; }
+fn miss__writes() { out[0] = 1u; }
+fn miss__calls() { rt_set_payload(0u, 1u); }
+fn helper() { out[1] = 2u; }
+fn miss__through_a_helper() { helper(); }
+"#);
+    let nothing = |name: &str| module.program(name).expect("compiled").does_nothing();
+    assert!(nothing("miss__empty"));
+    assert!(nothing("miss__only_values"));
+    for name in ["miss__writes", "miss__calls", "miss__through_a_helper"] {
+        assert!(!nothing(name), "{name}");
+    }
+}
