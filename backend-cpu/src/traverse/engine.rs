@@ -638,7 +638,7 @@ struct Pending {
     entry: f32,
 }
 
-/// Entries kept on the native stack: trees up to 62 levels deep (a node pushes at most
+/// Entries kept on the native stack: trees up to 63 levels deep (a node pushes at most
 /// three); deeper ones get a heap stack for the walk.
 const WIDE_STACK: usize = 190;
 
@@ -658,8 +658,8 @@ fn walk_wide<H: Handler>(
         return;
     }
     // Pending children are siblings of the nodes on the path from the root: at most three
-    // per level; and a node writes up to three entries above the top.
-    let needed = 3 * wide.depth as usize + 4;
+    // per level.
+    let needed = 3 * wide.depth as usize + 1;
     if needed <= WIDE_STACK {
         let mut stack = [const { std::mem::MaybeUninit::<Pending>::uninit() }; WIDE_STACK];
         walk_wide_with(wide, ray, tmin, h, leaf, &mut stack);
@@ -669,7 +669,7 @@ fn walk_wide<H: Handler>(
     }
 }
 
-/// [`walk_wide`] with a stack of enough entries (`3 * depth + 4`).
+/// [`walk_wide`] with a stack of enough entries (`3 * depth + 1`).
 #[inline(always)]
 fn walk_wide_with<H: Handler>(
     wide: &WideBvh,
@@ -697,45 +697,48 @@ fn walk_wide_with<H: Handler>(
         } else {
             let node = &nodes[current.first as usize];
             let (mask, entry) = slab::entry4(ray, node, tmin4, F4::splat(h.t_max()));
-            if mask != 0 {
-                // Children by entry distance, without branches on how many the ray enters:
-                // keys (distance bits, lane) sorted by a network, unused lanes last. Entry
-                // distances are at least tmin >= -0.0; `+ 0.0` makes -0.0 zero, so the bits of
-                // these non-negative floats order as integers. Ties keep child order.
-                let key = |lane: usize| {
-                    if mask >> lane & 1 == 1 {
-                        ((entry[lane] + 0.0).to_bits() as u64) << 32 | lane as u64
-                    } else {
-                        u64::MAX
-                    }
-                };
-                let mut k = [key(0), key(1), key(2), key(3)];
-                for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
-                    let (lo, hi) = (k[a].min(k[b]), k[a].max(k[b]));
-                    k[a] = lo;
-                    k[b] = hi;
+            let child = |lane: u32| Pending {
+                first: node.first[lane as usize],
+                count: node.count[lane as usize],
+                entry: entry[lane as usize],
+            };
+            match mask.count_ones() {
+                0 => {}
+                1 => next = Some(child(mask.trailing_zeros())),
+                2 => {
+                    // The common case, without a data-dependent branch: the nearer next,
+                    // the farther waits (ties keep child order).
+                    let a = child(mask.trailing_zeros());
+                    let b = child(31 - mask.leading_zeros());
+                    let (near, far) = if b.entry < a.entry { (b, a) } else { (a, b) };
+                    stack[len].write(far);
+                    len += 1;
+                    next = Some(near);
                 }
-                let child = |key: u64| {
-                    let lane = (key & 3) as usize;
-                    Pending {
-                        first: node.first[lane],
-                        count: node.count[lane],
-                        entry: entry[lane],
+                _ => {
+                    // Three or four, sorted by entry distance (insertion sort; ties keep
+                    // child order, so the walk is deterministic).
+                    let mut hit = [child(0); 4];
+                    let mut n = 0;
+                    let mut bits = mask;
+                    while bits != 0 {
+                        let c = child(bits.trailing_zeros());
+                        bits &= bits - 1;
+                        let mut i = n;
+                        while i > 0 && c.entry < hit[i - 1].entry {
+                            hit[i] = hit[i - 1];
+                            i -= 1;
+                        }
+                        hit[i] = c;
+                        n += 1;
                     }
-                };
-                // The nearest is next; the others wait, the farthest deepest. Writes past
-                // the ones that count land in a scratch entry above them.
-                let entered = mask.count_ones() as usize;
-                for (i, &key) in k.iter().enumerate().skip(1) {
-                    let at = if i < entered {
-                        len + entered - 1 - i
-                    } else {
-                        len + 3
-                    };
-                    stack[at].write(child(key));
+                    // Farthest first, so the nearest waiting child is on top.
+                    for &c in hit[1..n].iter().rev() {
+                        stack[len].write(c);
+                        len += 1;
+                    }
+                    next = Some(hit[0]);
                 }
-                len += entered - 1;
-                next = Some(child(k[0]));
             }
         }
         current = match next {

@@ -71,11 +71,10 @@ impl PreparedRay {
     }
 }
 
-/// A [`PreparedRay`] with its constants in all four lanes, for the 4-wide tests.
+/// A [`PreparedRay`]'s constants in all four lanes, for the 4-wide tests (only what they
+/// read, so it stays small to build per ray).
 #[derive(Clone, Copy)]
 pub struct WideRay {
-    /// The ray the lanes come from.
-    pub ray: PreparedRay,
     /// Origin, per axis.
     pub origin: [F4; 3],
     /// Reciprocal direction, per axis.
@@ -84,6 +83,10 @@ pub struct WideRay {
     pub exit_scale: F4,
     /// The watertight test's shear constants.
     pub shear: [F4; 3],
+    /// Per axis, whether the direction is negative.
+    pub negative: [bool; 3],
+    /// The watertight test's axes.
+    pub axes: [usize; 3],
 }
 
 impl WideRay {
@@ -91,11 +94,12 @@ impl WideRay {
     #[inline(always)]
     pub fn new(ray: &PreparedRay) -> WideRay {
         WideRay {
-            ray: *ray,
             origin: ray.origin.map(F4::splat),
             inv: ray.inv.map(F4::splat),
             exit_scale: F4::splat(ray.exit_scale),
             shear: ray.shear.map(F4::splat),
+            negative: ray.negative,
+            axes: ray.axes,
         }
     }
 }

@@ -50,7 +50,7 @@ pub fn entry4(ray: &WideRay, node: &WideNode, tmin: F4, tmax: F4) -> (u32, [f32;
     let mut t0 = tmin;
     let mut exit = F4::splat(f32::INFINITY);
     for a in 0..3 {
-        let (near, far) = if ray.ray.negative[a] {
+        let (near, far) = if ray.negative[a] {
             (&node.max[a], &node.min[a])
         } else {
             (&node.min[a], &node.max[a])

@@ -125,7 +125,7 @@ pub fn watertight4(
         v: [0.0; 4],
         front: 0,
     };
-    let [kx, ky, kz] = ray.ray.axes;
+    let [kx, ky, kz] = ray.axes;
     let [sx, sy, sz] = ray.shear;
     let o = &ray.origin;
     let rel = |v: usize, k: usize| F4::load(&block.vertices[v][k]) - o[k];
