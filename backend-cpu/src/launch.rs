@@ -318,7 +318,8 @@ impl<'l> Invocation<'l> {
         );
         self.fill_state(program.state_bits());
         let bindings = self.shared.bindings;
-        program.call(bindings, self);
+        let state = self.state;
+        program.call(bindings, self, state);
         (self.view, self.state) = saved;
     }
 
@@ -763,8 +764,12 @@ impl DeviceCalls for Invocation<'_> {
             mask,
         };
         let n = payload.len().min(MAX_PAYLOAD);
-        let mut registers = [0u32; MAX_PAYLOAD];
-        registers[..n].copy_from_slice(&payload[..n]);
+        // Registers past `n` are never read (accesses check `payload_len`), so only the
+        // caller's words are copied in, one by one (a handful: no `memcpy` call).
+        let mut registers = [const { std::mem::MaybeUninit::<u32>::uninit() }; MAX_PAYLOAD];
+        for (r, &p) in registers.iter_mut().zip(&payload[..n]) {
+            r.write(p);
+        }
         let mut state = TraceState {
             ray: world,
             sbt_offset,
@@ -779,7 +784,7 @@ impl DeviceCalls for Invocation<'_> {
         };
         let saved_trace = std::mem::replace(&mut self.trace, &mut state);
         let saved_payload = (self.payload, self.payload_len);
-        (self.payload, self.payload_len) = (registers.as_mut_ptr(), n);
+        (self.payload, self.payload_len) = (registers.as_mut_ptr().cast::<u32>(), n);
         self.depth += 1;
         let ray = TraceRay {
             origin,
@@ -798,7 +803,10 @@ impl DeviceCalls for Invocation<'_> {
         self.trace = saved_trace;
         (self.payload, self.payload_len) = saved_payload;
         if !self.ending {
-            payload[..n].copy_from_slice(&registers[..n]);
+            for (p, r) in payload[..n].iter_mut().zip(&registers) {
+                // SAFETY: the first `n` registers were written above (and maybe by programs).
+                *p = unsafe { r.assume_init() };
+            }
         }
     }
 

@@ -157,16 +157,25 @@ impl ProgramCode {
 }
 
 impl Callable<'_> {
-    /// Runs the program with the launch's bindings.
+    /// Runs the program with the launch's bindings; `state` is what `calls.state()`
+    /// returns (compiled programs read it without asking).
     #[inline]
-    pub fn call(&self, bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
+    pub fn call(
+        &self,
+        bindings: &Bindings<'_>,
+        calls: &mut dyn DeviceCalls,
+        state: *const crate::program::abi::DeviceState,
+    ) {
         match self {
             #[cfg(feature = "jit")]
             Callable::Jit(f, prepared) => {
                 let _ = bindings;
-                f.call_prepared(prepared, calls)
+                f.call_prepared_with_state(prepared, calls, state)
             }
-            Callable::Native(f) => f(bindings, calls),
+            Callable::Native(f) => {
+                let _ = state;
+                f(bindings, calls)
+            }
         }
     }
 

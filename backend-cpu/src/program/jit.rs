@@ -210,12 +210,38 @@ impl ProgramFn<'_> {
         }
     }
 
+    /// [`ProgramFn::call_prepared`] given what `calls.state()` returns, which saves asking
+    /// for it (a runtime that keeps its state at hand calls this).
+    #[inline]
+    pub fn call_prepared_with_state(
+        &self,
+        prepared: &PreparedBindings<'_>,
+        calls: &mut dyn DeviceCalls,
+        state: *const DeviceState,
+    ) {
+        if std::ptr::eq(prepared.layout, self.slot_bindings) {
+            self.run_with_state(prepared.table.as_ptr(), prepared.bindings, calls, state);
+        } else {
+            self.call(prepared.bindings, calls);
+        }
+    }
+
     fn run(&self, table: *const BufferSlot, bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
         let state = if self.state_bits != 0 {
             calls.state()
         } else {
             std::ptr::null()
         };
+        self.run_with_state(table, bindings, calls, state);
+    }
+
+    fn run_with_state(
+        &self,
+        table: *const BufferSlot,
+        bindings: &Bindings<'_>,
+        calls: &mut dyn DeviceCalls,
+        state: *const DeviceState,
+    ) {
         let mut ctx = CallContext {
             buffers: table,
             zero_page: ZERO_PAGE.as_ptr(),
