@@ -170,9 +170,9 @@ impl<'d> RayCaster<'d> {
         })
     }
 
-    /// Traces `rays` (`RAY_FLOATS` floats each) `repeat` times; returns the hits and the best
-    /// launch time in seconds.
-    pub fn cast(&mut self, rays: &[f32], repeat: usize) -> Result<(Hits, f64)> {
+    /// Uploads `rays` (`RAY_FLOATS` floats each) and a hit buffer for them: a launch to run
+    /// as often as wanted (the buffers live as long as the caster).
+    pub fn upload(&mut self, rays: &[f32]) -> Result<Launch> {
         let n = rays.len() / RAY_FLOATS;
         let d = self.device;
         let ray_buffer = d.create_buffer((rays.len() * 4).max(4) as u64)?;
@@ -189,20 +189,35 @@ impl<'d> RayCaster<'d> {
             (n as u32).div_ceil(LAUNCH_WIDTH),
             1,
         );
-        let resources = [
-            Resource::buffer(1, ray_buffer),
-            Resource::buffer(2, hit_buffer),
-        ];
-        let mut best = f64::INFINITY;
-        for _ in 0..repeat.max(1) {
-            d.synchronize()?;
-            let start = Instant::now();
-            d.launch(self.pipeline, &params, &resources, &self.sbt, size)?;
-            d.synchronize()?;
-            best = best.min(start.elapsed().as_secs_f64());
-        }
-        let mut raw = vec![0u8; n * HIT_WORDS * 4];
-        d.read_buffer(hit_buffer, 0, &mut raw)?;
+        Ok(Launch {
+            rays: n,
+            params,
+            resources: [
+                Resource::buffer(1, ray_buffer),
+                Resource::buffer(2, hit_buffer),
+            ],
+            hit_buffer,
+            size,
+        })
+    }
+
+    /// Runs `launch` once and waits for it.
+    pub fn run(&self, launch: &Launch) -> Result<()> {
+        let d = self.device;
+        d.launch(
+            self.pipeline,
+            &launch.params,
+            &launch.resources,
+            &self.sbt,
+            launch.size,
+        )?;
+        d.synchronize()
+    }
+
+    /// The hits `launch` wrote.
+    pub fn hits(&self, launch: &Launch) -> Result<Hits> {
+        let mut raw = vec![0u8; launch.rays * HIT_WORDS * 4];
+        self.device.read_buffer(launch.hit_buffer, 0, &mut raw)?;
         let words: &[u32] = bytemuck::cast_slice(&raw);
         let mut hits = Hits::default();
         for h in words.chunks_exact(HIT_WORDS) {
@@ -212,7 +227,37 @@ impl<'d> RayCaster<'d> {
             hits.u.push(f32::from_bits(h[3]));
             hits.v.push(f32::from_bits(h[4]));
         }
-        Ok((hits, best))
+        Ok(hits)
+    }
+
+    /// Traces `rays` (`RAY_FLOATS` floats each) `repeat` times; returns the hits and the best
+    /// launch time in seconds.
+    pub fn cast(&mut self, rays: &[f32], repeat: usize) -> Result<(Hits, f64)> {
+        let launch = self.upload(rays)?;
+        let mut best = f64::INFINITY;
+        for _ in 0..repeat.max(1) {
+            self.device.synchronize()?;
+            let start = Instant::now();
+            self.run(&launch)?;
+            best = best.min(start.elapsed().as_secs_f64());
+        }
+        Ok((self.hits(&launch)?, best))
+    }
+}
+
+/// Rays uploaded for a [`RayCaster`]: what one launch over them needs.
+pub struct Launch {
+    rays: usize,
+    params: Vec<u8>,
+    resources: [Resource; 2],
+    hit_buffer: Buffer,
+    size: LaunchSize,
+}
+
+impl Launch {
+    /// The number of rays.
+    pub fn rays(&self) -> usize {
+        self.rays
     }
 }
 
