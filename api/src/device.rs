@@ -100,6 +100,10 @@ pub enum TriangleTest {
     Watertight,
     /// Möller–Trumbore: faster, not watertight.
     MollerTrumbore,
+    /// The device's own triangle test; Vulkan only (the driver's native triangles, its
+    /// fastest path: watertightness is whatever the driver gives). The CPU and wgpu backends
+    /// refuse it.
+    Driver,
 }
 
 /// Bounding box test of traversal (DESIGN.md §5).
@@ -134,7 +138,8 @@ impl Accuracy {
         box_test: BoxTest::Conservative,
     };
 
-    /// Parses `robust`, `fast`, `watertight+plain`, `mt+conservative` and the like.
+    /// Parses `robust`, `fast`, `watertight+plain`, `mt+conservative`, `driver+conservative`
+    /// and the like.
     pub fn parse(s: &str) -> Option<Accuracy> {
         match s {
             "robust" | "default" => return Some(Accuracy::ROBUST),
@@ -145,6 +150,7 @@ impl Accuracy {
         let triangle = match tri {
             "watertight" => TriangleTest::Watertight,
             "mt" | "moller-trumbore" => TriangleTest::MollerTrumbore,
+            "driver" => TriangleTest::Driver,
             _ => return None,
         };
         let box_test = match bx {
@@ -290,4 +296,23 @@ pub trait Device: Send + Sync {
     ) -> Result<()>;
     /// Waits for every launch to finish.
     fn synchronize(&self) -> Result<()>;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn accuracy_names_parse() {
+        assert_eq!(Accuracy::parse("robust"), Some(Accuracy::ROBUST));
+        assert_eq!(Accuracy::parse("fast"), Some(Accuracy::FAST));
+        assert_eq!(
+            Accuracy::parse("driver+conservative"),
+            Some(Accuracy {
+                triangle: TriangleTest::Driver,
+                box_test: BoxTest::Conservative,
+            })
+        );
+        assert_eq!(Accuracy::parse("driver"), None);
+    }
 }

@@ -351,6 +351,11 @@ impl Device for CpuDevice {
     }
 
     fn set_accuracy(&self, accuracy: Accuracy) -> Result<()> {
+        if accuracy.triangle == optik_api::TriangleTest::Driver {
+            return Err(Error::unsupported(
+                "TriangleTest::Driver is the Vulkan driver's own triangle test; the cpu backend intersects triangles itself: choose TriangleTest::Watertight or TriangleTest::MollerTrumbore",
+            ));
+        }
         self.state().accuracy = accuracy;
         Ok(())
     }

@@ -286,9 +286,12 @@ impl Context {
         let mut frt = vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default()
             .ray_tracing_pipeline(true)
             .ray_traversal_primitive_culling(chosen.primitive_culling);
+        // f64 keeps the watertight triangle test's exact fallback (optik's triangle stage).
+        let core = vk::PhysicalDeviceFeatures::default().shader_float64(chosen.shader_float64);
         let create = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queues)
             .enabled_extension_names(&extension_names)
+            .enabled_features(&core)
             .push_next(&mut f12)
             .push_next(&mut fas)
             .push_next(&mut frt);

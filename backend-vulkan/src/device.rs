@@ -3,7 +3,7 @@
 //! The trait methods lock the state and call the `impl Inner` methods of the modules named
 //! as in every backend (`accel`, `pipeline`, `sbt`, `launch`), plus `buffer` and `texture`.
 
-use crate::accel::{AccelObject, SceneTables, Tlas};
+use crate::accel::{AccelObject, Proxy, SceneTables, Tlas};
 use crate::cache::PipelineCache;
 use crate::commands::{Commands, Submission};
 use crate::context::{Context, VulkanOptions};
@@ -63,6 +63,16 @@ pub struct Inner {
     pub cache: PipelineCache,
     /// Counter for buffer generations.
     pub next_generation: u64,
+    /// The accuracy setting: the triangle test of structures built and pipelines created
+    /// from now on (DESIGN.md §5).
+    pub accuracy: Accuracy,
+    /// Opacity micromap arrays (their states, copied into the structures that use them).
+    pub micromap_arrays: HandleTable<MicromapArray, Arc<OpacityMicromapArrayDesc>>,
+    /// The proxy bottom levels of paths through motion transforms, by address (owned by
+    /// their transforms, accel/transform.rs).
+    pub proxies: HashMap<u64, Proxy>,
+    /// Proxies replaced while top levels above them are refreshed, freed afterwards.
+    pub retired_proxies: Vec<u64>,
 }
 
 /// A Vulkan ray tracing device.
@@ -100,6 +110,10 @@ impl VulkanDevice {
             in_flight: Vec::new(),
             cache,
             next_generation: 1,
+            accuracy: Accuracy::ROBUST,
+            micromap_arrays: HandleTable::new(id),
+            proxies: HashMap::new(),
+            retired_proxies: Vec::new(),
         };
         inner.create_empty_tlas()?;
         Ok(VulkanDevice {
@@ -196,6 +210,40 @@ fn properties(info: &VulkanDeviceInfo) -> DeviceProperties {
 }
 
 impl Inner {
+    /// Chooses the triangle test (DESIGN.md §5). Box tests are the driver's, over boxes
+    /// padded for it: only `BoxTest::Conservative` describes them. Switching between native
+    /// triangles (`TriangleTest::Driver`) and optik's triangle stage changes how structures
+    /// are built, so it is refused while triangle structures built the other way are alive.
+    pub fn set_accuracy(&mut self, accuracy: Accuracy) -> Result<()> {
+        if accuracy.box_test != BoxTest::Conservative {
+            return Err(Error::unsupported(format!(
+                "BoxTest::{:?}: the Vulkan backend's box tests are the driver's, over boxes it pads so that no triangle a ray touches is missed (BoxTest::Conservative); an unpadded box test cannot be chosen",
+                accuracy.box_test
+            )));
+        }
+        let emulate = accuracy.triangle != TriangleTest::Driver;
+        if emulate != self.emulates_triangles() {
+            let built_the_other_way = self
+                .accels
+                .iter()
+                .filter(|(_, a)| a.has_triangles())
+                .count();
+            if built_the_other_way > 0 {
+                return Err(Error::invalid(format!(
+                    "set_accuracy({:?}): {built_the_other_way} live acceleration structure(s) hold triangles built for {}; the Vulkan backend builds triangles differently for TriangleTest::Driver (native triangles) and the other tests (optik's triangle stage), so destroy them first or set the accuracy before building",
+                    accuracy.triangle,
+                    if emulate {
+                        "TriangleTest::Driver"
+                    } else {
+                        "optik's triangle test"
+                    }
+                )));
+            }
+        }
+        self.accuracy = accuracy;
+        Ok(())
+    }
+
     /// A fresh buffer generation.
     pub fn generation(&mut self) -> u64 {
         self.next_generation += 1;
@@ -273,6 +321,9 @@ impl Inner {
                 obj.destroy(&ctx, &mut self.alloc);
             }
         }
+        for (_, p) in std::mem::take(&mut self.proxies) {
+            p.structure.destroy(&ctx, &mut self.alloc);
+        }
         if let Some(t) = self.empty_tlas.take() {
             t.destroy(&ctx, &mut self.alloc);
         }
@@ -313,18 +364,11 @@ impl Device for VulkanDevice {
     }
 
     fn accuracy(&self) -> Accuracy {
-        // The driver intersects triangles and boxes; DESIGN.md §5: the Vulkan backend reports
-        // what the driver does, measured by the conformance suite. Its setting is the default.
-        Accuracy::default()
+        self.lock().accuracy
     }
 
     fn set_accuracy(&self, accuracy: Accuracy) -> Result<()> {
-        if accuracy == Accuracy::default() {
-            return Ok(());
-        }
-        Err(Error::unsupported(format!(
-            "the Vulkan backend cannot choose the triangle and box tests ({accuracy:?} asked): the driver's traversal decides them; use the cpu or wgpu backend to choose"
-        )))
+        self.with(|i| i.set_accuracy(accuracy))
     }
 
     fn create_buffer(&self, size: u64) -> Result<Buffer> {
@@ -397,9 +441,7 @@ impl Device for VulkanDevice {
         desc: &OpacityMicromapArrayDesc,
     ) -> Result<MicromapArray> {
         validate::micromap_array(desc)?;
-        Err(Error::unsupported(
-            "opacity micromaps are not available on the Vulkan backend: they need VK_EXT_opacity_micromap, which optik does not use yet (use the cpu or wgpu backend, or an any-hit program)",
-        ))
+        self.with(|i| Ok(i.micromap_arrays.insert(Arc::new(desc.clone()))))
     }
 
     fn traversable_handle(&self, accel: Accel) -> Result<TraversableHandle> {
@@ -411,13 +453,8 @@ impl Device for VulkanDevice {
     }
 
     fn destroy_micromap_array(&self, array: MicromapArray) -> Result<()> {
-        Err(Error::new(
-            ErrorKind::InvalidHandle,
-            format!(
-                "opacity micromap array {:?} does not exist: the Vulkan backend creates none",
-                array.raw()
-            ),
-        ))
+        // Structures built with it keep their own copy of its states.
+        self.with(|i| i.micromap_arrays.remove(array).map(|_| ()))
     }
 
     fn create_module(

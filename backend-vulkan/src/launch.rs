@@ -6,6 +6,7 @@ use crate::commands::Submission;
 use crate::device::Inner;
 use crate::error::VkResultExt;
 use crate::memory::{GpuBuffer, Location};
+use crate::program::LoweringConfig;
 use crate::sbt::TranslatedSbt;
 use ash::vk;
 use optik_api::frontend::BindingKind;
@@ -134,6 +135,8 @@ impl Inner {
                 _ => {}
             }
         }
+        self.check_pipeline_serves_scene(&p.config)?;
+        let p = self.pipelines.get(pipeline)?;
         let uses_state = p.config.uses_state();
         let bindings = p.bindings.clone();
         if size.is_empty() {
@@ -148,6 +151,12 @@ impl Inner {
             )));
         }
         let sbt = self.translate_sbt(pipeline, table)?;
+        let max_range = self.ctx.info.max_storage_buffer_range as u64;
+        if let Some(bytes) = self.tables.sizes().into_iter().find(|b| *b > max_range) {
+            return Err(Error::limit(format!(
+                "the scene's tables (triangle vertices, remaps, motion keys and micromaps of every live acceleration structure) need {bytes} bytes in one storage buffer; this device binds at most {max_range} (maxStorageBufferRange): destroy unused structures or use TriangleTest::Driver, which keeps no vertices"
+            )));
+        }
         let tables = self.table_buffers()?;
 
         let mut held: Vec<GpuBuffer> = Vec::new();
@@ -193,6 +202,44 @@ impl Inner {
                 Err(e)
             }
         }
+    }
+
+    /// Checks that a pipeline was compiled for what the live scene holds: the scene's
+    /// triangles built for its triangle test, its motion and its micromaps (a pipeline
+    /// created before them lacks the code that reads them).
+    fn check_pipeline_serves_scene(&self, config: &LoweringConfig) -> Result<()> {
+        let Some(scene) = self.scene_features() else {
+            return Ok(());
+        };
+        let recreate = "create the pipeline again (pipelines are compiled for the structures alive when they are created)";
+        if scene.primitive_types.contains(PrimitiveTypeFlags::TRIANGLE)
+            && config.triangles.emulated() != self.emulates_triangles()
+        {
+            return Err(Error::invalid(format!(
+                "the pipeline intersects triangles {}, but the live triangle structures were built for {}: {recreate}",
+                if config.triangles.emulated() {
+                    "with optik's triangle test"
+                } else {
+                    "with the driver's (TriangleTest::Driver)"
+                },
+                if self.emulates_triangles() {
+                    "optik's triangle test"
+                } else {
+                    "TriangleTest::Driver"
+                },
+            )));
+        }
+        if scene.motion.any() && !config.motion_structures {
+            return Err(Error::invalid(format!(
+                "live acceleration structures have motion, which this pipeline was not compiled for: {recreate}"
+            )));
+        }
+        if scene.opacity_micromaps && !config.micromaps {
+            return Err(Error::invalid(format!(
+                "live acceleration structures have opacity micromaps, which this pipeline was not compiled for: {recreate}"
+            )));
+        }
+        Ok(())
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -342,7 +389,7 @@ impl Inner {
             },
             vk::DescriptorPoolSize {
                 ty: vk::DescriptorType::STORAGE_BUFFER,
-                descriptor_count: count(vk::DescriptorType::STORAGE_BUFFER) + 4,
+                descriptor_count: count(vk::DescriptorType::STORAGE_BUFFER) + 5,
             },
         ];
         if textures > 0 {
@@ -417,6 +464,15 @@ impl Inner {
                     vk::DescriptorType::STORAGE_BUFFER,
                     vk::DescriptorBufferInfo {
                         buffer: tables[2],
+                        offset: 0,
+                        range: vk::WHOLE_SIZE,
+                    },
+                ),
+                (
+                    5,
+                    vk::DescriptorType::STORAGE_BUFFER,
+                    vk::DescriptorBufferInfo {
+                        buffer: sbt.callable_table.buffer,
                         offset: 0,
                         range: vk::WHOLE_SIZE,
                     },

@@ -14,7 +14,9 @@
 use crate::device::Inner;
 use crate::error::VkResultExt;
 use crate::memory::Allocator;
-use crate::program::{self, HitContext, LoweringConfig, ModuleText, StageRole, VkStage};
+use crate::program::{
+    self, HitContext, LoweringConfig, ModuleText, StageRole, TriangleMode, VkStage,
+};
 use crate::sbt::TranslatedSbt;
 use ash::vk;
 use optik_api::frontend::{BindingInfo, BindingKind, CompiledModule, DeviceFunction};
@@ -43,6 +45,9 @@ pub struct GroupHandles {
     pub primary: Option<Vec<u8>>,
     /// The continuation callable's miss group handle.
     pub continuation: Option<Vec<u8>>,
+    /// The direct callable's program id in the callable table of calls inlined into
+    /// intersection and any-hit stages (program/inline.rs).
+    pub direct_id: Option<u32>,
 }
 
 /// A linked pipeline.
@@ -65,6 +70,10 @@ pub struct PipelineObject {
     pub null_callable: Vec<u8>,
     /// optik's null continuation (when continuation callables are called).
     pub null_continuation: Option<Vec<u8>>,
+    /// The hit group of records past the user's (a hit without programs, or
+    /// `INVALID_HIT_SBT` under debug exceptions), when the pipeline's primitives allow one
+    /// group for all; else those records are null records.
+    pub past_table: Option<Vec<u8>>,
     /// The stack size to set at launch.
     pub stack_size: u32,
     /// Recent SBT translations.
@@ -156,6 +165,19 @@ struct GroupPlan {
     user: Vec<(RawHandle, GroupRegion, Option<usize>, Option<usize>)>,
     null_callable: usize,
     null_continuation: Option<usize>,
+    past_table: Option<usize>,
+}
+
+/// What the device and its live scene add to a pipeline's lowering.
+struct DeviceSide {
+    /// How triangles are intersected (the device's accuracy).
+    triangles: TriangleMode,
+    /// Live structures have motion.
+    scene_motion: bool,
+    /// Live structures have opacity micromaps.
+    scene_micromaps: bool,
+    /// The device has `rayTraversalPrimitiveCulling`.
+    primitive_culling: bool,
 }
 
 /// Settings for the lowering from the resolved features and the programs.
@@ -164,6 +186,7 @@ fn lowering_config(
     link: &PipelineLinkOptions,
     descs: &[&ProgramGroupDesc],
     module_of: &dyn Fn(&ProgramRef) -> Option<Arc<CompiledModule>>,
+    device: &DeviceSide,
 ) -> LoweringConfig {
     let calls = |pred: &dyn Fn(ProgramKind, DeviceFunction) -> bool| {
         descs.iter().flat_map(|d| d.programs()).any(|(kind, p)| {
@@ -181,10 +204,26 @@ fn lowering_config(
                     DeviceFunction::Trace | DeviceFunction::RemainingTraceDepth
                 )
         });
+    let triangles = features
+        .primitive_types
+        .contains(PrimitiveTypeFlags::TRIANGLE);
+    let micromaps = device.triangles.emulated()
+        && triangles
+        && (features.opacity_micromaps || device.scene_micromaps);
+    // optik's triangle stage reads the ray's face-culling flags from Vulkan's (both faces as
+    // SkipTrianglesKHR), or from the state word where the device lacks that flag; its
+    // opacity checks with micromaps need the 2-state flag, which only the state keeps.
+    let skip_triangles_flag = device.triangles.emulated() && device.primitive_culling;
     let track_ray_flags =
-        calls(&|_, f| matches!(f, DeviceFunction::RayFlags | DeviceFunction::RayMask));
+        calls(&|_, f| matches!(f, DeviceFunction::RayFlags | DeviceFunction::RayMask))
+            || (device.triangles.emulated() && triangles && !skip_triangles_flag)
+            || micromaps;
     let guard_direct_calls =
         calls(&|k, f| k == ProgramKind::DirectCallable && f == DeviceFunction::DirectCall);
+    let inline_calls = calls(&|k, f| {
+        matches!(k, ProgramKind::Intersection | ProgramKind::AnyHit)
+            && f == DeviceFunction::DirectCall
+    });
     let exception_program = descs
         .iter()
         .any(|d| matches!(d, ProgramGroupDesc::Exception(_)));
@@ -200,6 +239,13 @@ fn lowering_config(
         track_ray_flags,
         guard_direct_calls,
         continuation_calls,
+        inline_calls,
+        triangles: device.triangles,
+        skip_triangles_flag,
+        motion_structures: features.motion || device.scene_motion,
+        micromaps,
+        micromap_states: micromaps && features.opacity_micromaps,
+        primitive_types: features.primitive_types.0,
     }
 }
 
@@ -321,7 +367,20 @@ impl Inner {
             &program_features,
             self.props.max_trace_depth,
         )?;
-        let config = lowering_config(&features, link, &desc_refs, &module_of);
+        let scene = self.scene_features().unwrap_or_default();
+        let device = DeviceSide {
+            triangles: match self.accuracy.triangle {
+                TriangleTest::Driver => TriangleMode::Native,
+                TriangleTest::MollerTrumbore => TriangleMode::MollerTrumbore,
+                TriangleTest::Watertight => TriangleMode::Watertight {
+                    f64: self.ctx.info.shader_float64,
+                },
+            },
+            scene_motion: scene.motion.any(),
+            scene_micromaps: scene.opacity_micromaps,
+            primitive_culling: self.ctx.info.primitive_culling,
+        };
+        let config = lowering_config(&features, link, &desc_refs, &module_of, &device);
 
         let recursion = config.max_trace_depth
             + if config.continuation_calls {
@@ -351,9 +410,22 @@ impl Inner {
             }
         }
         let bindings = merged_bindings(modules.values())?;
-        let (plan, group_plan) = plan_stages(groups, &descs, &config);
-        let stages = self.lower(&plan, &modules, &config)?;
-        self.link(stages, group_plan, features, config, bindings, recursion)
+        let direct = DirectCallables::of(&descs, &modules, &config)?;
+        let (plan, group_plan) = plan_stages(groups, &descs, &config, &features);
+        let stages = self.lower(&plan, &modules, &config, &direct)?;
+        let direct_ids: HashMap<RawHandle, u32> = groups
+            .iter()
+            .zip(&descs)
+            .filter_map(|(g, d)| match d {
+                ProgramGroupDesc::Callables {
+                    direct: Some(p), ..
+                } => Some((optik_api::Handle::raw(g), direct.id(p)?)),
+                _ => None,
+            })
+            .collect();
+        self.link(
+            stages, group_plan, direct_ids, features, config, bindings, recursion,
+        )
     }
 
     /// Lowers every planned stage, one naga pass per source.
@@ -362,6 +434,7 @@ impl Inner {
         plan: &StagePlan,
         modules: &HashMap<Module, Arc<CompiledModule>>,
         config: &LoweringConfig,
+        direct: &DirectCallables,
     ) -> Result<Vec<program::LoweredStage>> {
         let mut by_source: Vec<(Source, Vec<(usize, StageRole)>)> = Vec::new();
         for (i, (source, role)) in plan.stages.iter().enumerate() {
@@ -378,10 +451,12 @@ impl Inner {
                     let compiled = modules
                         .get(&m)
                         .ok_or_else(|| Error::backend("module vanished"))?;
+                    let callables = direct.of_module(m);
                     program::lower_stages(
                         ModuleText::User(&compiled.user_source),
                         config,
                         &role_list,
+                        Some((compiled, &callables)),
                     )
                     .map_err(|e| e.context(format!("module {}", compiled.file_name)))?
                 }
@@ -389,6 +464,7 @@ impl Inner {
                     ModuleText::Internal { curve_basis: basis },
                     config,
                     &role_list,
+                    None,
                 )?,
             };
             for ((i, _), stage) in roles.into_iter().zip(lowered) {
@@ -406,6 +482,7 @@ impl Inner {
         &mut self,
         stages: Vec<program::LoweredStage>,
         group_plan: GroupPlan,
+        direct_ids: HashMap<RawHandle, u32>,
         features: FeatureSet,
         config: LoweringConfig,
         bindings: Vec<BindingInfo>,
@@ -498,7 +575,7 @@ impl Inner {
         let dynamic = [vk::DynamicState::RAY_TRACING_PIPELINE_STACK_SIZE_KHR];
         let dynamic_info = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic);
         let create = vk::RayTracingPipelineCreateInfoKHR::default()
-            .flags(self.skip_flags(&features))
+            .flags(self.skip_flags(&features, &config))
             .stages(&stage_infos)
             .groups(&group_infos)
             .max_pipeline_ray_recursion_depth(recursion)
@@ -567,6 +644,7 @@ impl Inner {
                     GroupHandles {
                         primary: primary.map(handle),
                         continuation: continuation.map(handle),
+                        direct_id: direct_ids.get(raw).copied(),
                     },
                 ),
             );
@@ -582,6 +660,7 @@ impl Inner {
             handles,
             null_callable: handle(group_plan.null_callable),
             null_continuation: group_plan.null_continuation.map(handle),
+            past_table: group_plan.past_table.map(handle),
             stack_size,
             sbt_cache: Vec::new(),
         };
@@ -590,20 +669,26 @@ impl Inner {
 
     /// Vulkan's skip flags for the primitive types the pipeline does not intersect (DESIGN.md
     /// §6), where the device can skip them.
-    fn skip_flags(&self, features: &FeatureSet) -> vk::PipelineCreateFlags {
+    fn skip_flags(
+        &self,
+        features: &FeatureSet,
+        config: &LoweringConfig,
+    ) -> vk::PipelineCreateFlags {
         let mut flags = vk::PipelineCreateFlags::empty();
         if !self.ctx.info.primitive_culling {
             return flags;
         }
-        if !features
+        let triangles = features
             .primitive_types
-            .contains(PrimitiveTypeFlags::TRIANGLE)
-        {
+            .contains(PrimitiveTypeFlags::TRIANGLE);
+        if !triangles || config.triangles.emulated() {
             flags |= vk::PipelineCreateFlags::RAY_TRACING_SKIP_TRIANGLES_KHR;
         }
         let on_aabbs =
             PrimitiveTypeFlags::CUSTOM | PrimitiveTypeFlags::SPHERE | PrimitiveTypeFlags::CURVES;
-        if !features.primitive_types.intersects(on_aabbs) {
+        let aabbs = features.primitive_types.intersects(on_aabbs)
+            || (triangles && config.triangles.emulated());
+        if !aabbs {
             flags |= vk::PipelineCreateFlags::RAY_TRACING_SKIP_AABBS_KHR;
         }
         flags
@@ -628,7 +713,7 @@ impl Inner {
                     .stage_flags(stages)
             })
             .collect();
-        let backend: Vec<vk::DescriptorSetLayoutBinding> = (0..5)
+        let backend: Vec<vk::DescriptorSetLayoutBinding> = (0..6)
             .map(|b| {
                 let ty = if b == 0 {
                     vk::DescriptorType::UNIFORM_BUFFER
@@ -723,6 +808,81 @@ impl Inner {
     }
 }
 
+/// The direct callables of a pipeline, numbered for the callable table of calls inlined
+/// into intersection and any-hit stages (program/inline.rs).
+struct DirectCallables {
+    /// Program id → module and function name.
+    programs: Vec<(Module, String)>,
+}
+
+impl DirectCallables {
+    /// The direct callables of `descs`. With inlined calls, every direct callable must be in
+    /// the module of each intersection and any-hit program that calls one: the stages are
+    /// compiled from their module's source.
+    fn of(
+        descs: &[ProgramGroupDesc],
+        modules: &HashMap<Module, Arc<CompiledModule>>,
+        config: &LoweringConfig,
+    ) -> Result<DirectCallables> {
+        let mut programs: Vec<(Module, String)> = Vec::new();
+        for d in descs {
+            if let ProgramGroupDesc::Callables {
+                direct: Some(p), ..
+            } = d
+                && !programs
+                    .iter()
+                    .any(|(m, n)| *m == p.module && *n == p.entry)
+            {
+                programs.push((p.module, p.entry.clone()));
+            }
+        }
+        if config.inline_calls {
+            for (kind, p) in descs.iter().flat_map(|d| d.programs()) {
+                let calls = matches!(kind, ProgramKind::Intersection | ProgramKind::AnyHit)
+                    && modules
+                        .get(&p.module)
+                        .and_then(|m| m.program(&p.entry))
+                        .is_some_and(|info| info.calls(DeviceFunction::DirectCall));
+                if !calls {
+                    continue;
+                }
+                if let Some((m, name)) = programs.iter().find(|(m, _)| *m != p.module) {
+                    let file = |m: &Module| {
+                        modules
+                            .get(m)
+                            .map_or_else(String::new, |c| c.file_name.clone())
+                    };
+                    return Err(Error::unsupported(format!(
+                        "`{}` ({}) calls rt_direct_call from a {kind} program, and the pipeline's direct callable `{name}` is in another module ({}): Vulkan runs no callables from intersection and any-hit stages, so the Vulkan backend compiles the direct callables into them, which it does for callables of the same module only; put them in one module",
+                        p.entry,
+                        file(&p.module),
+                        file(m)
+                    )));
+                }
+            }
+        }
+        Ok(DirectCallables { programs })
+    }
+
+    /// The program id of direct callable `p`.
+    fn id(&self, p: &ProgramRef) -> Option<u32> {
+        self.programs
+            .iter()
+            .position(|(m, n)| *m == p.module && *n == p.entry)
+            .map(|i| i as u32)
+    }
+
+    /// The ids and names of `module`'s direct callables.
+    fn of_module(&self, module: Module) -> Vec<(u32, String)> {
+        self.programs
+            .iter()
+            .enumerate()
+            .filter(|(_, (m, _))| *m == module)
+            .map(|(i, (_, n))| (i as u32, n.clone()))
+            .collect()
+    }
+}
+
 /// The union of the modules' `@group(0)` bindings; one number, one kind.
 fn merged_bindings<'a>(
     modules: impl Iterator<Item = &'a Arc<CompiledModule>>,
@@ -760,6 +920,7 @@ fn plan_stages(
     groups: &[ProgramGroup],
     descs: &[ProgramGroupDesc],
     config: &LoweringConfig,
+    features: &FeatureSet,
 ) -> (StagePlan, GroupPlan) {
     let mut plan = StagePlan::default();
     let mut vk_groups: Vec<VkGroup> = Vec::new();
@@ -822,24 +983,28 @@ fn plan_stages(
                     let (s, r) = program(p, ProgramKind::AnyHit, Some(context));
                     plan.stage(s, r)
                 });
-                let is =
-                    match (intersection, builtin) {
-                        (Some(p), _) => {
-                            let (s, r) = program(p, ProgramKind::Intersection, None);
-                            Some(plan.stage(s, r))
-                        }
-                        (None, BuiltinIntersector::Sphere) => {
-                            Some(plan.stage(Source::Internal(0), StageRole::SphereIntersection))
-                        }
-                        (None, BuiltinIntersector::Curve(t)) => {
-                            let basis = optik_api::wgsl::curve_basis(*t);
-                            Some(plan.stage(
+                let is = match (intersection, builtin) {
+                    (Some(p), _) => {
+                        let (s, r) = program(p, ProgramKind::Intersection, None);
+                        Some(plan.stage(s, r))
+                    }
+                    (None, BuiltinIntersector::Sphere) => {
+                        Some(plan.stage(Source::Internal(0), StageRole::SphereIntersection))
+                    }
+                    (None, BuiltinIntersector::Curve(t)) => {
+                        let basis = optik_api::wgsl::curve_basis(*t);
+                        Some(
+                            plan.stage(
                                 Source::Internal(basis),
                                 StageRole::CurveIntersection(basis),
-                            ))
-                        }
-                        (None, BuiltinIntersector::Triangle) => None,
-                    };
+                            ),
+                        )
+                    }
+                    (None, BuiltinIntersector::Triangle) => config
+                        .triangles
+                        .emulated()
+                        .then(|| plan.stage(Source::Internal(0), StageRole::TriangleIntersection)),
+                };
                 (
                     Some(add(
                         &mut vk_groups,
@@ -884,6 +1049,10 @@ fn plan_stages(
         ));
         vk_groups.len() - 1
     });
+    let past_table = past_table_group(&mut plan, config, features).map(|g| {
+        vk_groups.push(g);
+        vk_groups.len() - 1
+    });
     (
         plan,
         GroupPlan {
@@ -891,6 +1060,41 @@ fn plan_stages(
             user,
             null_callable,
             null_continuation,
+            past_table,
         },
     )
+}
+
+/// The hit group of the records past the user's: a candidate is a hit without programs
+/// (custom primitives, which need an intersection program, are never hit), or raises
+/// `INVALID_HIT_SBT` under debug exceptions. One Vulkan group serves one geometry type, so it
+/// exists when the pipeline's primitives are all AABBs for Vulkan (emulated triangles,
+/// custom primitives, spheres, curves), or all native triangles under debug exceptions
+/// (without them, the null record is the same); a pipeline with both keeps null records
+/// (docs/vulkan-backend.md §10).
+fn past_table_group(
+    plan: &mut StagePlan,
+    config: &LoweringConfig,
+    features: &FeatureSet,
+) -> Option<VkGroup> {
+    let types = features.primitive_types;
+    let triangles = types.contains(PrimitiveTypeFlags::TRIANGLE);
+    let native = triangles && !config.triangles.emulated();
+    let boxes = types.intersects(
+        PrimitiveTypeFlags::CUSTOM | PrimitiveTypeFlags::SPHERE | PrimitiveTypeFlags::CURVES,
+    ) || (triangles && config.triangles.emulated());
+    let internal = Source::Internal(0);
+    match (native, boxes) {
+        (false, _) => Some(VkGroup::Hit {
+            closest: None,
+            any: None,
+            intersection: Some(plan.stage(internal, StageRole::PastTableIntersection)),
+        }),
+        (true, false) if config.exceptions.contains(ExceptionFlags::DEBUG) => Some(VkGroup::Hit {
+            closest: Some(plan.stage(internal, StageRole::InvalidHitClosestHit)),
+            any: Some(plan.stage(internal, StageRole::InvalidHitAnyHit)),
+            intersection: None,
+        }),
+        (true, _) => None,
+    }
 }

@@ -132,6 +132,9 @@ pub struct VulkanDeviceInfo {
     pub max_uniform_buffer_range: u32,
     /// The `rayTraversalPrimitiveCulling` feature: pipelines can skip triangles or AABBs.
     pub primitive_culling: bool,
+    /// The `shaderFloat64` feature: optik's watertight triangle test keeps its exact f64
+    /// fallback.
+    pub shader_float64: bool,
     /// `maxComputeWorkGroupCount` × `maxComputeWorkGroupSize`, per dimension: the largest
     /// ray dispatch per dimension.
     pub max_launch_dimensions: [u64; 3],
@@ -332,6 +335,7 @@ pub(crate) fn device_info(
 
     let mut missing = Vec::new();
     let mut primitive_culling = false;
+    let mut shader_float64 = false;
     if api < vk::API_VERSION_1_2 {
         missing.push(format!(
             "Vulkan 1.2 (it has {}.{})",
@@ -367,6 +371,7 @@ pub(crate) fn device_info(
             .push_next(&mut frt);
         // SAFETY: the device has 1.2 and both extensions (checked above).
         unsafe { instance.get_physical_device_features2(physical, &mut features2) };
+        shader_float64 = features2.features.shader_float64 == vk::TRUE;
         primitive_culling = frt.ray_traversal_primitive_culling == vk::TRUE;
         for (name, have) in [
             ("the bufferDeviceAddress feature", f12.buffer_device_address),
@@ -440,6 +445,7 @@ pub(crate) fn device_info(
         min_storage_buffer_offset_alignment: limits.min_storage_buffer_offset_alignment,
         max_uniform_buffer_range: limits.max_uniform_buffer_range,
         primitive_culling,
+        shader_float64,
         max_launch_dimensions,
         device_local_heap,
         separate_device_memory,

@@ -11,8 +11,8 @@
 //!   table run nothing), then the continuation callables of the user's callable records at
 //!   `M + 1 + i` (continuation callables run as miss stages) and a null continuation;
 //! - hit: the user's hit records, then null records up to the highest index a ray of the
-//!   live scene can select (bounded), so an index past the table runs no program instead of
-//!   reading past the buffer;
+//!   live scene can select (bounded), so an index past the table runs no program (or raises
+//!   `INVALID_HIT_SBT` under debug exceptions) instead of reading past the buffer;
 //! - callable: the exception program at 0, the null callable at 1, the direct callables of
 //!   the user's callable records from 2.
 //!
@@ -45,6 +45,10 @@ pub struct SbtKey {
 pub struct TranslatedSbt {
     key: SbtKey,
     buffer: GpuBuffer,
+    /// The callable table of calls inlined into intersection and any-hit stages
+    /// (program/inline.rs), a storage buffer: per callable record its direct callable's
+    /// program id (or NONE) and the offset of its data, then the data words.
+    pub callable_table: GpuBuffer,
     /// The raygen region.
     pub raygen: vk::StridedDeviceAddressRegionKHR,
     /// The miss region (misses, then continuation callables).
@@ -60,9 +64,10 @@ pub struct TranslatedSbt {
 }
 
 impl TranslatedSbt {
-    /// Frees the buffer.
+    /// Frees the buffers.
     pub fn destroy(self, ctx: &crate::context::Context, alloc: &mut Allocator) {
         self.buffer.destroy(ctx, alloc);
+        self.callable_table.destroy(ctx, alloc);
     }
 }
 
@@ -217,7 +222,8 @@ impl Inner {
                 max_stride.saturating_sub(handle_size),
             )?
         };
-        let translated = self.lay_out(key, regions, table)?;
+        let (regions, callable_words) = regions;
+        let translated = self.lay_out(key, regions, callable_words, table)?;
         let p = self.pipelines.get_mut(pipeline)?;
         let translated = Arc::new(translated);
         p.sbt_cache.insert(0, translated.clone());
@@ -240,6 +246,7 @@ impl Inner {
         &mut self,
         key: SbtKey,
         regions: [Region; 4],
+        callable_words: Vec<u32>,
         table: &ShaderBindingTable,
     ) -> Result<TranslatedSbt> {
         let info = &self.ctx.info;
@@ -300,6 +307,28 @@ impl Inner {
             buffer.destroy(&self.ctx, &mut self.alloc);
             return Err(e);
         }
+        let callable_bytes: Vec<u8> = bytemuck::cast_slice(&callable_words).to_vec();
+        let callable_table = GpuBuffer::new(
+            &self.ctx,
+            &mut self.alloc,
+            callable_bytes.len().max(16) as u64,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            Location::HostVisible,
+            16,
+        );
+        let callable_table = match callable_table.and_then(|t| match t.write(0, &callable_bytes) {
+            Ok(()) => Ok(t),
+            Err(e) => {
+                t.destroy(&self.ctx, &mut self.alloc);
+                Err(e)
+            }
+        }) {
+            Ok(t) => t,
+            Err(e) => {
+                buffer.destroy(&self.ctx, &mut self.alloc);
+                return Err(e);
+            }
+        };
         let region = |i: usize, n: usize| vk::StridedDeviceAddressRegionKHR {
             device_address: buffer.address + layout[i].0,
             stride: layout[i].1,
@@ -318,17 +347,19 @@ impl Inner {
             miss_count: table.miss.map_or(0, |m| m.count),
             callable_count: table.callables.map_or(0, |c| c.count),
             buffer,
+            callable_table,
         })
     }
 }
 
-/// Reads the user's records into the four Vulkan regions.
+/// Reads the user's records into the four Vulkan regions, and the callable table of calls
+/// inlined into intersection and any-hit stages.
 fn read_regions(
     reader: &Reader,
     table: &ShaderBindingTable,
     hit_reach: u64,
     max_data: u64,
-) -> Result<[Region; 4]> {
+) -> Result<([Region; 4], Vec<u32>)> {
     let single_data = |buffer: Buffer, offset: u64| -> Result<Vec<u8>> {
         // A single record's data runs to the end of its buffer; Vulkan's record holds as much
         // of it as the largest stride allows.
@@ -404,12 +435,14 @@ fn read_regions(
             });
         }
     }
+    // Records past the user's: hits without programs, or raising INVALID_HIT_SBT under debug
+    // exceptions (pipeline.rs).
     let wanted = (hit_reach + 1)
         .min(hit.records.len() as u64 + MAX_HIT_PADDING)
         .max(1);
     while (hit.records.len() as u64) < wanted {
         hit.records.push(Record {
-            handle: None,
+            handle: p.past_table.clone(),
             data: Vec::new(),
         });
     }
@@ -439,11 +472,32 @@ fn read_regions(
         ],
         user_stride: table.callables.map(|c| c.stride),
     };
+    let callable_words = callable_table(&callables);
     for (handles, data) in callables {
         callable.records.push(Record {
             handle: Some(handles.primary.unwrap_or_else(|| p.null_callable.clone())),
             data,
         });
     }
-    Ok([raygen, miss, hit, callable])
+    Ok(([raygen, miss, hit, callable], callable_words))
+}
+
+/// The callable table (program/inline.rs): per record `[direct callable id or NONE, data
+/// offset]`, then each record's data, padded so that clamped reads stay inside.
+fn callable_table(callables: &[(GroupHandles, Vec<u8>)]) -> Vec<u32> {
+    let mut header = Vec::with_capacity(2 * callables.len());
+    let mut data: Vec<u32> = Vec::new();
+    let start = 2 * callables.len() as u32;
+    for (handles, bytes) in callables {
+        header.push(handles.direct_id.unwrap_or(crate::program::prelude::NONE));
+        header.push(start + data.len() as u32);
+        data.extend(
+            bytes.chunks(4).map(|c| {
+                u32::from_le_bytes(std::array::from_fn(|k| c.get(k).copied().unwrap_or(0)))
+            }),
+        );
+    }
+    header.extend(data);
+    header.resize(header.len() + SBT_DATA_WORDS as usize, 0);
+    header
 }

@@ -1,13 +1,33 @@
-//! optik-wgpu: the wgpu compute backend (issue 5): software traversal in a generated WGSL
-//! megakernel. The device itself is not written yet; [`probe`] lists the adapters found.
+//! optik-wgpu: the wgpu compute backend. Programs and traversal run in one generated WGSL
+//! compute megakernel per pipeline (docs/wgpu-backend.md):
+//!
+//! - `accel`: acceleration structures built on the host and stored in a GPU arena in a
+//!   four-wide BVH layout with f32 watertight triangle data;
+//! - `program`: modules, program groups, and the lowering of programs into per-context
+//!   copies at the naga IR level;
+//! - `kernel`: the generated WGSL (state, device API, traversal, dispatch, entry point),
+//!   specialised to the pipeline's features;
+//! - `pipeline`, `sbt`, `launch`: the OptiX objects over wgpu compute;
+//! - [`bench`]: a timing entry point for the GPU machine.
 
+mod accel;
+pub mod bench;
+mod buffer;
+mod device;
+mod gpu;
+mod kernel;
+mod launch;
+mod pipeline;
 mod probe;
+mod program;
+mod sbt;
 
+pub use device::{WgpuDevice, WgpuOptions};
+pub use gpu::ADAPTER_ENV;
 pub use probe::{AdapterReport, probe};
 
-/// Opens a device of this backend.
+/// Opens a device of this backend on the adapter named by [`ADAPTER_ENV`], or else the
+/// best adapter wgpu finds (discrete, integrated, virtual, then CPU).
 pub fn open() -> optik_api::Result<Box<dyn optik_api::Device>> {
-    Err(optik_api::Error::unsupported(
-        "the wgpu backend is not implemented yet (its adapters are listed by `optik info`)",
-    ))
+    Ok(Box::new(WgpuDevice::new()?))
 }

@@ -5,4 +5,5 @@ pub mod mesh;
 pub mod npy;
 pub mod raycast;
 pub mod rays;
+pub mod report;
 pub mod scenes;

@@ -95,6 +95,16 @@ pub struct RayCaster<'d> {
 impl<'d> RayCaster<'d> {
     /// Uploads and builds `mesh`, compiles the programs and fills the SBT.
     pub fn new(device: &'d dyn Device, mesh: &Mesh) -> Result<RayCaster<'d>> {
+        Self::with_options(device, mesh, &PipelineCompileOptions::default())
+    }
+
+    /// Like [`RayCaster::new`], with explicit pipeline options (the benchmark report forces
+    /// features on to measure what specialisation saves).
+    pub fn with_options(
+        device: &'d dyn Device,
+        mesh: &Mesh,
+        pipeline_options: &PipelineCompileOptions,
+    ) -> Result<RayCaster<'d>> {
         let mut owned = Vec::new();
         let mut upload = |bytes: &[u8]| -> Result<Buffer> {
             let b = device.create_buffer(bytes.len().max(4) as u64)?;
@@ -120,10 +130,9 @@ impl<'d> RayCaster<'d> {
         let build_seconds = start.elapsed().as_secs_f64();
         let handle = device.traversable_handle(accel)?.to_words();
 
-        let pipeline_options = PipelineCompileOptions::default();
         let (module, _log) = device.create_module(
             &ModuleCompileOptions::default(),
-            &pipeline_options,
+            pipeline_options,
             &ProgramSource::new("raycast.wgsl", PROGRAMS),
         )?;
         let groups = device.create_program_groups(&[
@@ -132,7 +141,7 @@ impl<'d> RayCaster<'d> {
             ProgramGroupDesc::closest_hit(ProgramRef::new(module, "closesthit__record")),
         ])?;
         let pipeline =
-            device.create_pipeline(&pipeline_options, &PipelineLinkOptions::default(), &groups)?;
+            device.create_pipeline(pipeline_options, &PipelineLinkOptions::default(), &groups)?;
         let mut table = Vec::new();
         for g in &groups {
             table.extend_from_slice(&device.sbt_record_pack_header(*g)?);
@@ -170,35 +179,47 @@ impl<'d> RayCaster<'d> {
         })
     }
 
+    /// The features the pipeline was compiled with.
+    pub fn features(&self) -> Result<optik::FeatureSet> {
+        self.device.pipeline_features(self.pipeline)
+    }
+
     /// Uploads `rays` (`RAY_FLOATS` floats each) and a hit buffer for them: a launch to run
-    /// as often as wanted (the buffers live as long as the caster).
-    pub fn upload(&mut self, rays: &[f32]) -> Result<Launch> {
+    /// as often as wanted (its buffers are freed when it drops).
+    pub fn upload(&self, rays: &[f32]) -> Result<Launch<'d>> {
         let n = rays.len() / RAY_FLOATS;
         let d = self.device;
         let ray_buffer = d.create_buffer((rays.len() * 4).max(4) as u64)?;
-        self.owned.push(ray_buffer);
-        d.write_buffer(ray_buffer, 0, bytemuck::cast_slice(rays))?;
-        let hit_buffer = d.create_buffer((n * HIT_WORDS * 4).max(4) as u64)?;
-        self.owned.push(hit_buffer);
+        let hit_buffer = match d.create_buffer((n * HIT_WORDS * 4).max(4) as u64) {
+            Ok(b) => b,
+            Err(e) => {
+                let _ = d.destroy_buffer(ray_buffer);
+                return Err(e);
+            }
+        };
         let mut params = Vec::with_capacity(16);
         for w in [self.handle[0], self.handle[1], n as u32, LAUNCH_WIDTH] {
             params.extend_from_slice(&w.to_le_bytes());
         }
-        let size = LaunchSize::new(
-            LAUNCH_WIDTH.min(n as u32),
-            (n as u32).div_ceil(LAUNCH_WIDTH),
-            1,
-        );
-        Ok(Launch {
+        let launch = Launch {
+            device: d,
             rays: n,
             params,
             resources: [
                 Resource::buffer(1, ray_buffer),
                 Resource::buffer(2, hit_buffer),
             ],
+            ray_buffer,
             hit_buffer,
-            size,
-        })
+            size: LaunchSize::new(
+                LAUNCH_WIDTH.min(n as u32),
+                (n as u32).div_ceil(LAUNCH_WIDTH),
+                1,
+            ),
+        };
+        // On an error the launch drops here and frees both buffers.
+        d.write_buffer(ray_buffer, 0, bytemuck::cast_slice(rays))?;
+        Ok(launch)
     }
 
     /// Runs `launch` once and waits for it.
@@ -245,19 +266,30 @@ impl<'d> RayCaster<'d> {
     }
 }
 
-/// Rays uploaded for a [`RayCaster`]: what one launch over them needs.
-pub struct Launch {
+/// Rays uploaded for a [`RayCaster`]: what one launch over them needs. Its buffers are freed
+/// when it drops.
+pub struct Launch<'d> {
+    device: &'d dyn Device,
     rays: usize,
     params: Vec<u8>,
     resources: [Resource; 2],
+    ray_buffer: Buffer,
     hit_buffer: Buffer,
     size: LaunchSize,
 }
 
-impl Launch {
+impl Launch<'_> {
     /// The number of rays.
     pub fn rays(&self) -> usize {
         self.rays
+    }
+}
+
+impl Drop for Launch<'_> {
+    fn drop(&mut self) {
+        // Destroy errors only mean the device is gone, which frees everything anyway.
+        let _ = self.device.destroy_buffer(self.ray_buffer);
+        let _ = self.device.destroy_buffer(self.hit_buffer);
     }
 }
 

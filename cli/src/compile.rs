@@ -49,7 +49,7 @@ pub fn run(args: &CompileArgs) -> u8 {
 }
 
 fn print_module(m: &frontend::CompiledModule) {
-    println!("{}: {} programs", m.file_name, m.programs.len());
+    outln!("{}: {} programs", m.file_name, m.programs.len());
     let width = m.programs.iter().map(|p| p.name.len()).max().unwrap_or(0);
     for kind in ProgramKind::ALL {
         for p in frontend::programs_of_kind(m, kind) {
@@ -59,7 +59,7 @@ fn print_module(m: &frontend::CompiledModule) {
                 .copied()
                 .map(DeviceFunction::name)
                 .collect();
-            println!(
+            outln!(
                 "  {:<22} {:<width$}  line {:>4}  calls: {}",
                 kind.name(),
                 p.name,
@@ -73,11 +73,11 @@ fn print_module(m: &frontend::CompiledModule) {
         }
     }
     if !m.bindings.is_empty() {
-        println!("bindings:");
+        outln!("bindings:");
         for b in &m.bindings {
-            println!("  @binding({}) {}: {:?}", b.binding, b.name, b.kind);
+            outln!("  @binding({}) {}: {:?}", b.binding, b.name, b.kind);
         }
     }
-    println!("payload registers used: {}", m.payload_values_used);
-    println!("attribute registers used: {}", m.attribute_values_used);
+    outln!("payload registers used: {}", m.payload_values_used);
+    outln!("attribute registers used: {}", m.attribute_values_used);
 }

@@ -2,31 +2,31 @@
 
 /// Runs the command; returns the exit status.
 pub fn run() -> u8 {
-    println!("backends:");
+    outln!("backends:");
     for s in optik::backend_statuses() {
         match &s.availability {
-            Ok(device) => println!("  {:<7} available: {device}", s.kind.name()),
-            Err(why) => println!("  {:<7} not available: {why}", s.kind.name()),
+            Ok(device) => outln!("  {:<7} available: {device}", s.kind.name()),
+            Err(why) => outln!("  {:<7} not available: {why}", s.kind.name()),
         }
     }
-    println!();
+    outln!();
     match optik::backends::vulkan::probe() {
         Ok(devices) => {
-            println!("Vulkan devices ({}):", devices.len());
+            outln!("Vulkan devices ({}):", devices.len());
             for d in &devices {
                 for line in d.to_string().lines() {
-                    println!("  {line}");
+                    outln!("  {line}");
                 }
             }
         }
-        Err(e) => println!("Vulkan devices: none ({})", e.message()),
+        Err(e) => outln!("Vulkan devices: none ({})", e.message()),
     }
-    println!();
+    outln!();
     let adapters = optik::backends::wgpu::probe();
-    println!("wgpu adapters ({}):", adapters.len());
+    outln!("wgpu adapters ({}):", adapters.len());
     for a in &adapters {
         for line in a.to_string().lines() {
-            println!("  {line}");
+            outln!("  {line}");
         }
     }
     0

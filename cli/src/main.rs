@@ -1,7 +1,19 @@
 //! The `optik` command.
 
+/// Prints a line on stdout; when stdout is closed (`optik info | head`) the program ends quietly
+/// instead of panicking.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if writeln!(std::io::stdout(), $($arg)*).is_err() {
+            std::process::exit(0);
+        }
+    }};
+}
+
 mod compile;
 mod info;
+mod report;
 mod trace;
 
 use clap::{Parser, Subcommand};
@@ -23,6 +35,8 @@ enum Command {
     Info,
     /// Casts rays (a float32 .npy of shape (N, 8)) against a mesh and writes hits to a .npz.
     Trace(trace::TraceArgs),
+    /// Measures backends, accuracy options, specialisation and scaling side by side (DESIGN.md §8).
+    BenchReport(report::ReportArgs),
 }
 
 fn main() -> ExitCode {
@@ -31,6 +45,7 @@ fn main() -> ExitCode {
         Command::Compile(args) => compile::run(&args),
         Command::Info => info::run(),
         Command::Trace(args) => trace::run(&args),
+        Command::BenchReport(args) => report::run(&args),
     };
     ExitCode::from(code)
 }

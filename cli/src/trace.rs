@@ -23,7 +23,7 @@ pub struct TraceArgs {
     /// CPU worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
-    /// robust (default), fast, or TRIANGLE+BOX with TRIANGLE watertight|mt and BOX conservative|plain.
+    /// robust (default), fast, or TRIANGLE+BOX: TRIANGLE watertight, mt or driver (Vulkan only); BOX conservative or plain.
     #[arg(long, default_value = "robust")]
     accuracy: String,
     /// Launches to time; the best is reported.
@@ -35,7 +35,7 @@ pub struct TraceArgs {
 pub fn run(args: &TraceArgs) -> u8 {
     match trace(args) {
         Ok(json) => {
-            println!("{json}");
+            outln!("{json}");
             0
         }
         Err(e) => {
@@ -54,7 +54,7 @@ fn trace(args: &TraceArgs) -> optik::Result<serde_json::Value> {
     })?;
     let accuracy = Accuracy::parse(&args.accuracy).ok_or_else(|| {
         optik::Error::invalid(format!(
-            "--accuracy {:?}: expected robust, fast, or watertight|mt + conservative|plain (e.g. mt+conservative)",
+            "--accuracy {:?}: expected robust, fast, or TRIANGLE+BOX with TRIANGLE watertight|mt|driver (driver: Vulkan only) and BOX conservative|plain (e.g. mt+conservative)",
             args.accuracy
         ))
     })?;

@@ -123,4 +123,13 @@ fn accuracy_applies_to_pipelines_created_afterwards() {
     let fast = kit.pipeline(PipelineCompileOptions::default(), 1, &[rg]);
     assert_eq!(kit.dev.pipeline_accuracy(robust).unwrap(), Accuracy::ROBUST);
     assert_eq!(kit.dev.pipeline_accuracy(fast).unwrap(), Accuracy::FAST);
+    // The driver's triangle test is the Vulkan backend's.
+    let driver = Accuracy {
+        triangle: TriangleTest::Driver,
+        ..Accuracy::ROBUST
+    };
+    let e = kit.dev.set_accuracy(driver).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::Unsupported);
+    assert!(e.message().contains("TriangleTest::Driver"), "{e}");
+    assert_eq!(kit.dev.accuracy(), Accuracy::FAST);
 }

@@ -10,9 +10,10 @@
 //! - visibility masks: a ray must pass every instance's mask on the path. That is one mask
 //!   test when the masks nest (one's bits contain the other's: the smaller one decides);
 //!   other combinations cannot be expressed by one Vulkan instance and are an error;
-//! - face flipping toggles per flip on the path; culling disabled anywhere stays disabled;
-//!   forcing any-hit on or off: the outermost instance that forces decides (outer overrides
-//!   inner, as the ray overrides instances and instances override geometry);
+//! - instance flags (OptiX's bits, kept for the tables; their low four bits are Vulkan's):
+//!   face flipping toggles per flip on the path; culling disabled and the micromap switches
+//!   anywhere on the path stay set; forcing any-hit on or off: the innermost instance that
+//!   forces decides (as on the CPU and wgpu backends);
 //! - `rt_instance_id` / `rt_instance_index` report the instance closest to the geometry.
 
 use optik_api::semantics::affine;
@@ -22,14 +23,24 @@ use optik_api::{Error, IDENTITY_3X4, Instance, InstanceFlags, Matrix3x4, Result}
 /// Vulkan instance flag bits (`VkGeometryInstanceFlagBitsKHR`), the same positions as
 /// OptiX's first four instance flags.
 pub mod vk_flags {
+    /// The bits Vulkan instances carry.
+    pub const VULKAN_BITS: u32 = 0xF;
     /// `TRIANGLE_FACING_CULL_DISABLE`.
     pub const CULL_DISABLE: u32 = 1;
-    /// `TRIANGLE_FLIP_FACING`.
-    pub const FLIP_FACING: u32 = 2;
     /// `FORCE_OPAQUE`.
     pub const FORCE_OPAQUE: u32 = 4;
     /// `FORCE_NO_OPAQUE`.
     pub const FORCE_NO_OPAQUE: u32 = 8;
+}
+
+/// Which object owns a path's bottom level, and so its primitives' boxes (what motion
+/// transforms above bound again).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FlatSource {
+    /// A part of a geometry acceleration structure.
+    Gas(optik_api::Accel),
+    /// A motion transform's proxy for the path (its address, `Inner::proxies`).
+    Proxy(u64),
 }
 
 /// One path from a traversable down to a bottom level: one Vulkan instance of every top
@@ -42,7 +53,7 @@ pub struct FlatInstance {
     pub sbt_offset: u32,
     /// The combined visibility mask.
     pub mask: u8,
-    /// Vulkan instance flags.
+    /// Instance flags of the path (OptiX's bits; [`FlatInstance::vk_flags`] are Vulkan's).
     pub flags: u32,
     /// The bottom level's address; 0 makes the Vulkan instance inactive (its structure was
     /// destroyed: instances that name a destroyed traversable miss it).
@@ -57,6 +68,11 @@ pub struct FlatInstance {
     pub geometry_base: u32,
     /// Geometries (SBT records) of the bottom level.
     pub geometry_count: u32,
+    /// The path's motion chain in the data table (the transforms between the Vulkan
+    /// instance and the geometry, when one of them moves), or NONE.
+    pub chain: u32,
+    /// The owner of the bottom level (none in unit tests).
+    pub source: Option<FlatSource>,
 }
 
 impl FlatInstance {
@@ -73,13 +89,32 @@ impl FlatInstance {
             in_instance: false,
             geometry_base,
             geometry_count,
+            chain: super::tables::NONE,
+            source: None,
         }
+    }
+
+    /// The same path with its owner named.
+    pub fn owned_by(mut self, source: FlatSource) -> Self {
+        self.source = Some(source);
+        self
     }
 
     /// The largest hit record index a ray through this path can select (SBT offset and
     /// stride of a trace count 4 bits each).
     pub fn sbt_reach(&self) -> u64 {
         self.sbt_offset as u64 + 15 + 15 * self.geometry_count.saturating_sub(1) as u64
+    }
+
+    /// The Vulkan instance flags: OptiX's low four bits, with forcing any-hit off winning
+    /// when both forces are set (optik_api::semantics::opacity).
+    pub fn vk_flags(&self) -> u32 {
+        use vk_flags::*;
+        let mut f = self.flags & VULKAN_BITS;
+        if f & (FORCE_OPAQUE | FORCE_NO_OPAQUE) == FORCE_OPAQUE | FORCE_NO_OPAQUE {
+            f &= !FORCE_NO_OPAQUE;
+        }
+        f
     }
 
     /// The same path with its bottom level gone.
@@ -100,21 +135,19 @@ fn combine_masks(outer: u8, inner: u8) -> Option<u8> {
     }
 }
 
-/// Instance flags of a path: `outer` (OptiX bits of the instance above) over `inner`.
+/// Instance flags of a path (OptiX bits): `outer` (the instance above) over `inner`.
 fn combine_flags(outer: u32, inner: u32) -> u32 {
-    use vk_flags::*;
-    let force = FORCE_OPAQUE | FORCE_NO_OPAQUE;
-    let mut outer_force = outer & force;
-    if outer_force == force {
-        // Both set: disabling any-hit wins (optik_api::semantics::opacity).
-        outer_force = FORCE_OPAQUE;
-    }
-    let opacity = if outer_force != 0 {
-        outer_force
-    } else {
+    use optik_api::InstanceFlags as F;
+    let force = F::DISABLE_ANYHIT.0 | F::ENFORCE_ANYHIT.0;
+    let accumulate = F::DISABLE_TRIANGLE_FACE_CULLING.0
+        | F::FORCE_OPACITY_MICROMAP_2_STATE.0
+        | F::DISABLE_OPACITY_MICROMAPS.0;
+    let opacity = if inner & force != 0 {
         inner & force
+    } else {
+        outer & force
     };
-    ((outer | inner) & CULL_DISABLE) | ((outer ^ inner) & FLIP_FACING) | opacity
+    ((outer | inner) & accumulate) | ((outer ^ inner) & F::FLIP_TRIANGLE_FACING.0) | opacity
 }
 
 /// The flat list of instance `index` of an instance acceleration structure, over its
@@ -125,7 +158,7 @@ pub fn through_instance(
     child: &[FlatInstance],
 ) -> Result<Vec<FlatInstance>> {
     let outer_mask = (inst.visibility_mask & 0xFF) as u8;
-    let outer_flags = inst.flags & InstanceFlags::ALL.0 & 0xF;
+    let outer_flags = inst.flags & InstanceFlags::ALL.0;
     child
         .iter()
         .map(|c| {
@@ -145,8 +178,7 @@ pub fn through_instance(
                 instance_id: if c.in_instance { c.instance_id } else { inst.instance_id & INSTANCE_ID_MASK },
                 instance_index: if c.in_instance { c.instance_index } else { index },
                 in_instance: true,
-                geometry_base: c.geometry_base,
-                geometry_count: c.geometry_count,
+                ..*c
             })
         })
         .collect()
@@ -177,20 +209,23 @@ mod tests {
     }
 
     #[test]
-    fn flags_compose_outer_overrides() {
-        use vk_flags::*;
-        assert_eq!(combine_flags(FLIP_FACING, FLIP_FACING), 0);
-        assert_eq!(combine_flags(FLIP_FACING, 0), FLIP_FACING);
-        assert_eq!(combine_flags(CULL_DISABLE, 0), CULL_DISABLE);
-        assert_eq!(
-            combine_flags(FORCE_NO_OPAQUE, FORCE_OPAQUE),
-            FORCE_NO_OPAQUE
-        );
-        assert_eq!(combine_flags(0, FORCE_OPAQUE), FORCE_OPAQUE);
-        assert_eq!(
-            combine_flags(FORCE_OPAQUE | FORCE_NO_OPAQUE, 0),
-            FORCE_OPAQUE
-        );
+    fn flags_compose_innermost_force_decides() {
+        use optik_api::InstanceFlags as F;
+        let flip = F::FLIP_TRIANGLE_FACING.0;
+        assert_eq!(combine_flags(flip, flip), 0);
+        assert_eq!(combine_flags(flip, 0), flip);
+        let cull = F::DISABLE_TRIANGLE_FACE_CULLING.0;
+        assert_eq!(combine_flags(cull, 0), cull);
+        let (off, on) = (F::DISABLE_ANYHIT.0, F::ENFORCE_ANYHIT.0);
+        assert_eq!(combine_flags(on, off), off, "the inner instance decides");
+        assert_eq!(combine_flags(off, 0), off);
+        let omm = F::DISABLE_OPACITY_MICROMAPS.0 | F::FORCE_OPACITY_MICROMAP_2_STATE.0;
+        assert_eq!(combine_flags(omm, 0), omm);
+        let both = FlatInstance {
+            flags: off | on,
+            ..FlatInstance::bottom(0, 0, 0, 0)
+        };
+        assert_eq!(both.vk_flags(), vk_flags::FORCE_OPAQUE);
     }
 
     #[test]

@@ -1,26 +1,35 @@
 //! Build inputs decoded on the host (with `optik_api::decode`, which checks index and SBT
-//! offset ranges) into what the Vulkan builds take: `f32` vertices with `u32` indices, and
-//! packed AABBs, one Vulkan geometry per SBT record (DESIGN.md §2: OptiX's per-primitive SBT
-//! offsets select among an input's records; Vulkan selects by geometry index, so each record
-//! becomes its own geometry, numbered as OptiX numbers records).
+//! offset ranges) into what the Vulkan builds take: `f32` vertices with `u32` indices for
+//! native triangles, and packed AABBs for everything optik intersects itself, one Vulkan
+//! geometry per SBT record (DESIGN.md §2: OptiX's per-primitive SBT offsets select among an
+//! input's records; Vulkan selects by geometry index, so each record becomes its own geometry,
+//! numbered as OptiX numbers records).
 //!
 //! Decoding on the host also converts every vertex format (Vulkan lacks half3 and snorm3) and
 //! applies the pre-transform with the same code the CPU backend uses, so vertex positions are
-//! identical across backends. The tables programs read come out of the same pass: primitive
-//! index remaps (a record's geometry holds a subset of its input's primitives), vertices for
-//! `rt_triangle_vertices`, spheres and curve segments for optik's intersection stages.
+//! identical across backends. The tables programs read come out of the same pass (tables.rs
+//! has the record layout): primitive index remaps (a record's geometry holds a subset of its
+//! input's primitives), triangle vertices, spheres and curve segments for optik's intersection
+//! stages, per motion key (key-major: key `k` of primitive `p` at `(k · count + p) · stride`,
+//! so key 0 reads the same with or without motion), the motion keys' times, and opacity
+//! micromaps.
+//!
+//! Emulated triangles (every triangle test but `TriangleTest::Driver`) are AABBs padded so
+//! that the driver's box test cannot miss a ray that touches the triangle ([`pad_triangle_box`]);
+//! optik's triangle intersection stage decides the hit.
 
-use super::tables::NONE;
+use super::tables::{self, NONE, Record};
 use optik_api::decode::{self, BufferBytes};
 use optik_api::{
     AccelBuildOptions, BuildFlags, BuildInput, CurveEndcaps, CurveType, Error, GeometryFlags,
-    Result,
+    MicromapArray, OpacityMicromapArrayDesc, OpacityMicromapFormat, Result,
 };
+use std::sync::Arc;
 
 /// What kind of primitives a geometry acceleration structure holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GasKind {
-    /// Triangles, intersected by the driver.
+    /// Triangles (native Vulkan triangles, or AABBs with optik's triangle stage).
     Triangles,
     /// Custom primitives (AABBs) with the user's intersection programs.
     Custom,
@@ -31,25 +40,43 @@ pub enum GasKind {
 }
 
 impl GasKind {
-    /// Whether Vulkan sees triangles (else AABBs).
-    pub fn is_triangles(self) -> bool {
-        self == GasKind::Triangles
+    /// The primitive kind of the geometry records' info word.
+    pub fn info_kind(self) -> u32 {
+        match self {
+            GasKind::Triangles => tables::KIND_TRIANGLES,
+            GasKind::Custom => tables::KIND_CUSTOM,
+            GasKind::Spheres => tables::KIND_SPHERES,
+            GasKind::Curves(_) => tables::KIND_CURVES,
+        }
     }
 }
+
+/// Looks up the opacity micromap arrays triangle inputs name.
+pub type MicromapLookup<'a> = dyn Fn(MicromapArray) -> Result<Arc<OpacityMicromapArrayDesc>> + 'a;
 
 /// One Vulkan geometry: its data's place in [`DecodedGas::bytes`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DecodedGeometry {
-    /// Triangles: byte offset of the input's vertex array; AABB kinds: of the AABBs.
+    /// Native triangles: byte offset of the input's vertex array; AABB kinds: of the AABBs.
     pub data_offset: u64,
-    /// Triangles: vertices in the array.
+    /// Native triangles: vertices in the array.
     pub vertex_count: u32,
-    /// Triangles: byte offset of the geometry's index array.
+    /// Native triangles: byte offset of the geometry's index array.
     pub index_offset: u64,
     /// Primitives in the geometry.
     pub count: u32,
     /// The record's geometry flags.
     pub flags: GeometryFlags,
+    /// The record's triangles have an opacity micromap: the intersection stage decides their
+    /// opacity, so Vulkan must see them non-opaque.
+    pub micromap: bool,
+}
+
+impl DecodedGeometry {
+    /// Whether Vulkan treats the geometry as opaque.
+    pub fn vk_opaque(&self) -> bool {
+        self.flags.contains(GeometryFlags::DISABLE_ANYHIT) && !self.micromap
+    }
 }
 
 /// A geometry acceleration structure's inputs, decoded.
@@ -59,13 +86,17 @@ pub struct DecodedGas {
     pub bytes: Vec<u8>,
     /// One per SBT record, in SBT GAS index order.
     pub geometries: Vec<DecodedGeometry>,
-    /// Geometry table records (`[primitive index offset, remap, data, curve basis]`, data
-    /// offsets relative to `data`).
-    pub records: Vec<[u32; 4]>,
-    /// Data table words: remaps, vertices, spheres, curve segments.
+    /// Geometry table records (tables.rs), data offsets relative to `data`.
+    pub records: Vec<Record>,
+    /// Data table words (a multiple of 4).
     pub data: Vec<u32>,
     /// Per input, each primitive's record: updates must keep it.
     pub partition: Vec<Vec<u32>>,
+    /// Per geometry of boxes, its boxes over all motion keys (what Vulkan builds; motion
+    /// transforms bound them again).
+    pub boxes: Vec<Vec<[f32; 6]>>,
+    /// Whether Vulkan sees triangles (else AABBs).
+    pub native_triangles: bool,
 }
 
 /// The geometry table record of a geometry of boxes.
@@ -73,54 +104,194 @@ struct BoxRecord {
     flags: GeometryFlags,
     primitive_index_offset: u32,
     basis: u32,
+    kind: GasKind,
 }
 
-impl DecodedGas {
+/// One primitive of a geometry of boxes.
+struct BoxItem {
+    /// Its box over all motion keys.
+    bbox: [f32; 6],
+    /// Its data words, `keys × stride`, key after key.
+    data: Vec<u32>,
+    /// Its micromap words (tables.rs), when its input has micromaps.
+    micromap: Option<[u32; 2]>,
+}
+
+/// The micromap of a geometry: the array's states, shared by its primitives.
+struct MicromapBlock<'a> {
+    states: &'a [u8],
+}
+
+/// Boxes of a geometry not yet written (triangle boxes are padded once the whole structure's
+/// extent is known).
+struct PendingBoxes {
+    geometry: usize,
+    boxes: Vec<[f32; 6]>,
+    pad: bool,
+}
+
+/// Collects a structure's geometries.
+struct Builder {
+    out: DecodedGas,
+    pending: Vec<PendingBoxes>,
+    /// Data offset of the structure's motion key block, or NONE.
+    motion_block: u32,
+    /// Motion keys of every input (1 without motion).
+    keys: usize,
+}
+
+impl Builder {
     /// Adds one geometry of boxes holding the usable ones of primitives `all` (indices in
-    /// their input); `item` gives a primitive's box and its data words (sphere centre and
-    /// radius, curve segment; none for custom primitives). The geometry's primitives are
-    /// remapped to their input indices when it holds a subset (`several_records`, or
-    /// unusable boxes left out).
+    /// their input); `item` gives a primitive's box, data and micromap words. The geometry's
+    /// primitives are remapped to their input indices when it holds a subset
+    /// (`several_records`, or unusable boxes left out).
     fn push_boxes(
         &mut self,
         all: &[u32],
         several_records: bool,
         record: BoxRecord,
-        item: impl Fn(u32) -> ([f32; 6], Vec<u32>),
+        micromap: Option<MicromapBlock>,
+        item: impl Fn(u32) -> BoxItem,
     ) {
-        let items: Vec<(u32, [f32; 6], Vec<u32>)> = all
+        let items: Vec<(u32, BoxItem)> = all
             .iter()
             .map(|&p| (p, item(p)))
-            .map(|(p, (b, d))| (p, b, d))
-            .filter(|(_, b, _)| usable(b))
+            .filter(|(_, it)| usable(&it.bbox))
             .collect();
-        let packed: Vec<f32> = items.iter().flat_map(|(_, b, _)| *b).collect();
-        let data_offset = push_aligned(&mut self.bytes, &f32_bytes(&packed));
-        let base = if items.iter().any(|(_, _, d)| !d.is_empty()) {
-            let base = self.data.len() as u32;
-            for (_, _, d) in &items {
-                self.data.extend_from_slice(d);
+        let count = items.len() as u32;
+        let data = if items.iter().any(|(_, it)| !it.data.is_empty()) {
+            let base = self.out.data.len() as u32;
+            let stride = items[0].1.data.len() / self.keys;
+            for k in 0..self.keys {
+                for (_, it) in &items {
+                    self.out
+                        .data
+                        .extend_from_slice(&it.data[k * stride..(k + 1) * stride]);
+                }
             }
             base
         } else {
             NONE
         };
-        self.geometries.push(DecodedGeometry {
-            data_offset,
+        let micromap_block = match micromap {
+            Some(block) => self.push_micromaps(&items, block),
+            None => NONE,
+        };
+        let geometry = self.out.geometries.len();
+        self.out.geometries.push(DecodedGeometry {
+            data_offset: 0,
             vertex_count: 0,
             index_offset: 0,
-            count: items.len() as u32,
+            count,
             flags: record.flags,
+            micromap: micromap_block != NONE,
         });
-        let prims: Vec<u32> = items.iter().map(|(p, _, _)| *p).collect();
+        self.pending.push(PendingBoxes {
+            geometry,
+            boxes: items.iter().map(|(_, it)| it.bbox).collect(),
+            pad: record.kind == GasKind::Triangles,
+        });
+        let prims: Vec<u32> = items.iter().map(|(p, _)| *p).collect();
         let remap = remap_table(
-            &mut self.data,
+            &mut self.out.data,
             &prims,
             several_records || prims.len() < all.len(),
         );
-        self.records
-            .push([record.primitive_index_offset, remap, base, record.basis]);
+        self.out.records.push([
+            record.primitive_index_offset,
+            remap,
+            data,
+            info_word(record.kind, record.basis, record.flags),
+            self.motion_block,
+            micromap_block,
+            count,
+            0,
+        ]);
     }
+
+    /// Writes a geometry's micromap block: a header with the offset of the states, two words
+    /// per primitive, then the states, 16-byte aligned.
+    fn push_micromaps(&mut self, items: &[(u32, BoxItem)], block: MicromapBlock) -> u32 {
+        let data = &mut self.out.data;
+        data.resize(data.len().next_multiple_of(4), 0);
+        let start = data.len();
+        let states_at = (4 + 2 * items.len()).next_multiple_of(4);
+        data.extend_from_slice(&[states_at as u32, 0, 0, 0]);
+        for (_, it) in items {
+            data.extend_from_slice(&it.micromap.unwrap_or([0, 0]));
+        }
+        data.resize(start + states_at, 0);
+        for chunk in block.states.chunks(4) {
+            let mut w = [0u8; 4];
+            w[..chunk.len()].copy_from_slice(chunk);
+            data.push(u32::from_le_bytes(w));
+        }
+        start as u32
+    }
+
+    /// Pads triangle boxes, writes every box array into `bytes` and pads the data.
+    fn finish(mut self) -> DecodedGas {
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        for p in self.pending.iter().filter(|p| p.pad) {
+            for b in &p.boxes {
+                for k in 0..3 {
+                    lo[k] = lo[k].min(b[k]);
+                    hi[k] = hi[k].max(b[k + 3]);
+                }
+            }
+        }
+        let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0f32, f32::max);
+        self.out.boxes = vec![Vec::new(); self.out.geometries.len()];
+        for mut p in std::mem::take(&mut self.pending) {
+            if p.pad {
+                for b in &mut p.boxes {
+                    *b = pad_triangle_box(b, extent);
+                }
+            }
+            let packed: Vec<f32> = p.boxes.iter().flatten().copied().collect();
+            self.out.geometries[p.geometry].data_offset =
+                push_aligned(&mut self.out.bytes, &f32_bytes(&packed));
+            self.out.boxes[p.geometry] = p.boxes;
+        }
+        if self.out.bytes.is_empty() {
+            self.out.bytes.resize(16, 0);
+        }
+        self.out.data = tables::padded_data(std::mem::take(&mut self.out.data));
+        self.out
+    }
+}
+
+/// The info word of a geometry record (tables.rs).
+fn info_word(kind: GasKind, basis: u32, flags: GeometryFlags) -> u32 {
+    (basis & 0xFF) | (kind.info_kind() << 8) | ((flags.0 & 0xFF) << 16)
+}
+
+/// Padding of emulated triangles' boxes, relative to the structure's extent: the driver's
+/// slab test rounds each distance it computes by a few ε relative to the distance from the ray
+/// origin, so a ray through a triangle's vertex or edge (which lie on its box) may miss the
+/// exact box. Padded by `2^-14 · extent` (plus 4 ulps of the coordinate, so the padding
+/// survives rounding far from the origin), a touching ray stays inside the box for ray
+/// origins up to `2^-14 / (3ε) ≈ 340` extents away (object space).
+pub const TRIANGLE_BOX_PADDING: f32 = 1.0 / 16384.0;
+
+/// A triangle's box padded for the driver's box test (see [`TRIANGLE_BOX_PADDING`]).
+pub fn pad_triangle_box(b: &[f32; 6], extent: f32) -> [f32; 6] {
+    pad_box(b, extent * TRIANGLE_BOX_PADDING)
+}
+
+/// `b` widened by `delta` and then by 4 ulps on every side.
+pub fn pad_box(b: &[f32; 6], delta: f32) -> [f32; 6] {
+    let down = |x: f32| (x - delta).next_down().next_down().next_down().next_down();
+    let up = |x: f32| (x + delta).next_up().next_up().next_up().next_up();
+    [
+        down(b[0]),
+        down(b[1]),
+        down(b[2]),
+        up(b[3]),
+        up(b[4]),
+        up(b[5]),
+    ]
 }
 
 fn push_aligned(bytes: &mut Vec<u8>, data: &[u8]) -> u64 {
@@ -141,6 +312,43 @@ fn f32_bytes(v: &[f32]) -> Vec<u8> {
 /// them), so they never hit and no intersection program sees them.
 fn usable(b: &[f32; 6]) -> bool {
     b.iter().all(|v| v.is_finite()) && (0..3).all(|k| b[k] <= b[k + 3])
+}
+
+/// The union of two boxes (NaN and inverted boxes stay unusable).
+fn union(a: &[f32; 6], b: &[f32; 6]) -> [f32; 6] {
+    if !usable(a) || !usable(b) {
+        return [f32::NAN; 6];
+    }
+    [
+        a[0].min(b[0]),
+        a[1].min(b[1]),
+        a[2].min(b[2]),
+        a[3].max(b[3]),
+        a[4].max(b[4]),
+        a[5].max(b[5]),
+    ]
+}
+
+/// The box of points; NaN when one is not finite.
+fn box_of(points: &[[f32; 3]]) -> [f32; 6] {
+    let mut b = [
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NEG_INFINITY,
+        f32::NEG_INFINITY,
+    ];
+    for p in points {
+        if !p.iter().all(|c| c.is_finite()) {
+            return [f32::NAN; 6];
+        }
+        for k in 0..3 {
+            b[k] = b[k].min(p[k]);
+            b[k + 3] = b[k + 3].max(p[k]);
+        }
+    }
+    b
 }
 
 /// Which of an input's primitives use each of its records.
@@ -167,81 +375,108 @@ pub fn gas_kind(inputs: &[BuildInput]) -> Result<GasKind> {
     })
 }
 
-/// Decodes validated geometry inputs.
+/// The motion keys of a build (1 for a static one).
+pub fn motion_keys(options: &AccelBuildOptions) -> usize {
+    match options.motion {
+        Some(m) if m.num_keys >= 2 => m.num_keys as usize,
+        _ => 1,
+    }
+}
+
+/// Decodes validated geometry inputs. `emulate_triangles` makes triangles AABBs for optik's
+/// triangle stage (else they are Vulkan triangles); `micromaps` finds the micromap arrays
+/// triangle inputs name.
 pub fn decode_gas(
     options: &AccelBuildOptions,
     inputs: &[BuildInput],
     bytes: &dyn BufferBytes,
+    emulate_triangles: bool,
+    micromaps: &MicromapLookup,
 ) -> Result<DecodedGas> {
-    let mut out = DecodedGas::default();
+    let keys = motion_keys(options);
+    let mut b = Builder {
+        out: DecodedGas::default(),
+        pending: Vec::new(),
+        motion_block: NONE,
+        keys,
+    };
+    if let Some(m) = options.motion.filter(|_| keys > 1) {
+        b.motion_block = 0;
+        b.out.data.extend_from_slice(&[
+            keys as u32,
+            m.flags.0,
+            m.time_begin.to_bits(),
+            m.time_end.to_bits(),
+        ]);
+    }
     let vertex_access = options
         .flags
         .contains(BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS);
     for (i, input) in inputs.iter().enumerate() {
         let at = |e: Error| e.context(format!("build_inputs[{i}]"));
         match input {
-            BuildInput::Triangles(t) => {
-                let tris = decode::triangles(t, 0, bytes).map_err(at)?;
-                let n = tris.indices.len() as u32;
+            BuildInput::Triangles(t) if emulate_triangles => {
+                let per_key: Vec<decode::DecodedTriangles> = (0..keys)
+                    .map(|k| decode::triangles(t, k, bytes))
+                    .collect::<Result<_>>()
+                    .map_err(at)?;
+                let indices = &per_key[0].indices;
+                let n = indices.len() as u32;
                 let records = t.flags.len() as u32;
                 let offsets = decode::sbt_offsets(t.sbt_index_offsets.as_ref(), n, records, bytes)
                     .map_err(at)?;
-                // A triangle with a NaN or infinite vertex never hits and must not disturb its
-                // neighbours: it becomes degenerate (all three indices on one finite vertex),
-                // which Vulkan never reports. (Vulkan's own rule, a NaN x making a triangle
-                // inactive, is not safe to rely on: lavapipe lets one such triangle hide its
-                // neighbours.) Degenerate triangles stay active, so refits keep working.
-                let finite = |v: &[f32; 3]| v.iter().all(|c| c.is_finite());
-                let mut vertices: Vec<f32> = tris.vertices.iter().flatten().copied().collect();
-                let stand_in = match tris.vertices.iter().position(finite) {
-                    Some(i) => i as u32,
-                    None => {
-                        vertices.extend([0.0, 0.0, 0.0]);
-                        tris.vertices.len() as u32
-                    }
+                let array = match &t.opacity_micromap {
+                    Some(omm) => Some(micromaps(omm.array).map_err(at)?),
+                    None => None,
                 };
-                let vertex_count = (vertices.len() / 3) as u32;
-                let data_offset = push_aligned(&mut out.bytes, &f32_bytes(&vertices));
-                for (r, prims) in split_by_record(&offsets, records).iter().enumerate() {
-                    let mut idx: Vec<u32> = Vec::with_capacity(prims.len() * 3);
-                    for &p in prims {
-                        let tri = tris.indices[p as usize];
-                        let usable = tri.iter().all(|&v| finite(&tris.vertices[v as usize]));
-                        idx.extend(if usable { tri } else { [stand_in; 3] });
-                    }
-                    let idx_bytes: Vec<u8> = idx.iter().flat_map(|v| v.to_le_bytes()).collect();
-                    let index_offset = push_aligned(&mut out.bytes, &idx_bytes);
-                    out.geometries.push(DecodedGeometry {
-                        data_offset,
-                        vertex_count,
-                        index_offset,
-                        count: prims.len() as u32,
+                let micromap_ids = match &array {
+                    Some(a) => decode::micromap_indices(t, a.micromaps.len(), bytes).map_err(at)?,
+                    None => None,
+                };
+                for (r, all) in split_by_record(&offsets, records).iter().enumerate() {
+                    let record = BoxRecord {
                         flags: t.flags[r],
-                    });
-                    let remap = remap_table(&mut out.data, prims, records > 1);
-                    let vertex_data = if vertex_access {
-                        let base = out.data.len() as u32;
-                        for &p in prims {
-                            for v in tris.indices[p as usize] {
-                                out.data
-                                    .extend(tris.vertices[v as usize].iter().map(|c| c.to_bits()));
-                            }
-                        }
-                        base
-                    } else {
-                        NONE
+                        primitive_index_offset: t.primitive_index_offset,
+                        basis: 0,
+                        kind: GasKind::Triangles,
                     };
-                    out.records
-                        .push([t.primitive_index_offset, remap, vertex_data, 0]);
+                    let block = array.as_ref().map(|a| MicromapBlock { states: &a.data });
+                    b.push_boxes(all, records > 1, record, block, |p| {
+                        let tri = indices[p as usize];
+                        let mut bbox = [f32::NAN; 6];
+                        let mut data = Vec::with_capacity(9 * keys);
+                        for (k, key) in per_key.iter().enumerate() {
+                            let v = tri.map(|x| key.vertices[x as usize]);
+                            let kb = box_of(&v);
+                            bbox = if k == 0 { kb } else { union(&bbox, &kb) };
+                            data.extend(v.iter().flatten().map(|c| c.to_bits()));
+                        }
+                        let micromap = match (&array, &micromap_ids) {
+                            (Some(a), Some(ids)) => Some(micromap_words(a, ids[p as usize])),
+                            _ => None,
+                        };
+                        BoxItem {
+                            bbox,
+                            data,
+                            micromap,
+                        }
+                    });
                 }
-                out.partition.push(offsets);
+                b.out.partition.push(offsets);
+            }
+            BuildInput::Triangles(t) => {
+                b.out.native_triangles = true;
+                push_native_triangles(&mut b.out, t, vertex_access, bytes).map_err(at)?;
             }
             BuildInput::CustomPrimitives(c) => {
-                let boxes = decode::aabbs(c, 0, bytes).map_err(at)?;
+                let per_key: Vec<Vec<[f32; 6]>> = (0..keys)
+                    .map(|k| decode::aabbs(c, k, bytes))
+                    .collect::<Result<_>>()
+                    .map_err(at)?;
                 let records = c.flags.len() as u32;
                 let offsets = decode::sbt_offsets(
                     c.sbt_index_offsets.as_ref(),
-                    boxes.len() as u32,
+                    per_key[0].len() as u32,
                     records,
                     bytes,
                 )
@@ -251,19 +486,38 @@ pub fn decode_gas(
                         flags: c.flags[r],
                         primitive_index_offset: c.primitive_index_offset,
                         basis: 0,
+                        kind: GasKind::Custom,
                     };
-                    out.push_boxes(all, records > 1, record, |p| {
-                        (boxes[p as usize], Vec::new())
+                    // With motion, the keys' boxes: intersection programs run only when the
+                    // ray meets the box at its time (prelude.rs, `_optik_vanished`).
+                    b.push_boxes(all, records > 1, record, None, |p| BoxItem {
+                        bbox: per_key
+                            .iter()
+                            .map(|k| k[p as usize])
+                            .reduce(|a, x| union(&a, &x))
+                            .unwrap_or([f32::NAN; 6]),
+                        data: if keys > 1 {
+                            per_key
+                                .iter()
+                                .flat_map(|k| k[p as usize].map(f32::to_bits))
+                                .collect()
+                        } else {
+                            Vec::new()
+                        },
+                        micromap: None,
                     });
                 }
-                out.partition.push(offsets);
+                b.out.partition.push(offsets);
             }
             BuildInput::Spheres(s) => {
-                let spheres = decode::spheres(s, 0, bytes).map_err(at)?;
+                let per_key: Vec<Vec<[f32; 4]>> = (0..keys)
+                    .map(|k| decode::spheres(s, k, bytes))
+                    .collect::<Result<_>>()
+                    .map_err(at)?;
                 let records = s.flags.len() as u32;
                 let offsets = decode::sbt_offsets(
                     s.sbt_index_offsets.as_ref(),
-                    spheres.len() as u32,
+                    per_key[0].len() as u32,
                     records,
                     bytes,
                 )
@@ -273,55 +527,78 @@ pub fn decode_gas(
                         flags: s.flags[r],
                         primitive_index_offset: s.primitive_index_offset,
                         basis: 0,
+                        kind: GasKind::Spheres,
                     };
-                    out.push_boxes(all, records > 1, record, |p| {
-                        let [x, y, z, radius] = spheres[p as usize];
-                        (
-                            [
+                    b.push_boxes(all, records > 1, record, None, |p| {
+                        let mut bbox = [f32::NAN; 6];
+                        let mut data = Vec::with_capacity(4 * keys);
+                        for (k, key) in per_key.iter().enumerate() {
+                            let [x, y, z, radius] = key[p as usize];
+                            let kb = [
                                 x - radius,
                                 y - radius,
                                 z - radius,
                                 x + radius,
                                 y + radius,
                                 z + radius,
-                            ],
-                            [x, y, z, radius].map(f32::to_bits).to_vec(),
-                        )
+                            ];
+                            bbox = if k == 0 { kb } else { union(&bbox, &kb) };
+                            data.extend([x, y, z, radius].map(f32::to_bits));
+                        }
+                        BoxItem {
+                            bbox,
+                            data,
+                            micromap: None,
+                        }
                     });
                 }
-                out.partition.push(offsets);
+                b.out.partition.push(offsets);
             }
             BuildInput::Curves(c) => {
-                let curves = decode::curves(c, 0, bytes).map_err(at)?;
+                let per_key: Vec<decode::DecodedCurves> = (0..keys)
+                    .map(|k| decode::curves(c, k, bytes))
+                    .collect::<Result<_>>()
+                    .map_err(at)?;
                 let per = c.curve_type.control_points() as usize;
-                let n = curves.segments.len();
+                let segments = &per_key[0].segments;
+                let n = segments.len();
                 // Linear curves always have round ends; other bases only with end caps on;
                 // joints inside a strand are always round.
                 let caps_on =
                     c.curve_type == CurveType::RoundLinear || c.endcaps == CurveEndcaps::On;
                 let segment = |s: u32| {
                     let s = s as usize;
-                    let first = curves.segments[s];
-                    let points: Vec<[f32; 4]> = (0..4)
-                        .map(|k| curves.points[first as usize + k.min(per - 1)])
-                        .collect();
-                    let starts_strand = s == 0 || curves.segments[s - 1] + 1 != first;
-                    let ends_strand = s + 1 == n || curves.segments[s + 1] != first + 1;
+                    let first = segments[s];
+                    let starts_strand = s == 0 || segments[s - 1] + 1 != first;
+                    let ends_strand = s + 1 == n || segments[s + 1] != first + 1;
                     let caps = u32::from(!starts_strand || caps_on)
                         | (u32::from(!ends_strand || caps_on) << 1);
-                    let mut data: Vec<u32> =
-                        points.iter().flat_map(|p| p.map(f32::to_bits)).collect();
-                    data.push(caps);
-                    (curve_bounds(c.curve_type, &points[..per]), data)
+                    let mut bbox = [f32::NAN; 6];
+                    let mut data = Vec::with_capacity(17 * keys);
+                    for (k, key) in per_key.iter().enumerate() {
+                        let points: Vec<[f32; 4]> = (0..4)
+                            .map(|j| key.points[first as usize + j.min(per - 1)])
+                            .collect();
+                        let kb = curve_bounds(c.curve_type, &points[..per]);
+                        bbox = if k == 0 { kb } else { union(&bbox, &kb) };
+                        data.extend(points.iter().flat_map(|p| p.map(f32::to_bits)));
+                        data.push(caps);
+                    }
+                    BoxItem {
+                        bbox,
+                        data,
+                        micromap: None,
+                    }
                 };
                 let all: Vec<u32> = (0..n as u32).collect();
                 let record = BoxRecord {
                     flags: c.flag,
                     primitive_index_offset: c.primitive_index_offset,
                     basis: optik_api::wgsl::curve_basis(c.curve_type),
+                    kind: GasKind::Curves(c.curve_type),
                 };
-                out.push_boxes(&all, false, record, segment);
-                out.partition.push(vec![0; n]);
+                b.push_boxes(&all, false, record, None, segment);
+                b.out.partition.push(vec![0; n]);
             }
             BuildInput::Instances(_) => {
                 return Err(Error::invalid(
@@ -330,10 +607,100 @@ pub fn decode_gas(
             }
         }
     }
-    if out.bytes.is_empty() {
-        out.bytes.resize(16, 0);
+    Ok(b.finish())
+}
+
+/// A triangle input as Vulkan triangles, one geometry per record.
+fn push_native_triangles(
+    out: &mut DecodedGas,
+    t: &optik_api::TriangleArray,
+    vertex_access: bool,
+    bytes: &dyn BufferBytes,
+) -> Result<()> {
+    let tris = decode::triangles(t, 0, bytes)?;
+    let n = tris.indices.len() as u32;
+    let records = t.flags.len() as u32;
+    let offsets = decode::sbt_offsets(t.sbt_index_offsets.as_ref(), n, records, bytes)?;
+    // A triangle with a NaN or infinite vertex never hits and must not disturb its
+    // neighbours: it becomes degenerate (all three indices on one finite vertex), which
+    // Vulkan never reports. (Vulkan's own rule, a NaN x making a triangle inactive, is not
+    // safe to rely on: lavapipe lets one such triangle hide its neighbours.) Degenerate
+    // triangles stay active, so refits keep working.
+    let finite = |v: &[f32; 3]| v.iter().all(|c| c.is_finite());
+    let mut vertices: Vec<f32> = tris.vertices.iter().flatten().copied().collect();
+    let stand_in = match tris.vertices.iter().position(finite) {
+        Some(i) => i as u32,
+        None => {
+            vertices.extend([0.0, 0.0, 0.0]);
+            tris.vertices.len() as u32
+        }
+    };
+    let vertex_count = (vertices.len() / 3) as u32;
+    let data_offset = push_aligned(&mut out.bytes, &f32_bytes(&vertices));
+    for (r, prims) in split_by_record(&offsets, records).iter().enumerate() {
+        let mut idx: Vec<u32> = Vec::with_capacity(prims.len() * 3);
+        for &p in prims {
+            let tri = tris.indices[p as usize];
+            let usable = tri.iter().all(|&v| finite(&tris.vertices[v as usize]));
+            idx.extend(if usable { tri } else { [stand_in; 3] });
+        }
+        let idx_bytes: Vec<u8> = idx.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let index_offset = push_aligned(&mut out.bytes, &idx_bytes);
+        out.geometries.push(DecodedGeometry {
+            data_offset,
+            vertex_count,
+            index_offset,
+            count: prims.len() as u32,
+            flags: t.flags[r],
+            micromap: false,
+        });
+        out.boxes.push(Vec::new());
+        let remap = remap_table(&mut out.data, prims, records > 1);
+        let vertex_data = if vertex_access {
+            let base = out.data.len() as u32;
+            for &p in prims {
+                for v in tris.indices[p as usize] {
+                    out.data
+                        .extend(tris.vertices[v as usize].iter().map(|c| c.to_bits()));
+                }
+            }
+            base
+        } else {
+            NONE
+        };
+        out.records.push([
+            t.primitive_index_offset,
+            remap,
+            vertex_data,
+            info_word(GasKind::Triangles, 0, t.flags[r]),
+            NONE,
+            NONE,
+            prims.len() as u32,
+            0,
+        ]);
     }
-    Ok(out)
+    out.partition.push(offsets);
+    Ok(())
+}
+
+/// The micromap words of a triangle (tables.rs): the states' byte offset, and the level,
+/// format and special state (`1 + state` for the special indices -1..-4, else 0).
+fn micromap_words(array: &OpacityMicromapArrayDesc, index: i32) -> [u32; 2] {
+    if index < 0 {
+        // -1 transparent (state 0), -2 opaque (1), -3 unknown-transparent (2),
+        // -4 unknown-opaque (3).
+        let state = (-index - 1) as u32;
+        return [0, (state + 1) << 16];
+    }
+    match array.micromaps.get(index as usize) {
+        Some(m) => [
+            m.byte_offset,
+            m.subdivision_level as u32
+                | (u32::from(m.format == OpacityMicromapFormat::FourState) << 8),
+        ],
+        // Indices were checked against the array by `decode::micromap_indices`.
+        None => [0, 2 << 16],
+    }
 }
 
 /// Writes a geometry's table from its primitives to their indices in the input when it
@@ -401,6 +768,42 @@ mod tests {
         assert!(!usable(&[2.0, 0.0, 0.0, 1.0, 1.0, 1.0]));
         assert!(!usable(&[0.0, f32::INFINITY, 0.0, 1.0, 1.0, 1.0]));
         assert!(!usable(&[f32::NAN, 0.0, 0.0, 1.0, 1.0, 1.0]));
+        assert!(!usable(&union(
+            &[0.0, 0.0, 0.0, 1.0, 1.0, 1.0],
+            &[f32::NAN, 0.0, 0.0, 1.0, 1.0, 1.0]
+        )));
+    }
+
+    #[test]
+    fn padded_triangle_boxes_hold_their_triangle_with_a_margin() {
+        // A flat triangle far from the origin: the padding survives rounding there.
+        let b = box_of(&[[1e5, 2.0, 0.0], [1e5 + 1.0, 2.0, 0.0], [1e5, 3.0, 0.0]]);
+        let p = pad_triangle_box(&b, 1.0);
+        for k in 0..3 {
+            assert!(
+                p[k] < b[k] && p[k + 3] > b[k + 3],
+                "axis {k}: {p:?} around {b:?}"
+            );
+        }
+        // Near the origin the relative padding dominates.
+        let b = [0.0, 0.0, 0.0, 1.0, 1.0, 0.0];
+        let p = pad_triangle_box(&b, 1.0);
+        assert!(p[2] <= -TRIANGLE_BOX_PADDING && p[5] >= TRIANGLE_BOX_PADDING);
+    }
+
+    #[test]
+    fn micromap_words_encode_special_indices_and_formats() {
+        let array = OpacityMicromapArrayDesc {
+            micromaps: vec![optik_api::OpacityMicromapDesc {
+                byte_offset: 8,
+                subdivision_level: 3,
+                format: OpacityMicromapFormat::FourState,
+            }],
+            data: vec![0; 40],
+        };
+        assert_eq!(micromap_words(&array, 0), [8, 3 | 1 << 8]);
+        assert_eq!(micromap_words(&array, -1), [0, 1 << 16]);
+        assert_eq!(micromap_words(&array, -4), [0, 4 << 16]);
     }
 
     #[test]

@@ -16,16 +16,19 @@
 
 pub mod flatten;
 pub mod geometry;
+pub mod motion;
 pub mod tables;
+pub mod transform;
 pub mod vkas;
 
 pub use tables::SceneTables;
+pub use transform::{Proxy, Transform};
 
 use crate::device::Inner;
 use crate::memory::{Allocator, GpuBuffer, Location};
 use ash::vk;
 use flatten::{FlatInstance, vk_flags};
-use geometry::{DecodedGas, GasKind};
+use geometry::{DecodedGas, DecodedGeometry, GasKind};
 use optik_api::*;
 use std::collections::HashSet;
 use std::hash::{Hash, Hasher};
@@ -65,6 +68,11 @@ pub struct Gas {
     data_start: u32,
     data_len: u32,
     kind: GasKind,
+    /// Whether Vulkan sees its triangles as triangles (`TriangleTest::Driver`).
+    native_triangles: bool,
+    /// Per geometry, the Vulkan geometry flags and (for AABB geometries) its boxes: what
+    /// motion transforms bound again.
+    geometry_boxes: Vec<(vk::GeometryFlagsKHR, Vec<[f32; 6]>)>,
     options: AccelBuildOptions,
     inputs: Vec<BuildInput>,
     partition: Vec<Vec<u32>>,
@@ -87,22 +95,13 @@ pub struct Ias {
     features: SceneFeatures,
 }
 
-/// A static transform.
-pub struct Transform {
-    tlas: Tlas,
-    object_to_world: Matrix3x4,
-    child: Option<Accel>,
-    flat: Vec<FlatInstance>,
-    features: SceneFeatures,
-}
-
 /// A traversable object.
 pub enum AccelObject {
     /// Geometry.
     Gas(Gas),
     /// Instances.
     Ias(Ias),
-    /// A static transform.
+    /// A static or motion transform.
     Transform(Transform),
 }
 
@@ -163,6 +162,12 @@ impl AccelObject {
         }
     }
 
+    /// Whether it is a geometry structure of triangles (built for the device's triangle
+    /// test).
+    pub fn has_triangles(&self) -> bool {
+        matches!(self, AccelObject::Gas(g) if g.kind == GasKind::Triangles)
+    }
+
     /// The largest hit record index a ray traced against it can select.
     pub fn sbt_reach(&self) -> u64 {
         self.tlas().sbt_reach
@@ -200,12 +205,12 @@ fn vk_build_flags(f: BuildFlags) -> vk::BuildAccelerationStructureFlagsKHR {
     out
 }
 
-fn vk_geometry_flags(f: GeometryFlags) -> vk::GeometryFlagsKHR {
+fn vk_geometry_flags(g: &DecodedGeometry) -> vk::GeometryFlagsKHR {
     let mut out = vk::GeometryFlagsKHR::empty();
-    if f.contains(GeometryFlags::DISABLE_ANYHIT) {
+    if g.vk_opaque() {
         out |= vk::GeometryFlagsKHR::OPAQUE;
     }
-    if f.contains(GeometryFlags::REQUIRE_SINGLE_ANYHIT_CALL) {
+    if g.flags.contains(GeometryFlags::REQUIRE_SINGLE_ANYHIT_CALL) {
         out |= vk::GeometryFlagsKHR::NO_DUPLICATE_ANY_HIT_INVOCATION;
     }
     out
@@ -220,6 +225,11 @@ fn input_buffers(input: &BuildInput) -> Vec<Buffer> {
             v.extend(t.indices.iter().map(|i| i.buffer.buffer));
             v.extend(t.sbt_index_offsets.iter().map(|o| o.buffer.buffer));
             v.extend(t.pre_transform.iter().map(|p| p.buffer));
+            v.extend(
+                t.opacity_micromap
+                    .iter()
+                    .filter_map(|o| o.index_buffer.map(|b| b.buffer)),
+            );
         }
         BuildInput::CustomPrimitives(c) => {
             v.extend(c.aabb_buffers.iter().map(|b| b.buffer));
@@ -240,19 +250,21 @@ fn input_buffers(input: &BuildInput) -> Vec<Buffer> {
     v
 }
 
-fn motion_unsupported() -> Error {
-    Error::unsupported(
-        "motion blur (motion keys, matrix and SRT motion transforms) is not available on the Vulkan backend yet: DESIGN.md §3 emulates it with the shared WGSL traversal inside intersection programs, which the project does not have yet (use the cpu or wgpu backend)",
-    )
+/// The error for what native Vulkan triangles (`TriangleTest::Driver`) cannot carry.
+fn native_triangles_cannot(what: &str, input: usize) -> Error {
+    Error::unsupported(format!(
+        "build_inputs[{input}] has {what}, which Vulkan triangles cannot carry: the device's triangle test is TriangleTest::Driver (native triangles); set TriangleTest::Watertight or TriangleTest::MollerTrumbore (optik's own triangle test, the default) before building"
+    ))
 }
 
-/// Which geometries each bottom level holds, and the instance flags of its instances.
-fn parts_of(kind: GasKind, decoded: &DecodedGas) -> Vec<(Vec<bool>, u32)> {
+/// Which geometries each bottom level holds, and the instance flags of its instances. Only
+/// native triangles split (optik's triangle stage reads the geometry flags itself).
+fn parts_of(decoded: &DecodedGas) -> Vec<(Vec<bool>, u32)> {
     let no_cull: Vec<bool> = decoded
         .geometries
         .iter()
         .map(|g| {
-            kind.is_triangles()
+            decoded.native_triangles
                 && g.flags
                     .contains(GeometryFlags::DISABLE_TRIANGLE_FACE_CULLING)
         })
@@ -271,20 +283,15 @@ fn parts_of(kind: GasKind, decoded: &DecodedGas) -> Vec<(Vec<bool>, u32)> {
 }
 
 /// Vulkan geometries of one part, with data at `base` (the input buffer's address).
-fn part_geometries(
-    kind: GasKind,
-    decoded: &DecodedGas,
-    holds: &[bool],
-    base: u64,
-) -> Vec<VkGeometry> {
+fn part_geometries(decoded: &DecodedGas, holds: &[bool], base: u64) -> Vec<VkGeometry> {
     decoded
         .geometries
         .iter()
         .zip(holds)
         .map(|(g, &held)| {
             let count = if held { g.count } else { 0 };
-            let flags = vk_geometry_flags(g.flags);
-            if kind.is_triangles() {
+            let flags = vk_geometry_flags(g);
+            if decoded.native_triangles {
                 VkGeometry::Triangles {
                     vertices: base + g.data_offset,
                     vertex_count: g.vertex_count,
@@ -307,14 +314,26 @@ fn part_geometries(
 /// (Vulkan refits move vertices and boxes, nothing else).
 fn activity_of(decoded: &DecodedGas) -> u64 {
     let mut h = std::collections::hash_map::DefaultHasher::new();
+    decoded.native_triangles.hash(&mut h);
     for g in &decoded.geometries {
         g.count.hash(&mut h);
-        if g.vertex_count > 0 {
+        if decoded.native_triangles {
             decoded.bytes[g.index_offset as usize..g.index_offset as usize + g.count as usize * 12]
                 .hash(&mut h);
         }
     }
     h.finish()
+}
+
+/// A geometry record with its data-table offsets moved by `rebase`.
+fn rebase_record(r: &tables::Record, rebase: impl Fn(u32) -> u32) -> tables::Record {
+    let mut out = *r;
+    for f in tables::GEOMETRY_DATA_FIELDS {
+        if out[f] != tables::NONE {
+            out[f] = rebase(out[f]);
+        }
+    }
+    out
 }
 
 impl Inner {
@@ -336,9 +355,20 @@ impl Inner {
             .reduce(SceneFeatures::union)
     }
 
-    fn instance_entries(flat: &[FlatInstance]) -> Vec<[u32; 4]> {
+    fn instance_entries(flat: &[FlatInstance]) -> Vec<tables::Record> {
         flat.iter()
-            .map(|f| [f.instance_id, f.instance_index, f.geometry_base, 0])
+            .map(|f| {
+                [
+                    f.instance_id,
+                    f.instance_index,
+                    f.geometry_base,
+                    f.flags,
+                    f.chain,
+                    0,
+                    0,
+                    0,
+                ]
+            })
             .collect()
     }
 
@@ -354,7 +384,7 @@ impl Inner {
                     table_start + k as u32,
                     f.mask,
                     f.sbt_offset,
-                    f.flags as u8,
+                    f.vk_flags() as u8,
                     f.blas,
                 )
             })
@@ -493,9 +523,16 @@ impl Inner {
         let mut counts = Vec::with_capacity(instances.len());
         let mut at = 0usize;
         for (i, (inst, child)) in instances.iter().zip(children).enumerate() {
+            let live = child.filter(|c| self.accels.get(*c).is_ok());
             let entries = match child.map(|c| self.accels.get(c)) {
-                Some(Ok(obj)) => flatten::through_instance(inst, i as u32, &obj.flat())
-                    .map_err(|e| e.context(format!("instance {i}")))?,
+                Some(Ok(_)) => {
+                    let child_flat = match live {
+                        Some(c) => self.flat_of(c)?,
+                        None => Vec::new(),
+                    };
+                    flatten::through_instance(inst, i as u32, &child_flat)
+                        .map_err(|e| e.context(format!("instance {i}")))?
+                }
                 // A destroyed child: its paths stay, inactive.
                 Some(Err(_)) => match previous {
                     Some((counts, flat)) => flat[at..at + counts[i] as usize]
@@ -534,6 +571,8 @@ impl Inner {
                 queue.push(p);
             }
         }
+        let retired = std::mem::take(&mut self.retired_proxies);
+        self.free_proxies(&retired);
         Ok(())
     }
 
@@ -551,10 +590,7 @@ impl Inner {
                 }
                 flat
             }
-            AccelObject::Transform(t) => match t.child.map(|c| self.accels.get(c)) {
-                Some(Ok(child)) => flatten::through_transform(&t.object_to_world, &child.flat()),
-                _ => t.flat.iter().map(|f| f.inactive()).collect(),
-            },
+            AccelObject::Transform(_) => return self.refresh_transform(accel),
             AccelObject::Gas(_) => return Ok(()),
         };
         self.rebuild_tlas(accel, &flat)?;
@@ -566,20 +602,31 @@ impl Inner {
         Ok(())
     }
 
+    /// Whether triangles are built as AABBs for optik's triangle stage (every triangle test
+    /// but `TriangleTest::Driver`).
+    pub fn emulates_triangles(&self) -> bool {
+        self.accuracy.triangle != TriangleTest::Driver
+    }
+
     fn check_buildable(&self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<()> {
         let keys = validate::build_inputs(options, inputs, &self.props, &|b| {
             self.buffers.get(b).map(|x| x.gpu.size)
         })?;
-        if keys > 1 {
-            return Err(motion_unsupported());
-        }
+        let emulated = self.emulates_triangles();
         for (i, input) in inputs.iter().enumerate() {
-            if let BuildInput::Triangles(t) = input
-                && t.opacity_micromap.is_some()
-            {
-                return Err(Error::unsupported(format!(
-                    "build_inputs[{i}] has an opacity micromap; the Vulkan backend does not support micromaps (they need VK_EXT_opacity_micromap)"
-                )));
+            let BuildInput::Triangles(t) = input else {
+                continue;
+            };
+            if keys > 1 && !emulated {
+                return Err(native_triangles_cannot("motion keys", i));
+            }
+            if let Some(omm) = &t.opacity_micromap {
+                if !emulated {
+                    return Err(native_triangles_cannot("an opacity micromap", i));
+                }
+                self.micromap_arrays
+                    .get(omm.array)
+                    .map_err(|e| e.context(format!("build_inputs[{i}].opacity_micromap.array")))?;
             }
         }
         let geometries: u64 = inputs.iter().map(|i| i.num_sbt_records() as u64).sum();
@@ -596,7 +643,15 @@ impl Inner {
         let buffers: Vec<Buffer> = inputs.iter().flat_map(input_buffers).collect();
         let downloaded = self.download_for_snapshot(&buffers)?;
         let snapshot = self.snapshot_view(downloaded, &buffers)?;
-        geometry::decode_gas(options, inputs, &snapshot)
+        let arrays = &self.micromap_arrays;
+        let lookup = |a: MicromapArray| arrays.get(a).cloned();
+        geometry::decode_gas(
+            options,
+            inputs,
+            &snapshot,
+            self.emulates_triangles(),
+            &lookup,
+        )
     }
 
     fn decode_instances(
@@ -647,11 +702,11 @@ impl Inner {
                 temp_update_size_in_bytes: update,
             });
         }
-        let kind = geometry::gas_kind(inputs)?;
+        geometry::gas_kind(inputs)?;
         let decoded = self.decode(options, inputs)?;
         let mut sizes = AccelBufferSizes::default();
-        for (holds, _) in parts_of(kind, &decoded) {
-            let geoms = part_geometries(kind, &decoded, &holds, 0);
+        for (holds, _) in parts_of(&decoded) {
+            let geoms = part_geometries(&decoded, &holds, 0);
             let (size, build, update) = self.build_sizes(
                 vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
                 &geoms,
@@ -711,8 +766,8 @@ impl Inner {
         let mut parts: Vec<(AsBuffer, u32)> = Vec::new();
         let mut part_geometries_held = Vec::new();
         let mut failure = None;
-        for (holds, instance_flags) in parts_of(kind, &decoded) {
-            let geoms = part_geometries(kind, &decoded, &holds, input.address);
+        for (holds, instance_flags) in parts_of(&decoded) {
+            let geoms = part_geometries(&decoded, &holds, input.address);
             match self.build_as(
                 vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
                 &geoms,
@@ -739,13 +794,10 @@ impl Inner {
             return Err(e);
         }
         let data_start = self.tables.data.insert(&decoded.data);
-        let records: Vec<[u32; 4]> = decoded
+        let records: Vec<tables::Record> = decoded
             .records
             .iter()
-            .map(|r| {
-                let rebase = |v: u32| if v == tables::NONE { v } else { v + data_start };
-                [r[0], rebase(r[1]), rebase(r[2]), r[3]]
-            })
+            .map(|r| rebase_record(r, |v| v + data_start))
             .collect();
         let geometry_start = self.tables.geometries.insert(&records);
         self.tables.touch();
@@ -781,6 +833,13 @@ impl Inner {
             data_start,
             data_len: decoded.data.len() as u32,
             kind,
+            native_triangles: decoded.native_triangles,
+            geometry_boxes: decoded
+                .geometries
+                .iter()
+                .zip(&decoded.boxes)
+                .map(|(g, b)| (vk_geometry_flags(g), b.clone()))
+                .collect(),
             options: *options,
             inputs: inputs.to_vec(),
             partition: decoded.partition.clone(),
@@ -868,14 +927,14 @@ impl Inner {
         inputs: &[BuildInput],
     ) -> Result<()> {
         let decoded = self.decode(options, inputs)?;
-        let (kind, parts, holds, partition, activity, flags) = match self.accels.get(accel)? {
+        let (parts, holds, partition, activity, flags, data_len) = match self.accels.get(accel)? {
             AccelObject::Gas(g) => (
-                g.kind,
                 g.parts.iter().map(|(p, _)| p.accel).collect::<Vec<_>>(),
                 g.part_geometries.clone(),
                 g.partition.clone(),
                 g.activity,
                 vk_build_flags(g.options.flags),
+                g.data_len,
             ),
             _ => return Err(Error::backend("not a geometry structure")),
         };
@@ -884,7 +943,7 @@ impl Inner {
                 "the update changes which SBT record some primitive uses (sbt_index_offsets); updates keep them, so build a new structure instead",
             ));
         }
-        if activity_of(&decoded) != activity {
+        if activity_of(&decoded) != activity || decoded.data.len() as u32 != data_len {
             // Primitives became usable or unusable (or triangle indices changed): Vulkan
             // refits cannot follow, so the bottom levels are built anew under the same handle.
             return self.rebuild_gas(accel, options, inputs);
@@ -892,7 +951,7 @@ impl Inner {
         let input = self.input_buffer(&decoded)?;
         let mut result = Ok(());
         for (structure, held) in parts.iter().zip(&holds) {
-            let geoms = part_geometries(kind, &decoded, held, input.address);
+            let geoms = part_geometries(&decoded, held, input.address);
             if let Err(e) = self.build_as(
                 vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
                 &geoms,
@@ -915,6 +974,9 @@ impl Inner {
         self.rebuild_tlas(accel, &flat)?;
         if let AccelObject::Gas(g) = self.accels.get_mut(accel)? {
             g.inputs = inputs.to_vec();
+            for ((_, boxes), new) in g.geometry_boxes.iter_mut().zip(decoded.boxes) {
+                *boxes = new;
+            }
         }
         Ok(())
     }
@@ -955,6 +1017,8 @@ impl Inner {
         old.inputs = inputs.to_vec();
         old.activity = new.activity;
         old.compacted = false;
+        old.native_triangles = new.native_triangles;
+        old.geometry_boxes = std::mem::take(&mut new.geometry_boxes);
         self.tables.geometries.remove(old_g, old_gn);
         self.tables.data.remove(old_d, old_dn);
         self.tables.touch();
@@ -981,7 +1045,7 @@ impl Inner {
                 let records_range = (g.geometry_start, g.geometry_count, g.data_start, g.data_len);
                 let template = (
                     g.part_geometries.clone(),
-                    g.kind,
+                    (g.kind, g.native_triangles, g.geometry_boxes.clone()),
                     g.options,
                     g.inputs.clone(),
                     g.partition.clone(),
@@ -1005,17 +1069,10 @@ impl Inner {
                     .map(|k| self.tables.data_word(d_start + k))
                     .collect();
                 let data_start = self.tables.data.insert(&data);
-                let records: Vec<[u32; 4]> = (0..g_count)
+                let records: Vec<tables::Record> = (0..g_count)
                     .map(|k| {
                         let r = self.tables.geometry_record(g_start + k);
-                        let rebase = |v: u32| {
-                            if v == tables::NONE {
-                                v
-                            } else {
-                                v - d_start + data_start
-                            }
-                        };
-                        [r[0], rebase(r[1]), rebase(r[2]), r[3]]
+                        rebase_record(&r, |v| v - d_start + data_start)
                     })
                     .collect();
                 let geometry_start = self.tables.geometries.insert(&records);
@@ -1028,8 +1085,15 @@ impl Inner {
                     &flat,
                     vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE,
                 )?;
-                let (part_geometries_held, kind, options, inputs, partition, activity, features) =
-                    template;
+                let (
+                    part_geometries_held,
+                    (kind, native_triangles, geometry_boxes),
+                    options,
+                    inputs,
+                    partition,
+                    activity,
+                    features,
+                ) = template;
                 AccelObject::Gas(Gas {
                     parts: compacted,
                     part_geometries: part_geometries_held,
@@ -1039,6 +1103,8 @@ impl Inner {
                     data_start,
                     data_len: d_len,
                     kind,
+                    native_triangles,
+                    geometry_boxes,
                     options,
                     inputs,
                     partition,
@@ -1083,49 +1149,6 @@ impl Inner {
         Ok(new)
     }
 
-    pub fn create_transform(&mut self, desc: &TransformDesc) -> Result<Accel> {
-        validate::transform(desc)?;
-        let TransformDesc::Static {
-            child,
-            object_to_world,
-            ..
-        } = desc
-        else {
-            return Err(motion_unsupported());
-        };
-        let child_accel = match child.0 {
-            0 => None,
-            h => Some(self.by_handle.get(&h).copied().ok_or_else(|| {
-                Error::invalid(format!("transform child {h:#x} is no live acceleration structure or transform of this device"))
-            })?),
-        };
-        let (flat, child_features) = match child_accel {
-            Some(c) => {
-                let obj = self.accels.get(c)?;
-                (
-                    flatten::through_transform(object_to_world, &obj.flat()),
-                    vec![obj.features()],
-                )
-            }
-            None => (Vec::new(), Vec::new()),
-        };
-        let features = SceneFeatures::of_parent(&child_features, MotionKinds::default(), true);
-        let tlas = self.build_tlas(
-            &flat,
-            vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE,
-        )?;
-        let handle = tlas.structure.address;
-        let accel = self.accels.insert(AccelObject::Transform(Transform {
-            tlas,
-            object_to_world: *object_to_world,
-            child: child_accel,
-            flat,
-            features,
-        }));
-        self.by_handle.insert(handle, accel);
-        Ok(accel)
-    }
-
     pub fn destroy_accel(&mut self, accel: Accel) -> Result<()> {
         self.accels.get(accel)?;
         self.wait_launches()?;
@@ -1142,6 +1165,9 @@ impl Inner {
         self.tables.touch();
         // Parents drop their paths into it before its bottom levels go.
         let refreshed = self.refresh_dependents(accel);
+        if let AccelObject::Transform(t) = &obj {
+            self.free_proxies(&t.proxies);
+        }
         obj.destroy(&self.ctx, &mut self.alloc);
         refreshed
     }

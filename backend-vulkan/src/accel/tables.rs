@@ -1,10 +1,16 @@
 //! The tables behind the device functions Vulkan lacks, shared by every launch of a device
-//! and bound at `@group(1)` (prelude.rs):
-//! - instances: per Vulkan instance (its custom index) the OptiX instance id, the instance
-//!   index and the first geometry record of its geometry acceleration structure;
-//! - geometries: per geometry (= SBT record of a build input) the primitive index offset and
-//!   where its remap table, vertices, spheres or curve segments are in the data table;
-//! - data: `u32` words.
+//! and bound at `@group(1)` (prelude.rs), each record two `vec4<u32>`:
+//! - instances: per Vulkan instance (its custom index) `[OptiX instance id, instance index,
+//!   first geometry record, instance flags of the path]` and `[motion chain or NONE, 0, 0, 0]`
+//!   (the flags are OptiX's bits, combined along the path; the motion chain is the path's
+//!   transforms below the Vulkan instance, when one of them moves);
+//! - geometries: per geometry (= SBT record of a build input) `[primitive index offset, remap
+//!   table, primitive data, info]` and `[motion keys, micromap block, primitives, 0]`, where
+//!   `info` packs the curve basis (bits 0..8), the primitive kind (8..16, [`KIND_TRIANGLES`]
+//!   ...) and the record's geometry flags (16..24); every offset is into the data table or
+//!   NONE;
+//! - data: `u32` words. Ranges are handed out in multiples of 4 words, so every range starts
+//!   16-byte aligned (the shared micromap lookup reads `vec4<u32>`s).
 //!
 //! Acceleration structures allocate ranges when built and free them when destroyed; the
 //! tables go to the device before a launch that follows a change.
@@ -15,6 +21,27 @@ use ash::vk;
 use optik_api::Result;
 
 pub use crate::program::prelude::NONE;
+
+/// A table record: two `vec4<u32>`.
+pub type Record = [u32; 8];
+
+/// The primitive kinds of a geometry record's info word (bits 8..16).
+pub const KIND_TRIANGLES: u32 = 0;
+/// Custom primitives.
+pub const KIND_CUSTOM: u32 = 1;
+/// Spheres.
+pub const KIND_SPHERES: u32 = 2;
+/// Curves.
+pub const KIND_CURVES: u32 = 3;
+
+/// Fields of a geometry record that hold data-table offsets (rebased when the data moves).
+pub const GEOMETRY_DATA_FIELDS: [usize; 4] = [1, 2, 4, 5];
+
+/// `words` padded with zeros to a multiple of 4, as data-table ranges are.
+pub fn padded_data(mut words: Vec<u32>) -> Vec<u32> {
+    words.resize(words.len().next_multiple_of(4), 0);
+    words
+}
 
 /// A table of `T` with ranges handed out and returned.
 #[derive(Default)]
@@ -79,7 +106,8 @@ impl<T: Copy + Default> Table<T> {
         self.items.get(i as usize).copied().unwrap_or_default()
     }
 
-    fn bytes(&self) -> &[u8]
+    /// The table as bytes.
+    pub fn bytes(&self) -> &[u8]
     where
         T: bytemuck::Pod,
     {
@@ -91,10 +119,11 @@ impl<T: Copy + Default> Table<T> {
 #[derive(Default)]
 pub struct SceneTables {
     /// Per Vulkan instance.
-    pub instances: Table<[u32; 4]>,
+    pub instances: Table<Record>,
     /// Per geometry.
-    pub geometries: Table<[u32; 4]>,
-    /// Remaps, vertices, spheres, curve segments.
+    pub geometries: Table<Record>,
+    /// Remaps, vertices, spheres, curve segments, motion keys and chains, micromaps; ranges
+    /// in multiples of 4 words ([`padded_data`]).
     pub data: Table<u32>,
     device: Option<[GpuBuffer; 3]>,
     dirty: bool,
@@ -107,8 +136,17 @@ impl SceneTables {
     }
 
     /// Record `i` of the geometry table.
-    pub fn geometry_record(&self, i: u32) -> [u32; 4] {
+    pub fn geometry_record(&self, i: u32) -> Record {
         self.geometries.get(i)
+    }
+
+    /// The bytes each table holds now (what a launch binds).
+    pub fn sizes(&self) -> [u64; 3] {
+        [
+            self.instances.bytes().len() as u64,
+            self.geometries.bytes().len() as u64,
+            self.data.bytes().len() as u64,
+        ]
     }
 
     /// Marks the tables changed: the next launch uploads them.

@@ -3,6 +3,28 @@
 
 use optik_api::{ExceptionFlags, ProgramKind};
 
+/// How a pipeline intersects triangles (DESIGN.md §5, the device's `Accuracy`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TriangleMode {
+    /// Vulkan triangles: the driver's test (`TriangleTest::Driver`).
+    Native,
+    /// AABBs with optik's stage running the shared watertight test; `f64` keeps its exact
+    /// fallback for edge functions that are zero (the device has `shaderFloat64`).
+    Watertight {
+        /// The f64 fallback is compiled in.
+        f64: bool,
+    },
+    /// AABBs with optik's stage running Möller–Trumbore.
+    MollerTrumbore,
+}
+
+impl TriangleMode {
+    /// Whether triangles are AABBs intersected by optik's triangle stage.
+    pub fn emulated(self) -> bool {
+        self != TriangleMode::Native
+    }
+}
+
 /// Settings shared by every stage of a pipeline. Derived from the pipeline's resolved
 /// [`optik_api::FeatureSet`] and its programs; each emulation below is compiled in only when
 /// the pipeline needs it (DESIGN.md §6).
@@ -32,6 +54,30 @@ pub struct LoweringConfig {
     pub guard_direct_calls: bool,
     /// Some program calls continuation callables, whose depth is guarded.
     pub continuation_calls: bool,
+    /// Some intersection or any-hit program calls direct callables: they are compiled into
+    /// those stages (program/inline.rs).
+    pub inline_calls: bool,
+    /// How triangles are intersected.
+    pub triangles: TriangleMode,
+    /// The device has `rayTraversalPrimitiveCulling`: with optik's triangle stage (and so no
+    /// Vulkan triangles), a ray asking to cull both faces carries Vulkan's `SkipTrianglesKHR`
+    /// instead, which the stage reads back, so rays need not carry their flags in the
+    /// state.
+    pub skip_triangles_flag: bool,
+    /// The scene has motion (keys, motion transforms): stages interpolate primitives and
+    /// follow motion chains, at the ray's time when `motion` is on and at key 0 otherwise
+    /// (as the CPU backend does for pipelines compiled without motion).
+    pub motion_structures: bool,
+    /// The scene has opacity micromaps: opacity culling is decided by optik's stages rather
+    /// than the driver (Vulkan sees micromap triangles non-opaque).
+    pub micromaps: bool,
+    /// optik's triangle stage looks micromap states up (the pipeline allows micromaps;
+    /// otherwise they are ignored, as on the other backends).
+    pub micromap_states: bool,
+    /// The primitive types the pipeline intersects (`PrimitiveTypeFlags` bits): optik's
+    /// stages and the wrappers of intersection programs skip the others, which Vulkan's skip
+    /// flags cannot do once triangles are AABBs too.
+    pub primitive_types: u32,
 }
 
 impl LoweringConfig {
@@ -43,6 +89,11 @@ impl LoweringConfig {
             || self.guard_direct_calls
             || self.continuation_calls
             || !self.exceptions.is_empty()
+    }
+
+    /// Whether the pipeline intersects primitives of `types` (any of them).
+    pub fn intersects(&self, types: optik_api::PrimitiveTypeFlags) -> bool {
+        optik_api::PrimitiveTypeFlags(self.primitive_types).intersects(types)
     }
 
     /// Whether stages check for and unwind exceptions.
@@ -65,6 +116,13 @@ impl Default for LoweringConfig {
             track_ray_flags: false,
             guard_direct_calls: false,
             continuation_calls: false,
+            inline_calls: false,
+            triangles: TriangleMode::Native,
+            skip_triangles_flag: false,
+            motion_structures: false,
+            micromaps: false,
+            micromap_states: false,
+            primitive_types: optik_api::PrimitiveTypeFlags::ALL.0,
         }
     }
 }
@@ -73,7 +131,7 @@ impl Default for LoweringConfig {
 /// `rt_hit_kind`, `rt_triangle_vertices`, `rt_sphere` and `rt_curve_parameter` read.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum HitContext {
-    /// Triangles, intersected by the driver.
+    /// Triangles (the driver's, or optik's triangle stage).
     Triangles,
     /// Custom primitives with the user's intersection program.
     Custom,
@@ -129,6 +187,16 @@ pub enum StageRole {
     SphereIntersection,
     /// optik's curve intersection stage for one basis (`optik_api::wgsl::curve_basis`).
     CurveIntersection(u32),
+    /// optik's triangle intersection stage (emulated triangles), with the pipeline's test.
+    TriangleIntersection,
+    /// The intersection stage of the hit records past the user's: a candidate of any
+    /// primitive kind is a hit without programs, or raises `INVALID_HIT_SBT` under debug
+    /// exceptions.
+    PastTableIntersection,
+    /// The any-hit stage of those records for native triangles under debug exceptions.
+    InvalidHitAnyHit,
+    /// The closest-hit stage of those records for native triangles under debug exceptions.
+    InvalidHitClosestHit,
     /// The callable that stands in for callable records without a direct callable, and for
     /// indices past the table.
     NullCallable,
@@ -151,9 +219,12 @@ impl StageRole {
                 // reached by a trace against the empty acceleration structure.
                 ProgramKind::ContinuationCallable => VkStage::Miss,
             },
-            StageRole::SphereIntersection | StageRole::CurveIntersection(_) => {
-                VkStage::Intersection
-            }
+            StageRole::SphereIntersection
+            | StageRole::CurveIntersection(_)
+            | StageRole::TriangleIntersection
+            | StageRole::PastTableIntersection => VkStage::Intersection,
+            StageRole::InvalidHitAnyHit => VkStage::AnyHit,
+            StageRole::InvalidHitClosestHit => VkStage::ClosestHit,
             StageRole::NullCallable => VkStage::Callable,
             StageRole::NullContinuation => VkStage::Miss,
         }
@@ -163,9 +234,12 @@ impl StageRole {
     pub fn behaves_as(&self) -> ProgramKind {
         match self {
             StageRole::Program { kind, .. } => *kind,
-            StageRole::SphereIntersection | StageRole::CurveIntersection(_) => {
-                ProgramKind::Intersection
-            }
+            StageRole::SphereIntersection
+            | StageRole::CurveIntersection(_)
+            | StageRole::TriangleIntersection
+            | StageRole::PastTableIntersection => ProgramKind::Intersection,
+            StageRole::InvalidHitAnyHit => ProgramKind::AnyHit,
+            StageRole::InvalidHitClosestHit => ProgramKind::ClosestHit,
             StageRole::NullCallable => ProgramKind::DirectCallable,
             StageRole::NullContinuation => ProgramKind::ContinuationCallable,
         }
@@ -182,6 +256,10 @@ impl StageRole {
             StageRole::Program { name, .. } => name.clone(),
             StageRole::SphereIntersection => "optik_sphere_intersection".into(),
             StageRole::CurveIntersection(b) => format!("optik_curve_intersection_{b}"),
+            StageRole::TriangleIntersection => "optik_triangle_intersection".into(),
+            StageRole::PastTableIntersection => "optik_past_table_intersection".into(),
+            StageRole::InvalidHitAnyHit => "optik_invalid_hit_anyhit".into(),
+            StageRole::InvalidHitClosestHit => "optik_invalid_hit_closesthit".into(),
             StageRole::NullCallable => "optik_null_callable".into(),
             StageRole::NullContinuation => "optik_null_continuation".into(),
         }

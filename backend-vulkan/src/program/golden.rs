@@ -96,7 +96,7 @@ fn every_intrinsic_lowers_as_pinned() {
     };
     let mut dis: Vec<(String, VkStage, String)> = Vec::new();
     for config in [largest_config(), smallest] {
-        for s in lower_stages(ModuleText::User(EVERYTHING), &config, &roles).unwrap() {
+        for s in lower_stages(ModuleText::User(EVERYTHING), &config, &roles, None).unwrap() {
             dis.push((
                 s.entry_name.clone(),
                 s.stage,

@@ -9,14 +9,18 @@
 //! tracing stage with the intrinsics' real bodies.
 
 pub mod config;
+mod emulation;
+pub mod inline;
+pub mod internal;
 pub mod intrinsic;
 pub mod postpass;
 pub mod prelude;
 mod unwind;
 
-pub use config::{HitContext, LoweringConfig, StageRole, VkStage};
+pub use config::{HitContext, LoweringConfig, StageRole, TriangleMode, VkStage};
 
-use optik_api::{Error, ProgramKind, Result};
+use optik_api::frontend::CompiledModule;
+use optik_api::{Error, Result};
 use postpass::{PostPassError, StageShape};
 
 /// One lowered stage.
@@ -63,16 +67,31 @@ fn spv_options() -> naga::back::spv::Options<'static> {
     }
 }
 
+/// A user module's direct callables for the calls inlined into its intersection and any-hit
+/// stages ([`inline`]): its compiled module and its callables' ids and names.
+pub type InlineCallables<'a> = (&'a CompiledModule, &'a inline::ModuleCallables);
+
 /// The full WGSL of a module for `config`, with wrappers `_optik_entry_<i>` for `roles`.
-pub fn vulkan_source(text: ModuleText, config: &LoweringConfig, roles: &[StageRole]) -> String {
+pub fn vulkan_source(
+    text: ModuleText,
+    config: &LoweringConfig,
+    roles: &[StageRole],
+    callables: Option<InlineCallables>,
+) -> String {
     let mut source = match text {
         ModuleText::User(wgsl) => wgsl.to_string(),
-        ModuleText::Internal { curve_basis } => prelude::internal_programs(config, curve_basis),
+        ModuleText::Internal { curve_basis } => internal::internal_programs(config, curve_basis),
     };
     if !source.ends_with('\n') {
         source.push('\n');
     }
     source.push_str(&prelude::prelude(config));
+    if config.inline_calls {
+        source.push_str(&match callables {
+            Some((module, list)) => inline::inline_source(config, Some(module), list),
+            None => inline::inline_source(config, None, &[]),
+        });
+    }
     for (i, role) in roles.iter().enumerate() {
         source.push_str(&prelude::wrapper(
             &format!("_optik_entry_{i}"),
@@ -83,13 +102,15 @@ pub fn vulkan_source(text: ModuleText, config: &LoweringConfig, roles: &[StageRo
     source
 }
 
-/// Lowers `roles` of one module into SPIR-V stages.
+/// Lowers `roles` of one module into SPIR-V stages; `callables` are the module's direct
+/// callables when the pipeline inlines calls ([`inline`]).
 pub fn lower_stages(
     text: ModuleText,
     config: &LoweringConfig,
     roles: &[StageRole],
+    callables: Option<InlineCallables>,
 ) -> Result<Vec<LoweredStage>> {
-    let source = vulkan_source(text, config, roles);
+    let source = vulkan_source(text, config, roles, callables);
     let internal = |what: &str, detail: String| {
         Error::backend(format!(
             "internal error of the Vulkan lowering ({what}): {detail}; please report it with the WGSL module"
@@ -100,12 +121,15 @@ pub fn lower_stages(
     if config.unwinds() {
         unwind::insert_unwinding(&mut module).map_err(|e| internal("exception unwinding", e))?;
     }
-    let info = naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::default(),
-    )
-    .validate(&module)
-    .map_err(|e| internal("validation", e.emit_to_string(&source)))?;
+    // The watertight triangle test's exact fallback uses f64 (when the device has it).
+    let mut capabilities = naga::valid::Capabilities::default();
+    capabilities.set(
+        naga::valid::Capabilities::FLOAT64,
+        matches!(config.triangles, TriangleMode::Watertight { f64: true }),
+    );
+    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), capabilities)
+        .validate(&module)
+        .map_err(|e| internal("validation", e.emit_to_string(&source)))?;
     let options = spv_options();
     let mut stages = Vec::with_capacity(roles.len());
     for (i, role) in roles.iter().enumerate() {
@@ -162,16 +186,6 @@ fn forbidden(role: &StageRole, intrinsic: intrinsic::Intrinsic, stage: VkStage) 
         StageRole::Program { name, .. } => format!("`{name}`"),
         other => format!("optik's {}", other.entry_name()),
     };
-    if intrinsic == intrinsic::Intrinsic::ExecuteCallable {
-        let kind = match role.behaves_as() {
-            ProgramKind::AnyHit => "any-hit",
-            ProgramKind::Intersection => "intersection",
-            other => other.name(),
-        };
-        return Error::unsupported(format!(
-            "{program} calls rt_direct_call from a {kind} program; the Vulkan backend cannot run it: Vulkan runs callables only from raygen, closest-hit, miss and callable stages (use the cpu or wgpu backend, or move the call into the closest-hit program)"
-        ));
-    }
     Error::backend(format!(
         "internal error of the Vulkan lowering: {program} reaches {} in a {stage:?} stage, which Vulkan forbids; please report it with the WGSL module",
         intrinsic.name()

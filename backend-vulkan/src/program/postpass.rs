@@ -213,6 +213,20 @@ fn allowed(intrinsic: Intrinsic, stage: VkStage) -> bool {
     }
 }
 
+/// Whether an intrinsic a stage may not use is nevertheless reachable there, but never runs:
+/// direct callables compiled into intersection and any-hit stages (program/inline.rs) go
+/// through the same device functions as elsewhere, whose bodies choose the inlined path in
+/// those stages before they would execute a callable or touch a payload. Such intrinsics
+/// get a body that does nothing.
+fn unreached(intrinsic: Intrinsic, stage: VkStage) -> bool {
+    use Intrinsic as I;
+    match intrinsic {
+        I::ExecuteCallable => matches!(stage, VkStage::Intersection | VkStage::AnyHit),
+        I::PayloadGet | I::PayloadSet => stage == VkStage::Intersection,
+        _ => false,
+    }
+}
+
 /// Variables the pass creates, one each per module.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 enum Var {
@@ -391,6 +405,10 @@ impl Pass<'_> {
     /// Replaces the body of function `index`, which is `intrinsic`'s stand-in.
     fn replace_body(&mut self, index: usize, intrinsic: Intrinsic) -> Result<(), PostPassError> {
         if !allowed(intrinsic, self.shape.stage) {
+            if unreached(intrinsic, self.shape.stage) {
+                self.neutral_body(index);
+                return Ok(());
+            }
             return Err(PostPassError::Forbidden(intrinsic, self.shape.stage));
         }
         let f = &self.b.module_ref().functions[index];
@@ -533,6 +551,32 @@ impl Pass<'_> {
             instructions: body,
         }];
         Ok(())
+    }
+
+    /// Gives function `index` a body that returns a zero (or nothing).
+    fn neutral_body(&mut self, index: usize) {
+        let ret_ty = self.b.module_ref().functions[index]
+            .def
+            .as_ref()
+            .and_then(|d| d.result_type)
+            .unwrap_or(0);
+        let void = self
+            .b
+            .module_ref()
+            .types_global_values
+            .iter()
+            .any(|i| i.result_id == Some(ret_ty) && i.class.opcode == Op::TypeVoid);
+        let instruction = if void {
+            Instruction::new(Op::Return, None, None, vec![])
+        } else {
+            let zero = self.b.constant_null(ret_ty);
+            return_value(zero)
+        };
+        let label = self.b.id();
+        self.b.module_mut().functions[index].blocks = vec![dr::Block {
+            label: Some(Instruction::new(Op::Label, None, Some(label), vec![])),
+            instructions: vec![instruction],
+        }];
     }
 
     /// Adds the new variables to the interface and sets capabilities and extensions.

@@ -22,8 +22,19 @@
 //! run after their traversal ends), so `rt_trace` saves the ray fields, sets the new ray's and
 //! restores them when the trace returns: intersection programs, which cannot read payloads on
 //! Vulkan, read the current ray's time, flags and mask there.
+//!
+//! Emulation, each compiled in only when the pipeline needs it ([`LoweringConfig`]; its WGSL
+//! is in emulation.rs, optik's own stages in internal.rs, inlined direct calls in
+//! inline.rs): optik's triangle stage reads the ray's face-culling flags from Vulkan's (both
+//! faces as `SkipTrianglesKHR`) or the state word, and with micromaps the 2-state flag from
+//! the state; motion interpolates primitives at the ray's time and composes the motion chain
+//! of the instance (the transforms below the Vulkan instance, tables.rs), which the
+//! object-space device functions apply on top of Vulkan's built-ins; with micromaps, optik's
+//! stages decide opacity culling (`_optik_fate`, `optik_api::semantics::opacity`), because a
+//! micromap state can change a candidate's opacity after the driver's culling.
 
 use super::config::{HitContext, LoweringConfig, StageRole, stage_code};
+use super::emulation;
 use super::intrinsic::Intrinsic;
 use optik_api::frontend::{OFFSET_RAY_BODY, PRELUDE_CONSTANTS, PRELUDE_EXCEPTION_CODES};
 use optik_api::{ExceptionFlags, ProgramKind};
@@ -86,8 +97,48 @@ pub fn prelude(c: &LoweringConfig) -> String {
             i.stand_in_body()
         ));
     }
-    s.push_str(&HELPERS.replace("$SBT_DATA_LAST", &(SBT_DATA_WORDS - 1).to_string()));
+    if c.triangles.emulated() || c.motion_structures {
+        s.push_str(optik_api::wgsl::RAY);
+    }
+    if c.motion_structures {
+        let options = optik_api::wgsl::SnippetOptions {
+            conservative_boxes: true,
+            f64_fallback: false,
+        };
+        s.push_str(optik_api::wgsl::MOTION);
+        s.push_str(&optik_api::wgsl::specialise(optik_api::wgsl::SLAB, options));
+    }
+    s.push_str(
+        &HELPERS
+            .replace(
+                "$INLINE_SBT",
+                if c.inline_calls {
+                    "// A direct callable inlined into an intersection or any-hit stage reads its own\n    // record's data from the callable table.\n    if _optik_inline_depth > 0u {\n        return _optik_callables[_optik_inline_data + min(i, $SBT_DATA_LAST)];\n    }"
+                } else {
+                    ""
+                },
+            )
+            .replace("$SBT_DATA_LAST", &(SBT_DATA_WORDS - 1).to_string())
+            .replace(
+                "$BOTH_FACES",
+                if c.skip_triangles_flag {
+                    "f = (f & ~48u) | 256u;"
+                } else {
+                    "f = f & ~32u;"
+                },
+            )
+            .replace(
+                "$STRIP_OPACITY_CULLING",
+                if c.micromaps {
+                    "// A micromap state changes a candidate's opacity after the driver would cull it:\n    // optik's stages cull by opacity instead.\n    f = f & ~(64u | 128u);"
+                } else {
+                    ""
+                },
+            ),
+    );
     s.push_str(&state_functions(c));
+    s.push_str(&emulation::motion_functions(c));
+    s.push_str(&emulation::opacity_functions(c));
     s.push_str(&device_functions(c));
     s
 }
@@ -117,18 +168,27 @@ struct _OptikLaunch {
 @group(1) @binding(0) var<uniform> _optik_launch: _OptikLaunch;
 // Per launch index state (see the module documentation of prelude.rs).
 @group(1) @binding(1) var<storage, read_write> _optik_state: array<vec4<u32>>;
-// Per Vulkan instance (its custom index): OptiX instance id, instance index, first record of
-// its geometry acceleration structure in `_optik_geometries`.
+// Two vec4 per Vulkan instance (its custom index): [OptiX instance id, instance index, first
+// record of its geometry acceleration structure, instance flags of the path], [motion chain
+// or NONE, 0, 0, 0] (accel/tables.rs).
 @group(1) @binding(2) var<storage, read> _optik_instances: array<vec4<u32>>;
-// Per geometry: primitive index offset, primitive remap table (or NONE), data (vertices,
-// spheres, curve segments; or NONE), curve basis.
+// Two vec4 per geometry: [primitive index offset, remap table, primitive data, info (curve
+// basis, primitive kind, geometry flags)], [motion keys, micromap block, primitives, 0].
 @group(1) @binding(3) var<storage, read> _optik_geometries: array<vec4<u32>>;
 @group(1) @binding(4) var<storage, read> _optik_data: array<u32>;
+// The launch's callable records for calls inlined into intersection and any-hit stages
+// (program/inline.rs): per record [program id, data offset], then the records' data.
+@group(1) @binding(5) var<storage, read> _optik_callables: array<u32>;
 
 // Set by the stage wrapper: which program kind the stage runs, and for hit programs the
 // primitive their hit group serves. Constant per stage, so drivers fold the branches on them.
 var<private> _optik_stage: u32;
 var<private> _optik_ctx: u32;
+// A direct call inlined into an intersection or any-hit stage (program/inline.rs): its
+// nesting (0 outside one), arguments and record data in the callable table.
+var<private> _optik_inline_depth: u32;
+var<private> _optik_args: RtPayload;
+var<private> _optik_inline_data: u32;
 "#;
 
 /// Helpers every configuration has.
@@ -164,7 +224,9 @@ fn _optik_ray_valid(origin: vec3<f32>, direction: vec3<f32>, tmin: f32, tmax: f3
 // Vulkan allows only one of OpaqueKHR, NoOpaqueKHR, CullOpaqueKHR and CullNoOpaqueKHR, and not
 // both face-culling flags; optik_api::semantics::opacity defines every combination. Folds the
 // flags into one Vulkan allows, with the same outcome: combinations that cull every candidate
-// clear the mask instead. Both face-culling flags keep back-face culling only (documented).
+// clear the mask instead. Both face-culling flags: for optik's triangle stage, where the
+// device has it, SkipTrianglesKHR (no Vulkan triangles exist) carries them to the stage;
+// otherwise the stage reads the state and native triangles keep back-face culling only.
 fn _optik_vk_ray_flags(flags: u32, mask: ptr<function, u32>) -> u32 {
     var f = flags & 0xFFu;
     let cull_disabled = (f & 64u) != 0u;
@@ -184,14 +246,29 @@ fn _optik_vk_ray_flags(flags: u32, mask: ptr<function, u32>) -> u32 {
         f = f & ~(64u | 128u);
     }
     if (f & 48u) == 48u {
-        f = f & ~32u;
+        $BOTH_FACES
     }
+    $STRIP_OPACITY_CULLING
     return f;
 }
 
+// The instance table record of the hit's Vulkan instance (the first of its two vec4).
+fn _optik_instance_record() -> u32 {
+    return 2u * _optik_instance_custom_index();
+}
+
+// The geometry table record of the hit's geometry (the first of its two vec4).
+fn _optik_geometry_slot() -> u32 {
+    let inst = _optik_instances[_optik_instance_record()];
+    return 2u * (inst.z + _optik_geometry_index());
+}
+
 fn _optik_geometry_record() -> vec4<u32> {
-    let inst = _optik_instances[_optik_instance_custom_index()];
-    return _optik_geometries[inst.z + _optik_geometry_index()];
+    return _optik_geometries[_optik_geometry_slot()];
+}
+
+fn _optik_geometry_extra() -> vec4<u32> {
+    return _optik_geometries[_optik_geometry_slot() + 1u];
 }
 
 fn _optik_data_vec3(i: u32) -> vec3<f32> {
@@ -207,6 +284,7 @@ fn _optik_attribute_f32(i: u32) -> f32 {
 }
 
 fn _optik_sbt_word(i: u32) -> u32 {
+    $INLINE_SBT
     return _optik_sbt_u32(min(i, $SBT_DATA_LAST));
 }
 "#;
@@ -315,7 +393,7 @@ fn _optik_exit_stage() {
 "#;
 
 /// `_optik_raise(code)` when `flag` is checked, else nothing.
-fn raise_if(c: &LoweringConfig, flag: ExceptionFlags, code: &str) -> String {
+pub(crate) fn raise_if(c: &LoweringConfig, flag: ExceptionFlags, code: &str) -> String {
     if c.exceptions.contains(flag) {
         format!("_optik_raise({code});")
     } else {
@@ -334,17 +412,25 @@ fn device_functions(c: &LoweringConfig) -> String {
             F::LaunchIndex => "return _optik_launch_id();".into(),
             F::LaunchDimensions => "return _optik_launch_size();".into(),
             F::Trace => trace_body(c),
+            F::GetPayload if c.inline_calls => format!(
+                "if _optik_inline_depth > 0u {{\n        return _optik_args[min(i, {last_payload}u)];\n    }}\n    return _optik_payload_get(min(i, {last_payload}u));"
+            ),
             F::GetPayload => format!("return _optik_payload_get(min(i, {last_payload}u));"),
+            F::SetPayload if c.inline_calls => format!(
+                "if _optik_inline_depth > 0u {{\n        _optik_args[min(i, {last_payload}u)] = value;\n        return;\n    }}\n    _optik_payload_set(min(i, {last_payload}u), value);"
+            ),
             F::SetPayload => format!("_optik_payload_set(min(i, {last_payload}u), value);"),
-            F::GetAttribute => "return _optik_attribute_get(min(i, 7u));".into(),
+            // Triangles have two attributes (the barycentrics); Vulkan leaves the rest of a
+            // native triangle's attribute memory undefined, and the CPU backend reads 0.
+            F::GetAttribute => "if _optik_ctx == _OPTIK_CTX_TRIANGLES && i >= 2u {\n        return 0u;\n    }\n    return _optik_attribute_get(min(i, 7u));".into(),
             // OptiX keeps 7 bits of a reported hit kind; Vulkan reserves 128..255 too.
             F::ReportIntersection => "return _optik_report_intersection(t, hit_kind & 0x7Fu, attributes);".into(),
             F::IgnoreIntersection => "_optik_ignore_intersection();".into(),
             F::TerminateRay => "_optik_terminate_ray();".into(),
             F::WorldRayOrigin => "return _optik_world_ray_origin();".into(),
             F::WorldRayDirection => "return _optik_world_ray_direction();".into(),
-            F::ObjectRayOrigin => "return _optik_object_ray_origin();".into(),
-            F::ObjectRayDirection => "return _optik_object_ray_direction();".into(),
+            F::ObjectRayOrigin => "return _optik_obj_origin();".into(),
+            F::ObjectRayDirection => "return _optik_obj_direction();".into(),
             F::RayTmin => "return _optik_ray_tmin();".into(),
             F::RayTmax => "return _optik_ray_tmax();".into(),
             F::RayTime if c.motion => "return bitcast<f32>(_optik_state[_optik_slot()].x);".into(),
@@ -358,13 +444,14 @@ fn device_functions(c: &LoweringConfig) -> String {
             // Each SBT record of a build input is its own Vulkan geometry, numbered as OptiX
             // numbers records, so the geometry index is the SBT GAS index.
             F::SbtGasIndex => "return _optik_geometry_index();".into(),
-            F::InstanceId => "return _optik_instances[_optik_instance_custom_index()].x;".into(),
-            F::InstanceIndex => "return _optik_instances[_optik_instance_custom_index()].y;".into(),
-            F::HitKind => HIT_KIND.into(),
+            F::InstanceId => "return _optik_instances[_optik_instance_record()].x;".into(),
+            F::InstanceIndex => "return _optik_instances[_optik_instance_record()].y;".into(),
+            F::HitKind => hit_kind_body(c),
             F::IsFrontFaceHit => {
                 "let k = rt_hit_kind();\n    if k >= 0x80u {\n        return k == RT_HIT_KIND_TRIANGLE_FRONT_FACE;\n    }\n    return (k & 1u) == 0u;".into()
             }
             F::TriangleBarycentrics => "return vec2<f32>(_optik_attribute_f32(0u), _optik_attribute_f32(1u));".into(),
+            F::TriangleVertices if c.triangles.emulated() => EMULATED_TRIANGLE_VERTICES.into(),
             F::TriangleVertices => TRIANGLE_VERTICES.into(),
             F::Sphere => {
                 "if _optik_ctx != _OPTIK_CTX_SPHERE {\n        return vec4<f32>();\n    }\n    return vec4<f32>(_optik_attribute_f32(0u), _optik_attribute_f32(1u), _optik_attribute_f32(2u), _optik_attribute_f32(3u));".into()
@@ -372,8 +459,8 @@ fn device_functions(c: &LoweringConfig) -> String {
             F::CurveParameter => {
                 "if _optik_ctx != _OPTIK_CTX_CURVE {\n        return 0.0;\n    }\n    return _optik_attribute_f32(0u);".into()
             }
-            F::ObjectToWorld => "return _optik_object_to_world();".into(),
-            F::WorldToObject => "return _optik_world_to_object();".into(),
+            F::ObjectToWorld => "return _optik_obj_to_world();".into(),
+            F::WorldToObject => "return _optik_world_to_obj();".into(),
             F::SbtDataU32 => "return _optik_sbt_word(i);".into(),
             F::SbtDataF32 => "return bitcast<f32>(_optik_sbt_word(i));".into(),
             F::DirectCall => direct_call_body(c),
@@ -406,13 +493,31 @@ const PRIMITIVE_INDEX: &str = "let g = _optik_geometry_record();
     }
     return p + g.x;";
 
-const HIT_KIND: &str = "let k = _optik_hit_kind();
-    // optik's sphere and curve stages report 0 (entering) or 1 (leaving); programs see the
-    // face kinds built-in primitives have (optik_api::wgsl, sphere.wgsl).
-    if _optik_ctx >= _OPTIK_CTX_SPHERE {
-        return select(RT_HIT_KIND_TRIANGLE_BACK_FACE, RT_HIT_KIND_TRIANGLE_FRONT_FACE, k == 0u);
+/// `rt_hit_kind`: optik's sphere and curve stages report 0 (entering) or 1 (leaving), and its
+/// triangle stage bit 0 for the face (0 front) and bit 1 for an opacity its any-hit wrapper
+/// applies; programs see the face kinds of built-in primitives (optik_api::wgsl, sphere.wgsl).
+fn hit_kind_body(c: &LoweringConfig) -> String {
+    let triangles = if c.triangles.emulated() {
+        "\n    if _optik_ctx == _OPTIK_CTX_TRIANGLES {\n        return select(RT_HIT_KIND_TRIANGLE_BACK_FACE, RT_HIT_KIND_TRIANGLE_FRONT_FACE, (k & 1u) == 0u);\n    }"
+    } else {
+        ""
+    };
+    format!(
+        "let k = _optik_hit_kind();
+    if _optik_ctx >= _OPTIK_CTX_SPHERE {{
+        return select(RT_HIT_KIND_TRIANGLE_BACK_FACE, RT_HIT_KIND_TRIANGLE_FRONT_FACE, (k & 1u) == 0u);
+    }}{triangles}
+    return k;"
+    )
+}
+
+/// `rt_triangle_vertices` of optik's triangles: the vertices it tested, at the ray's time
+/// (always kept, as on the CPU backend).
+const EMULATED_TRIANGLE_VERTICES: &str = "if _optik_ctx != _OPTIK_CTX_TRIANGLES {
+        return array<vec3<f32>, 3>();
     }
-    return k;";
+    let t = _optik_triangle(_optik_geometry_record(), _optik_geometry_extra(), _optik_primitive_id());
+    return array<vec3<f32>, 3>(t.v0, t.v1, t.v2);";
 
 const TRIANGLE_VERTICES: &str = "if _optik_ctx != _OPTIK_CTX_TRIANGLES {
         return array<vec3<f32>, 3>();
@@ -513,12 +618,20 @@ fn call_body(c: &LoweringConfig, call: &str, guarded: Option<(u32, u32)>) -> Str
 
 fn direct_call_body(c: &LoweringConfig) -> String {
     let call = format!("_optik_execute_callable(index + {CALLABLE_FIRST_USER}u, args);");
-    call_body(
+    let inline = if c.inline_calls {
+        // Intersection and any-hit stages cannot execute callables: the callables are
+        // compiled into them (program/inline.rs).
+        "if _optik_stage == _OPTIK_STAGE_INTERSECTION || _optik_stage == _OPTIK_STAGE_ANYHIT {\n        _optik_inline_call_1(index, args);\n        return;\n    }\n    "
+    } else {
+        ""
+    };
+    let body = call_body(
         c,
         &call,
         c.guard_direct_calls
             .then_some((24, c.max_direct_callable_depth)),
-    )
+    );
+    format!("{inline}{body}")
 }
 
 fn continuation_call_body(c: &LoweringConfig) -> String {
@@ -530,6 +643,28 @@ fn continuation_call_body(c: &LoweringConfig) -> String {
     // acceleration structure.
     let call = "_optik_trace(_optik_launch.empty_tlas, 0u, 0xFFu, 0u, 0u, _optik_launch.miss_count + 1u + index, vec3<f32>(0.0), 0.0, vec3<f32>(0.0, 0.0, 1.0), 0.0, args);";
     call_body(c, call, Some((16, c.max_continuation_callable_depth)))
+}
+
+/// The primitive types an intersection stage serves when the pipeline does not intersect
+/// them (its wrapper then skips every candidate).
+fn skipped_types(role: &StageRole, c: &LoweringConfig) -> Option<&'static str> {
+    use optik_api::PrimitiveTypeFlags as T;
+    let (types, name) = match role {
+        StageRole::Program { .. } => (T::CUSTOM, "custom primitives"),
+        StageRole::SphereIntersection => (T::SPHERE, "spheres"),
+        StageRole::CurveIntersection(basis) => (
+            match basis {
+                0 => T::ROUND_LINEAR,
+                1 => T::ROUND_QUADRATIC_BSPLINE,
+                2 => T::ROUND_CUBIC_BSPLINE,
+                _ => T::ROUND_CATMULLROM,
+            },
+            "curves of this basis",
+        ),
+        StageRole::TriangleIntersection => (T::TRIANGLE, "triangles"),
+        _ => return None,
+    };
+    (!c.intersects(types)).then_some(name)
 }
 
 /// The compute wrapper naga writes for a stage: it sets the stage's constants, runs the
@@ -548,6 +683,11 @@ pub fn wrapper(entry_fn: &str, role: &StageRole, c: &LoweringConfig) -> String {
         StageRole::Program { name, .. } => name.clone(),
         StageRole::SphereIntersection => "_optik_builtin_sphere".into(),
         StageRole::CurveIntersection(_) => "_optik_builtin_curve".into(),
+        StageRole::TriangleIntersection => "_optik_builtin_triangle".into(),
+        StageRole::PastTableIntersection => "_optik_builtin_past_table".into(),
+        StageRole::InvalidHitAnyHit | StageRole::InvalidHitClosestHit => {
+            "_optik_invalid_hit_program".into()
+        }
         StageRole::NullCallable | StageRole::NullContinuation => "_optik_null_callable".into(),
     };
     let mut b = String::new();
@@ -572,6 +712,11 @@ pub fn wrapper(entry_fn: &str, role: &StageRole, c: &LoweringConfig) -> String {
             if unwinds {
                 b.push_str("    if _optik_unwinding() {\n        _optik_terminate_ray();\n    }\n");
             }
+            if c.micromaps && c.triangles.emulated() && ctx == HitContext::Triangles {
+                // optik's triangle stage found the candidate opaque (a micromap state) where
+                // Vulkan saw it non-opaque: accepted without the any-hit program.
+                b.push_str("    if (_optik_hit_kind() & 2u) != 0u {\n        return;\n    }\n");
+            }
             b.push_str(&format!("    {program}();\n"));
             if unwinds {
                 b.push_str("    if _optik_unwinding() {\n        _optik_terminate_ray();\n    }\n");
@@ -580,6 +725,31 @@ pub fn wrapper(entry_fn: &str, role: &StageRole, c: &LoweringConfig) -> String {
         ProgramKind::Intersection => {
             if unwinds {
                 b.push_str("    if _optik_unwinding() {\n        return;\n    }\n");
+            }
+            let culled_by_opacity = matches!(
+                role,
+                StageRole::Program { .. }
+                    | StageRole::SphereIntersection
+                    | StageRole::CurveIntersection(_)
+            );
+            if c.micromaps && culled_by_opacity {
+                // The driver does not cull by opacity in pipelines with micromaps (the
+                // triangle stage decides its own candidates' opacity).
+                b.push_str("    if _optik_opacity_culled() {\n        return;\n    }\n");
+            }
+            if let Some(types) = skipped_types(role, c) {
+                // Vulkan's skip flags cannot skip AABBs of one kind only.
+                let raise = raise_if(
+                    c,
+                    ExceptionFlags::DEBUG,
+                    "RT_EXCEPTION_CODE_UNSUPPORTED_PRIMITIVE_TYPE",
+                );
+                b.push_str(&format!(
+                    "    // The pipeline does not intersect {types}.\n    {raise}\n    return;\n"
+                ));
+            }
+            if c.motion_structures && matches!(role, StageRole::Program { .. }) {
+                b.push_str("    if _optik_vanished() {\n        return;\n    }\n");
             }
             b.push_str(&format!("    {program}();\n"));
         }
@@ -600,69 +770,4 @@ pub fn wrapper(entry_fn: &str, role: &StageRole, c: &LoweringConfig) -> String {
     }
     b.push_str("}\n");
     b
-}
-
-/// The WGSL of optik's own programs: the built-in sphere and curve intersection stages and
-/// the null callable. Compiled with the shared intersectors of `optik_api::wgsl` and the
-/// prelude, like a user module.
-pub fn internal_programs(c: &LoweringConfig, curve_basis: u32) -> String {
-    let null_body = raise_if(
-        c,
-        ExceptionFlags::DEBUG,
-        "RT_EXCEPTION_CODE_CALLABLE_INVALID_SBT",
-    );
-    format!(
-        r#"{sphere}
-{curve}
-
-// A sphere of a sphere build input: its centre and radius are in the data table (object
-// space). Reports the entry hit (kind 0) and, when that is out of range or ignored, the exit
-// (kind 1); the object-space sphere goes into attributes 0..3 for rt_sphere.
-fn _optik_builtin_sphere() {{
-    let g = _optik_geometry_record();
-    let s = _optik_data_vec4(g.z + _optik_primitive_id() * 4u);
-    let tmin = _optik_ray_tmin();
-    let roots = optik_sphere_roots(s.xyz, s.w, _optik_object_ray_origin(), _optik_object_ray_direction());
-    if roots.z == 0.0 {{
-        return;
-    }}
-    var attributes: RtAttributes;
-    attributes[0] = bitcast<u32>(s.x);
-    attributes[1] = bitcast<u32>(s.y);
-    attributes[2] = bitcast<u32>(s.z);
-    attributes[3] = bitcast<u32>(s.w);
-    if roots.x >= tmin && roots.x <= _optik_ray_tmax() {{
-        if _optik_report_intersection(roots.x, 0u, attributes) {{
-            return;
-        }}
-    }}
-    if roots.y >= tmin && roots.y <= _optik_ray_tmax() {{
-        _optik_report_intersection(roots.y, 1u, attributes);
-    }}
-}}
-
-// A curve segment of a curve build input: 4 control points (xyz, radius) and the cap flags
-// (bit 0 start, bit 1 end) in the data table. The curve parameter goes into attribute 0.
-fn _optik_builtin_curve() {{
-    let g = _optik_geometry_record();
-    let b = g.z + _optik_primitive_id() * 17u;
-    let caps = _optik_data[b + 16u];
-    let hit = optik_curve_intersect({curve_basis}u, _optik_data_vec4(b), _optik_data_vec4(b + 4u), _optik_data_vec4(b + 8u), _optik_data_vec4(b + 12u),
-        (caps & 1u) != 0u, (caps & 2u) != 0u, _optik_object_ray_origin(), _optik_object_ray_direction(), _optik_ray_tmin(), _optik_ray_tmax());
-    if hit.z != 0.0 {{
-        var attributes: RtAttributes;
-        attributes[0] = bitcast<u32>(hit.y);
-        _optik_report_intersection(hit.x, 0u, attributes);
-    }}
-}}
-
-// Stands in for callable records without the kind of callable called, and for indices past
-// the table.
-fn _optik_null_callable() {{
-    {null_body}
-}}
-"#,
-        sphere = optik_api::wgsl::SPHERE,
-        curve = optik_api::wgsl::CURVE,
-    )
 }

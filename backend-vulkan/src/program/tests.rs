@@ -2,7 +2,7 @@
 //! configurations, gives SPIR-V that `spirv-val` accepts.
 
 use super::*;
-use optik_api::{ExceptionFlags, ProgramSource};
+use optik_api::{ExceptionFlags, ProgramKind, ProgramSource};
 
 /// Runs a SPIRV-Tools program (`spirv-val`, `spirv-dis`) on `words` written to a temporary
 /// file named after `what`; its output.
@@ -194,6 +194,13 @@ pub(crate) fn largest_config() -> LoweringConfig {
         track_ray_flags: true,
         guard_direct_calls: true,
         continuation_calls: true,
+        inline_calls: true,
+        triangles: TriangleMode::Watertight { f64: true },
+        skip_triangles_flag: true,
+        motion_structures: true,
+        micromaps: true,
+        micromap_states: true,
+        primitive_types: optik_api::PrimitiveTypeFlags::ALL.0,
     }
 }
 
@@ -203,26 +210,22 @@ fn lower_and_validate(
     roles: &[StageRole],
     what: &str,
 ) -> Vec<LoweredStage> {
-    let stages = lower_stages(text, config, roles).unwrap_or_else(|e| panic!("{what}: {e}"));
+    let stages = lower_stages(text, config, roles, None).unwrap_or_else(|e| panic!("{what}: {e}"));
     for s in &stages {
         spirv_val(&s.spirv, &format!("{what}-{}", s.entry_name));
     }
     stages
 }
 
-fn without_direct_calls_in(src: &str, programs: &[&str]) -> String {
-    // rt_direct_call is legal in any-hit and intersection programs for OptiX, but Vulkan runs
-    // no callables there; the lowering rejects it (tested below), so the module for the
-    // other tests leaves it out of those programs.
-    let _ = programs;
-    src.to_string()
-}
-
 #[test]
 fn every_stage_kind_and_device_function_validates_in_the_largest_configuration() {
-    let src = without_direct_calls_in(EVERYTHING, &[]);
-    let roles = user_roles(&src);
-    let stages = lower_and_validate(ModuleText::User(&src), &largest_config(), &roles, "largest");
+    let roles = user_roles(EVERYTHING);
+    let stages = lower_and_validate(
+        ModuleText::User(EVERYTHING),
+        &largest_config(),
+        &roles,
+        "largest",
+    );
     assert_eq!(stages.len(), roles.len());
 }
 
@@ -256,6 +259,178 @@ fn internal_stages_validate() {
             &LoweringConfig::default(),
             &roles,
             &format!("internal-small{basis}"),
+        );
+    }
+}
+
+#[test]
+fn optik_stages_validate_for_every_triangle_mode_and_emulation() {
+    use optik_api::PrimitiveTypeFlags as T;
+    let roles = [
+        StageRole::TriangleIntersection,
+        StageRole::PastTableIntersection,
+        StageRole::SphereIntersection,
+        StageRole::CurveIntersection(2),
+        StageRole::NullCallable,
+    ];
+    for triangles in [
+        TriangleMode::Watertight { f64: true },
+        TriangleMode::Watertight { f64: false },
+        TriangleMode::MollerTrumbore,
+    ] {
+        for (motion, micromaps) in [(false, false), (true, false), (false, true), (true, true)] {
+            let config = LoweringConfig {
+                triangles,
+                motion,
+                motion_structures: motion,
+                micromaps,
+                micromap_states: micromaps,
+                track_ray_flags: true,
+                exceptions: ExceptionFlags::DEBUG,
+                ..LoweringConfig::default()
+            };
+            let what = format!("{triangles:?}-motion{motion}-omm{micromaps}");
+            lower_and_validate(
+                ModuleText::Internal { curve_basis: 2 },
+                &config,
+                &roles,
+                &what,
+            );
+        }
+    }
+    // Face-culling flags read from Vulkan's (SkipTrianglesKHR for both faces).
+    let config = LoweringConfig {
+        triangles: TriangleMode::Watertight { f64: false },
+        skip_triangles_flag: true,
+        ..LoweringConfig::default()
+    };
+    lower_and_validate(
+        ModuleText::Internal { curve_basis: 0 },
+        &config,
+        &roles[..1],
+        "skip-flag",
+    );
+    // A pipeline of custom primitives only: optik's stages skip what it does not intersect.
+    let config = LoweringConfig {
+        triangles: TriangleMode::MollerTrumbore,
+        track_ray_flags: true,
+        primitive_types: T::CUSTOM.0,
+        ..LoweringConfig::default()
+    };
+    lower_and_validate(
+        ModuleText::Internal { curve_basis: 0 },
+        &config,
+        &roles[..1],
+        "skip",
+    );
+    // Native triangles under debug exceptions: the any-hit and closest-hit of records past the
+    // user's.
+    let config = LoweringConfig {
+        exceptions: ExceptionFlags::DEBUG,
+        ..LoweringConfig::default()
+    };
+    lower_and_validate(
+        ModuleText::Internal { curve_basis: 0 },
+        &config,
+        &[StageRole::InvalidHitAnyHit, StageRole::InvalidHitClosestHit],
+        "invalid-hit-native",
+    );
+}
+
+#[test]
+fn user_stages_validate_with_emulated_triangles_motion_and_micromaps() {
+    let config = LoweringConfig {
+        triangles: TriangleMode::MollerTrumbore,
+        micromap_states: false,
+        ..largest_config()
+    };
+    let roles = user_roles(EVERYTHING);
+    lower_and_validate(ModuleText::User(EVERYTHING), &config, &roles, "emulated");
+}
+
+#[test]
+fn direct_callables_inlined_into_intersection_and_any_hit_stages_validate() {
+    let src = r#"
+@group(0) @binding(1) var<storage, read_write> out: array<u32>;
+fn helper(x: u32) -> u32 {
+    var a: RtPayload;
+    a[0] = x;
+    rt_direct_call(1u, &a);
+    return a[0];
+}
+fn direct_callable__leaf() {
+    rt_set_payload(0u, rt_get_payload(0u) + rt_sbt_data_u32(0u));
+}
+fn direct_callable__nested() {
+    rt_set_payload(0u, helper(rt_get_payload(0u)) * 2u);
+    if rt_get_payload(0u) == 9u {
+        rt_throw_exception(3u);
+    }
+}
+fn anyhit__ah() {
+    var a: RtPayload;
+    rt_direct_call(0u, &a);
+    rt_set_payload(0u, a[0]);
+}
+fn intersection__is() {
+    var a: RtPayload;
+    a[0] = helper(2u);
+    var attributes: RtAttributes;
+    rt_report_intersection(1.0, a[0], attributes);
+}
+fn raygen__rg() { }
+"#;
+    let compiled =
+        optik_api::frontend::compile(&ProgramSource::new("inline.wgsl", src), 4).unwrap();
+    let callables = [
+        (0, "direct_callable__leaf".to_string()),
+        (1, "direct_callable__nested".to_string()),
+    ];
+    let roles: Vec<StageRole> = ["anyhit__ah", "intersection__is", "direct_callable__nested"]
+        .iter()
+        .map(|name| {
+            let kind = compiled.program(name).unwrap().kind;
+            StageRole::Program {
+                name: name.to_string(),
+                kind,
+                context: (kind == ProgramKind::AnyHit).then_some(HitContext::Triangles),
+            }
+        })
+        .collect();
+    for config in [
+        LoweringConfig {
+            payload_len: 4,
+            inline_calls: true,
+            guard_direct_calls: true,
+            ..LoweringConfig::default()
+        },
+        LoweringConfig {
+            payload_len: 4,
+            ..largest_config()
+        },
+    ] {
+        let stages = lower_stages(
+            ModuleText::User(src),
+            &config,
+            &roles,
+            Some((&compiled, &callables)),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        for s in &stages {
+            spirv_val(&s.spirv, &format!("inline-{}", s.entry_name));
+        }
+        // The nested callable runs at levels 1..=max in any-hit and intersection stages.
+        let text = vulkan_source(
+            ModuleText::User(src),
+            &config,
+            &roles,
+            Some((&compiled, &callables)),
+        );
+        assert!(text.contains("direct_callable__nested__optik_inline3()"));
+        assert!(text.contains("helper__optik_inline1("));
+        assert!(
+            !text.contains("direct_callable__leaf__optik_inline"),
+            "callables that call none are not copied"
         );
     }
 }

@@ -80,7 +80,8 @@ fn run(dev: &TestDevice, flags: &[u32], tmin: f32) -> Vec<[u32; 3]> {
     words.chunks(3).map(|c| [c[0], c[1], c[2]]).collect()
 }
 
-fn check(dev: &TestDevice) {
+/// Runs the any-hit cases on `dev` and checks optik's answers.
+pub fn check(dev: &TestDevice) {
     let f = |r: RayFlags| r.0;
     let rays = [
         f(RayFlags::NONE),

@@ -141,27 +141,182 @@ fn direct_continuation_callables_and_recursion() {
     assert_eq!(w[7], 0xBEEF, "a callable index past the table runs nothing");
 }
 
-#[test]
-fn direct_calls_from_any_hit_are_refused_with_a_reason() {
-    let dev = device();
-    let src = r#"
-fn raygen__rg() { }
-fn direct_callable__dc() { }
+/// Programs for direct calls from intersection and any-hit programs: a custom primitive whose
+/// intersection program reports at the t a direct callable computes, an any-hit program that
+/// asks a direct callable whether to ignore the candidate, and callables that nest.
+const INLINED: &str = r#"
+fn raygen__rg() {
+    let i = rt_launch_index().x;
+    var p: RtPayload;
+    p[0] = 0xFFFFu;
+    p[1] = 0u;
+    p[2] = i;
+    // Ray i down at x = i + 0.5 over boxes 0..3 of one custom GAS.
+    rt_trace(params.handle, vec3<f32>(f32(i) + 0.5, 0.5, 10.0), vec3<f32>(0.0, 0.0, -1.0), 0.0, 100.0, 0.0, 0xFFu, 0u, 0u, 1u, 0u, &p);
+    out[i * 4u] = p[0];
+    out[i * 4u + 1u] = p[1];
+    out[i * 4u + 2u] = p[3];
+}
+
+// Callable 0: t = 10 - (args[0] + its record's data).
+fn direct_callable__depth() {
+    rt_set_payload(0u, rt_get_payload(0u) + rt_sbt_data_u32(0u));
+}
+
+// Callable 1: calls callable 0 twice (nested), then doubles.
+fn direct_callable__twice() {
+    var a: RtPayload;
+    a[0] = rt_get_payload(0u);
+    rt_direct_call(0u, &a);
+    rt_direct_call(0u, &a);
+    rt_set_payload(0u, a[0] * 2u);
+}
+
+// Callable 2: recurses through callable 2 until the depth runs out.
+fn direct_callable__forever() {
+    var a: RtPayload;
+    rt_direct_call(2u, &a);
+}
+
+// Callable 3: throws.
+fn direct_callable__throws() {
+    rt_throw_exception(77u);
+}
+
+fn intersection__is() {
+    let prim = rt_primitive_index();
+    var a: RtPayload;
+    a[0] = prim;
+    // Box 0 and 2 use callable 0 (t = 10 - (prim + 1)); box 1 callable 1 (t = 10 - 2(1 + 2)).
+    if prim == 1u {
+        rt_direct_call(1u, &a);
+    } else {
+        rt_direct_call(0u, &a);
+    }
+    if prim == 3u {
+        // Past the table: nothing runs, the arguments stay.
+        rt_direct_call(9u, &a);
+        a[0] = a[0] + 100u;
+    }
+    var attributes: RtAttributes;
+    attributes[0] = a[0];
+    rt_report_intersection(10.0 - f32(a[0] % 10u), 0u, attributes);
+}
+
 fn anyhit__ah() {
     var a: RtPayload;
+    a[0] = rt_get_attribute(0u);
     rt_direct_call(0u, &a);
+    rt_set_payload(1u, a[0]);
+    // Ray 2 recurses past the depth (the pipeline checks nothing: the call is skipped), ray 3
+    // throws (USER is checked).
+    if rt_get_payload(2u) == 2u {
+        rt_direct_call(2u, &a);
+    }
+    if rt_get_payload(2u) == 3u {
+        rt_direct_call(3u, &a);
+    }
+}
+
+fn closesthit__ch() {
+    rt_set_payload(0u, rt_primitive_index());
+    rt_set_payload(3u, bitcast<u32>(rt_ray_tmax()));
+}
+
+fn exception__ex() {
+    out[rt_launch_index().x * 4u + 3u] = bitcast<u32>(rt_exception_code());
 }
 "#;
-    let m = dev.module(src);
+
+#[test]
+fn direct_calls_from_intersection_and_any_hit_programs() {
+    let dev = device();
+    let boxes: Vec<[f32; 6]> = (0..4)
+        .map(|k| [k as f32, 0.0, -1.0, k as f32 + 1.0, 1.0, 1.0])
+        .collect();
+    let gas = dev.aabbs(&boxes, GeometryFlags::NONE);
+    let m = dev.module(&format!("{RAY_HEADER}{INLINED}"));
     let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
     let hg = dev.group(ProgramGroupDesc::HitGroup {
-        closest_hit: None,
+        closest_hit: Some(prog(m, "closesthit__ch")),
         any_hit: Some(prog(m, "anyhit__ah")),
+        intersection: Some(prog(m, "intersection__is")),
+        builtin: BuiltinIntersector::Triangle,
+    });
+    let callable = |name: &str| {
+        dev.group(ProgramGroupDesc::Callables {
+            direct: Some(prog(m, name)),
+            continuation: None,
+        })
+    };
+    let (depth, twice, forever, throws) = (
+        callable("direct_callable__depth"),
+        callable("direct_callable__twice"),
+        callable("direct_callable__forever"),
+        callable("direct_callable__throws"),
+    );
+    let ex = dev.group(ProgramGroupDesc::Exception(prog(m, "exception__ex")));
+    let options = PipelineCompileOptions {
+        exception_flags: Setting::Value(ExceptionFlags::USER),
+        ..Default::default()
+    };
+    let link = PipelineLinkOptions {
+        max_direct_callable_depth: 3,
+        ..Default::default()
+    };
+    let pipeline = dev
+        .create_pipeline(
+            &options,
+            &link,
+            &[rg, hg, depth, twice, forever, throws, ex],
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut table = Table::new(rg);
+    table.hit.push((hg, &[]));
+    table.callables = vec![(depth, &[1]), (twice, &[]), (forever, &[]), (throws, &[])];
+    table.exception = Some((ex, &[]));
+    let sbt = table.build(&dev);
+    let w = run_rays(
+        &dev,
+        pipeline,
+        &sbt,
+        dev.traversable_handle(gas).unwrap(),
+        4,
+        4,
+        &[],
+    );
+    let ray = |i: usize| &w[4 * i..4 * i + 4];
+    // Box 0: the intersection's callable gives 0 + 1 = 1, t = 9; the any-hit's callable
+    // adds 1 to attribute 0 (1): 2.
+    assert_eq!(ray(0)[..3], [0, 2, 9.0f32.to_bits()], "ray 0: {:?}", ray(0));
+    // Box 1: callable 1 nests callable 0 twice: (1 + 1 + 1) * 2 = 6, t = 4.
+    assert_eq!(ray(1)[..3], [1, 7, 4.0f32.to_bits()], "ray 1: {:?}", ray(1));
+    // Box 2: t = 10 - 3 = 7; recursion past max_direct_callable_depth is skipped.
+    assert_eq!(ray(2)[..3], [2, 4, 7.0f32.to_bits()], "ray 2: {:?}", ray(2));
+    assert_eq!(ray(2)[3], 0, "no exception without STACK_OVERFLOW");
+    // Box 3: the index past the table runs nothing; callable 3 throws from the any-hit: the
+    // exception program runs and the launch index ends.
+    assert_eq!(ray(3)[3], 77, "ray 3: {:?}", ray(3));
+    assert_eq!(ray(3)[0], 0, "nothing after the throw writes");
+    dev.assert_no_messages();
+}
+
+#[test]
+fn direct_calls_from_any_hit_reach_callables_of_its_module_only() {
+    let dev = device();
+    let a = dev.module(
+        "fn raygen__rg() { }\nfn anyhit__ah() {\n    var a: RtPayload;\n    rt_direct_call(0u, &a);\n}\n",
+    );
+    let b = dev.module("fn direct_callable__dc() { }\n");
+    let rg = dev.group(ProgramGroupDesc::Raygen(prog(a, "raygen__rg")));
+    let hg = dev.group(ProgramGroupDesc::HitGroup {
+        closest_hit: None,
+        any_hit: Some(prog(a, "anyhit__ah")),
         intersection: None,
         builtin: BuiltinIntersector::Triangle,
     });
     let dc = dev.group(ProgramGroupDesc::Callables {
-        direct: Some(prog(m, "direct_callable__dc")),
+        direct: Some(prog(b, "direct_callable__dc")),
         continuation: None,
     });
     let e = dev
@@ -173,7 +328,7 @@ fn anyhit__ah() {
         .unwrap_err();
     assert_eq!(e.kind(), ErrorKind::Unsupported);
     assert!(
-        e.message().contains("rt_direct_call") && e.message().contains("any-hit"),
+        e.message().contains("rt_direct_call") && e.message().contains("same module"),
         "{e}"
     );
 }

@@ -199,6 +199,17 @@ fn handles_of_destroyed_objects_and_other_devices() {
 #[test]
 fn what_the_backend_does_not_do_is_refused_with_a_reason() {
     let dev = device();
+    // Box tests are the driver's, over padded boxes: only the conservative setting.
+    let e = dev.set_accuracy(Accuracy::FAST).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::Unsupported);
+    assert!(e.message().contains("BoxTest::Plain"), "{e}");
+    assert_eq!(dev.accuracy(), Accuracy::ROBUST);
+    let driver = Accuracy {
+        triangle: TriangleTest::Driver,
+        box_test: BoxTest::Conservative,
+    };
+    // Native triangles cannot carry motion keys or micromaps.
+    dev.set_accuracy(driver).unwrap();
     let vb = dev.f32_buffer(&[0.0; 18]);
     let mut t = TriangleArray::new(BufferView::new(vb), 3, GeometryFlags::NONE);
     t.vertex_buffers.push(BufferView::new(vb));
@@ -215,34 +226,45 @@ fn what_the_backend_does_not_do_is_refused_with_a_reason() {
         .accel_build(&motion, &[BuildInput::Triangles(t)])
         .unwrap_err();
     assert_eq!(e.kind(), ErrorKind::Unsupported);
-    assert!(e.message().contains("motion"), "{e}");
+    assert!(e.message().contains("motion keys"), "{e}");
+    let omm = dev
+        .create_opacity_micromap_array(&OpacityMicromapArrayDesc {
+            micromaps: vec![],
+            data: vec![],
+        })
+        .unwrap();
+    let mut t = TriangleArray::new(BufferView::new(vb), 3, GeometryFlags::NONE);
+    t.opacity_micromap = Some(TriangleOpacityMicromap {
+        array: omm,
+        index_buffer: None,
+        index_size_in_bytes: 4,
+        index_stride: 0,
+        base_index: 0,
+    });
+    let e = dev
+        .accel_build(&AccelBuildOptions::default(), &[BuildInput::Triangles(t)])
+        .unwrap_err();
+    assert!(e.message().contains("opacity micromap"), "{e}");
+    // Native triangles cannot move under a motion transform either.
     let gas = dev.triangles(&[[0.0; 3]; 3], GeometryFlags::NONE);
-    let desc = TransformDesc::SrtMotion {
-        child: dev.traversable_handle(gas).unwrap(),
-        motion: MotionOptions {
-            num_keys: 2,
-            flags: MotionFlags::NONE,
-            time_begin: 0.0,
-            time_end: 1.0,
-        },
-        keys: vec![SrtData::identity(); 2],
-    };
-    assert_eq!(
-        dev.create_transform(&desc).unwrap_err().kind(),
-        ErrorKind::Unsupported
-    );
-    let omm = OpacityMicromapArrayDesc {
-        micromaps: vec![],
-        data: vec![],
-    };
-    assert_eq!(
-        dev.create_opacity_micromap_array(&omm).unwrap_err().kind(),
-        ErrorKind::Unsupported
-    );
-    assert_eq!(
-        dev.set_accuracy(Accuracy::FAST).unwrap_err().kind(),
-        ErrorKind::Unsupported
-    );
+    let e = dev
+        .create_transform(&TransformDesc::SrtMotion {
+            child: dev.traversable_handle(gas).unwrap(),
+            motion: MotionOptions {
+                num_keys: 2,
+                flags: MotionFlags::NONE,
+                time_begin: 0.0,
+                time_end: 1.0,
+            },
+            keys: vec![SrtData::identity(); 2],
+        })
+        .unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::Unsupported);
+    assert!(e.message().contains("TriangleTest::Driver"), "{e}");
+    // The triangle path cannot change under live triangle structures.
+    let e = dev.set_accuracy(Accuracy::ROBUST).unwrap_err();
+    assert!(e.message().contains("destroy them first"), "{e}");
+    dev.destroy_accel(gas).unwrap();
     dev.set_accuracy(Accuracy::ROBUST).unwrap();
     let link = PipelineLinkOptions {
         max_trace_depth: 40,

@@ -1,0 +1,836 @@
+//! The traversal loop, written for exactly the features of the pipeline.
+//!
+//! One loop walks every level of the graph with one stack of `vec2<u32>` entries (a
+//! reference and the entry's near distance, to skip entries beyond the closest hit when
+//! they are popped). A reference's top two bits say what it is: 0 an inner BVH4 node, 1 a
+//! geometry leaf and 2 an instance leaf (count − 1 in bits 27..30, first slot below), 3 a
+//! level marker. Entering an instance saves the current level (ray in that level's space, BVH
+//! bases, instance data, accumulated transforms) in a small array and pushes a marker;
+//! popping the marker restores it. Transform traversables under an instance are folded
+//! into the instance's level as it is entered. Children are pushed far to near, so the
+//! nearest is visited first.
+//!
+//! The rules of DESIGN.md §4 are those of `optik_api::semantics`, ported: opacity and
+//! culling (`opacity::resolve`, `opacity::triangle_face_culled`), facing (decided in object
+//! space, flipped by instances), the SBT index (`sbt_index::hit_record_index`), masks, and
+//! the open interval for built-in primitives and closed one for reports (`ray`).
+
+use super::KernelConfig;
+use optik_api::{ExceptionFlags, TriangleTest};
+
+pub(super) fn write(c: &KernelConfig<'_>, out: &mut String) {
+    level_struct(c, out);
+    rules(c, out);
+    enter(c, out);
+    if c.instancing() {
+        out.push_str(
+            "fn optk_rows(at: u32) -> OptkXform {\n    return OptkXform(bitcast<vec4<f32>>(optk_fetch(at)), bitcast<vec4<f32>>(optk_fetch(at + 1u)), bitcast<vec4<f32>>(optk_fetch(at + 2u)));\n}\n\n",
+        );
+    }
+    if c.any_graph() {
+        transforms(c, out);
+    }
+    accept(c, out);
+    if c.triangles() {
+        triangles(c, out);
+    }
+    if c.custom() && c.intersection() {
+        custom(c, out);
+        report(c, out);
+    }
+    if c.spheres() {
+        spheres(c, out);
+    }
+    if c.curves() {
+        curves(c, out);
+    }
+    traverse(c, out);
+}
+
+fn level_struct(c: &KernelConfig<'_>, out: &mut String) {
+    out.push_str(
+        "\n// One level of the graph being traversed: the ray in its space and its structure.\nstruct OptkLevel {\n    origin: vec3<f32>,\n    direction: vec3<f32>,\n    slab: OptkSlabRay,\n",
+    );
+    if c.triangles() && c.accuracy.triangle == TriangleTest::Watertight {
+        out.push_str("    woop: OptkWoop,\n");
+    }
+    out.push_str(
+        "    header: u32,\n    node_base: u32,\n    prim_base: u32,\n    kind_word: u32,\n    keys: u32,\n    key: u32,\n    frac: f32,\n    is_ias: bool,\n    instance_id: u32,\n    instance_index: u32,\n    sbt_offset: u32,\n    inst_flags: u32,\n    flip: bool,\n",
+    );
+    if c.instancing() {
+        out.push_str("    w2o: OptkXform,\n    o2w: OptkXform,\n");
+    }
+    out.push_str("}\n");
+}
+
+fn rules(c: &KernelConfig<'_>, out: &mut String) {
+    out.push_str(
+        r#"
+// optik_api::semantics::opacity::resolve: 0 culled, 1 opaque, 2 non-opaque. `omm` is a
+// micromap state 0..3 or OPTK_NONE.
+fn optk_fate(geom: u32, inst: u32, ray: u32, omm: u32) -> u32 {
+    let force2 = (ray & 1024u) != 0u || (inst & 16u) != 0u;
+    var opaque = (geom & 1u) != 0u;
+    if omm != OPTK_NONE && (inst & 32u) == 0u {
+        if omm == 0u || (omm == 2u && force2) {
+            return 0u;
+        }
+        opaque = omm == 1u || (omm == 3u && force2);
+    }
+    if (inst & 4u) != 0u {
+        opaque = true;
+    } else if (inst & 8u) != 0u {
+        opaque = false;
+    }
+    if (ray & 1u) != 0u {
+        opaque = true;
+    } else if (ray & 2u) != 0u {
+        opaque = false;
+    }
+    if (opaque && (ray & 64u) != 0u) || (!opaque && (ray & 128u) != 0u) {
+        return 0u;
+    }
+    return select(2u, 1u, opaque);
+}
+
+// Pushing order of four children: keys descending (misses carry +inf and come first).
+struct OptkSorted {
+    keys: vec4<f32>,
+    refs: vec4<u32>,
+}
+
+fn optk_sort4(k_in: vec4<f32>, r_in: vec4<u32>) -> OptkSorted {
+    var k = k_in;
+    var r = r_in;
+    if k.y > k.x {
+        k = k.yxzw;
+        r = r.yxzw;
+    }
+    if k.w > k.z {
+        k = k.xywz;
+        r = r.xywz;
+    }
+    if k.z > k.x {
+        k = k.zyxw;
+        r = r.zyxw;
+    }
+    if k.w > k.y {
+        k = k.xwzy;
+        r = r.xwzy;
+    }
+    if k.z > k.y {
+        k = k.xzyw;
+        r = r.xzyw;
+    }
+    return OptkSorted(k, r);
+}
+
+// A traversable's header from its handle-table slot and generation, or OPTK_NONE.
+fn optk_resolve(slot: u32, generation: u32) -> u32 {
+    if slot >= arrayLength(&optk_handles) {
+        return OPTK_NONE;
+    }
+    let e = optk_handles[slot];
+    if e.x != (generation | 0x80000000u) {
+        return OPTK_NONE;
+    }
+    return e.z;
+}
+
+"#,
+    );
+    out.push_str(&format!(
+        r#"// A 64-bit traversable handle (slot + 1, generation, device) to a header, or OPTK_NONE.
+fn optk_resolve_handle(h: vec2<u32>) -> u32 {{
+    let slot_field = h.x & 0xFFFFFFu;
+    if slot_field == 0u || (h.y >> 16u) != {}u {{
+        return OPTK_NONE;
+    }}
+    return optk_resolve(slot_field - 1u, (h.x >> 24u) | ((h.y & 0xFFFFu) << 8u));
+}}
+
+"#,
+        c.device16
+    ));
+    if c.triangles() {
+        out.push_str(
+            r#"// optik_api::semantics::opacity::triangle_face_culled.
+fn optk_face_culled(front: bool, geom: u32, inst: u32, ray: u32) -> bool {
+    if (geom & 4u) != 0u || (inst & 1u) != 0u {
+        return false;
+    }
+    return (front && (ray & 32u) != 0u) || (!front && (ray & 16u) != 0u);
+}
+
+"#,
+        );
+    }
+    let debug = c.debug();
+    out.push_str(
+        "// The hit group record of a candidate (optik_api::semantics::sbt_index), or OPTK_NONE.\nfn optk_hit_record(instance_offset: u32, gas_index: u32) -> u32 {\n    let stride = optk_ray.sbt_stride;\n    let base = instance_offset + optk_ray.sbt_offset;\n    var index = OPTK_NONE;\n    if stride == 0u || gas_index <= (OPTK_NONE - base) / stride {\n        index = base + gas_index * stride;\n    }\n    if index >= optk_launch.sbt1.x {\n",
+    );
+    if debug {
+        out.push_str("        optk_raise(-7);\n        optk_done = true;\n");
+    }
+    out.push_str("        return OPTK_NONE;\n    }\n    return optk_launch.sbt0.z + index * optk_launch.sbt0.w;\n}\n\n");
+    if c.micromaps() {
+        out.push_str(
+            r#"// The micromap state of a triangle at barycentrics (u, v).
+fn optk_micromap(lv: ptr<function, OptkLevel>, word: u32, u: f32, v: f32) -> u32 {
+    if word <= 4u {
+        return word - 1u;
+    }
+    let h1 = optk_fetch((*lv).header + 1u);
+    let h2 = optk_fetch((*lv).header + 2u);
+    let d = optk_fetch((*lv).header + h1.w + word - 5u);
+    return optk_micromap_state((*lv).header + h2.x, d.x, d.y, d.z != 0u, u, v);
+}
+
+"#,
+        );
+    }
+}
+
+/// `optk_enter`: points a level at a structure; false when it holds nothing to hit now.
+fn enter(c: &KernelConfig<'_>, out: &mut String) {
+    out.push_str(
+        "fn optk_enter(lv: ptr<function, OptkLevel>, header: u32) -> bool {\n    let h0 = optk_fetch(header);\n    (*lv).header = header;\n    (*lv).kind_word = h0.x;\n    (*lv).keys = max(h0.y, 1u);\n    (*lv).node_base = header + h0.z;\n    (*lv).prim_base = header + h0.w;\n    (*lv).is_ias = (h0.x & 15u) == 2u;\n    (*lv).key = 0u;\n    (*lv).frac = 0.0;\n",
+    );
+    // Primitive types the pipeline was not compiled for are skipped (DEBUG: exception).
+    let mut supported = Vec::new();
+    for (on, code) in [
+        (c.triangles(), 0),
+        (c.custom(), 1),
+        (c.spheres(), 2),
+        (c.curves(), 3),
+    ] {
+        if on {
+            supported.push(format!("prim_type != {code}u"));
+        }
+    }
+    let unsupported = if supported.is_empty() {
+        "true".to_string()
+    } else {
+        supported.join(" && ")
+    };
+    out.push_str(&format!(
+        "    let prim_type = (h0.x >> 4u) & 15u;\n    if (h0.x & 15u) == 1u && {unsupported} {{\n"
+    ));
+    if c.debug() {
+        out.push_str("        optk_raise(-8);\n        optk_done = true;\n");
+    }
+    out.push_str("        return false;\n    }\n");
+    if !c.instancing() {
+        out.push_str("    if (h0.x & 15u) != 1u {\n        return false;\n    }\n");
+    }
+    if c.geometry_motion() {
+        out.push_str(
+            "    if (h0.x & 15u) == 1u && h0.y > 1u {\n        let h1 = optk_fetch(header + 1u);\n        let k = optk_motion_key(h0.y, bitcast<f32>(h1.x), bitcast<f32>(h1.y), h1.z, optk_ray.time);\n        if k.key < 0 {\n            return false;\n        }\n        (*lv).key = u32(k.key);\n        (*lv).frac = k.frac;\n    }\n",
+        );
+    }
+    out.push_str("    (*lv).slab = optk_slab_ray((*lv).origin, (*lv).direction);\n");
+    if c.triangles() && c.accuracy.triangle == TriangleTest::Watertight {
+        out.push_str("    (*lv).woop = optk_woop_ray((*lv).direction);\n");
+    }
+    out.push_str("    return optk_fetch(header + 2u).y > 0u;\n}\n\n");
+}
+
+/// `optk_through_transforms`: folds a chain of transform traversables into a level.
+fn transforms(c: &KernelConfig<'_>, out: &mut String) {
+    out.push_str(
+        r#"fn optk_srt_key(at: u32) -> array<vec4<f32>, 4> {
+    return array<vec4<f32>, 4>(bitcast<vec4<f32>>(optk_fetch(at)), bitcast<vec4<f32>>(optk_fetch(at + 1u)), bitcast<vec4<f32>>(optk_fetch(at + 2u)), bitcast<vec4<f32>>(optk_fetch(at + 3u)));
+}
+
+// Follows transform traversables from `first` down to a structure, composing them into the
+// level's ray and matrices; OPTK_NONE when a child is gone or the object has vanished.
+fn optk_through_transforms(lv: ptr<function, OptkLevel>, first: u32) -> u32 {
+    var header = first;
+    for (var i = 0u; i < 64u; i = i + 1u) {
+        let h0 = optk_fetch(header);
+        let kind = h0.x & 15u;
+        if kind <= 2u {
+            return header;
+        }
+        let h1 = optk_fetch(header + 1u);
+        let data = header + h1.w;
+        var o2w: OptkXform;
+        var w2o: OptkXform;
+        if kind == 3u {
+            w2o = optk_rows(data);
+            o2w = optk_rows(data + 3u);
+        } else {
+"#,
+    );
+    if c.motion() {
+        out.push_str(
+            r#"            let k = optk_motion_key(h0.y, bitcast<f32>(h1.x), bitcast<f32>(h1.y), h1.z, optk_ray.time);
+            if k.key < 0 {
+                return OPTK_NONE;
+            }
+            let a = u32(k.key);
+            let b = min(a + 1u, h0.y - 1u);
+            if kind == 4u {
+                o2w = optk_lerp_xform(optk_rows(data + 3u * a), optk_rows(data + 3u * b), k.frac);
+            } else {
+                o2w = optk_srt_lerp(optk_srt_key(data + 4u * a), optk_srt_key(data + 4u * b), k.frac);
+            }
+"#,
+        );
+    } else {
+        // Without motion compiled in, keys 0 are used (FeatureSet::motion).
+        out.push_str(
+            r#"            if kind == 4u {
+                o2w = optk_rows(data);
+            } else {
+                let k = optk_srt_key(data);
+                o2w = optk_srt_matrix(k[0], k[1], k[2], k[3]);
+            }
+"#,
+        );
+    }
+    out.push_str(
+        r#"            w2o = optk_xform_inverse(o2w);
+        }
+        (*lv).w2o = optk_xform_mul(w2o, (*lv).w2o);
+        (*lv).o2w = optk_xform_mul((*lv).o2w, o2w);
+        (*lv).origin = optk_xform_point(w2o, (*lv).origin);
+        (*lv).direction = optk_canonical_direction(optk_xform_vector(w2o, (*lv).direction));
+        header = optk_resolve(h0.z, h0.w);
+        if header == OPTK_NONE {
+            return OPTK_NONE;
+        }
+    }
+    return OPTK_NONE;
+}
+
+"#,
+    );
+}
+
+/// The candidate record and the acceptance of built-in primitive hits (any-hit included).
+fn accept(c: &KernelConfig<'_>, out: &mut String) {
+    out.push_str(
+        r#"fn optk_candidate(lv: ptr<function, OptkLevel>, slot: u32, prim: u32, gas_index: u32, geom: u32) -> OptkHit {
+    var h: OptkHit;
+    h.prim_index = prim;
+    h.gas_index = gas_index;
+    h.instance_id = (*lv).instance_id;
+    h.instance_index = (*lv).instance_index;
+    h.record = optk_hit_record((*lv).sbt_offset, gas_index);
+    h.gas = (*lv).header;
+    h.slot = slot;
+    h.geom_flags = geom;
+    h.inst_flags = (*lv).inst_flags;
+"#,
+    );
+    if c.instancing() {
+        out.push_str(
+            "    h.obj_origin = (*lv).origin;\n    h.obj_direction = (*lv).direction;\n    h.w2o = (*lv).w2o;\n    h.o2w = (*lv).o2w;\n",
+        );
+    }
+    out.push_str(
+        r#"    return h;
+}
+
+fn optk_commit(h: OptkHit) {
+    optk_best = h;
+    optk_found = true;
+    optk_ray.tmax = h.t;
+}
+
+// Accepts a built-in primitive's candidate of fate `fate` (1 opaque, 2 non-opaque).
+fn optk_accept(h: OptkHit, fate: u32) {
+    if optk_unwind == 3u {
+        return;
+    }
+"#,
+    );
+    if c.any_hit() {
+        out.push_str(
+            r#"    if fate == 2u && (optk_group_flags(h.record) & 2u) != 0u {
+        optk_hit = h;
+        optk_ray.tmax = h.t;
+        let reason = optk_ah(h.record);
+        optk_ray.tmax = optk_best.t;
+        if reason == 3u {
+            optk_done = true;
+            return;
+        }
+        if reason == 1u {
+            return;
+        }
+        optk_commit(h);
+        if reason == 2u {
+            optk_done = true;
+        }
+    } else {
+        optk_commit(h);
+    }
+"#,
+        );
+    } else {
+        out.push_str("    optk_commit(h);\n");
+    }
+    out.push_str("    if (optk_ray.flags & 4u) != 0u {\n        optk_done = true;\n    }\n}\n\n");
+}
+
+/// The code reading key `key` of a slot's data, lerped toward the next key under motion.
+fn keyed(c: &KernelConfig<'_>) -> bool {
+    c.geometry_motion()
+}
+
+fn triangles(c: &KernelConfig<'_>, out: &mut String) {
+    out.push_str(
+        r#"fn optk_leaf_triangles(lv: ptr<function, OptkLevel>, first: u32, count: u32) {
+    for (var i = 0u; i < count; i = i + 1u) {
+        if optk_done {
+            return;
+        }
+        let slot = first + i;
+        let a = (*lv).prim_base + (slot * (*lv).keys + (*lv).key) * 3u;
+        let q0 = optk_fetch(a);
+        let q1 = optk_fetch(a + 1u);
+        let q2 = optk_fetch(a + 2u);
+        var v0 = bitcast<vec3<f32>>(q0.xyz);
+        var v1 = bitcast<vec3<f32>>(q1.xyz);
+        var v2 = bitcast<vec3<f32>>(q2.xyz);
+"#,
+    );
+    if keyed(c) {
+        out.push_str(
+            r#"        if (*lv).frac > 0.0 {
+            v0 = mix(v0, bitcast<vec3<f32>>(optk_fetch(a + 3u).xyz), (*lv).frac);
+            v1 = mix(v1, bitcast<vec3<f32>>(optk_fetch(a + 4u).xyz), (*lv).frac);
+            v2 = mix(v2, bitcast<vec3<f32>>(optk_fetch(a + 5u).xyz), (*lv).frac);
+        }
+"#,
+        );
+    }
+    out.push_str(match c.accuracy.triangle {
+        // `Driver` is refused by `set_accuracy`; it never reaches a kernel.
+        TriangleTest::Watertight | TriangleTest::Driver => "        let t = optk_tri_watertight((*lv).woop, (*lv).origin, v0, v1, v2, optk_ray.tmin, optk_best.t);\n",
+        TriangleTest::MollerTrumbore => "        let t = optk_tri_moller_trumbore((*lv).origin, (*lv).direction, v0, v1, v2, optk_ray.tmin, optk_best.t);\n",
+    });
+    out.push_str(
+        r#"        if !t.hit {
+            continue;
+        }
+        let geom = q1.w >> 29u;
+        let front = t.front != (*lv).flip;
+        if optk_face_culled(front, geom, (*lv).inst_flags, optk_ray.flags) {
+            continue;
+        }
+        var omm = OPTK_NONE;
+"#,
+    );
+    if c.micromaps() {
+        out.push_str(
+            "        if q2.w != 0u && ((*lv).inst_flags & 32u) == 0u {\n            omm = optk_micromap(lv, q2.w, t.u, t.v);\n        }\n",
+        );
+    }
+    out.push_str(
+        r#"        let fate = optk_fate(geom, (*lv).inst_flags, optk_ray.flags, omm);
+        if fate == 0u {
+            continue;
+        }
+        var h = optk_candidate(lv, slot, q0.w, q1.w & 0x1FFFFFFFu, geom);
+        h.t = t.t;
+        h.hit_kind = select(0xFFu, 0xFEu, front);
+        h.attrs[0] = bitcast<u32>(t.u);
+        h.attrs[1] = bitcast<u32>(t.v);
+        optk_accept(h, fate);
+    }
+}
+
+"#,
+    );
+}
+
+fn custom(c: &KernelConfig<'_>, out: &mut String) {
+    out.push_str(
+        r#"fn optk_leaf_custom(lv: ptr<function, OptkLevel>, first: u32, count: u32) {
+    for (var i = 0u; i < count; i = i + 1u) {
+        if optk_done {
+            return;
+        }
+        let slot = first + i;
+        let base = (*lv).prim_base + slot * (1u + 2u * (*lv).keys);
+        let info = optk_fetch(base);
+        let a = base + 1u + 2u * (*lv).key;
+        var lo = bitcast<vec3<f32>>(optk_fetch(a).xyz);
+        var hi = bitcast<vec3<f32>>(optk_fetch(a + 1u).xyz);
+"#,
+    );
+    if keyed(c) {
+        out.push_str(
+            r#"        if (*lv).frac > 0.0 {
+            lo = mix(lo, bitcast<vec3<f32>>(optk_fetch(a + 2u).xyz), (*lv).frac);
+            hi = mix(hi, bitcast<vec3<f32>>(optk_fetch(a + 3u).xyz), (*lv).frac);
+        }
+"#,
+        );
+    }
+    out.push_str(
+        r#"        if !optk_box1((*lv).slab, lo, hi, optk_ray.tmin, optk_best.t) {
+            continue;
+        }
+        let geom = info.y >> 29u;
+        if optk_fate(geom, (*lv).inst_flags, optk_ray.flags, OPTK_NONE) == 0u {
+            continue;
+        }
+        let h = optk_candidate(lv, slot, info.x, info.y & 0x1FFFFFFFu, geom);
+        if optk_unwind == 3u {
+            return;
+        }
+        if (optk_group_flags(h.record) & 4u) == 0u {
+            continue;
+        }
+        optk_hit = h;
+        optk_hit.t = optk_best.t;
+        optk_ray.tmax = optk_best.t;
+        let reason = optk_is(h.record);
+        if reason >= 2u {
+            optk_done = true;
+            return;
+        }
+    }
+}
+
+"#,
+    );
+}
+
+fn report(c: &KernelConfig<'_>, out: &mut String) {
+    out.push_str(
+        r#"// rt_report_intersection: t in the closed interval [tmin, closest so far], then any-hit.
+fn optk_report(t: f32, hit_kind: u32, attributes: array<u32, 8>) -> bool {
+    if optk_done || optk_unwind != 0u {
+        return false;
+    }
+    if !(t >= optk_ray.tmin && t <= optk_best.t) {
+        return false;
+    }
+    let fate = optk_fate(optk_hit.geom_flags, optk_hit.inst_flags, optk_ray.flags, OPTK_NONE);
+    if fate == 0u {
+        return false;
+    }
+    var h = optk_hit;
+    h.t = t;
+    h.hit_kind = hit_kind & 0x7Fu;
+    h.attrs = attributes;
+"#,
+    );
+    if c.any_hit() {
+        out.push_str(
+            r#"    if fate == 2u && (optk_group_flags(h.record) & 2u) != 0u {
+        let own = optk_hit;
+        optk_hit = h;
+        optk_ray.tmax = t;
+        let reason = optk_ah(h.record);
+        optk_hit = own;
+        optk_ray.tmax = optk_best.t;
+        if reason == 3u {
+            optk_done = true;
+            return false;
+        }
+        if reason == 1u {
+            return false;
+        }
+        optk_commit(h);
+        if reason == 2u {
+            optk_done = true;
+            optk_unwind = 2u;
+            return true;
+        }
+    } else {
+        optk_commit(h);
+    }
+"#,
+        );
+    } else {
+        out.push_str("    optk_commit(h);\n");
+    }
+    out.push_str(
+        "    if (optk_ray.flags & 4u) != 0u {\n        optk_done = true;\n        optk_unwind = 2u;\n    }\n    return true;\n}\n\n",
+    );
+}
+
+fn spheres(c: &KernelConfig<'_>, out: &mut String) {
+    out.push_str(
+        r#"fn optk_leaf_spheres(lv: ptr<function, OptkLevel>, first: u32, count: u32) {
+    for (var i = 0u; i < count; i = i + 1u) {
+        if optk_done {
+            return;
+        }
+        let slot = first + i;
+        let base = (*lv).prim_base + slot * (1u + (*lv).keys);
+        let info = optk_fetch(base);
+        var s = bitcast<vec4<f32>>(optk_fetch(base + 1u + (*lv).key));
+"#,
+    );
+    if keyed(c) {
+        out.push_str(
+            "        if (*lv).frac > 0.0 {\n            s = mix(s, bitcast<vec4<f32>>(optk_fetch(base + 2u + (*lv).key)), (*lv).frac);\n        }\n",
+        );
+    }
+    out.push_str(
+        r#"        // Built-in primitives hit in the open interval (tmin, tmax): the near root entering
+        // (front), else the far root leaving (a ray from inside; back).
+        let r = optik_sphere_roots(s.xyz, s.w, (*lv).origin, (*lv).direction);
+        let near_ok = r.z != 0.0 && r.x > optk_ray.tmin && r.x < optk_best.t;
+        let far_ok = r.z != 0.0 && r.y > optk_ray.tmin && r.y < optk_best.t;
+        if !near_ok && !far_ok {
+            continue;
+        }
+        let geom = info.y >> 29u;
+        let fate = optk_fate(geom, (*lv).inst_flags, optk_ray.flags, OPTK_NONE);
+        if fate == 0u {
+            continue;
+        }
+        var h = optk_candidate(lv, slot, info.x, info.y & 0x1FFFFFFFu, geom);
+        h.t = select(r.y, r.x, near_ok);
+        h.hit_kind = select(0xFFu, 0xFEu, near_ok);
+        optk_accept(h, fate);
+    }
+}
+
+"#,
+    );
+}
+
+fn curves(c: &KernelConfig<'_>, out: &mut String) {
+    out.push_str(
+        r#"fn optk_leaf_curves(lv: ptr<function, OptkLevel>, first: u32, count: u32) {
+    let basis = ((*lv).kind_word >> 8u) & 3u;
+    for (var i = 0u; i < count; i = i + 1u) {
+        if optk_done {
+            return;
+        }
+        let slot = first + i;
+        let base = (*lv).prim_base + slot * (1u + 4u * (*lv).keys);
+        let info = optk_fetch(base);
+        let a = base + 1u + 4u * (*lv).key;
+        var p: array<vec4<f32>, 4>;
+        for (var j = 0u; j < 4u; j = j + 1u) {
+            p[j] = bitcast<vec4<f32>>(optk_fetch(a + j));
+"#,
+    );
+    if keyed(c) {
+        out.push_str(
+            "            if (*lv).frac > 0.0 {\n                p[j] = mix(p[j], bitcast<vec4<f32>>(optk_fetch(a + 4u + j)), (*lv).frac);\n            }\n",
+        );
+    }
+    out.push_str(
+        r#"        }
+        let t = optik_curve_intersect(basis, p[0], p[1], p[2], p[3], (info.z & 1u) != 0u, (info.z & 2u) != 0u, (*lv).origin, (*lv).direction, optk_ray.tmin, optk_best.t);
+        if t.z == 0.0 || !(t.x > optk_ray.tmin && t.x < optk_best.t) {
+            continue;
+        }
+        let geom = info.y >> 29u;
+        let fate = optk_fate(geom, (*lv).inst_flags, optk_ray.flags, OPTK_NONE);
+        if fate == 0u {
+            continue;
+        }
+        var h = optk_candidate(lv, slot, info.x, info.y & 0x1FFFFFFFu, geom);
+        h.t = t.x;
+        h.hit_kind = 0xFEu;
+        h.attrs[0] = bitcast<u32>(t.y);
+        optk_accept(h, fate);
+    }
+}
+
+"#,
+    );
+}
+
+fn traverse(c: &KernelConfig<'_>, out: &mut String) {
+    let stack = c.sizes.stack.max(1);
+    let saved_levels = c.sizes.levels.saturating_sub(1).max(1);
+    out.push_str(&format!(
+        "const OPTK_STACK: u32 = {stack}u;\nconst OPTK_LEVELS: u32 = {saved_levels}u;\n\n"
+    ));
+    out.push_str(
+        r#"// Walks the graph under `handle` for optk_ray; the closest accepted hit ends in optk_best.
+fn optk_traverse(handle: vec2<u32>) -> bool {
+    optk_found = false;
+    optk_done = false;
+    optk_best.t = optk_ray.tmax;
+    var root = optk_resolve_handle(handle);
+    if root == OPTK_NONE {
+"#,
+    );
+    if c.exception(ExceptionFlags::DEBUG) {
+        out.push_str(
+            "        if (handle.x | handle.y) != 0u {\n            optk_raise(-5);\n        }\n",
+        );
+    }
+    out.push_str(
+        r#"        return false;
+    }
+    var lv: OptkLevel;
+    lv.origin = optk_ray.origin;
+    lv.direction = optk_ray.direction;
+    lv.instance_id = 0u;
+    lv.instance_index = 0u;
+    lv.sbt_offset = 0u;
+    lv.inst_flags = 0u;
+    lv.flip = false;
+"#,
+    );
+    if c.instancing() {
+        out.push_str("    lv.w2o = optk_xform_identity();\n    lv.o2w = optk_xform_identity();\n");
+    }
+    if c.any_graph() {
+        out.push_str(
+            "    root = optk_through_transforms(&lv, root);\n    if root == OPTK_NONE || !optk_finite3(lv.origin) || !optk_finite3(lv.direction) {\n        return false;\n    }\n",
+        );
+    }
+    out.push_str(
+        r#"    if !optk_enter(&lv, root) {
+        return false;
+    }
+    var stack: array<vec2<u32>, OPTK_STACK>;
+    stack[0] = vec2<u32>(0u, bitcast<u32>(optk_ray.tmin));
+    var sp = 1u;
+"#,
+    );
+    if c.instancing() {
+        out.push_str("    var levels: array<OptkLevel, OPTK_LEVELS>;\n    var lvl = 0u;\n");
+    }
+    out.push_str(
+        r#"    loop {
+        if sp == 0u || optk_done {
+            break;
+        }
+        sp = sp - 1u;
+        let e = stack[sp];
+        let tag = e.x >> 30u;
+"#,
+    );
+    if c.instancing() {
+        out.push_str(
+            "        if tag == 3u {\n            lvl = lvl - 1u;\n            lv = levels[lvl];\n            continue;\n        }\n",
+        );
+    }
+    out.push_str(
+        r#"        if bitcast<f32>(e.y) > optk_best.t {
+            continue;
+        }
+        if tag == 0u {
+            let n = optk_node4(lv.node_base, e.x & 0x3FFFFFFFu, lv.slab, optk_ray.tmin, optk_best.t);
+            var refs = vec4<u32>(OPTK_NONE);
+            for (var k = 0u; k < 4u; k = k + 1u) {
+                if n.hit[k] {
+                    if n.kind[k] == 1u {
+                        refs[k] = n.child[k];
+                    } else {
+                        // A leaf of count - 1 in bits 27..30: primitives (1) or instances (2).
+                        let tag = select(1u, 2u, lv.is_ias);
+                        refs[k] = (tag << 30u) | ((n.kind[k] - 2u) << 27u) | n.child[k];
+                    }
+                }
+            }
+            let s = optk_sort4(select(vec4<f32>(optk_inf()), n.tnear, n.hit), refs);
+            for (var k = 0u; k < 4u; k = k + 1u) {
+                if s.refs[k] != OPTK_NONE && sp < OPTK_STACK {
+                    stack[sp] = vec2<u32>(s.refs[k], bitcast<u32>(s.keys[k]));
+                    sp = sp + 1u;
+                }
+            }
+        } else if tag == 1u {
+            let first = e.x & 0x7FFFFFFu;
+            let count = ((e.x >> 27u) & 7u) + 1u;
+            switch (lv.kind_word >> 4u) & 15u {
+"#,
+    );
+    if c.triangles() {
+        out.push_str("                case 0u: {\n                    optk_leaf_triangles(&lv, first, count);\n                }\n");
+    }
+    if c.custom() && c.intersection() {
+        out.push_str("                case 1u: {\n                    optk_leaf_custom(&lv, first, count);\n                }\n");
+    }
+    if c.spheres() {
+        out.push_str("                case 2u: {\n                    optk_leaf_spheres(&lv, first, count);\n                }\n");
+    }
+    if c.curves() {
+        out.push_str("                case 3u: {\n                    optk_leaf_curves(&lv, first, count);\n                }\n");
+    }
+    out.push_str("                default: {}\n            }\n        }");
+    if c.instancing() {
+        instance_entry(c, out);
+    }
+    out.push_str("\n    }\n    return optk_found;\n}\n\n");
+}
+
+/// Entering an instance popped from the stack (tag 2).
+fn instance_entry(c: &KernelConfig<'_>, out: &mut String) {
+    out.push_str(
+        r#" else {
+            // An instance leaf: enter its first instance, leaving the rest for later.
+            let count = ((e.x >> 27u) & 7u) + 1u;
+            let slot = e.x & 0x7FFFFFFu;
+            if count > 1u && sp < OPTK_STACK {
+                stack[sp] = vec2<u32>((2u << 30u) | ((count - 2u) << 27u) | (slot + 1u), e.y);
+                sp = sp + 1u;
+            }
+            let rec = lv.prim_base + slot * 8u;
+            let info = optk_fetch(rec + 6u);
+            if ((info.z & 0xFFu) & optk_ray.mask) == 0u {
+                continue;
+            }
+            let link = optk_fetch(rec + 7u);
+            var child = optk_resolve(link.x, link.y);
+            if child == OPTK_NONE {
+                continue;
+            }
+            let iw = optk_rows(rec);
+            let io = optk_rows(rec + 3u);
+            var next = lv;
+            next.w2o = optk_xform_mul(iw, lv.w2o);
+            next.o2w = optk_xform_mul(lv.o2w, io);
+            next.origin = optk_xform_point(iw, lv.origin);
+            next.direction = optk_canonical_direction(optk_xform_vector(iw, lv.direction));
+            next.instance_id = info.x;
+            next.instance_index = info.w;
+            next.sbt_offset = lv.sbt_offset + info.y;
+            // Nested instances: flips compose, culling and micromap switches accumulate,
+            // and the innermost instance that sets DISABLE_ANYHIT or ENFORCE_ANYHIT decides.
+            let f = info.z >> 8u;
+            next.flip = lv.flip != ((f & 2u) != 0u);
+            var flags = lv.inst_flags | (f & 49u);
+            if (f & 12u) != 0u {
+                flags = (flags & ~12u) | (f & 12u);
+            }
+            next.inst_flags = flags;
+"#,
+    );
+    if c.any_graph() {
+        out.push_str("            child = optk_through_transforms(&next, child);\n            if child == OPTK_NONE {\n                continue;\n            }\n");
+    }
+    out.push_str(
+        r#"            if !optk_finite3(next.origin) || !optk_finite3(next.direction) {
+                continue;
+            }
+            if !optk_enter(&next, child) {
+                continue;
+            }
+"#,
+    );
+    if !c.any_graph() {
+        // Single-level instancing: an instance holds geometry only.
+        out.push_str("            if next.is_ias {\n                continue;\n            }\n");
+    }
+    out.push_str(
+        r#"            if lvl >= OPTK_LEVELS || sp + 2u > OPTK_STACK {
+                continue;
+            }
+            levels[lvl] = lv;
+            lvl = lvl + 1u;
+            stack[sp] = vec2<u32>(3u << 30u, 0u);
+            stack[sp + 1u] = vec2<u32>(0u, bitcast<u32>(optk_ray.tmin));
+            sp = sp + 2u;
+            lv = next;
+        }"#,
+    );
+}

@@ -1,0 +1,119 @@
+//! Modules and program groups.
+//!
+//! A module keeps its source: pipelines recompile it with their payload length and lower
+//! it into the megakernel ([`instance`] clones its functions per call context, `crate::kernel`
+//! writes the rest). Program groups keep their modules alive, so destroying a module does
+//! not break groups made from it.
+
+pub(crate) mod analysis;
+pub(crate) mod instance;
+
+use optik_api::frontend::{self, CompiledModule};
+use optik_api::{
+    Error, ModuleCompileOptions, PipelineCompileOptions, ProgramGroupDesc, ProgramRef,
+    ProgramSource, Result,
+};
+use std::sync::Arc;
+
+/// A compiled module.
+pub(crate) struct ModuleObject {
+    pub source: Arc<ModuleSource>,
+}
+
+/// A module's source and its check at creation.
+pub(crate) struct ModuleSource {
+    pub source: ProgramSource,
+    /// Compiled with the creation's payload length (the pipeline's, or 32 when `Auto`).
+    pub compiled: CompiledModule,
+}
+
+impl ModuleObject {
+    /// Compiles `source`; the log lists the programs found. The optimisation and debug
+    /// levels of `options` do not change the generated WGSL (the driver optimises it).
+    pub fn create(
+        _options: &ModuleCompileOptions,
+        pipeline_options: &PipelineCompileOptions,
+        source: &ProgramSource,
+    ) -> Result<(ModuleObject, String)> {
+        let payload = pipeline_options.num_payload_values.or(32);
+        if payload > 32 {
+            return Err(Error::limit(format!(
+                "pipeline_options.num_payload_values is {payload}; at most 32 payload registers exist"
+            )));
+        }
+        let compiled = frontend::compile(source, payload)?;
+        let mut log = format!("{}: {} programs", source.file_name, compiled.programs.len());
+        for p in &compiled.programs {
+            log.push_str(&format!("\n  {} ({}) at line {}", p.name, p.kind, p.line));
+        }
+        Ok((
+            ModuleObject {
+                source: Arc::new(ModuleSource {
+                    source: source.clone(),
+                    compiled,
+                }),
+            },
+            log,
+        ))
+    }
+}
+
+/// A program group: its description and the modules its programs come from.
+pub(crate) struct GroupObject {
+    pub desc: ProgramGroupDesc,
+    /// The source of each program of `desc.programs()`, in that order.
+    pub sources: Vec<Arc<ModuleSource>>,
+}
+
+impl GroupObject {
+    /// Checks that every program of `desc` exists with the kind its place asks for.
+    pub fn create(
+        desc: &ProgramGroupDesc,
+        module_of: &dyn Fn(&ProgramRef) -> Result<Arc<ModuleSource>>,
+    ) -> Result<GroupObject> {
+        let mut sources = Vec::new();
+        for (kind, program) in desc.programs() {
+            let source = module_of(program)?;
+            let found = source.compiled.program(&program.entry).ok_or_else(|| {
+                let names: Vec<&str> = source
+                    .compiled
+                    .programs
+                    .iter()
+                    .filter(|p| p.kind == kind)
+                    .map(|p| p.name.as_str())
+                    .collect();
+                Error::invalid(format!(
+                    "program group names {} program `{}`, which module `{}` does not define (its {} programs: {})",
+                    kind.name(),
+                    program.entry,
+                    source.source.file_name,
+                    kind.name(),
+                    if names.is_empty() { "none".to_string() } else { names.join(", ") }
+                ))
+            })?;
+            if found.kind != kind {
+                return Err(Error::invalid(format!(
+                    "program group uses `{}` as its {} program, but it is a {} program (its name's prefix says so); use a function named `{}...`",
+                    program.entry,
+                    kind.name(),
+                    found.kind.name(),
+                    kind.prefix()
+                )));
+            }
+            sources.push(source);
+        }
+        if let ProgramGroupDesc::Callables {
+            direct: None,
+            continuation: None,
+        } = desc
+        {
+            return Err(Error::invalid(
+                "a callables program group needs a direct or a continuation callable",
+            ));
+        }
+        Ok(GroupObject {
+            desc: desc.clone(),
+            sources,
+        })
+    }
+}

@@ -1,0 +1,143 @@
+//! DESIGN.md §6: the kernel holds only what the pipeline uses, and reports it.
+mod common;
+use common::*;
+use optik_api::*;
+
+/// Names that only the code of one feature defines.
+const SPHERES: &str = "optik_sphere_roots(";
+const CURVES: &str = "optik_curve_intersect(";
+const MOTION: &str = "optk_motion_key(";
+const INSTANCES: &str = "OptkXform";
+const TRANSFORMS: &str = "optk_through_transforms(";
+const ANY_HIT: &str = "fn optk_ah(";
+const INTERSECTION: &str = "fn optk_is(";
+const EXCEPTIONS: &str = "optk_raise(";
+const MICROMAPS: &str = "optk_micromap_state(";
+
+#[test]
+fn a_triangle_only_single_gas_pipeline_has_nothing_else() {
+    let dev = optik_wgpu::WgpuDevice::new().unwrap();
+    let d: &dyn Device = &dev;
+    let gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
+    let m = module(d, RAY_LIST);
+    let g = ray_list_groups(d, m, 1, &[]);
+    let p = pipeline(d, &g, 1);
+    let f = d.pipeline_features(p).unwrap();
+    assert_eq!(f.primitive_types, PrimitiveTypeFlags::TRIANGLE);
+    assert_eq!(f.traversable_graph, TraversableGraph::SingleGas);
+    assert!(!f.motion && !f.any_hit && !f.intersection && !f.opacity_micromaps);
+    assert!(f.exceptions.is_empty());
+    let src = dev.kernel_source(p).unwrap();
+    for absent in [
+        SPHERES,
+        CURVES,
+        MOTION,
+        INSTANCES,
+        TRANSFORMS,
+        ANY_HIT,
+        INTERSECTION,
+        EXCEPTIONS,
+        MICROMAPS,
+    ] {
+        assert!(
+            !src.contains(absent),
+            "`{absent}` in a triangle-only single-GAS kernel"
+        );
+    }
+    assert!(src.contains("optk_tri_watertight("));
+    // And it still traces.
+    let table = numbered_sbt(d, &g);
+    let h = d.traversable_handle(gas).unwrap();
+    assert!(
+        trace_rays(
+            d,
+            p,
+            &table,
+            h,
+            &[Ray::new([0.5, 0.5, 1.0], [0.0, 0.0, -1.0])],
+            TraceArgs::default()
+        )[0]
+        .hit()
+    );
+}
+
+#[test]
+fn forcing_every_feature_compiles_every_part() {
+    let dev = optik_wgpu::WgpuDevice::new().unwrap();
+    let d: &dyn Device = &dev;
+    let src = format!(
+        "{RAY_LIST}\nfn anyhit__a() {{ }}\nfn intersection__i() {{ var a: RtAttributes; _ = rt_report_intersection(1.0, 0u, a); }}\n"
+    );
+    let m = module(d, &src);
+    let g = ray_list_groups(
+        d,
+        m,
+        1,
+        &[ProgramGroupDesc::HitGroup {
+            closest_hit: None,
+            any_hit: Some(ProgramRef::new(m, "anyhit__a")),
+            intersection: Some(ProgramRef::new(m, "intersection__i")),
+            builtin: BuiltinIntersector::Triangle,
+        }],
+    );
+    let options = PipelineCompileOptions {
+        uses_motion_blur: Setting::Value(true),
+        traversable_graph: Setting::Value(TraversableGraph::Any),
+        primitive_types: Setting::Value(PrimitiveTypeFlags::ALL),
+        exception_flags: Setting::Value(ExceptionFlags::ALL),
+        allow_opacity_micromaps: Setting::Value(true),
+        ..Default::default()
+    };
+    let p = d
+        .create_pipeline(&options, &PipelineLinkOptions::default(), &g.all())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let f = d.pipeline_features(p).unwrap();
+    assert!(f.motion && f.any_hit && f.intersection && f.opacity_micromaps && f.instancing());
+    let src = dev.kernel_source(p).unwrap();
+    for present in [
+        SPHERES,
+        CURVES,
+        MOTION,
+        INSTANCES,
+        TRANSFORMS,
+        ANY_HIT,
+        INTERSECTION,
+        EXCEPTIONS,
+        MICROMAPS,
+    ] {
+        assert!(
+            src.contains(present),
+            "`{present}` missing from an all-features kernel"
+        );
+    }
+}
+
+#[test]
+fn accuracy_selects_the_tests_compiled() {
+    let dev = optik_wgpu::WgpuDevice::new().unwrap();
+    let d: &dyn Device = &dev;
+    triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
+    d.set_accuracy(Accuracy::FAST).unwrap();
+    let m = module(d, RAY_LIST);
+    let g = ray_list_groups(d, m, 1, &[]);
+    let p = pipeline(d, &g, 1);
+    let src = dev.kernel_source(p).unwrap();
+    assert!(src.contains("optk_tri_moller_trumbore(") && !src.contains("optk_tri_watertight("));
+    assert!(
+        !src.contains("OPTK_SLAB_WIDEN;"),
+        "plain slabs are not widened"
+    );
+    d.set_accuracy(Accuracy::ROBUST).unwrap();
+    let p = pipeline(d, &g, 1);
+    let src = dev.kernel_source(p).unwrap();
+    assert!(src.contains("optk_tri_watertight(") && src.contains("far_x * OPTK_SLAB_WIDEN"));
+    // The driver's triangle test is the Vulkan backend's.
+    let driver = Accuracy {
+        triangle: TriangleTest::Driver,
+        ..Accuracy::ROBUST
+    };
+    let e = d.set_accuracy(driver).unwrap_err();
+    assert_eq!(e.kind(), optik_api::ErrorKind::Unsupported);
+    assert!(e.message().contains("TriangleTest::Driver"), "{e}");
+    assert_eq!(d.accuracy(), Accuracy::ROBUST);
+}

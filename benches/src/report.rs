@@ -1,0 +1,597 @@
+//! `optik bench-report`: one process, one run, every figure as a ratio against its neighbours
+//! (DESIGN.md §8).
+//!
+//! 1. Backends side by side on the test scenes: build time, camera and incoherent rays, with
+//!    Embree (through `embreex`, `benches/embree/peer.py`) on the same rays and thread count.
+//! 2. The accuracy options, each as (time, error): leaks through a closed mesh's shared edges and
+//!    vertices, and camera rays whose primitive differs from the robust default's.
+//! 3. Specialised pipelines against pipelines with features forced on: what each skipped
+//!    feature saves.
+//! 4. Build and trace cost as the triangle count grows.
+//!
+//! Absolute times are only meaningful on the machine that made them; the ratios are the result.
+
+use crate::mesh::{self, Mesh};
+use crate::raycast::{Hits, RayCaster};
+use crate::{npy, rays};
+use optik::{
+    Accuracy, BackendKind, Device, ExceptionFlags, PipelineCompileOptions, PrimitiveTypeFlags,
+    Result, Setting, TraversableGraph,
+};
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
+
+/// What to measure.
+#[derive(Clone, Debug)]
+pub struct ReportOptions {
+    /// Folder holding `stanford-bunny/` and `breakfast-room/` (DESIGN.md §9's scenes).
+    pub scenes: PathBuf,
+    /// Backends to include (those that cannot open are listed as skipped).
+    pub backends: Vec<BackendKind>,
+    /// Camera resolution.
+    pub width: u32,
+    /// Camera resolution.
+    pub height: u32,
+    /// Incoherent rays per scene.
+    pub incoherent: usize,
+    /// Launches per measurement; the best is kept.
+    pub repeat: usize,
+    /// CPU threads (`None`: all cores); Embree gets the same.
+    pub threads: Option<usize>,
+    /// Run Embree through `python3 benches/embree/peer.py`.
+    pub embree: bool,
+    /// Where `benches/embree/peer.py` lives.
+    pub peer_script: PathBuf,
+}
+
+/// Prints a markdown table.
+fn table(title: &str, header: &[&str], rows: &[Vec<String>]) {
+    println!("\n### {title}\n");
+    println!("| {} |", header.join(" | "));
+    println!(
+        "|{}|",
+        header.iter().map(|_| "---").collect::<Vec<_>>().join("|")
+    );
+    for r in rows {
+        println!("| {} |", r.join(" | "));
+    }
+}
+
+fn mrays(n: usize, seconds: f64) -> f64 {
+    if seconds > 0.0 {
+        n as f64 / seconds / 1e6
+    } else {
+        0.0
+    }
+}
+
+fn open(kind: BackendKind, threads: Option<usize>) -> std::result::Result<Box<dyn Device>, String> {
+    let choice = optik::BackendChoice::Named(kind);
+    optik::open_with(choice, &optik::OpenOptions { threads }).map_err(|e| e.message().to_string())
+}
+
+/// A scene to measure: a mesh and its rays.
+struct Scene {
+    name: String,
+    mesh: Mesh,
+    camera: Vec<f32>,
+    incoherent: Vec<f32>,
+}
+
+fn scenes(opts: &ReportOptions) -> Vec<Scene> {
+    let mut out = Vec::new();
+    for (name, file) in [
+        ("bunny", "stanford-bunny/stanford-bunny.obj"),
+        ("breakfast-room", "breakfast-room/breakfast_room.obj"),
+    ] {
+        let path = opts.scenes.join(file);
+        match mesh::load(&path) {
+            Ok(mesh) => {
+                let camera = rays::camera(&mesh, opts.width, opts.height, [-0.3, -0.25, -1.0]);
+                let incoherent = rays::incoherent(&mesh, opts.incoherent, 7);
+                out.push(Scene {
+                    name: name.into(),
+                    mesh,
+                    camera,
+                    incoherent,
+                });
+            }
+            Err(e) => println!(
+                "skipping scene {name}: {} (set --scenes to the folder of DESIGN.md §9's scenes)",
+                e.message()
+            ),
+        }
+    }
+    if out.is_empty() {
+        println!("no scene files found; measuring a generated sphere of 327 680 triangles instead");
+        let mesh = Mesh::icosphere(7);
+        let camera = rays::camera(&mesh, opts.width, opts.height, [-0.3, -0.25, -1.0]);
+        let incoherent = rays::incoherent(&mesh, opts.incoherent, 7);
+        out.push(Scene {
+            name: "icosphere-7".into(),
+            mesh,
+            camera,
+            incoherent,
+        });
+    }
+    out
+}
+
+/// Embree's figures for one scene and ray set: (build s, trace s one thread, trace s all threads, hits).
+fn embree(
+    opts: &ReportOptions,
+    mesh: &Mesh,
+    rays: &[f32],
+    threads: usize,
+) -> std::result::Result<(f64, f64, f64, Hits), String> {
+    let dir = std::env::temp_dir().join(format!("optik-report-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    let write = |name: &str, bytes: Vec<u8>| -> std::result::Result<PathBuf, String> {
+        let p = dir.join(name);
+        std::fs::write(&p, bytes).map_err(|e| e.to_string())?;
+        Ok(p)
+    };
+    let flat_v: Vec<f32> = mesh.positions.iter().flatten().copied().collect();
+    let flat_t: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let v = write("v.npy", npy::encode(&[mesh.positions.len(), 3], &flat_v))?;
+    let t = write("t.npy", npy::encode(&[mesh.triangles.len(), 3], &flat_t))?;
+    let r = write("r.npy", npy::encode(&[rays.len() / 8, 8], rays))?;
+    let out = dir.join("hits.npz");
+    let output = std::process::Command::new("python3")
+        .arg(&opts.peer_script)
+        .args([&v, &t, &r, &out])
+        .args([
+            "--threads",
+            &threads.to_string(),
+            "--repeat",
+            &opts.repeat.to_string(),
+        ])
+        .output()
+        .map_err(|e| format!("cannot run python3: {e}"))?;
+    let text = String::from_utf8_lossy(&output.stdout);
+    let line = text.lines().last().unwrap_or("");
+    let j: Value = serde_json::from_str(line).map_err(|_| {
+        format!(
+            "peer.py printed no result: {}{}",
+            text.trim(),
+            String::from_utf8_lossy(&output.stderr).trim()
+        )
+    })?;
+    if let Some(e) = j.get("error") {
+        return Err(e.to_string());
+    }
+    let hits = read_npz_hits(&out)?;
+    let _ = std::fs::remove_dir_all(&dir);
+    let f = |k: &str| j.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN);
+    Ok((f("build_s"), f("trace_s_1"), f("trace_s_n"), hits))
+}
+
+/// Reads `t` and `prim` back from the peer's `.npz` (numpy writes stored zip members).
+fn read_npz_hits(path: &Path) -> std::result::Result<Hits, String> {
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    let mut hits = Hits::default();
+    let mut pos = 0;
+    while pos + 30 <= bytes.len() && bytes[pos..pos + 4] == [0x50, 0x4b, 0x03, 0x04] {
+        let u16_at = |i: usize| u16::from_le_bytes([bytes[i], bytes[i + 1]]) as usize;
+        let u32_at = |i: usize| {
+            u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]) as usize
+        };
+        let (method, size, name_len, extra_len) = (
+            u16_at(pos + 8),
+            u32_at(pos + 18),
+            u16_at(pos + 26),
+            u16_at(pos + 28),
+        );
+        let name = String::from_utf8_lossy(&bytes[pos + 30..pos + 30 + name_len]).to_string();
+        let start = pos + 30 + name_len + extra_len;
+        if method != 0 {
+            return Err(format!("{}: compressed member {name}", path.display()));
+        }
+        let data = bytes.get(start..start + size).ok_or("truncated npz")?;
+        let header_len = u16::from_le_bytes([data[8], data[9]]) as usize;
+        let body = &data[10 + header_len..];
+        let words: Vec<u32> = body
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        match name.as_str() {
+            "t.npy" => hits.t = words.iter().map(|w| f32::from_bits(*w)).collect(),
+            "prim.npy" => hits.prim = words,
+            _ => {}
+        }
+        pos = start + size;
+    }
+    Ok(hits)
+}
+
+fn disagreements(a: &Hits, b: &Hits) -> usize {
+    a.prim.iter().zip(&b.prim).filter(|(x, y)| x != y).count()
+}
+
+fn throughput(opts: &ReportOptions, scenes: &[Scene], report: &mut Vec<Value>) {
+    let mut rows = Vec::new();
+    for scene in scenes {
+        let mut cpu_rates: Option<(f64, f64)> = None;
+        let mut cpu_camera_hits = None;
+        for &kind in &opts.backends {
+            let device = match open(kind, opts.threads) {
+                Ok(d) => d,
+                Err(why) => {
+                    rows.push(vec![
+                        scene.name.clone(),
+                        kind.name().into(),
+                        format!("skipped: {why}"),
+                        "".into(),
+                        "".into(),
+                        "".into(),
+                    ]);
+                    continue;
+                }
+            };
+            let result = (|| -> Result<(f64, f64, f64, Hits)> {
+                let mut caster = RayCaster::new(device.as_ref(), &scene.mesh)?;
+                let (camera_hits, cam_s) = caster.cast(&scene.camera, opts.repeat)?;
+                let (_, inc_s) = caster.cast(&scene.incoherent, opts.repeat)?;
+                Ok((caster.build_seconds, cam_s, inc_s, camera_hits))
+            })();
+            match result {
+                Ok((build, cam, inc, hits)) => {
+                    let cam_rate = mrays(scene.camera.len() / 8, cam);
+                    let inc_rate = mrays(scene.incoherent.len() / 8, inc);
+                    if kind == BackendKind::Cpu {
+                        cpu_rates = Some((cam_rate, inc_rate));
+                        cpu_camera_hits = Some(hits);
+                    }
+                    let vs_cpu = cpu_rates.map_or("".into(), |(c, i)| {
+                        format!("{:.2}x / {:.2}x", cam_rate / c, inc_rate / i)
+                    });
+                    rows.push(vec![
+                        scene.name.clone(),
+                        device.properties().device_name.clone(),
+                        format!("{:.1}", build * 1e3),
+                        format!("{cam_rate:.2}"),
+                        format!("{inc_rate:.2}"),
+                        vs_cpu,
+                    ]);
+                    report.push(
+                        json!({"section": "throughput", "scene": scene.name, "backend": kind.name(),
+                        "device": device.properties().device_name, "build_s": build,
+                        "camera_mrays_per_s": cam_rate, "incoherent_mrays_per_s": inc_rate}),
+                    );
+                }
+                Err(e) => rows.push(vec![
+                    scene.name.clone(),
+                    kind.name().into(),
+                    format!("error: {}", e.message()),
+                    "".into(),
+                    "".into(),
+                    "".into(),
+                ]),
+            }
+        }
+        if opts.embree && opts.backends.contains(&BackendKind::Cpu) {
+            let threads = opts
+                .threads
+                .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+            match (
+                embree(opts, &scene.mesh, &scene.camera, threads),
+                embree(opts, &scene.mesh, &scene.incoherent, threads),
+            ) {
+                (Ok((build, cam1, camn, hits)), Ok((_, inc1, incn, _))) => {
+                    let n_cam = scene.camera.len() / 8;
+                    let n_inc = scene.incoherent.len() / 8;
+                    let agree = cpu_camera_hits.as_ref().map_or("".into(), |c| {
+                        format!("{} camera prims differ", disagreements(c, &hits))
+                    });
+                    for (label, cam, inc) in [
+                        ("Embree robust, 1 thread".to_string(), cam1, inc1),
+                        (format!("Embree robust, {threads} threads"), camn, incn),
+                    ] {
+                        let (cr, ir) = (mrays(n_cam, cam), mrays(n_inc, inc));
+                        let vs = cpu_rates.map_or("".into(), |(c, i)| {
+                            format!("{:.2}x / {:.2}x", cr / c, ir / i)
+                        });
+                        rows.push(vec![
+                            scene.name.clone(),
+                            label.clone(),
+                            format!("{:.1}", build * 1e3),
+                            format!("{cr:.2}"),
+                            format!("{ir:.2}"),
+                            format!("{vs} ({agree})"),
+                        ]);
+                        report.push(json!({"section": "throughput", "scene": scene.name, "backend": label,
+                            "build_s": build, "camera_mrays_per_s": cr, "incoherent_mrays_per_s": ir}));
+                    }
+                }
+                (Err(e), _) | (_, Err(e)) => rows.push(vec![
+                    scene.name.clone(),
+                    "Embree".into(),
+                    format!("skipped: {e}"),
+                    "".into(),
+                    "".into(),
+                    "".into(),
+                ]),
+            }
+        }
+    }
+    table(
+        &format!(
+            "Throughput ({}x{} camera rays, {} incoherent rays, best of {})",
+            opts.width, opts.height, opts.incoherent, opts.repeat
+        ),
+        &[
+            "scene",
+            "backend",
+            "build ms",
+            "camera Mrays/s",
+            "incoherent Mrays/s",
+            "vs CPU (camera / incoherent)",
+        ],
+        &rows,
+    );
+}
+
+/// Fraction of rays aimed at a closed mesh's vertices and edge midpoints from inside that escape.
+fn leak_rate(device: &dyn Device, scale: f64, offset: [f64; 3]) -> Result<f64> {
+    let mesh = Mesh::icosphere(4).transformed(scale, offset);
+    let inside: [f32; 3] =
+        std::array::from_fn(|k| (offset[k] + scale * [0.0123, -0.0311, 0.0217][k]) as f32);
+    let aimed = rays::aimed_at_vertices_and_edges(&mesh, inside);
+    let mut caster = RayCaster::new(device, &mesh)?;
+    let (hits, _) = caster.cast(&aimed, 1)?;
+    Ok(hits.prim.iter().filter(|&&p| p == u32::MAX).count() as f64 / hits.prim.len().max(1) as f64)
+}
+
+fn accuracy(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) {
+    let mut rows = Vec::new();
+    let choices = [
+        ("watertight + conservative (default)", Accuracy::ROBUST),
+        (
+            "watertight + plain",
+            Accuracy {
+                box_test: optik::BoxTest::Plain,
+                ..Accuracy::ROBUST
+            },
+        ),
+        (
+            "moller-trumbore + conservative",
+            Accuracy {
+                triangle: optik::TriangleTest::MollerTrumbore,
+                ..Accuracy::ROBUST
+            },
+        ),
+        ("moller-trumbore + plain (fast)", Accuracy::FAST),
+    ];
+    for &kind in &opts.backends {
+        let Ok(device) = open(kind, opts.threads) else {
+            continue;
+        };
+        let mut baseline: Option<(f64, Hits)> = None;
+        for (name, acc) in choices {
+            if let Err(e) = device.set_accuracy(acc) {
+                rows.push(vec![
+                    kind.name().into(),
+                    name.into(),
+                    format!("not offered: {}", e.message()),
+                    "".into(),
+                    "".into(),
+                    "".into(),
+                ]);
+                continue;
+            }
+            let measured = (|| -> Result<(f64, Hits, f64, f64)> {
+                let mut caster = RayCaster::new(device.as_ref(), &scene.mesh)?;
+                let (hits, _) = caster.cast(&scene.camera, 1)?;
+                let (_, inc) = caster.cast(&scene.incoherent, opts.repeat)?;
+                drop(caster);
+                Ok((
+                    inc,
+                    hits,
+                    leak_rate(device.as_ref(), 1.0, [0.0; 3])?,
+                    leak_rate(device.as_ref(), 1.0, [1e5, -1e5, 1e5])?,
+                ))
+            })();
+            match measured {
+                Ok((inc, hits, leak0, leak_far)) => {
+                    let (time_ratio, diff) = match &baseline {
+                        None => (1.0, 0),
+                        Some((t, h)) => (inc / t, disagreements(h, &hits)),
+                    };
+                    if baseline.is_none() {
+                        baseline = Some((inc, hits));
+                    }
+                    rows.push(vec![
+                        kind.name().into(),
+                        name.into(),
+                        format!("{time_ratio:.3}"),
+                        format!("{:.4} %", leak0 * 100.0),
+                        format!("{:.4} %", leak_far * 100.0),
+                        format!("{diff}"),
+                    ]);
+                    report.push(json!({"section": "accuracy", "backend": kind.name(), "option": name,
+                        "time_vs_default": time_ratio, "leak_origin": leak0, "leak_far": leak_far, "camera_prims_differing": diff}));
+                }
+                Err(e) => rows.push(vec![
+                    kind.name().into(),
+                    name.into(),
+                    format!("error: {}", e.message()),
+                    "".into(),
+                    "".into(),
+                    "".into(),
+                ]),
+            }
+        }
+        let _ = device.set_accuracy(Accuracy::ROBUST);
+    }
+    table(
+        &format!(
+            "Accuracy options: time on {}'s incoherent rays vs the default, and error",
+            scene.name
+        ),
+        &[
+            "backend",
+            "option",
+            "time vs default",
+            "leaks (closed mesh at origin)",
+            "leaks (at 1e5)",
+            "camera prims differing from default",
+        ],
+        &rows,
+    );
+}
+
+fn specialisation(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) {
+    let forced: [(&str, PipelineCompileOptions); 6] = [
+        ("specialised (Auto)", PipelineCompileOptions::default()),
+        (
+            "+ motion",
+            PipelineCompileOptions {
+                uses_motion_blur: Setting::Value(true),
+                ..Default::default()
+            },
+        ),
+        (
+            "+ any graph (instancing)",
+            PipelineCompileOptions {
+                traversable_graph: Setting::Value(TraversableGraph::Any),
+                ..Default::default()
+            },
+        ),
+        (
+            "+ every primitive type",
+            PipelineCompileOptions {
+                primitive_types: Setting::Value(PrimitiveTypeFlags::ALL),
+                ..Default::default()
+            },
+        ),
+        (
+            "+ every exception check",
+            PipelineCompileOptions {
+                exception_flags: Setting::Value(ExceptionFlags::ALL),
+                ..Default::default()
+            },
+        ),
+        (
+            "+ 32 payload registers",
+            PipelineCompileOptions {
+                num_payload_values: Setting::Value(32),
+                ..Default::default()
+            },
+        ),
+    ];
+    let everything = PipelineCompileOptions {
+        uses_motion_blur: Setting::Value(true),
+        traversable_graph: Setting::Value(TraversableGraph::Any),
+        primitive_types: Setting::Value(PrimitiveTypeFlags::ALL),
+        exception_flags: Setting::Value(ExceptionFlags::ALL),
+        num_payload_values: Setting::Value(32),
+        num_attribute_values: Setting::Value(8),
+        allow_opacity_micromaps: Setting::Value(true),
+    };
+    let mut rows = Vec::new();
+    for &kind in &opts.backends {
+        let Ok(device) = open(kind, opts.threads) else {
+            continue;
+        };
+        let mut base = None;
+        for (name, options) in forced.iter().chain([("everything on", everything)].iter()) {
+            let measured = (|| -> Result<(f64, String)> {
+                let mut caster = RayCaster::with_options(device.as_ref(), &scene.mesh, options)?;
+                let features = caster.features()?.names().join(" ");
+                let (_, s) = caster.cast(&scene.incoherent, opts.repeat)?;
+                Ok((s, features))
+            })();
+            match measured {
+                Ok((s, features)) => {
+                    let b = *base.get_or_insert(s);
+                    rows.push(vec![
+                        kind.name().into(),
+                        name.to_string(),
+                        format!("{:.3}", s / b),
+                        features.clone(),
+                    ]);
+                    report.push(json!({"section": "specialisation", "backend": kind.name(), "pipeline": name,
+                        "time_vs_specialised": s / b, "features": features}));
+                }
+                Err(e) => rows.push(vec![
+                    kind.name().into(),
+                    name.to_string(),
+                    format!("error: {}", e.message()),
+                    "".into(),
+                ]),
+            }
+        }
+    }
+    table(
+        &format!(
+            "Specialisation: time on {}'s incoherent rays vs the specialised pipeline",
+            scene.name
+        ),
+        &[
+            "backend",
+            "pipeline",
+            "time vs specialised",
+            "features compiled",
+        ],
+        &rows,
+    );
+}
+
+fn scaling(opts: &ReportOptions, report: &mut Vec<Value>) {
+    let mut rows = Vec::new();
+    for subdivisions in [3u32, 5, 7] {
+        let mesh = Mesh::icosphere(subdivisions);
+        let incoherent = rays::incoherent(&mesh, opts.incoherent.min(100_000), 11);
+        for &kind in &opts.backends {
+            let Ok(device) = open(kind, opts.threads) else {
+                continue;
+            };
+            let measured = (|| -> Result<(f64, f64)> {
+                let mut caster = RayCaster::new(device.as_ref(), &mesh)?;
+                let (_, s) = caster.cast(&incoherent, opts.repeat)?;
+                Ok((caster.build_seconds, s))
+            })();
+            if let Ok((build, s)) = measured {
+                let rate = mrays(incoherent.len() / 8, s);
+                rows.push(vec![
+                    mesh.triangles.len().to_string(),
+                    kind.name().into(),
+                    format!("{:.2}", build * 1e3),
+                    format!("{rate:.2}"),
+                ]);
+                report.push(json!({"section": "scaling", "triangles": mesh.triangles.len(), "backend": kind.name(),
+                    "build_s": build, "incoherent_mrays_per_s": rate}));
+            }
+        }
+    }
+    table(
+        "Build and trace as the triangle count grows (icospheres)",
+        &["triangles", "backend", "build ms", "incoherent Mrays/s"],
+        &rows,
+    );
+}
+
+/// Runs the whole report; returns its figures as JSON.
+pub fn run(opts: &ReportOptions) -> Value {
+    println!("# optik benchmark report\n");
+    for s in optik::backend_statuses() {
+        match &s.availability {
+            Ok(d) => println!("- {}: {d}", s.kind),
+            Err(why) => println!("- {}: not available ({why})", s.kind),
+        }
+    }
+    let mut report = Vec::new();
+    let scenes = scenes(opts);
+    throughput(opts, &scenes, &mut report);
+    if let Some(scene) = scenes.last() {
+        accuracy(opts, scene, &mut report);
+        specialisation(opts, scene, &mut report);
+    }
+    scaling(opts, &mut report);
+    json!({ "width": opts.width, "height": opts.height, "incoherent": opts.incoherent, "repeat": opts.repeat, "rows": report })
+}
+
+/// The Embree peer script in this source tree.
+pub fn default_peer_script() -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/embree/peer.py"))
+}
