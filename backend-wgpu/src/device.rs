@@ -296,7 +296,10 @@ impl State {
             features: SceneFeatures::of_geometry(options, inputs),
             options: *options,
             inputs: inputs.to_vec(),
-            refit: built.refit.map(Refit::Geometry).unwrap_or(Refit::None),
+            refit: built
+                .refit
+                .map(|r| Refit::Geometry(Box::new(r)))
+                .unwrap_or(Refit::None),
             kind_word: built.words[0][0],
         };
         Ok((built.words, object))

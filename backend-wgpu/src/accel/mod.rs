@@ -24,7 +24,8 @@ use optik_api::{
 /// What a built object keeps for updates.
 #[derive(Clone)]
 pub(crate) enum Refit {
-    Geometry(geometry::RefitState),
+    // Boxed: the geometry's refit state is large and most structures hold instances or none.
+    Geometry(Box<geometry::RefitState>),
     Instances(instances::Bvh4WithOrder),
     None,
 }
