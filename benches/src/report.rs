@@ -361,6 +361,13 @@ fn accuracy(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) {
             },
         ),
         ("moller-trumbore + plain (fast)", Accuracy::FAST),
+        (
+            "driver triangles + conservative",
+            Accuracy {
+                triangle: optik::TriangleTest::Driver,
+                ..Accuracy::ROBUST
+            },
+        ),
     ];
     for &kind in &opts.backends {
         let Ok(device) = open(kind, opts.threads) else {
