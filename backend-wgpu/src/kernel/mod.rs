@@ -15,6 +15,7 @@
 //! which primitive intersectors, motion, instancing, any-hit, intersection, micromap and
 //! exception code is written at all.
 
+pub(crate) mod counters;
 mod dispatch;
 mod state;
 mod traverse;
@@ -62,6 +63,9 @@ pub(crate) struct KernelConfig<'a> {
     pub max_continuation: u32,
     pub sizes: Sizes,
     pub lowered: &'a Lowered,
+    /// The instrumented benchmark kernel: traffic counters (`counters`), never in a
+    /// pipeline's normal kernel.
+    pub counters: bool,
 }
 
 impl KernelConfig<'_> {
@@ -168,7 +172,12 @@ fn bindings(c: &KernelConfig<'_>, out: &mut String) {
             3 + i
         ));
     }
+    counters::declare(c, out);
     out.push_str("\nfn optk_fetch(i: u32) -> vec4<u32> {\n");
+    let counted = counters::count(c, counters::Counter::ArenaFetches, "1u");
+    if !counted.is_empty() {
+        out.push_str(&format!("    {counted}\n"));
+    }
     if c.sizes.chunks <= 1 {
         out.push_str("    return optk_scene0[i];\n}\n\n");
     } else {
