@@ -128,6 +128,12 @@ impl WgpuDevice {
         Ok(p.variant(&self.gpu, sizes, false)?.source.clone())
     }
 
+    /// The device's accounting of its live GPU allocations; the tracker stays readable
+    /// after the device is dropped.
+    pub fn memory(&self) -> crate::MemoryTracker {
+        self.gpu.memory.clone()
+    }
+
     /// The adapter's limits as optik uses them (the storage binding size, possibly capped
     /// by [`WgpuOptions`], sizes the scene arena's chunks).
     pub fn limits(&self) -> wgpu::Limits {

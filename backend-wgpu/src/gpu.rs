@@ -15,6 +15,8 @@ pub(crate) struct Gpu {
     pub info: wgpu::AdapterInfo,
     pub limits: wgpu::Limits,
     pub features: wgpu::Features,
+    /// The device's long-lived allocations (`crate::memory`).
+    pub memory: crate::memory::MemoryTracker,
     lost: Arc<AtomicBool>,
     lost_reason: Arc<Mutex<String>>,
     uncaptured: Arc<Mutex<Vec<String>>>,
@@ -109,6 +111,7 @@ impl Gpu {
             info,
             limits,
             features,
+            memory: crate::memory::MemoryTracker::default(),
             lost,
             lost_reason,
             uncaptured,

@@ -110,12 +110,14 @@ pub(crate) fn launch(
                 gpu.limits.max_uniform_buffer_binding_size
             )));
         }
-        let b = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let b = gpu.scoped(&format!("allocating {label} ({size} bytes)"), || {
+            gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        })?;
         let mut padded = bytes.to_vec();
         padded.resize(size as usize, 0);
         gpu.queue.write_buffer(&b, 0, &padded);

@@ -202,6 +202,11 @@ fn snippets(c: &KernelConfig<'_>, out: &mut String) {
     };
     let add = |out: &mut String, s: &str| out.push_str(&wgsl::specialise(s, options));
     add(out, wgsl::RAY);
+    // The hit state holds instance transforms whenever instancing is compiled in, even in
+    // a kernel that never traces (a raygen-only pipeline made before any structure).
+    if c.instancing() || c.motion() {
+        add(out, wgsl::MOTION);
+    }
     if !c.traces() {
         return;
     }
@@ -222,9 +227,6 @@ fn snippets(c: &KernelConfig<'_>, out: &mut String) {
     }
     if c.curves() {
         add(out, wgsl::CURVE);
-    }
-    if c.instancing() || c.motion() {
-        add(out, wgsl::MOTION);
     }
     if c.micromaps() {
         add(out, wgsl::MICROMAP);
