@@ -57,6 +57,10 @@ pub struct WgpuOptions {
     /// `max_compute_workgroups_per_dimension`, so that splitting a launch over a 2D grid of
     /// workgroups and refusing launches beyond it can be tested with small launches.
     pub max_workgroups_per_dimension: Option<u32>,
+    /// Caps the storage buffers a kernel may bind below the adapter's
+    /// `max_storage_buffers_per_shader_stage`, to test the error when the scene's chunks and
+    /// the user's buffers need more.
+    pub max_storage_buffers_per_stage: Option<u32>,
 }
 
 impl WgpuDevice {

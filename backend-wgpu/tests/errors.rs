@@ -343,6 +343,33 @@ fn storage_bindings_over_the_adapter_limit_are_refused() {
 }
 
 #[test]
+fn kernels_needing_more_storage_bindings_than_the_adapter_has_are_refused() {
+    // The RAY_LIST kernel binds 5 storage buffers: the SBT, the handle table, one scene
+    // chunk and the user's two.
+    let dev = optik_wgpu::WgpuDevice::with_options(optik_wgpu::WgpuOptions {
+        max_storage_buffers_per_stage: Some(4),
+        ..Default::default()
+    })
+    .unwrap();
+    let d: &dyn Device = &dev;
+    let _gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
+    let m = module(d, RAY_LIST);
+    let g = ray_list_groups(d, m, 1, &[]);
+    let e = d
+        .create_pipeline(
+            &PipelineCompileOptions::default(),
+            &PipelineLinkOptions::default(),
+            &g.all(),
+        )
+        .unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::LimitExceeded, "{e}");
+    assert!(
+        e.message().contains("needs 5 storage buffer bindings") && e.message().contains("allows 4"),
+        "{e}"
+    );
+}
+
+#[test]
 fn gpu_memory_is_freed_with_its_owners_and_the_device() {
     let dev = optik_wgpu::WgpuDevice::new().unwrap();
     let memory = dev.memory();
