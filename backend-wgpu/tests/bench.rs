@@ -81,15 +81,14 @@ fn bench_device_runs_the_same_rays_through_the_public_api() {
     assert!(report.timing_method.contains("wall clock"));
 }
 
-/// One ray through a quad (two triangles) counted by the instrumented kernel.
-fn count_one_ray(dev: &WgpuDevice, ray: Ray) -> (TrafficCounts, Rec) {
+/// One ray through the structure `accel` counted by the instrumented kernel.
+fn count_one_ray(dev: &WgpuDevice, accel: Accel, ray: Ray) -> (TrafficCounts, Rec) {
     let d: &dyn Device = dev;
-    let gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
     let m = module(d, RAY_LIST);
     let g = ray_list_groups(d, m, 1, &[]);
     let p = pipeline(d, &g, 1);
     let table = numbered_sbt(d, &g);
-    let h = d.traversable_handle(gas).unwrap();
+    let h = d.traversable_handle(accel).unwrap();
     let rays = buffer(
         d,
         &[
@@ -129,8 +128,9 @@ fn count_one_ray(dev: &WgpuDevice, ray: Ray) -> (TrafficCounts, Rec) {
 #[test]
 fn counts_match_the_layout() {
     let dev = WgpuDevice::new().unwrap();
+    let gas = triangles(&dev, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
     // A miss outside the structure's box: the root node and the header, nothing else.
-    let (miss, rec) = count_one_ray(&dev, Ray::new([5.0, 5.0, 1.0], [0.0, 0.0, -1.0]));
+    let (miss, rec) = count_one_ray(&dev, gas, Ray::new([5.0, 5.0, 1.0], [0.0, 0.0, -1.0]));
     assert!(rec.missed(), "{rec:?}");
     assert_eq!(miss.traces, 1);
     assert_eq!(miss.handle_reads, 1);
@@ -140,7 +140,7 @@ fn counts_match_the_layout() {
     assert_eq!(miss.arena_fetches, 2 + 8, "{miss:?}");
     assert_eq!(miss.memory_bytes(), 16 * (10 + 1));
     // A hit: every fetch is a header word, a node word or a triangle record's (three).
-    let (hit, rec) = count_one_ray(&dev, Ray::new([0.25, 0.5, 1.0], [0.0, 0.0, -1.0]));
+    let (hit, rec) = count_one_ray(&dev, gas, Ray::new([0.25, 0.5, 1.0], [0.0, 0.0, -1.0]));
     assert!(rec.hit(), "{rec:?}");
     assert!(hit.primitives >= 1, "{hit:?}");
     assert_eq!(
@@ -157,6 +157,48 @@ fn counts_match_the_layout() {
     // Every entry pushed is popped, plus the root entry the traversal starts with.
     assert_eq!(hit.stack_pops, hit.stack_pushes + 1, "{hit:?}");
     assert_eq!(hit.stack_bytes(), 8 * (2 * hit.stack_pushes + 1));
+}
+
+#[test]
+fn instance_traffic_is_counted() {
+    let dev = WgpuDevice::new().unwrap();
+    let d: &dyn Device = &dev;
+    let gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
+    let child = d.traversable_handle(gas).unwrap();
+    // Two instances of the quad, at z = 0 and z = -0.5: the ray enters the near one; the
+    // far one's entry is popped beyond the hit and skipped unread.
+    let instances = [0.0f32, -0.5].map(|z| Instance {
+        transform: [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, z],
+        ..Instance::new(child)
+    });
+    let b = buffer(d, &instances);
+    let ias = d
+        .accel_build(
+            &AccelBuildOptions::default(),
+            &[BuildInput::Instances(InstanceArray {
+                instances: BufferView::new(b),
+                num_instances: 2,
+            })],
+        )
+        .unwrap();
+    let (c, rec) = count_one_ray(&dev, ias, Ray::new([0.25, 0.5, 1.0], [0.0, 0.0, -1.0]));
+    assert!(rec.hit() && rec.t() == 1.0, "{rec:?}");
+    assert_eq!(c.traces, 1);
+    assert_eq!(c.instances, 1, "{c:?}");
+    // The root's handle and the entered instance's child.
+    assert_eq!(c.handle_reads, 2, "{c:?}");
+    // The instance's whole record (8) and its child's header words (2); nodes of both
+    // levels (8 each), triangles (3 each) and the IAS's header words (2).
+    assert_eq!(
+        c.arena_fetches,
+        2 + 8 * c.nodes + (8 + 2) + 3 * c.primitives,
+        "{c:?}"
+    );
+    assert!(c.nodes >= 2, "{c:?}");
+    assert_eq!(c.instance_bytes(), 128);
+    // The level marker and the child's root entry are pushes too: all are popped.
+    assert_eq!(c.stack_pops, c.stack_pushes + 1, "{c:?}");
+    assert!(c.stack_pushes >= 2 + 2, "{c:?}");
 }
 
 #[test]
