@@ -3,7 +3,12 @@
 //! runs the same rays on the Vulkan backend (default accuracy and the driver's triangles).
 //!
 //! `bench_trace [mesh.obj | mesh.obj.gz] [width height] [repeats] [--no-vulkan]
-//! [--bandwidth-mib N]`
+//! [--bandwidth-mib N] [--camera ex ey ez vx vy vz fov]`
+//!
+//! `--camera` places the primary rays' pinhole camera (eye, view direction, horizontal
+//! field of view in degrees); without it the camera frames the mesh from outside, as
+//! `optik bench-report`'s camera rays do. The Breakfast Room's own camera (its
+//! `scene.mitsuba.xml`) is `--camera -0.587317 2.7623 9.71429 0.013058 -0.063863 -0.997873 60`.
 //!
 //! Without a mesh it traces a generated bumpy sphere of about 1M triangles. A mesh is a
 //! Wavefront OBJ file, optionally gzipped (`v` and `f` lines; polygons are fanned into
@@ -79,6 +84,7 @@ fn main() {
     let mut numbers = Vec::new();
     let mut vulkan = true;
     let mut bandwidth_mib = 1024u64;
+    let mut camera = None;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
@@ -89,10 +95,21 @@ fn main() {
                     .and_then(|s| s.parse().ok())
                     .unwrap_or_else(|| fail("--bandwidth-mib needs a number of MiB".into()))
             }
+            "--camera" => {
+                let v: Vec<f32> = it.by_ref().take(7).filter_map(|s| s.parse().ok()).collect();
+                if v.len() != 7 {
+                    fail("--camera needs eye x y z, view x y z and a field of view in degrees".into());
+                }
+                camera = Some(optik_wgpu::bench::Camera {
+                    eye: [v[0], v[1], v[2]],
+                    view: [v[3], v[4], v[5]],
+                    horizontal_fov_degrees: v[6],
+                });
+            }
             s if s.ends_with(".obj") || s.ends_with(".obj.gz") => mesh = Some(s.to_string()),
             s => numbers.push(s.parse::<u32>().unwrap_or_else(|_| {
                 fail(format!(
-                    "`{s}`: expected a mesh (.obj or .obj.gz), width height repeats, --no-vulkan or --bandwidth-mib N"
+                    "`{s}`: expected a mesh (.obj or .obj.gz), width height repeats, --no-vulkan, --bandwidth-mib N or --camera ..."
                 ))
             })),
         }
@@ -108,6 +125,7 @@ fn main() {
             .unwrap_or_default(),
         bandwidth_bytes: bandwidth_mib << 20,
         traffic: true,
+        camera,
     };
     let (vertices, indices) = match &mesh {
         Some(path) => load_obj(path).unwrap_or_else(|e| fail(e)),

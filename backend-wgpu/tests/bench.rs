@@ -15,6 +15,7 @@ fn small_config() -> BenchConfig {
         accuracy: Accuracy::ROBUST,
         bandwidth_bytes: 1 << 20,
         traffic: true,
+        camera: None,
     }
 }
 
@@ -79,6 +80,23 @@ fn bench_device_runs_the_same_rays_through_the_public_api() {
     }
     assert!(direct.bandwidth.is_none());
     assert!(report.timing_method.contains("wall clock"));
+    // A camera inside the closed sphere: every primary ray hits.
+    let inside = optik_wgpu::bench::bench_device(
+        dev.as_ref(),
+        &v,
+        &i,
+        &BenchConfig {
+            camera: Some(optik_wgpu::bench::Camera {
+                eye: [0.0, 0.0, 0.0],
+                view: [0.0, 0.0, -1.0],
+                horizontal_fov_degrees: 90.0,
+            }),
+            ..small_config()
+        },
+    )
+    .unwrap();
+    assert_eq!(inside.timings[0].hits, inside.timings[0].rays, "{inside}");
+    assert!(inside.to_string().contains("90.0 deg"), "{inside}");
 }
 
 /// One ray through the structure `accel` counted by the instrumented kernel.

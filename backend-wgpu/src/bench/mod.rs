@@ -28,11 +28,39 @@ use std::time::Instant;
 /// Which rays a benchmark traces.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RayKind {
-    /// One camera ray per pixel, from outside the mesh's box along (-0.3, -0.25, -1),
-    /// framing it (the camera rays of `optik bench-report`).
+    /// One pinhole camera ray per pixel ([`BenchConfig::camera`]).
     Primary,
     /// Origins uniform in the mesh's box, directions uniform on the sphere.
     Incoherent,
+}
+
+/// A pinhole camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Where the rays start.
+    pub eye: [f32; 3],
+    /// The direction through the image's centre (not along the world's y axis).
+    pub view: [f32; 3],
+    /// Field of view across the image's width, in degrees.
+    pub horizontal_fov_degrees: f32,
+}
+
+impl Camera {
+    /// The camera of `optik bench-report`'s camera rays (benches/src/rays.rs): outside the
+    /// box `lo..hi`, looking along (-0.3, -0.25, -1) at its centre, framing its bounding
+    /// sphere (1.1 × its radius at a half-height tangent of 0.5).
+    pub fn framing(lo: [f32; 3], hi: [f32; 3], width: u32, height: u32) -> Camera {
+        let view = [-0.3f32, -0.25, -1.0];
+        let len = view.iter().map(|v| v * v).sum::<f32>().sqrt();
+        let radius = 0.5 * (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f32>().sqrt();
+        let distance = radius / 0.5 * 1.1;
+        let aspect = width as f32 / height.max(1) as f32;
+        Camera {
+            eye: std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]) - view[k] / len * distance),
+            view,
+            horizontal_fov_degrees: 2.0 * (0.5 * aspect).atan().to_degrees(),
+        }
+    }
 }
 
 /// What to measure.
@@ -52,6 +80,8 @@ pub struct BenchConfig {
     /// Count the kernel's memory traffic with one extra launch of the instrumented kernel
     /// per ray kind (wgpu only).
     pub traffic: bool,
+    /// The primary rays' camera; `None`: [`Camera::framing`] the mesh.
+    pub camera: Option<Camera>,
 }
 
 impl Default for BenchConfig {
@@ -64,6 +94,7 @@ impl Default for BenchConfig {
             accuracy: Accuracy::ROBUST,
             bandwidth_bytes: 1 << 30,
             traffic: true,
+            camera: None,
         }
     }
 }
@@ -132,6 +163,8 @@ pub struct BenchReport {
     pub first_launch_seconds: f64,
     /// Entries of the kernel's traversal stack (sized from the structure's depth; wgpu).
     pub stack_entries: Option<u32>,
+    /// The primary rays' camera.
+    pub camera: Camera,
     /// Per ray kind.
     pub timings: Vec<TraceTiming>,
     /// The memory-bandwidth probe (wgpu, when asked for).
@@ -150,6 +183,12 @@ impl std::fmt::Display for BenchReport {
             self.accel_bytes as f64 / (1 << 20) as f64
         )?;
         writeln!(f, "first launch     {:.3} s", self.first_launch_seconds)?;
+        let c = &self.camera;
+        writeln!(
+            f,
+            "camera           eye ({:.3}, {:.3}, {:.3}), view ({:.3}, {:.3}, {:.3}), {:.1} deg across",
+            c.eye[0], c.eye[1], c.eye[2], c.view[0], c.view[1], c.view[2], c.horizontal_fov_degrees
+        )?;
         if let Some(s) = self.stack_entries {
             writeln!(f, "traversal stack  {s} entries")?;
         }
@@ -214,7 +253,8 @@ impl std::fmt::Display for BenchReport {
 }
 
 const PROGRAMS: &str = r#"
-struct Params { scene: vec2<u32>, kind: u32, seed: u32, lo: vec4<f32>, hi: vec4<f32> }
+// eye.w: tan of half the horizontal field of view.
+struct Params { scene: vec2<u32>, kind: u32, seed: u32, lo: vec4<f32>, hi: vec4<f32>, eye: vec4<f32>, view: vec4<f32> }
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read_write> hits: array<u32>;
 
@@ -237,20 +277,18 @@ fn raygen__bench() {
     let i = id.y * dim.x + id.x;
     let lo = params.lo.xyz;
     let hi = params.hi.xyz;
-    let centre = 0.5 * (lo + hi);
     var origin: vec3<f32>;
     var direction: vec3<f32>;
     if params.kind == 0u {
-        // A pinhole camera looking along (-0.3, -0.25, -1) at the box, framing it: the
-        // camera rays of `optik bench-report` (benches/src/rays.rs), so figures compare.
-        let w = normalize(vec3<f32>(-0.3, -0.25, -1.0));
+        // A pinhole camera (the host places it: Camera).
+        let w = normalize(params.view.xyz);
         let u = normalize(cross(w, vec3<f32>(0.0, 1.0, 0.0)));
         let v = cross(u, w);
-        let radius = 0.5 * length(hi - lo);
-        origin = centre - w * (radius / 0.5 * 1.1);
-        let aspect = f32(dim.x) / f32(dim.y);
-        let sx = ((f32(id.x) + 0.5) / f32(dim.x) * 2.0 - 1.0) * 0.5 * aspect;
-        let sy = (1.0 - (f32(id.y) + 0.5) / f32(dim.y) * 2.0) * 0.5;
+        origin = params.eye.xyz;
+        let half_x = params.eye.w;
+        let half_y = half_x * f32(dim.y) / f32(dim.x);
+        let sx = ((f32(id.x) + 0.5) / f32(dim.x) * 2.0 - 1.0) * half_x;
+        let sy = (1.0 - (f32(id.y) + 0.5) / f32(dim.y) * 2.0) * half_y;
         direction = normalize(w + sx * u + sy * v);
     } else {
         let h0 = hash(i * 4u + params.seed);
@@ -292,6 +330,7 @@ struct Prepared {
     build_seconds: f64,
     /// When pipeline creation started (the first launch's time counts from it).
     pipeline_start: Instant,
+    camera: Camera,
 }
 
 impl Prepared {
@@ -302,6 +341,16 @@ impl Prepared {
         words.extend(self.lo.iter().map(|v| v.to_bits()));
         words.push(0);
         words.extend(self.hi.iter().map(|v| v.to_bits()));
+        words.push(0);
+        let c = &self.camera;
+        words.extend(c.eye.iter().map(|v| v.to_bits()));
+        words.push(
+            (0.5 * c.horizontal_fov_degrees)
+                .to_radians()
+                .tan()
+                .to_bits(),
+        );
+        words.extend(c.view.iter().map(|v| v.to_bits()));
         words.push(0);
         bytemuck::cast_slice(&words).to_vec()
     }
@@ -322,8 +371,9 @@ fn prepare(
     dev: &dyn Device,
     vertices: &[[f32; 3]],
     indices: &[[u32; 3]],
-    rays: u64,
+    config: &BenchConfig,
 ) -> Result<Prepared> {
+    let rays = config.width as u64 * config.height as u64;
     if vertices.is_empty() || indices.is_empty() {
         return Err(Error::invalid("the benchmark needs a mesh with triangles"));
     }
@@ -410,6 +460,9 @@ fn prepare(
         hi,
         build_seconds,
         pipeline_start,
+        camera: config
+            .camera
+            .unwrap_or_else(|| Camera::framing(lo, hi, config.width, config.height)),
     })
 }
 
@@ -432,7 +485,7 @@ pub fn bench_trace(
     dev.set_accuracy(config.accuracy)?;
     let size = LaunchSize::new(config.width, config.height, 1);
     let rays = size.count();
-    let p = prepare(dev, vertices, indices, rays)?;
+    let p = prepare(dev, vertices, indices, config)?;
     let launch = |params: &[u8], observe: crate::launch::Observe<'_>| {
         crate::launch::launch(
             &wgpu_device,
@@ -514,6 +567,7 @@ pub fn bench_trace(
         build_seconds: p.build_seconds,
         accel_bytes: dev.accel_size(p.gas)?,
         first_launch_seconds,
+        camera: p.camera,
         stack_entries,
         timings,
         bandwidth,
@@ -571,7 +625,7 @@ pub fn bench_device(
     dev.set_accuracy(config.accuracy)?;
     let size = LaunchSize::new(config.width, config.height, 1);
     let rays = size.count();
-    let p = prepare(dev, vertices, indices, rays)?;
+    let p = prepare(dev, vertices, indices, config)?;
     let mut timings = Vec::new();
     let mut first_launch_seconds = 0.0;
     for kind in [RayKind::Primary, RayKind::Incoherent] {
@@ -611,6 +665,7 @@ pub fn bench_device(
         build_seconds: p.build_seconds,
         accel_bytes: dev.accel_size(p.gas)?,
         first_launch_seconds,
+        camera: p.camera,
         stack_entries: None,
         timings,
         bandwidth: None,
