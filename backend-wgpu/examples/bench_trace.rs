@@ -137,33 +137,64 @@ fn main() {
     );
     println!("launch           {} x {}", config.width, config.height);
     println!("\n== wgpu, accuracy {:?}", config.accuracy);
+    let mut summary = Vec::new();
     match optik_wgpu::bench::bench_trace(&vertices, &indices, &config) {
-        Ok(report) => print!("{report}"),
+        Ok(report) => {
+            print!("{report}");
+            summary.push(("wgpu, GPU timestamps".to_string(), report.clone(), false));
+            summary.push(("wgpu, wall clock".to_string(), report, true));
+        }
         Err(e) => {
             eprintln!("bench_trace failed on wgpu: {e}");
             std::process::exit(1);
         }
     }
-    if !vulkan {
-        return;
+    if vulkan {
+        vulkan_reports(&vertices, &indices, &config, &mut summary);
     }
+    println!("\n== summary (Grays/s: primary, incoherent)");
+    for (name, report, wall) in &summary {
+        let rate = |k: usize| {
+            report.timings.get(k).map_or(0.0, |t| {
+                let seconds = if *wall { t.wall_seconds } else { t.seconds() };
+                t.rays as f64 / seconds / 1e9
+            })
+        };
+        println!("{name:<36} {:>8.3} {:>8.3}", rate(0), rate(1));
+    }
+}
+
+/// The Vulkan backend on the same rays, with the default accuracy and with the driver's
+/// triangles (wall clock around launch + synchronize).
+fn vulkan_reports(
+    vertices: &[[f32; 3]],
+    indices: &[[u32; 3]],
+    config: &BenchConfig,
+    summary: &mut Vec<(String, optik_wgpu::bench::BenchReport, bool)>,
+) {
     let driver = Accuracy {
         triangle: TriangleTest::Driver,
         box_test: BoxTest::Conservative,
     };
-    for accuracy in [Accuracy::ROBUST, driver] {
+    for (name, accuracy) in [("robust", Accuracy::ROBUST), ("driver triangles", driver)] {
         println!("\n== Vulkan, accuracy {accuracy:?}");
         // A fresh device per accuracy, so each builds and compiles as a new user would.
         let result = optik_vulkan::open().and_then(|dev| {
             optik_wgpu::bench::bench_device(
                 dev.as_ref(),
-                &vertices,
-                &indices,
-                &BenchConfig { accuracy, ..config },
+                vertices,
+                indices,
+                &BenchConfig {
+                    accuracy,
+                    ..*config
+                },
             )
         });
         match result {
-            Ok(report) => print!("{report}"),
+            Ok(report) => {
+                print!("{report}");
+                summary.push((format!("Vulkan {name}, wall clock"), report, true));
+            }
             Err(e) => println!("not measured: {e}"),
         }
     }
