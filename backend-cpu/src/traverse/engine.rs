@@ -326,7 +326,13 @@ impl<S: Spec> Walker<'_, S> {
                                     continue;
                                 }
                                 let s = block.slots[lane] as usize;
-                                self.triangle_hit(g, s, hit, path, h);
+                                // The block holds the vertices key 0 holds (bit for bit), in
+                                // lines already loaded: reading the slot's key-0 copy cost a
+                                // cache miss per candidate.
+                                let tri = std::array::from_fn(|v| {
+                                    std::array::from_fn(|a| block.vertices[v][a][lane])
+                                });
+                                self.triangle_hit_at(g, s, tri, hit, path, h);
                                 if h.done() {
                                     return;
                                 }
@@ -344,7 +350,8 @@ impl<S: Spec> Walker<'_, S> {
                                 else {
                                     continue;
                                 };
-                                self.triangle_hit(g, block.slots[lane] as usize, hit, path, h);
+                                let s = block.slots[lane] as usize;
+                                self.triangle_hit_at(g, s, tri, hit, path, h);
                                 if h.done() {
                                     return;
                                 }
@@ -462,22 +469,6 @@ impl<S: Spec> Walker<'_, S> {
 }
 
 impl<S: Spec> Walker<'_, S> {
-    /// A static triangle's hit: its vertices from key 0.
-    #[inline(always)]
-    fn triangle_hit<H: Handler>(
-        &self,
-        g: &Gas,
-        s: usize,
-        hit: triangle::TriangleHit,
-        path: &Path,
-        h: &mut H,
-    ) {
-        let Geometry::Triangles(tris) = &g.geometry else {
-            return;
-        };
-        self.triangle_hit_at(g, s, tris.keys[0][s], hit, path, h);
-    }
-
     /// A triangle's hit (with the vertices it was tested with): facing, culling, micromap
     /// and flag resolution, then the handler's candidate.
     #[inline(always)]
