@@ -4,8 +4,8 @@
 //!
 //! Why: a binary node costs two box tests and a decision per step; a 4-wide node tests its
 //! four children in one 4-lane slab test, so a ray takes about half as many steps, and four
-//! triangles of a leaf share one 4-lane watertight test (docs/cpu-backend.md, "Traversal
-//! speed").
+//! triangles of a leaf share one 4-lane watertight test (docs/cpu-backend.md,
+//! "Performance").
 //!
 //! Layout:
 //! - [`WideNode`] (128 bytes, two cache lines): the children's boxes as structure of arrays
