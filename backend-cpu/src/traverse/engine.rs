@@ -332,7 +332,8 @@ impl<S: Spec> Walker<'_, S> {
                                 let tri = std::array::from_fn(|v| {
                                     std::array::from_fn(|a| block.vertices[v][a][lane])
                                 });
-                                self.triangle_hit_at(g, s, tri, hit, path, h);
+                                let info = &block.infos[lane];
+                                self.triangle_hit_at(g, s, info, tri, hit, path, h);
                                 if h.done() {
                                     return;
                                 }
@@ -351,7 +352,8 @@ impl<S: Spec> Walker<'_, S> {
                                     continue;
                                 };
                                 let s = block.slots[lane] as usize;
-                                self.triangle_hit_at(g, s, tri, hit, path, h);
+                                let info = &block.infos[lane];
+                                self.triangle_hit_at(g, s, info, tri, hit, path, h);
                                 if h.done() {
                                     return;
                                 }
@@ -371,7 +373,7 @@ impl<S: Spec> Walker<'_, S> {
                         triangle::moller_trumbore(&pr, &tri, tmin, h.t_max())
                     };
                     let Some(hit) = hit else { continue };
-                    self.triangle_hit_at(g, s, tri, hit, path, h);
+                    self.triangle_hit_at(g, s, &g.primitives[s], tri, hit, path, h);
                     if h.done() {
                         return;
                     }
@@ -469,13 +471,15 @@ impl<S: Spec> Walker<'_, S> {
 }
 
 impl<S: Spec> Walker<'_, S> {
-    /// A triangle's hit (with the vertices it was tested with): facing, culling, micromap
-    /// and flag resolution, then the handler's candidate.
+    /// A triangle's hit (with the slot's record and the vertices it was tested with):
+    /// facing, culling, micromap and flag resolution, then the handler's candidate.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn triangle_hit_at<H: Handler>(
         &self,
         g: &Gas,
         s: usize,
+        info: &PrimitiveInfo,
         tri: [[f32; 3]; 3],
         hit: triangle::TriangleHit,
         path: &Path,
@@ -485,7 +489,6 @@ impl<S: Spec> Walker<'_, S> {
             return;
         };
         let flags = self.ray.flags;
-        let info = &g.primitives[s];
         // The test's facing is decided in object space; instances may flip it.
         let front = facing::is_front_face(if hit.front { -1.0 } else { 1.0 }, path.flip);
         if opacity::triangle_face_culled(front, info.flags(), path.flags, flags) {
