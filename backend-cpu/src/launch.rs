@@ -75,18 +75,34 @@ pub(crate) fn run(shared: &LaunchShared<'_>, pool: &rayon::ThreadPool) {
             .into_par_iter()
             .for_each(|task| {
                 let first = task * INDICES_PER_TASK;
-                for i in first..(first + INDICES_PER_TASK).min(count) {
-                    let i = i as u64;
-                    let index = [(i % w) as u32, ((i / w) % h) as u32, (i / (w * h)) as u32];
+                // Divisions once per task; the index then steps along x (three 64-bit
+                // divisions per invocation cost more than the rest of a missed ray's launch
+                // bookkeeping).
+                let f = first as u64;
+                let mut index = [(f % w) as u32, ((f / w) % h) as u32, (f / (w * h)) as u32];
+                for _ in first..(first + INDICES_PER_TASK).min(count) {
                     let view = View {
                         kind: ProgramKind::Raygen,
                         record: Some(&shared.sbt.raygen),
                         ..View::EMPTY
                     };
                     Invocation::new(shared, index).run(raygen, view);
+                    index = next_index(index, w as u32, h as u32);
                 }
             })
     });
+}
+
+/// The launch index after `index` in x-major order over a launch `w` wide and `h` high.
+#[inline]
+fn next_index([x, y, z]: [u32; 3], w: u32, h: u32) -> [u32; 3] {
+    if x + 1 < w {
+        [x + 1, y, z]
+    } else if y + 1 < h {
+        [0, y + 1, z]
+    } else {
+        [0, 0, z + 1]
+    }
 }
 
 /// The ray a program sees.
@@ -1044,5 +1060,28 @@ impl DeviceCalls for Invocation<'_> {
 
     fn state(&self) -> *const DeviceState {
         self.state
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::next_index;
+
+    #[test]
+    fn stepping_the_launch_index_matches_dividing_the_linear_one() {
+        for (w, h, d) in [
+            (1u64, 1u64, 3u64),
+            (5, 3, 2),
+            (1, 7, 2),
+            (4096, 2, 1),
+            (3, 1, 4),
+        ] {
+            let mut index = [0u32; 3];
+            for i in 0..w * h * d {
+                let want = [(i % w) as u32, ((i / w) % h) as u32, (i / (w * h)) as u32];
+                assert_eq!(index, want, "{w}x{h}x{d} at {i}");
+                index = next_index(index, w as u32, h as u32);
+            }
+        }
     }
 }

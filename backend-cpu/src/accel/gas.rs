@@ -5,7 +5,7 @@ use super::aabb::Aabb;
 use super::bvh::{BuildQuality, Bvh};
 use super::curve_basis::BezierSegment;
 use super::micromap::MicromapArrayData;
-use super::wide::WideBvh;
+use super::wide::{SlotTriangles, WideBvh};
 use optik_api::decode::{self, BufferBytes};
 use optik_api::semantics::sbt_index;
 use optik_api::{
@@ -18,6 +18,18 @@ use std::sync::Arc;
 pub trait MicromapLookup {
     /// The built array of `array`, or the handle's error.
     fn micromap_array(&self, array: MicromapArray) -> Result<Arc<MicromapArrayData>>;
+}
+
+/// What triangle blocks are packed from: static triangles and their records (`None` for
+/// other geometry and moving triangles).
+fn slot_triangles<'a>(
+    geometry: &'a Geometry,
+    primitives: &'a [PrimitiveInfo],
+) -> Option<SlotTriangles<'a>> {
+    geometry.static_triangles().map(|vertices| SlotTriangles {
+        vertices,
+        infos: primitives,
+    })
 }
 
 /// What a primitive reports to programs, per slot.
@@ -544,11 +556,12 @@ impl Gas {
         let quality = BuildQuality::from_flags(options.flags);
         let (bvh, order) = Bvh::build(&decoded.boxes, quality)?;
         let (motion, _) = motion_of(options);
-        let primitives = order.iter().map(|&i| decoded.infos[i as usize]).collect();
+        let primitives: Vec<PrimitiveInfo> =
+            order.iter().map(|&i| decoded.infos[i as usize]).collect();
         let geometry = decoded.geometry.permuted(&order);
         Ok(Gas {
             bounds: bvh.bounds(),
-            wide: WideBvh::build(&bvh, geometry.static_triangles()),
+            wide: WideBvh::build(&bvh, slot_triangles(&geometry, &primitives)),
             geometry,
             primitive_order: order,
             primitives,
@@ -575,7 +588,7 @@ impl Gas {
         self.geometry = decoded.geometry.permuted(order);
         self.primitives = order.iter().map(|&i| decoded.infos[i as usize]).collect();
         self.bvh.refit(|slot| boxes[order[slot] as usize]);
-        self.wide = WideBvh::build(&self.bvh, self.geometry.static_triangles());
+        self.wide = WideBvh::build(&self.bvh, slot_triangles(&self.geometry, &self.primitives));
         self.bounds = self.bvh.bounds();
         Ok(())
     }

@@ -4,8 +4,8 @@
 //!
 //! Why: a binary node costs two box tests and a decision per step; a 4-wide node tests its
 //! four children in one 4-lane slab test, so a ray takes about half as many steps, and four
-//! triangles of a leaf share one 4-lane watertight test (docs/cpu-backend.md, "Traversal
-//! speed").
+//! triangles of a leaf share one 4-lane watertight test (docs/cpu-backend.md,
+//! "Performance").
 //!
 //! Layout:
 //! - [`WideNode`] (128 bytes, two cache lines): the children's boxes as structure of arrays
@@ -17,13 +17,16 @@
 //! - Every child box is the box of the binary node it came from, so the wide BVH is exactly
 //!   as conservative as the binary one (boxes are exact unions of primitive boxes).
 //! - [`TriangleBlock`]: the vertices of up to four triangles of one leaf, as
-//!   `vertices[vertex][axis][lane]`, and their slots. A leaf of `count` triangles has
-//!   `ceil(count / 4)` consecutive blocks; lanes past the leaf's last triangle hold zeros and
-//!   slot `u32::MAX`, and the traversal masks them out. Blocks exist for static triangle
+//!   `vertices[vertex][axis][lane]`, their slots, and a copy of their [`PrimitiveInfo`]s
+//!   (what a hit needs next: its flags, indices; reading it from `Gas::primitives` cost a
+//!   cache miss per candidate). A leaf of `count` triangles has
+//!   `ceil(count / 4)` consecutive blocks; lanes past the leaf's last triangle hold zeros,
+//!   slot `u32::MAX` and a zeroed record, and the traversal masks them out. Blocks exist for static triangle
 //!   structures (one motion key); moving triangles are interpolated per slot instead.
 
 use super::aabb::Aabb;
 use super::bvh::Bvh;
+use super::gas::PrimitiveInfo;
 
 /// Children per node.
 pub const WIDTH: usize = 4;
@@ -67,6 +70,8 @@ pub struct TriangleBlock {
     pub vertices: [[[f32; WIDTH]; 3]; 3],
     /// The slot of each lane's triangle; `u32::MAX` for an unused lane.
     pub slots: [u32; WIDTH],
+    /// Each lane's `Gas::primitives[slot]` (zeroed for an unused lane).
+    pub infos: [PrimitiveInfo; WIDTH],
 }
 
 impl TriangleBlock {
@@ -85,6 +90,15 @@ impl TriangleBlock {
     }
 }
 
+/// What triangle blocks are packed from, per slot.
+#[derive(Clone, Copy, Debug)]
+pub struct SlotTriangles<'a> {
+    /// The static vertices.
+    pub vertices: &'a [[[f32; 3]; 3]],
+    /// The primitive records (`Gas::primitives`).
+    pub infos: &'a [PrimitiveInfo],
+}
+
 /// The 4-wide BVH of a geometry structure.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct WideBvh {
@@ -98,8 +112,8 @@ pub struct WideBvh {
 
 impl WideBvh {
     /// Collapses `bvh` into four-wide nodes. With `triangles` (per slot, the static
-    /// vertices), leaves point to triangle blocks packed from them.
-    pub fn build(bvh: &Bvh, triangles: Option<&[[[f32; 3]; 3]]>) -> WideBvh {
+    /// vertices and the primitive records), leaves point to triangle blocks packed from them.
+    pub fn build(bvh: &Bvh, triangles: Option<SlotTriangles<'_>>) -> WideBvh {
         let binary = bvh.nodes();
         let mut wide = WideBvh::default();
         if binary.is_empty() {
@@ -118,7 +132,7 @@ impl WideBvh {
                 if child.is_leaf() {
                     node.count[lane] = child.count;
                     node.first[lane] = match triangles {
-                        Some(tris) => wide.push_blocks(tris, child.first, child.count),
+                        Some(tris) => wide.push_blocks(&tris, child.first, child.count),
                         None => child.first,
                     };
                 } else {
@@ -134,12 +148,13 @@ impl WideBvh {
 
     /// Appends the blocks of the leaf holding slots `first .. first + count`; returns the
     /// index of its first block.
-    fn push_blocks(&mut self, tris: &[[[f32; 3]; 3]], first: u32, count: u32) -> u32 {
+    fn push_blocks(&mut self, tris: &SlotTriangles<'_>, first: u32, count: u32) -> u32 {
         let start = self.blocks.len() as u32;
         for b in 0..TriangleBlock::blocks_of(count) {
             let mut block = TriangleBlock {
                 vertices: [[[0.0; WIDTH]; 3]; 3],
                 slots: [u32::MAX; WIDTH],
+                infos: [bytemuck::Zeroable::zeroed(); WIDTH],
             };
             for lane in 0..WIDTH as u32 {
                 let i = b * WIDTH as u32 + lane;
@@ -147,13 +162,14 @@ impl WideBvh {
                     break;
                 }
                 let slot = first + i;
-                let tri = &tris[slot as usize];
+                let tri = &tris.vertices[slot as usize];
                 for (v, vertex) in tri.iter().enumerate() {
                     for (axis, &c) in vertex.iter().enumerate() {
                         block.vertices[v][axis][lane as usize] = c;
                     }
                 }
                 block.slots[lane as usize] = slot;
+                block.infos[lane as usize] = tris.infos[slot as usize];
             }
             self.blocks.push(block);
         }
@@ -292,13 +308,29 @@ mod tests {
             .collect();
         let (bvh, order) = Bvh::build(&b, BuildQuality::FastTrace).unwrap();
         let slotted: Vec<[[f32; 3]; 3]> = order.iter().map(|&i| tris[i as usize]).collect();
-        let wide = WideBvh::build(&bvh, Some(&slotted));
+        let infos: Vec<PrimitiveInfo> = (0..n as u32)
+            .map(|s| PrimitiveInfo {
+                primitive_index: order[s as usize],
+                sbt_gas_index: s % 3,
+                geometry_flags: s % 2,
+                input: 0,
+            })
+            .collect();
+        let wide = WideBvh::build(
+            &bvh,
+            Some(SlotTriangles {
+                vertices: &slotted,
+                infos: &infos,
+            }),
+        );
         check(&wide, n, |s| b[order[s] as usize]);
         for block in &wide.blocks {
             for (lane, &s) in block.slots.iter().enumerate() {
                 if s == u32::MAX {
+                    assert_eq!(block.infos[lane], bytemuck::Zeroable::zeroed());
                     continue;
                 }
+                assert_eq!(block.infos[lane], infos[s as usize]);
                 for (v, vertex) in slotted[s as usize].iter().enumerate() {
                     for (a, &c) in vertex.iter().enumerate() {
                         assert_eq!(block.vertices[v][a][lane], c);

@@ -326,7 +326,14 @@ impl<S: Spec> Walker<'_, S> {
                                     continue;
                                 }
                                 let s = block.slots[lane] as usize;
-                                self.triangle_hit(g, s, hit, path, h);
+                                // The block holds the vertices key 0 holds (bit for bit), in
+                                // lines already loaded: reading the slot's key-0 copy cost a
+                                // cache miss per candidate.
+                                let tri = std::array::from_fn(|v| {
+                                    std::array::from_fn(|a| block.vertices[v][a][lane])
+                                });
+                                let info = &block.infos[lane];
+                                self.triangle_hit_at(g, s, info, tri, hit, path, h);
                                 if h.done() {
                                     return;
                                 }
@@ -344,7 +351,9 @@ impl<S: Spec> Walker<'_, S> {
                                 else {
                                     continue;
                                 };
-                                self.triangle_hit(g, block.slots[lane] as usize, hit, path, h);
+                                let s = block.slots[lane] as usize;
+                                let info = &block.infos[lane];
+                                self.triangle_hit_at(g, s, info, tri, hit, path, h);
                                 if h.done() {
                                     return;
                                 }
@@ -364,7 +373,7 @@ impl<S: Spec> Walker<'_, S> {
                         triangle::moller_trumbore(&pr, &tri, tmin, h.t_max())
                     };
                     let Some(hit) = hit else { continue };
-                    self.triangle_hit_at(g, s, tri, hit, path, h);
+                    self.triangle_hit_at(g, s, &g.primitives[s], tri, hit, path, h);
                     if h.done() {
                         return;
                     }
@@ -462,29 +471,15 @@ impl<S: Spec> Walker<'_, S> {
 }
 
 impl<S: Spec> Walker<'_, S> {
-    /// A static triangle's hit: its vertices from key 0.
-    #[inline(always)]
-    fn triangle_hit<H: Handler>(
-        &self,
-        g: &Gas,
-        s: usize,
-        hit: triangle::TriangleHit,
-        path: &Path,
-        h: &mut H,
-    ) {
-        let Geometry::Triangles(tris) = &g.geometry else {
-            return;
-        };
-        self.triangle_hit_at(g, s, tris.keys[0][s], hit, path, h);
-    }
-
-    /// A triangle's hit (with the vertices it was tested with): facing, culling, micromap
-    /// and flag resolution, then the handler's candidate.
+    /// A triangle's hit (with the slot's record and the vertices it was tested with):
+    /// facing, culling, micromap and flag resolution, then the handler's candidate.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn triangle_hit_at<H: Handler>(
         &self,
         g: &Gas,
         s: usize,
+        info: &PrimitiveInfo,
         tri: [[f32; 3]; 3],
         hit: triangle::TriangleHit,
         path: &Path,
@@ -494,7 +489,6 @@ impl<S: Spec> Walker<'_, S> {
             return;
         };
         let flags = self.ray.flags;
-        let info = &g.primitives[s];
         // The test's facing is decided in object space; instances may flip it.
         let front = facing::is_front_face(if hit.front { -1.0 } else { 1.0 }, path.flip);
         if opacity::triangle_face_culled(front, info.flags(), path.flags, flags) {

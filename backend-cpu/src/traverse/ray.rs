@@ -65,7 +65,8 @@ impl PreparedRay {
             exit_scale: if conservative { SLAB_WIDENING } else { 1.0 },
             negative: [dir[0] < 0.0, dir[1] < 0.0, dir[2] < 0.0],
             axes: [kx, ky, kz],
-            shear: [dir[kx] / dz, dir[ky] / dz, 1.0 / dz],
+            // `1.0 / dz` is `inv[kz]`, bit for bit: one division fewer per ray.
+            shear: [dir[kx] / dz, dir[ky] / dz, inv[kz]],
             moves: dz != 0.0,
         }
     }

@@ -410,6 +410,7 @@ fn trees_deeper_than_the_inline_stack_are_walked() {
         let mut block = TriangleBlock {
             vertices: [[[0.0; 4]; 3]; 3],
             slots: [u32::MAX; 4],
+            infos: [bytemuck::Zeroable::zeroed(); 4],
         };
         for (vi, vertex) in tri.iter().enumerate() {
             for (a, &c) in vertex.iter().enumerate() {
@@ -417,6 +418,7 @@ fn trees_deeper_than_the_inline_stack_are_walked() {
             }
         }
         block.slots[0] = i as u32;
+        block.infos[0] = gas.primitives[i];
         chain.blocks.push(block);
         let node = &mut chain.nodes[i];
         for a in 0..3 {

@@ -366,6 +366,7 @@ mod tests {
         let mut b = TriangleBlock {
             vertices: [[[0.0; 4]; 3]; 3],
             slots: [u32::MAX; 4],
+            infos: [bytemuck::Zeroable::zeroed(); 4],
         };
         for (lane, t) in tris.iter().enumerate() {
             for (v, vertex) in t.iter().enumerate() {
