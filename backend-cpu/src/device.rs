@@ -9,8 +9,10 @@ use crate::accel::{
     self, Gas, Ias, MicromapArrayData, MicromapLookup, SceneTable, Transform, Traversable, handle,
 };
 use crate::launch::{self, LaunchShared};
-use crate::pipeline::{self, GroupObject, ModuleObject, NativeModuleDesc, PipelineObject};
-use crate::program::abi::{BoundBuffer, BoundResource, BoundTexture};
+use crate::pipeline::{
+    self, GroupObject, ModuleObject, NativeModuleDesc, PipelineObject, PreparedModules,
+};
+use crate::program::abi::{Bindings, BoundBuffer, BoundResource, BoundTexture};
 use crate::sbt::{self, RecordBytes};
 use crate::traverse::TraceConfig;
 use optik_api::decode::BufferBytes;
@@ -658,7 +660,7 @@ impl Device for CpuDevice {
         let accuracy = st.accuracy;
         let object = PipelineObject {
             trace: pipeline::select_trace(&features, accuracy),
-            groups: group_objects,
+            groups: pipeline::with_payload_registers(group_objects, features.num_payload_values),
             features,
             link: *link_options,
             accuracy,
@@ -729,19 +731,6 @@ impl Device for CpuDevice {
         if size.is_empty() {
             return Ok(());
         }
-        let resolved = {
-            let data = Inputs {
-                buffers: &st.buffers,
-                micromaps: &st.micromaps,
-            };
-            sbt::resolve(
-                sbt,
-                self.id,
-                &pipeline,
-                &data,
-                self.props.max_sbt_record_stride,
-            )?
-        };
         // Binding 0: the params bytes, copied into aligned memory that lives for the launch.
         let mut params_copy = BufferData::zeroed(params.len() as u64)?;
         params_copy.bytes_mut().copy_from_slice(params);
@@ -759,6 +748,7 @@ impl Device for CpuDevice {
             buffers,
             textures,
             scene,
+            micromaps,
             ..
         } = st;
         for r in resources {
@@ -789,11 +779,24 @@ impl Device for CpuDevice {
                 Resource::Sampler { sampler, .. } => BoundResource::Sampler(*sampler),
             };
         }
+        let bindings = Bindings { resources: &bound };
+        let prepared = PreparedModules::new(&pipeline, &bindings);
+        let resolved = {
+            let data = Inputs { buffers, micromaps };
+            sbt::resolve(
+                sbt,
+                self.id,
+                &pipeline,
+                &prepared,
+                &data,
+                self.props.max_sbt_record_stride,
+            )?
+        };
         let features = pipeline.features;
         let shared = LaunchShared {
             sbt: resolved,
             scene,
-            resources: bound,
+            bindings: &bindings,
             size: [size.width, size.height, size.depth],
             config: TraceConfig {
                 primitive_types: features.primitive_types,
@@ -820,5 +823,84 @@ impl Device for CpuDevice {
 
     fn synchronize(&self) -> Result<()> {
         Ok(())
+    }
+}
+
+#[cfg(all(test, feature = "jit"))]
+mod tests {
+    use super::*;
+    use crate::pipeline::ProgramCode;
+    use optik_api::{ProgramRef, Setting};
+
+    /// Registers 0..=4 are used (`p[4]` in the raygen).
+    const SOURCE: &str = r#"
+fn raygen__main() {
+    var p: RtPayload;
+    p[4] = 1u;
+    rt_trace(vec2<u32>(0u, 0u), vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), 0.0, 1.0, 0.0,
+             0xFFu, 0u, 0u, 1u, 0u, &p);
+}
+fn miss__main() {
+    rt_set_payload(2u, 1u);
+}
+"#;
+
+    /// The `RtPayload` length each program of `pipeline` was compiled with.
+    fn compiled_registers(dev: &CpuDevice, pipeline: Pipeline) -> Vec<u32> {
+        let st = dev.state();
+        let p = st.pipelines.get(pipeline).unwrap();
+        p.groups
+            .iter()
+            .filter_map(|(_, g)| match &g.programs.main {
+                Some(ProgramCode::Jit { source, .. }) => Some(source.payload_len),
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn pipeline(dev: &CpuDevice, module: Setting<u32>, pipeline: Setting<u32>) -> Pipeline {
+        let options = |n| PipelineCompileOptions {
+            num_payload_values: n,
+            ..Default::default()
+        };
+        let (m, _) = dev
+            .create_module(
+                &ModuleCompileOptions::default(),
+                &options(module),
+                &ProgramSource::new("payload.wgsl", SOURCE),
+            )
+            .unwrap();
+        let groups = dev
+            .create_program_groups(&[
+                ProgramGroupDesc::Raygen(ProgramRef::new(m, "raygen__main")),
+                ProgramGroupDesc::Miss(Some(ProgramRef::new(m, "miss__main"))),
+            ])
+            .unwrap();
+        dev.create_pipeline(&options(pipeline), &PipelineLinkOptions::default(), &groups)
+            .unwrap()
+    }
+
+    #[test]
+    fn pipelines_compile_modules_for_their_payload_registers() {
+        let dev = CpuDevice::with_threads(1).unwrap();
+        // Auto: the module has 32 registers, the pipeline resolves the 5 the programs use.
+        let p = pipeline(&dev, Setting::Auto, Setting::Auto);
+        assert_eq!(compiled_registers(&dev, p), [5, 5]);
+        // A pipeline asking for more than the programs use gets what it asks for.
+        let p = pipeline(&dev, Setting::Value(8), Setting::Value(12));
+        assert_eq!(compiled_registers(&dev, p), [12, 12]);
+        // Matching counts keep the module's code.
+        let p = pipeline(&dev, Setting::Value(6), Setting::Value(6));
+        assert_eq!(compiled_registers(&dev, p), [6, 6]);
+        let st = dev.state();
+        let groups = &st.pipelines.get(p).unwrap().groups;
+        let modules: Vec<&crate::program::JitModule> = groups
+            .iter()
+            .filter_map(|(_, g)| match &g.programs.main {
+                Some(ProgramCode::Jit { module, .. }) => Some(module),
+                _ => None,
+            })
+            .collect();
+        assert!(crate::program::JitModule::same_code(modules[0], modules[1]));
     }
 }

@@ -31,6 +31,8 @@ pub(crate) fn compile(
                     ProgramCode::Jit {
                         module: jit.clone(),
                         name: Arc::from(p.name.as_str()),
+                        source: compiled.clone(),
+                        opt_level: options.opt_level,
                     },
                 ),
             )
@@ -52,6 +54,27 @@ pub(crate) fn compile(
         },
         log,
     ))
+}
+
+/// `source` compiled again with `RtPayload` of `payload_len` registers.
+#[cfg(feature = "jit")]
+pub(crate) fn recompile(
+    source: &CompiledModule,
+    opt_level: optik_api::OptLevel,
+    payload_len: u32,
+) -> Result<(crate::program::JitModule, Arc<CompiledModule>)> {
+    use crate::program::{JitModule, JitOptions};
+    let program =
+        optik_api::ProgramSource::new(source.file_name.clone(), source.user_source.clone());
+    let compiled = Arc::new(optik_api::frontend::compile(&program, payload_len)?);
+    let jit = JitModule::compile(
+        &compiled,
+        &JitOptions {
+            opt_level,
+            ..Default::default()
+        },
+    )?;
+    Ok((jit, compiled))
 }
 
 /// Without the JIT, WGSL modules parse and check but cannot run.

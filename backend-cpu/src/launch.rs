@@ -17,10 +17,17 @@
 //!   (as the Vulkan backend's null records), or raises `INVALID_HIT_SBT` under debug
 //!   exceptions; a miss index past the miss records runs nothing (or raises
 //!   `INVALID_MISS_SBT`).
+//!
+//! Cost: nothing here allocates. What a running program sees (its [`View`] and the
+//! [`DeviceState`] compiled programs read instead of calling getters) and what a trace keeps
+//! ([`TraceState`], the payload registers) live in the stack frames of the calls that run
+//! programs and trace; the invocation points at the innermost ones, and views point at the
+//! hit and the instance path they show, so nesting copies little more than the payload
+//! words in use.
 
 use crate::accel::SceneTable;
 use crate::pipeline::{Callable, TraceFn};
-use crate::program::abi::{Bindings, BoundResource, DeviceCalls};
+use crate::program::abi::{Bindings, DeviceCalls, DeviceState};
 use crate::sbt::{Record, ResolvedSbt};
 use crate::traverse::{
     self, Candidate, CustomPrimitive, Handler, HitData, Path, Spec, TraceConfig, TraceRay,
@@ -29,18 +36,22 @@ use optik_api::semantics::exception as code;
 use optik_api::semantics::opacity::CandidateFate;
 use optik_api::semantics::{self, facing, sbt_index};
 use optik_api::{
-    ExceptionFlags, FeatureSet, IDENTITY_3X4, Matrix3x4, PipelineLinkOptions, ProgramKind,
-    RayFlags, TraversableHandle,
+    ExceptionFlags, FeatureSet, IDENTITY_3X4, PipelineLinkOptions, ProgramKind, RayFlags,
+    TraversableHandle,
 };
 
 /// Most payload (and callable argument) registers.
 const MAX_PAYLOAD: usize = 32;
 
+/// Launch indices one rayon task runs: enough to make scheduling cheap per ray, few enough
+/// to balance rays of very different cost over the threads.
+const INDICES_PER_TASK: usize = 64;
+
 /// What every invocation of a launch shares.
 pub(crate) struct LaunchShared<'l> {
     pub sbt: ResolvedSbt<'l>,
     pub scene: &'l SceneTable,
-    pub resources: Vec<BoundResource>,
+    pub bindings: &'l Bindings<'l>,
     pub size: [u32; 3],
     pub config: TraceConfig,
     pub features: FeatureSet,
@@ -58,19 +69,40 @@ pub(crate) fn run(shared: &LaunchShared<'_>, pool: &rayon::ThreadPool) {
     let Some(raygen) = shared.sbt.raygen.programs.main else {
         return;
     };
+    let (w, h) = (w as u64, h as u64);
     pool.install(|| {
-        (0..count).into_par_iter().with_min_len(16).for_each(|i| {
-            let (i, w, h) = (i as u64, w as u64, h as u64);
-            let index = [(i % w) as u32, ((i / w) % h) as u32, (i / (w * h)) as u32];
-            let mut inv = Invocation::new(shared, index);
-            let view = View {
-                kind: ProgramKind::Raygen,
-                record: Some(&shared.sbt.raygen),
-                ..View::EMPTY
-            };
-            inv.run(raygen, view);
-        })
+        (0..count.div_ceil(INDICES_PER_TASK))
+            .into_par_iter()
+            .for_each(|task| {
+                let first = task * INDICES_PER_TASK;
+                // Divisions once per task; the index then steps along x (three 64-bit
+                // divisions per invocation cost more than the rest of a missed ray's launch
+                // bookkeeping).
+                let f = first as u64;
+                let mut index = [(f % w) as u32, ((f / w) % h) as u32, (f / (w * h)) as u32];
+                for _ in first..(first + INDICES_PER_TASK).min(count) {
+                    let view = View {
+                        kind: ProgramKind::Raygen,
+                        record: Some(&shared.sbt.raygen),
+                        ..View::EMPTY
+                    };
+                    Invocation::new(shared, index).run(raygen, view);
+                    index = next_index(index, w as u32, h as u32);
+                }
+            })
     });
+}
+
+/// The launch index after `index` in x-major order over a launch `w` wide and `h` high.
+#[inline]
+fn next_index([x, y, z]: [u32; 3], w: u32, h: u32) -> [u32; 3] {
+    if x + 1 < w {
+        [x + 1, y, z]
+    } else if y + 1 < h {
+        [0, y + 1, z]
+    } else {
+        [0, 0, z + 1]
+    }
 }
 
 /// The ray a program sees.
@@ -86,38 +118,48 @@ struct RayState {
     mask: u32,
 }
 
-/// The primitive a program sees.
+/// The primitive a program sees (the instances above it are its [`Path`]).
 #[derive(Clone, Copy, Debug)]
 struct HitState {
     t: f32,
     primitive_index: u32,
     sbt_gas_index: u32,
-    instance_id: u32,
-    instance_index: u32,
     hit_kind: u32,
     attributes: [u32; 8],
     data: Option<HitData>,
-    object_origin: [f32; 3],
-    object_direction: [f32; 3],
-    object_to_world: Matrix3x4,
-    world_to_object: Matrix3x4,
 }
 
 impl HitState {
-    fn at(info: &crate::accel::PrimitiveInfo, path: &Path) -> HitState {
+    fn at(info: &crate::accel::PrimitiveInfo) -> HitState {
         HitState {
             t: 0.0,
             primitive_index: info.primitive_index,
             sbt_gas_index: info.sbt_gas_index,
-            instance_id: path.instance_id,
-            instance_index: path.instance_index,
             hit_kind: 0,
             attributes: [0; 8],
             data: None,
-            object_origin: path.object_origin,
-            object_direction: path.object_direction,
-            object_to_world: path.object_to_world,
-            world_to_object: path.world_to_object,
+        }
+    }
+
+    /// A built-in primitive's hit.
+    #[inline(always)]
+    fn of(c: &Candidate<'_>) -> HitState {
+        let mut attributes = [0; 8];
+        match c.data {
+            HitData::Triangle { barycentrics, .. } => {
+                attributes[0] = barycentrics[0].to_bits();
+                attributes[1] = barycentrics[1].to_bits();
+            }
+            HitData::Curve { u } => attributes[0] = u.to_bits(),
+            HitData::Sphere { .. } => {}
+        }
+        HitState {
+            t: c.t,
+            primitive_index: c.info.primitive_index,
+            sbt_gas_index: c.info.sbt_gas_index,
+            hit_kind: c.hit_kind,
+            attributes,
+            data: Some(c.data),
         }
     }
 }
@@ -128,7 +170,14 @@ struct View<'l> {
     kind: ProgramKind,
     record: Option<&'l Record<'l>>,
     ray: RayState,
-    hit: Option<HitState>,
+    /// The primitive, or null: a hit kept by a caller of the program's `run` (the committed
+    /// hit of the trace, the candidate of an any-hit, the primitive of an intersection), so
+    /// views stay small to copy.
+    hit: *const HitState,
+    /// The instances above `hit`, kept the same way; null when there are none (pipelines
+    /// without instancing): identity transforms, instance id and index 0, the object-space
+    /// ray is the ray.
+    path: *const Path,
     exception_code: i32,
 }
 
@@ -145,7 +194,8 @@ impl View<'_> {
             flags: 0,
             mask: 0,
         },
-        hit: None,
+        hit: std::ptr::null(),
+        path: std::ptr::null(),
         exception_code: 0,
     };
 }
@@ -161,17 +211,22 @@ enum AnyHitOutcome {
 #[derive(Clone, Copy)]
 struct IntersectionContext<'l> {
     base: HitState,
+    /// As `View::path`; points into the traversal's stack for the program's run.
+    path: *const Path,
     record: &'l Record<'l>,
     fate: CandidateFate,
 }
 
-/// The state of the innermost `rt_trace`.
-#[derive(Clone, Copy)]
+/// The state of one `rt_trace`, in the stack frame of [`Invocation::trace`].
 struct TraceState<'l> {
     ray: RayState,
     sbt_offset: u32,
     sbt_stride: u32,
     committed: Option<(HitState, &'l Record<'l>)>,
+    /// The instances above the committed hit, when the pipeline has instancing (else the
+    /// committed hit has none). Only read when `committed_has_path`.
+    committed_path: std::mem::MaybeUninit<Path>,
+    committed_has_path: bool,
     terminated: bool,
     any_hit: AnyHitOutcome,
     intersection: Option<IntersectionContext<'l>>,
@@ -190,10 +245,16 @@ pub(crate) struct Invocation<'l> {
     continuation_depth: u32,
     /// An exception ended this launch index.
     ending: bool,
-    view: View<'l>,
-    payload: [u32; MAX_PAYLOAD],
+    /// What the innermost running program sees (null before the raygen starts); in the
+    /// stack frame of its `run`.
+    view: *mut View<'l>,
+    /// Its values as memory (only the fields of `present` are written); next to `view`.
+    state: *mut DeviceState,
+    /// The innermost trace (null outside traces).
+    trace: *mut TraceState<'l>,
+    /// The payload registers of the innermost trace or callable call (null outside them).
+    payload: *mut u32,
     payload_len: usize,
-    trace: TraceState<'l>,
 }
 
 /// Traces for a pipeline compiled as `S`.
@@ -215,19 +276,11 @@ impl<'l> Invocation<'l> {
             direct_depth: 0,
             continuation_depth: 0,
             ending: false,
-            view: View::EMPTY,
-            payload: [0; MAX_PAYLOAD],
+            view: std::ptr::null_mut(),
+            state: std::ptr::null_mut(),
+            trace: std::ptr::null_mut(),
+            payload: std::ptr::null_mut(),
             payload_len: 0,
-            trace: TraceState {
-                ray: View::EMPTY.ray,
-                sbt_offset: 0,
-                sbt_stride: 0,
-                committed: None,
-                terminated: false,
-                any_hit: AnyHitOutcome::Accept,
-                intersection: None,
-                intersection_exit: false,
-            },
         }
     }
 
@@ -235,15 +288,129 @@ impl<'l> Invocation<'l> {
         self.shared.features.exceptions
     }
 
-    /// Runs a program with `view`, restoring the caller's view after.
+    /// What the running program sees.
+    #[inline]
+    fn view(&self) -> &View<'l> {
+        if self.view.is_null() {
+            &View::EMPTY
+        } else {
+            // SAFETY: `view` points into the stack frame of the `run` call of the running
+            // program, which outlives every device call the program makes.
+            unsafe { &*self.view }
+        }
+    }
+
+    /// The innermost trace. Only called while one runs (from the traversal's handler
+    /// calls, or from programs it runs).
+    #[inline]
+    fn tr(&self) -> &TraceState<'l> {
+        debug_assert!(!self.trace.is_null());
+        // SAFETY: `trace` points into the stack frame of the `trace` call in progress.
+        unsafe { &*self.trace }
+    }
+
+    #[inline]
+    fn tr_mut(&mut self) -> &mut TraceState<'l> {
+        debug_assert!(!self.trace.is_null());
+        // SAFETY: as in `tr`; `&mut self` makes this the only reference.
+        unsafe { &mut *self.trace }
+    }
+
+    /// Runs a program with `view`; the caller's view comes back after.
+    #[inline]
     fn run(&mut self, program: Callable<'l>, view: View<'l>) {
-        let saved = std::mem::replace(&mut self.view, view);
-        let shared = self.shared;
-        let bindings = Bindings {
-            resources: &shared.resources,
-        };
-        program.call(&bindings, self);
-        self.view = saved;
+        // An empty program (a miss program that leaves the payload alone) has no effect.
+        if !program.does_nothing() {
+            self.run_program(program, view);
+        }
+    }
+
+    fn run_program(&mut self, program: Callable<'l>, mut view: View<'l>) {
+        // Compiled code reads the state through a raw pointer: only written fields are read.
+        let mut state = std::mem::MaybeUninit::<DeviceState>::uninit();
+        let saved = (
+            std::mem::replace(&mut self.view, &mut view),
+            std::mem::replace(&mut self.state, state.as_mut_ptr()),
+        );
+        self.fill_state(program.state_bits());
+        let bindings = self.shared.bindings;
+        let state = self.state;
+        program.call(bindings, self, state);
+        (self.view, self.state) = saved;
+    }
+
+    /// Writes the values of `bits` for the running program into its `DeviceState`: the
+    /// same answers the `DeviceCalls` methods give, read as memory by compiled code.
+    #[inline]
+    fn fill_state(&mut self, bits: u32) {
+        type S = DeviceState;
+        // SAFETY (every write below): `state` is the running program's state, set by `run`;
+        // nothing else refers to it, and the fields are plain data written through the
+        // pointer (never read before they are written).
+        let s = self.state;
+        unsafe { (*s).present = bits & !S::PAYLOAD };
+        if bits == 0 {
+            return;
+        }
+        if bits & S::LAUNCH_INDEX != 0 {
+            unsafe { (*s).launch_index = self.launch_index() };
+        }
+        if bits & S::LAUNCH_DIMENSIONS != 0 {
+            unsafe { (*s).launch_dimensions = self.launch_dimensions() };
+        }
+        if bits & S::WORLD_RAY != 0 {
+            unsafe {
+                (*s).world_ray_origin = self.world_ray_origin();
+                (*s).world_ray_direction = self.world_ray_direction();
+            }
+        }
+        if bits & S::OBJECT_RAY != 0 {
+            unsafe {
+                (*s).object_ray_origin = self.object_ray_origin();
+                (*s).object_ray_direction = self.object_ray_direction();
+            }
+        }
+        if bits & S::RAY != 0 {
+            unsafe {
+                (*s).ray_tmin = self.ray_tmin();
+                (*s).ray_tmax = self.ray_tmax();
+                (*s).ray_time = self.ray_time();
+                (*s).ray_flags = self.ray_flags();
+                (*s).ray_mask = self.ray_mask();
+            }
+        }
+        if bits & S::PRIMITIVE != 0 {
+            unsafe {
+                (*s).primitive_index = self.primitive_index();
+                (*s).sbt_gas_index = self.sbt_gas_index();
+                (*s).instance_id = self.instance_id();
+                (*s).instance_index = self.instance_index();
+            }
+        }
+        if bits & S::HIT != 0 {
+            unsafe {
+                (*s).hit_kind = self.hit_kind();
+                (*s).triangle_barycentrics = self.triangle_barycentrics();
+            }
+        }
+        if bits & S::TRANSFORMS != 0 {
+            unsafe {
+                (*s).object_to_world = self.object_to_world();
+                (*s).world_to_object = self.world_to_object();
+            }
+        }
+        if bits & S::TRACE_DEPTH != 0 {
+            unsafe { (*s).remaining_trace_depth = self.remaining_trace_depth() };
+        }
+        // Writes in place are right only while they are not dropped (before an exception
+        // ends the index; no program starts after that).
+        if bits & S::PAYLOAD != 0 && !self.payload.is_null() && !self.ending {
+            unsafe {
+                (*s).present |= S::PAYLOAD;
+                (*s).payload = self.payload;
+                (*s).payload_len = self.payload_len as u32;
+            }
+        }
     }
 
     /// Raises an exception: runs the exception program, then ends the launch index.
@@ -258,7 +425,7 @@ impl<'l> Invocation<'l> {
                 kind: ProgramKind::Exception,
                 record: Some(rec),
                 exception_code,
-                ..self.view
+                ..*self.view()
             };
             self.run(p, view);
         }
@@ -269,13 +436,15 @@ impl<'l> Invocation<'l> {
     /// without programs (the hit counts, nothing runs; custom primitives, which need an
     /// intersection program, cannot be hit), or raises `INVALID_HIT_SBT` under debug
     /// exceptions (`None`).
+    #[inline]
     fn hit_record(&mut self, path: &Path, sbt_gas_index: u32) -> Option<&'l Record<'l>> {
         let shared = self.shared;
+        let tr = self.tr();
         let i = sbt_index::hit_record_index(
             path.sbt_offset,
             sbt_gas_index,
-            self.trace.sbt_offset,
-            self.trace.sbt_stride,
+            tr.sbt_offset,
+            tr.sbt_stride,
         );
         match shared.sbt.hitgroup.get(i as usize) {
             Some(rec) => Some(rec),
@@ -287,17 +456,19 @@ impl<'l> Invocation<'l> {
         }
     }
 
-    /// Runs the any-hit program on a candidate; `None` when the invocation ended.
+    /// Runs the any-hit program on a candidate below `path` (null: no instances); `None`
+    /// when the invocation ended.
     fn any_hit(
         &mut self,
         program: Callable<'l>,
         record: &'l Record<'l>,
-        hit: HitState,
+        hit: &HitState,
+        path: *const Path,
     ) -> Option<AnyHitOutcome> {
-        let saved = std::mem::replace(&mut self.trace.any_hit, AnyHitOutcome::Accept);
+        let saved = std::mem::replace(&mut self.tr_mut().any_hit, AnyHitOutcome::Accept);
         let ray = RayState {
             tmax: hit.t,
-            ..self.trace.ray
+            ..self.tr().ray
         };
         self.run(
             program,
@@ -305,27 +476,47 @@ impl<'l> Invocation<'l> {
                 kind: ProgramKind::AnyHit,
                 record: Some(record),
                 ray,
-                hit: Some(hit),
+                hit,
+                path,
                 exception_code: 0,
             },
         );
-        let outcome = std::mem::replace(&mut self.trace.any_hit, saved);
+        let outcome = std::mem::replace(&mut self.tr_mut().any_hit, saved);
         (!self.ending).then_some(outcome)
     }
 
-    /// Commits a hit; `terminate` ends the traversal.
-    fn commit(&mut self, hit: HitState, record: &'l Record<'l>, terminate: bool) {
-        self.trace.committed = Some((hit, record));
-        self.trace.ray.tmax = hit.t;
-        if terminate || RayFlags(self.trace.ray.flags).contains(RayFlags::TERMINATE_ON_FIRST_HIT) {
-            self.trace.terminated = true;
+    /// Commits a hit below `path` (null: no instances); `terminate` ends the traversal.
+    #[inline(always)]
+    fn commit(
+        &mut self,
+        hit: HitState,
+        path: *const Path,
+        record: &'l Record<'l>,
+        terminate: bool,
+    ) {
+        let tr = self.tr_mut();
+        tr.ray.tmax = hit.t;
+        tr.committed = Some((hit, record));
+        tr.committed_has_path = !path.is_null();
+        if !path.is_null() {
+            // SAFETY: a non-null path points to the traversal's live path for this call.
+            tr.committed_path.write(unsafe { *path });
+        }
+        if terminate || RayFlags(tr.ray.flags).contains(RayFlags::TERMINATE_ON_FIRST_HIT) {
+            tr.terminated = true;
         }
     }
 
     /// After traversal: the closest-hit or miss program.
     fn finish_trace(&mut self, world: RayState, miss_index: u32) {
-        match self.trace.committed {
-            Some((hit, record)) => {
+        let tr = self.tr();
+        let path: *const Path = if tr.committed_has_path {
+            tr.committed_path.as_ptr()
+        } else {
+            std::ptr::null()
+        };
+        match &tr.committed {
+            &Some((ref hit, record)) => {
                 if RayFlags(world.flags).contains(RayFlags::DISABLE_CLOSESTHIT) {
                     return;
                 }
@@ -334,13 +525,15 @@ impl<'l> Invocation<'l> {
                         tmax: hit.t,
                         ..world
                     };
+                    let hit: *const HitState = hit;
                     self.run(
                         ch,
                         View {
                             kind: ProgramKind::ClosestHit,
                             record: Some(record),
                             ray,
-                            hit: Some(hit),
+                            hit,
+                            path,
                             exception_code: 0,
                         },
                     );
@@ -361,7 +554,8 @@ impl<'l> Invocation<'l> {
                                     kind: ProgramKind::Miss,
                                     record: Some(record),
                                     ray: world,
-                                    hit: None,
+                                    hit: std::ptr::null(),
+                                    path: std::ptr::null(),
                                     exception_code: 0,
                                 },
                             );
@@ -412,10 +606,10 @@ impl<'l> Invocation<'l> {
             return;
         }
         let n = args.len().min(MAX_PAYLOAD);
+        let mut registers = [0u32; MAX_PAYLOAD];
+        registers[..n].copy_from_slice(&args[..n]);
         let saved = (self.payload, self.payload_len);
-        self.payload = [0; MAX_PAYLOAD];
-        self.payload[..n].copy_from_slice(&args[..n]);
-        self.payload_len = n;
+        (self.payload, self.payload_len) = (registers.as_mut_ptr(), n);
         let kind = if continuation {
             ProgramKind::ContinuationCallable
         } else {
@@ -426,71 +620,71 @@ impl<'l> Invocation<'l> {
         } else {
             self.direct_depth += 1;
         }
-        self.run(
-            program,
-            View {
-                kind,
-                record: Some(record),
-                ..self.view
-            },
-        );
+        let view = View {
+            kind,
+            record: Some(record),
+            ..*self.view()
+        };
+        self.run(program, view);
         if continuation {
             self.continuation_depth -= 1;
         } else {
             self.direct_depth -= 1;
         }
-        if !self.ending {
-            args[..n].copy_from_slice(&self.payload[..n]);
-        }
         (self.payload, self.payload_len) = saved;
+        if !self.ending {
+            args[..n].copy_from_slice(&registers[..n]);
+        }
     }
 
+    #[inline]
     fn hit(&self) -> Option<&HitState> {
-        self.view.hit.as_ref()
+        // SAFETY: a view's hit is kept alive by the caller of the program's `run` for as
+        // long as the program runs (see `View::hit`).
+        unsafe { self.view().hit.as_ref() }
+    }
+
+    /// The instances above the hit the running program sees, if any.
+    #[inline]
+    fn path(&self) -> Option<&Path> {
+        // SAFETY: as for the hit (see `View::path`).
+        unsafe { self.view().path.as_ref() }
     }
 }
 
 impl Handler for Invocation<'_> {
     #[inline]
     fn t_max(&self) -> f32 {
-        self.trace.ray.tmax
+        self.tr().ray.tmax
     }
 
     #[inline]
     fn done(&self) -> bool {
-        self.trace.terminated || self.ending
+        self.tr().terminated || self.ending
     }
 
+    #[inline]
     fn candidate<S: Spec>(&mut self, c: &Candidate<'_>, path: &Path, fate: CandidateFate) {
         let Some(record) = self.hit_record(path, c.info.sbt_gas_index) else {
             return;
         };
-        let mut hit = HitState {
-            t: c.t,
-            hit_kind: c.hit_kind,
-            data: Some(c.data),
-            ..HitState::at(c.info, path)
+        // Without instancing the path is the ray's own: programs need not see it.
+        let path: *const Path = if S::INSTANCING {
+            path
+        } else {
+            std::ptr::null()
         };
-        match c.data {
-            HitData::Triangle { barycentrics, .. } => {
-                hit.attributes[0] = barycentrics[0].to_bits();
-                hit.attributes[1] = barycentrics[1].to_bits();
-            }
-            HitData::Curve { u } => hit.attributes[0] = u.to_bits(),
-            HitData::Sphere { .. } => {}
-        }
-        let mut terminate = false;
-        if S::ANY_HIT
-            && fate == CandidateFate::NonOpaque
-            && let Some(ah) = record.programs.any_hit
-        {
-            match self.any_hit(ah, record, hit) {
-                None | Some(AnyHitOutcome::Ignore) => return,
-                Some(AnyHitOutcome::Terminate) => terminate = true,
-                Some(AnyHitOutcome::Accept) => {}
-            }
-        }
-        self.commit(hit, record, terminate);
+        let any_hit = match record.programs.any_hit {
+            Some(ah) if S::ANY_HIT && fate == CandidateFate::NonOpaque => ah,
+            _ => return self.commit(HitState::of(c), path, record, false),
+        };
+        let hit = HitState::of(c);
+        let terminate = match self.any_hit(any_hit, record, &hit, path) {
+            None | Some(AnyHitOutcome::Ignore) => return,
+            Some(AnyHitOutcome::Terminate) => true,
+            Some(AnyHitOutcome::Accept) => false,
+        };
+        self.commit(hit, path, record, terminate);
     }
 
     fn custom<S: Spec>(&mut self, p: &CustomPrimitive<'_>, path: &Path, fate: CandidateFate) {
@@ -500,19 +694,32 @@ impl Handler for Invocation<'_> {
         let Some(is) = record.programs.intersection else {
             return;
         };
-        let base = HitState::at(p.info, path);
-        self.trace.intersection = Some(IntersectionContext { base, record, fate });
-        self.trace.intersection_exit = false;
+        let path: *const Path = if S::INSTANCING {
+            path
+        } else {
+            std::ptr::null()
+        };
+        let base = HitState::at(p.info);
+        let tr = self.tr_mut();
+        tr.intersection = Some(IntersectionContext {
+            base,
+            path,
+            record,
+            fate,
+        });
+        tr.intersection_exit = false;
         let view = View {
             kind: ProgramKind::Intersection,
             record: Some(record),
-            ray: self.trace.ray,
-            hit: Some(base),
+            ray: tr.ray,
+            hit: &base,
+            path,
             exception_code: 0,
         };
         self.run(is, view);
-        self.trace.intersection = None;
-        self.trace.intersection_exit = false;
+        let tr = self.tr_mut();
+        tr.intersection = None;
+        tr.intersection_exit = false;
     }
 
     fn traversal_exception(&mut self, exception_code: i32) {
@@ -521,10 +728,12 @@ impl Handler for Invocation<'_> {
 }
 
 impl DeviceCalls for Invocation<'_> {
+    #[inline]
     fn launch_index(&self) -> [u32; 3] {
         self.index
     }
 
+    #[inline]
     fn launch_dimensions(&self) -> [u32; 3] {
         self.shared.size
     }
@@ -571,21 +780,27 @@ impl DeviceCalls for Invocation<'_> {
             mask,
         };
         let n = payload.len().min(MAX_PAYLOAD);
-        let saved_payload = (self.payload, self.payload_len);
-        self.payload = [0; MAX_PAYLOAD];
-        self.payload[..n].copy_from_slice(&payload[..n]);
-        self.payload_len = n;
-        let fresh = TraceState {
+        // Registers past `n` are never read (accesses check `payload_len`), so only the
+        // caller's words are copied in, one by one (a handful: no `memcpy` call).
+        let mut registers = [const { std::mem::MaybeUninit::<u32>::uninit() }; MAX_PAYLOAD];
+        for (r, &p) in registers.iter_mut().zip(&payload[..n]) {
+            r.write(p);
+        }
+        let mut state = TraceState {
             ray: world,
             sbt_offset,
             sbt_stride,
             committed: None,
+            committed_path: std::mem::MaybeUninit::uninit(),
+            committed_has_path: false,
             terminated: false,
             any_hit: AnyHitOutcome::Accept,
             intersection: None,
             intersection_exit: false,
         };
-        let saved_trace = std::mem::replace(&mut self.trace, fresh);
+        let saved_trace = std::mem::replace(&mut self.trace, &mut state);
+        let saved_payload = (self.payload, self.payload_len);
+        (self.payload, self.payload_len) = (registers.as_mut_ptr().cast::<u32>(), n);
         self.depth += 1;
         let ray = TraceRay {
             origin,
@@ -601,16 +816,20 @@ impl DeviceCalls for Invocation<'_> {
             self.finish_trace(world, miss_index);
         }
         self.depth -= 1;
-        if !self.ending {
-            payload[..n].copy_from_slice(&self.payload[..n]);
-        }
         self.trace = saved_trace;
         (self.payload, self.payload_len) = saved_payload;
+        if !self.ending {
+            for (p, r) in payload[..n].iter_mut().zip(&registers) {
+                // SAFETY: the first `n` registers were written above (and maybe by programs).
+                *p = unsafe { r.assume_init() };
+            }
+        }
     }
 
     fn get_payload(&self, i: u32) -> u32 {
         if (i as usize) < self.payload_len {
-            self.payload[i as usize]
+            // SAFETY: `payload` holds `payload_len` registers of the call in progress.
+            unsafe { *self.payload.add(i as usize) }
         } else {
             0
         }
@@ -618,7 +837,8 @@ impl DeviceCalls for Invocation<'_> {
 
     fn set_payload(&mut self, i: u32, v: u32) {
         if (i as usize) < self.payload_len && !self.ending {
-            self.payload[i as usize] = v;
+            // SAFETY: as in `get_payload`.
+            unsafe { *self.payload.add(i as usize) = v };
         }
     }
 
@@ -630,15 +850,17 @@ impl DeviceCalls for Invocation<'_> {
 
     fn report_intersection(&mut self, t: f32, hit_kind: u32, attributes: &[u32; 8]) -> bool {
         if self.ending
-            || self.trace.intersection_exit
-            || self.view.kind != ProgramKind::Intersection
+            || self.view().kind != ProgramKind::Intersection
+            || self.trace.is_null()
+            || self.tr().intersection_exit
         {
             return false;
         }
-        let Some(ctx) = self.trace.intersection else {
+        let Some(ctx) = self.tr().intersection else {
             return false;
         };
-        if !semantics::ray::reported_t_accepted(t, self.trace.ray.tmin, self.trace.ray.tmax) {
+        let ray = self.tr().ray;
+        if !semantics::ray::reported_t_accepted(t, ray.tmin, ray.tmax) {
             return false;
         }
         let hit = HitState {
@@ -652,84 +874,105 @@ impl DeviceCalls for Invocation<'_> {
             && ctx.fate == CandidateFate::NonOpaque
             && let Some(ah) = ctx.record.programs.any_hit
         {
-            match self.any_hit(ah, ctx.record, hit) {
+            match self.any_hit(ah, ctx.record, &hit, ctx.path) {
                 None | Some(AnyHitOutcome::Ignore) => return false,
                 Some(AnyHitOutcome::Terminate) => terminate = true,
                 Some(AnyHitOutcome::Accept) => {}
             }
         }
-        self.commit(hit, ctx.record, terminate);
-        self.trace.intersection_exit = self.trace.terminated;
-        // The intersection program now sees the new end of the interval.
-        self.view.ray.tmax = t;
+        self.commit(hit, ctx.path, ctx.record, terminate);
+        let tr = self.tr_mut();
+        tr.intersection_exit = tr.terminated;
+        // The intersection program now sees the new end of the interval, through the
+        // methods and through its state.
+        // SAFETY: `view` and `state` are the intersection program's (it is running).
+        unsafe {
+            (*self.view).ray.tmax = t;
+            (*self.state).ray_tmax = t;
+        }
         true
     }
 
     fn ignore_intersection(&mut self) {
-        if self.view.kind == ProgramKind::AnyHit {
-            self.trace.any_hit = AnyHitOutcome::Ignore;
+        if self.view().kind == ProgramKind::AnyHit {
+            self.tr_mut().any_hit = AnyHitOutcome::Ignore;
         }
     }
 
     fn terminate_ray(&mut self) {
-        if self.view.kind == ProgramKind::AnyHit {
-            self.trace.any_hit = AnyHitOutcome::Terminate;
+        if self.view().kind == ProgramKind::AnyHit {
+            self.tr_mut().any_hit = AnyHitOutcome::Terminate;
         }
     }
 
+    #[inline]
     fn world_ray_origin(&self) -> [f32; 3] {
-        self.view.ray.origin
+        self.view().ray.origin
     }
 
+    #[inline]
     fn world_ray_direction(&self) -> [f32; 3] {
-        self.view.ray.direction
+        self.view().ray.direction
     }
 
+    #[inline]
     fn object_ray_origin(&self) -> [f32; 3] {
-        self.hit().map_or(self.view.ray.origin, |h| h.object_origin)
+        self.path()
+            .map_or(self.view().ray.origin, |p| p.object_origin)
     }
 
+    #[inline]
     fn object_ray_direction(&self) -> [f32; 3] {
-        self.hit()
-            .map_or(self.view.ray.direction, |h| h.object_direction)
+        self.path()
+            .map_or(self.view().ray.direction, |p| p.object_direction)
     }
 
+    #[inline]
     fn ray_tmin(&self) -> f32 {
-        self.view.ray.tmin
+        self.view().ray.tmin
     }
 
+    #[inline]
     fn ray_tmax(&self) -> f32 {
-        self.view.ray.tmax
+        self.view().ray.tmax
     }
 
+    #[inline]
     fn ray_time(&self) -> f32 {
-        self.view.ray.time
+        self.view().ray.time
     }
 
+    #[inline]
     fn ray_flags(&self) -> u32 {
-        self.view.ray.flags
+        self.view().ray.flags
     }
 
+    #[inline]
     fn ray_mask(&self) -> u32 {
-        self.view.ray.mask
+        self.view().ray.mask
     }
 
+    #[inline]
     fn primitive_index(&self) -> u32 {
         self.hit().map_or(0, |h| h.primitive_index)
     }
 
+    #[inline]
     fn sbt_gas_index(&self) -> u32 {
         self.hit().map_or(0, |h| h.sbt_gas_index)
     }
 
+    #[inline]
     fn instance_id(&self) -> u32 {
-        self.hit().map_or(0, |h| h.instance_id)
+        self.path().map_or(0, |p| p.instance_id)
     }
 
+    #[inline]
     fn instance_index(&self) -> u32 {
-        self.hit().map_or(0, |h| h.instance_index)
+        self.path().map_or(0, |p| p.instance_index)
     }
 
+    #[inline]
     fn hit_kind(&self) -> u32 {
         self.hit().map_or(0, |h| h.hit_kind)
     }
@@ -739,6 +982,7 @@ impl DeviceCalls for Invocation<'_> {
             .is_some_and(|h| facing::hit_kind_is_front(h.hit_kind))
     }
 
+    #[inline]
     fn triangle_barycentrics(&self) -> [f32; 2] {
         match self.hit().and_then(|h| h.data) {
             Some(HitData::Triangle { barycentrics, .. }) => barycentrics,
@@ -767,16 +1011,18 @@ impl DeviceCalls for Invocation<'_> {
         }
     }
 
+    #[inline]
     fn object_to_world(&self) -> [f32; 12] {
-        self.hit().map_or(IDENTITY_3X4, |h| h.object_to_world)
+        self.path().map_or(IDENTITY_3X4, |p| p.object_to_world)
     }
 
+    #[inline]
     fn world_to_object(&self) -> [f32; 12] {
-        self.hit().map_or(IDENTITY_3X4, |h| h.world_to_object)
+        self.path().map_or(IDENTITY_3X4, |p| p.world_to_object)
     }
 
     fn sbt_data_u32(&self, i: u32) -> u32 {
-        self.view.record.map_or(0, |r| r.data_u32(i))
+        self.view().record.map_or(0, |r| r.data_u32(i))
     }
 
     fn direct_call(&mut self, index: u32, args: &mut [u32]) {
@@ -794,9 +1040,10 @@ impl DeviceCalls for Invocation<'_> {
     }
 
     fn exception_code(&self) -> i32 {
-        self.view.exception_code
+        self.view().exception_code
     }
 
+    #[inline]
     fn remaining_trace_depth(&self) -> u32 {
         self.shared
             .features
@@ -805,6 +1052,36 @@ impl DeviceCalls for Invocation<'_> {
     }
 
     fn unwinding(&self) -> bool {
-        self.ending || (self.view.kind == ProgramKind::Intersection && self.trace.intersection_exit)
+        self.ending
+            || (self.view().kind == ProgramKind::Intersection
+                && !self.trace.is_null()
+                && self.tr().intersection_exit)
+    }
+
+    fn state(&self) -> *const DeviceState {
+        self.state
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::next_index;
+
+    #[test]
+    fn stepping_the_launch_index_matches_dividing_the_linear_one() {
+        for (w, h, d) in [
+            (1u64, 1u64, 3u64),
+            (5, 3, 2),
+            (1, 7, 2),
+            (4096, 2, 1),
+            (3, 1, 4),
+        ] {
+            let mut index = [0u32; 3];
+            for i in 0..w * h * d {
+                let want = [(i % w) as u32, ((i / w) % h) as u32, (i / (w * h)) as u32];
+                assert_eq!(index, want, "{w}x{h}x{d} at {i}");
+                index = next_index(index, w as u32, h as u32);
+            }
+        }
     }
 }

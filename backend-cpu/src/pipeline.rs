@@ -51,6 +51,11 @@ pub enum ProgramCode {
         module: crate::program::JitModule,
         /// The program's full name.
         name: Arc<str>,
+        /// What the module was compiled from, to compile it again for a pipeline's payload
+        /// register count.
+        source: Arc<CompiledModule>,
+        /// The module's optimisation level.
+        opt_level: optik_api::OptLevel,
     },
     /// A Rust closure.
     Native(NativeProgram),
@@ -59,36 +64,140 @@ pub enum ProgramCode {
 /// A program ready to call during one launch.
 #[derive(Clone, Copy)]
 pub enum Callable<'l> {
-    /// Compiled code.
+    /// Compiled code, with the launch's bindings laid out for its module.
     #[cfg(feature = "jit")]
-    Jit(crate::program::ProgramFn<'l>),
+    Jit(
+        crate::program::ProgramFn<'l>,
+        &'l crate::program::PreparedBindings<'l>,
+    ),
     /// A Rust closure.
     Native(&'l NativeProgram),
 }
 
+/// A launch's bindings laid out once for each JIT module of its pipeline, so program calls
+/// do not lay them out again.
+pub(crate) struct PreparedModules<'l> {
+    #[cfg(not(feature = "jit"))]
+    _bindings: std::marker::PhantomData<&'l Bindings<'l>>,
+    #[cfg(feature = "jit")]
+    tables: Vec<(
+        &'l crate::program::JitModule,
+        crate::program::PreparedBindings<'l>,
+    )>,
+}
+
+impl<'l> PreparedModules<'l> {
+    /// Lays `bindings` out for every module of `pipeline`.
+    pub fn new(pipeline: &'l PipelineObject, bindings: &'l Bindings<'l>) -> PreparedModules<'l> {
+        #[cfg(feature = "jit")]
+        {
+            use crate::program::JitModule;
+            let mut tables: Vec<(&'l JitModule, crate::program::PreparedBindings<'l>)> = Vec::new();
+            for (_, g) in &pipeline.groups {
+                let p = &g.programs;
+                for code in [
+                    &p.main,
+                    &p.any_hit,
+                    &p.intersection,
+                    &p.direct,
+                    &p.continuation,
+                ]
+                .into_iter()
+                .flatten()
+                {
+                    if let ProgramCode::Jit { module, .. } = code
+                        && !tables.iter().any(|(m, _)| JitModule::same_code(m, module))
+                    {
+                        tables.push((module, module.prepare(bindings)));
+                    }
+                }
+            }
+            PreparedModules { tables }
+        }
+        #[cfg(not(feature = "jit"))]
+        {
+            let _ = (pipeline, bindings);
+            PreparedModules {
+                _bindings: std::marker::PhantomData,
+            }
+        }
+    }
+}
+
 impl ProgramCode {
-    /// The callable form, borrowing the code for a launch.
-    pub fn callable(&self) -> Result<Callable<'_>> {
+    /// The callable form for a launch whose bindings `prepared` holds.
+    pub(crate) fn callable<'l>(
+        &'l self,
+        prepared: &'l PreparedModules<'l>,
+    ) -> Result<Callable<'l>> {
         match self {
             #[cfg(feature = "jit")]
-            ProgramCode::Jit { module, name } => {
-                module.program(name).map(Callable::Jit).ok_or_else(|| {
+            ProgramCode::Jit { module, name, .. } => {
+                let program = module.program(name).ok_or_else(|| {
                     Error::backend(format!("the compiled module lost program `{name}`"))
-                })
+                })?;
+                let table = prepared
+                    .tables
+                    .iter()
+                    .find(|(m, _)| crate::program::JitModule::same_code(m, module))
+                    .map(|(_, t)| t)
+                    .ok_or_else(|| {
+                        Error::backend(format!(
+                            "program `{name}`: its module is not one of the pipeline's"
+                        ))
+                    })?;
+                Ok(Callable::Jit(program, table))
             }
-            ProgramCode::Native(f) => Ok(Callable::Native(f)),
+            ProgramCode::Native(f) => {
+                let _ = prepared;
+                Ok(Callable::Native(f))
+            }
         }
     }
 }
 
 impl Callable<'_> {
-    /// Runs the program.
+    /// Runs the program with the launch's bindings; `state` is what `calls.state()`
+    /// returns (compiled programs read it without asking).
     #[inline]
-    pub fn call(&self, bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
+    pub fn call(
+        &self,
+        bindings: &Bindings<'_>,
+        calls: &mut dyn DeviceCalls,
+        state: *const crate::program::abi::DeviceState,
+    ) {
         match self {
             #[cfg(feature = "jit")]
-            Callable::Jit(f) => f.call(bindings, calls),
-            Callable::Native(f) => f(bindings, calls),
+            Callable::Jit(f, prepared) => {
+                let _ = bindings;
+                f.call_prepared_with_state(prepared, calls, state)
+            }
+            Callable::Native(f) => {
+                let _ = state;
+                f(bindings, calls)
+            }
+        }
+    }
+
+    /// Whether calling the program has no effect (an empty WGSL program), so it can be
+    /// skipped.
+    #[inline]
+    pub fn does_nothing(&self) -> bool {
+        match self {
+            #[cfg(feature = "jit")]
+            Callable::Jit(f, _) => f.does_nothing(),
+            Callable::Native(_) => false,
+        }
+    }
+
+    /// The `DeviceState` bits the program may read (0: it reads none, or is native and
+    /// calls the methods).
+    #[inline]
+    pub fn state_bits(&self) -> u32 {
+        match self {
+            #[cfg(feature = "jit")]
+            Callable::Jit(f, _) => f.state_bits(),
+            Callable::Native(_) => 0,
         }
     }
 }
@@ -161,6 +270,7 @@ pub(crate) type ProgramLookup<'a> =
     &'a dyn Fn(&ProgramRef) -> Result<Option<(ProgramKind, ProgramCode)>>;
 
 /// A program group.
+#[derive(Clone)]
 pub(crate) struct GroupObject {
     pub desc: ProgramGroupDesc,
     pub programs: GroupPrograms,
@@ -246,6 +356,106 @@ pub(crate) fn program_features(groups: &[Arc<GroupObject>]) -> ProgramFeatures {
         f.throws |= n.throws;
     }
     f
+}
+
+/// The groups of a pipeline whose payload has `registers` registers, with every WGSL module
+/// compiled again for that count when it was compiled for another (`create_module` with
+/// `Auto` compiles for 32): `RtPayload` then holds the registers the pipeline uses, and a
+/// trace copies only those. The front end's payload analysis counts every register a
+/// program touches, so this changes no result. Should a module not compile again (it
+/// compiled once, so it does), the group keeps the module's code, which gives the same
+/// results with longer copies.
+pub(crate) fn with_payload_registers(
+    groups: Vec<(optik_api::ProgramGroup, Arc<GroupObject>)>,
+    registers: u32,
+) -> Vec<(optik_api::ProgramGroup, Arc<GroupObject>)> {
+    #[cfg(feature = "jit")]
+    {
+        use crate::program::JitModule;
+        let registers = registers.max(1);
+        // (module as compiled, its code for `registers`) for each module seen.
+        let mut recompiled: Vec<(JitModule, Option<ProgramCode>)> = Vec::new();
+        let mut again = |code: &ProgramCode| -> Option<ProgramCode> {
+            let ProgramCode::Jit {
+                module,
+                name,
+                source,
+                opt_level,
+            } = code
+            else {
+                return None;
+            };
+            if source.payload_len.max(1) == registers {
+                return None;
+            }
+            let known = recompiled
+                .iter()
+                .position(|(m, _)| JitModule::same_code(m, module));
+            let index = known.unwrap_or_else(|| {
+                let fresh = crate::jit_glue::recompile(source, *opt_level, registers)
+                    .ok()
+                    .map(|(module, source)| ProgramCode::Jit {
+                        module,
+                        name: name.clone(),
+                        source,
+                        opt_level: *opt_level,
+                    });
+                recompiled.push((module.clone(), fresh));
+                recompiled.len() - 1
+            });
+            match &recompiled[index].1 {
+                Some(ProgramCode::Jit {
+                    module,
+                    source,
+                    opt_level,
+                    ..
+                }) => Some(ProgramCode::Jit {
+                    module: module.clone(),
+                    name: name.clone(),
+                    source: source.clone(),
+                    opt_level: *opt_level,
+                }),
+                _ => None,
+            }
+        };
+        groups
+            .into_iter()
+            .map(|(handle, group)| {
+                let p = &group.programs;
+                let codes = [
+                    &p.main,
+                    &p.any_hit,
+                    &p.intersection,
+                    &p.direct,
+                    &p.continuation,
+                ]
+                .map(|c| c.as_ref().and_then(&mut again));
+                if codes.iter().all(Option::is_none) {
+                    return (handle, group);
+                }
+                let [main, any_hit, intersection, direct, continuation] = codes;
+                let mut copy = GroupObject::clone(&group);
+                let slots = [
+                    (&mut copy.programs.main, main),
+                    (&mut copy.programs.any_hit, any_hit),
+                    (&mut copy.programs.intersection, intersection),
+                    (&mut copy.programs.direct, direct),
+                    (&mut copy.programs.continuation, continuation),
+                ];
+                for (slot, code) in slots {
+                    if let Some(code) = code {
+                        *slot = Some(code);
+                    }
+                }
+                (handle, Arc::new(copy))
+            })
+            .collect()
+    }
+    #[cfg(not(feature = "jit"))]
+    {
+        let _ = registers;
+        groups
+    }
 }
 
 /// Traverses for one pipeline: a [`Spec`] chosen from the pipeline's features.

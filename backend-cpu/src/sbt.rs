@@ -1,7 +1,7 @@
 //! Reading a launch's shader binding table: every record's header is checked and resolved
 //! to a program group of the pipeline before any program runs.
 
-use crate::pipeline::{Callable, GroupObject, GroupPrograms, PipelineObject};
+use crate::pipeline::{Callable, GroupObject, GroupPrograms, PipelineObject, PreparedModules};
 use optik_api::sbt::{SBT_RECORD_HEADER_SIZE, SbtHeader};
 use optik_api::{Buffer, DeviceId, Error, GroupRegion, Result, SbtRegion, ShaderBindingTable};
 
@@ -17,9 +17,9 @@ pub(crate) struct RecordPrograms<'l> {
 }
 
 impl<'l> RecordPrograms<'l> {
-    fn of(p: &'l GroupPrograms) -> Result<RecordPrograms<'l>> {
+    fn of(p: &'l GroupPrograms, prepared: &'l PreparedModules<'l>) -> Result<RecordPrograms<'l>> {
         let c = |x: &'l Option<crate::pipeline::ProgramCode>| {
-            x.as_ref().map(|c| c.callable()).transpose()
+            x.as_ref().map(|c| c.callable(prepared)).transpose()
         };
         Ok(RecordPrograms {
             main: c(&p.main)?,
@@ -69,6 +69,7 @@ pub(crate) trait RecordBytes {
 struct Reader<'a, 'l> {
     device: DeviceId,
     pipeline: &'l PipelineObject,
+    prepared: &'l PreparedModules<'l>,
     bytes: &'a dyn RecordBytes,
     max_data: usize,
 }
@@ -125,7 +126,7 @@ impl<'l> Reader<'_, 'l> {
         let data_start = start + SBT_RECORD_HEADER_SIZE as usize;
         let data_end = (data_start + data_len.min(self.max_data)).min(bytes.len());
         Ok(Record {
-            programs: RecordPrograms::of(&group.programs)?,
+            programs: RecordPrograms::of(&group.programs, self.prepared)?,
             data: bytes[data_start..data_end].to_vec(),
         })
     }
@@ -150,11 +151,12 @@ impl<'l> Reader<'_, 'l> {
 }
 
 /// Resolves every record of `table` (whose shape `validate::sbt` checked) against the
-/// pipeline's groups.
+/// pipeline's groups; programs are called with the bindings `prepared` holds.
 pub(crate) fn resolve<'l>(
     table: &ShaderBindingTable,
     device: DeviceId,
     pipeline: &'l PipelineObject,
+    prepared: &'l PreparedModules<'l>,
     bytes: &dyn RecordBytes,
     max_record_stride: u32,
 ) -> Result<ResolvedSbt<'l>> {
@@ -162,6 +164,7 @@ pub(crate) fn resolve<'l>(
     let r = Reader {
         device,
         pipeline,
+        prepared,
         bytes,
         max_data,
     };

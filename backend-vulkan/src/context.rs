@@ -89,59 +89,26 @@ unsafe impl Send for Context {}
 unsafe impl Sync for Context {}
 
 impl Context {
-    /// Creates the instance and the device `options` ask for.
+    /// Creates the device `options` ask for, on the process's kept instance
+    /// ([`crate::instance`]).
     pub fn new(options: &VulkanOptions) -> Result<Context> {
-        let entry = probe::load_entry()?;
-        probe::check_instance_version(&entry)?;
+        let shared = crate::instance::shared(options.validation)?;
+        let (entry, instance) = (shared.entry.clone(), shared.instance.clone());
         let log = Arc::new(MessageLog::default());
-
-        let mut layers = Vec::new();
-        let mut extensions = Vec::new();
-        if options.validation {
-            // SAFETY: a global command of the loaded entry.
-            let available = unsafe { entry.enumerate_instance_layer_properties() }
-                .or_vk("vkEnumerateInstanceLayerProperties")?;
-            let has = available.iter().any(|l| {
-                l.layer_name_as_c_str()
-                    .is_ok_and(|n| n == c"VK_LAYER_KHRONOS_validation")
-            });
-            if !has {
-                return Err(Error::unsupported(
-                    "validation was asked for (OPTIK_VALIDATION=1 or a test), but VK_LAYER_KHRONOS_validation is not installed (Debian: apt install vulkan-validationlayers)",
-                ));
-            }
-            layers.push(c"VK_LAYER_KHRONOS_validation".as_ptr());
-            extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+        for m in shared.creation_log.take() {
+            log.push(m);
         }
-        let app = vk::ApplicationInfo::default()
-            .application_name(c"optik")
-            .engine_name(c"optik")
-            .api_version(probe::API_VERSION);
-        let mut messenger_info = validation::messenger_info(&log);
-        let mut create = vk::InstanceCreateInfo::default()
-            .application_info(&app)
-            .enabled_layer_names(&layers)
-            .enabled_extension_names(&extensions);
-        if options.validation {
-            // Also report what instance creation itself gets wrong.
-            create = create.push_next(&mut messenger_info);
-        }
-        // SAFETY: valid create info; destroyed in Drop (or below on failure).
-        let instance = unsafe { entry.create_instance(&create, None) }.or_vk("vkCreateInstance")?;
-        let messenger = if options.validation {
-            let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
-            let info = validation::messenger_info(&log);
-            // SAFETY: the log outlives the messenger (Context drops the messenger first).
-            match unsafe { loader.create_debug_utils_messenger(&info, None) } {
-                Ok(m) => Some((loader, m)),
-                Err(e) => {
-                    // SAFETY: nothing else was created from the instance.
-                    unsafe { instance.destroy_instance(None) };
-                    return Err(crate::error::vk_error("vkCreateDebugUtilsMessengerEXT", e));
-                }
+        // Every messenger of an instance hears every message of it: with several devices open
+        // at once on the validated instance, a message reaches each of their logs.
+        let messenger = match &shared.debug_utils {
+            Some(loader) => {
+                let info = validation::messenger_info(&log);
+                // SAFETY: the log outlives the messenger (Context drops the messenger first).
+                let m = unsafe { loader.create_debug_utils_messenger(&info, None) }
+                    .or_vk("vkCreateDebugUtilsMessengerEXT")?;
+                Some((loader.clone(), m))
             }
-        } else {
-            None
+            None => None,
         };
         match Self::with_instance(entry.clone(), instance.clone(), options) {
             Ok((physical, device, queue_family, info)) => {
@@ -169,12 +136,11 @@ impl Context {
                 })
             }
             Err(e) => {
-                // SAFETY: no device was created; the messenger and instance go.
+                // SAFETY: no device was created; the messenger goes, the instance is kept.
                 unsafe {
                     if let Some((loader, m)) = &messenger {
                         loader.destroy_debug_utils_messenger(*m, None);
                     }
-                    instance.destroy_instance(None);
                 }
                 Err(e)
             }
@@ -337,7 +303,7 @@ impl Drop for Context {
             if let Some((loader, m)) = &self.messenger {
                 loader.destroy_debug_utils_messenger(*m, None);
             }
-            self.instance.destroy_instance(None);
+            // The instance is kept for the process's life (crate::instance says why).
         }
     }
 }

@@ -19,6 +19,7 @@ mod commands;
 pub mod context;
 mod device;
 mod error;
+pub mod instance;
 mod launch;
 mod memory;
 mod pipeline;

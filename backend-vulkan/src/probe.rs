@@ -6,6 +6,7 @@ use ash::vk;
 use optik_api::{Error, Result};
 use std::ffi::CStr;
 use std::fmt;
+use std::sync::OnceLock;
 
 /// Device extensions optik needs.
 pub const REQUIRED_EXTENSIONS: [&CStr; 3] = [
@@ -232,46 +233,35 @@ impl fmt::Display for VulkanDeviceInfo {
 /// Lists every Vulkan physical device with its properties. An error when no Vulkan loader or
 /// instance is available.
 pub fn probe() -> Result<Vec<VulkanDeviceInfo>> {
-    let entry = load_entry()?;
-    let instance = create_bare_instance(&entry)?;
-    let result = (|| {
-        // SAFETY: the instance is valid until destroyed below.
-        let physicals =
-            unsafe { instance.enumerate_physical_devices() }.or_vk("vkEnumeratePhysicalDevices")?;
-        physicals
-            .iter()
-            .enumerate()
-            .map(|(i, p)| device_info(&instance, *p, i))
-            .collect()
-    })();
-    // SAFETY: no object of this instance outlives it.
-    unsafe { instance.destroy_instance(None) };
-    result
+    let instance = &crate::instance::shared(false)?.instance;
+    // SAFETY: the kept instance is valid for the process's life.
+    let physicals =
+        unsafe { instance.enumerate_physical_devices() }.or_vk("vkEnumeratePhysicalDevices")?;
+    physicals
+        .iter()
+        .enumerate()
+        .map(|(i, p)| device_info(instance, *p, i))
+        .collect()
 }
 
-/// Loads the Vulkan loader.
+/// The Vulkan loader, loaded once per process and never unloaded (its instances are kept
+/// too: [`crate::instance`] says why).
 pub(crate) fn load_entry() -> Result<ash::Entry> {
-    // SAFETY: loading the system's Vulkan loader; its functions are called per the spec.
-    unsafe { ash::Entry::load() }.map_err(|e| {
-        Error::unsupported(format!(
+    static ENTRY: OnceLock<std::result::Result<ash::Entry, String>> = OnceLock::new();
+    let loaded = ENTRY.get_or_init(|| {
+        // SAFETY: loading the system's Vulkan loader; its functions are called per the spec.
+        unsafe { ash::Entry::load() }.map_err(|e| e.to_string())
+    });
+    match loaded {
+        Ok(entry) => Ok(entry.clone()),
+        Err(e) => Err(Error::unsupported(format!(
             "no Vulkan loader found ({e}); install libvulkan1 and a driver with ray tracing (lavapipe: mesa-vulkan-drivers >= 24.1)"
-        ))
-    })
+        ))),
+    }
 }
 
 /// The Vulkan version optik's instance asks for.
 pub(crate) const API_VERSION: u32 = vk::API_VERSION_1_2;
-
-fn create_bare_instance(entry: &ash::Entry) -> Result<ash::Instance> {
-    check_instance_version(entry)?;
-    let app = vk::ApplicationInfo::default()
-        .application_name(c"optik")
-        .engine_name(c"optik")
-        .api_version(API_VERSION);
-    let info = vk::InstanceCreateInfo::default().application_info(&app);
-    // SAFETY: valid create info; the caller destroys the instance.
-    unsafe { entry.create_instance(&info, None) }.or_vk("vkCreateInstance")
-}
 
 pub(crate) fn check_instance_version(entry: &ash::Entry) -> Result<()> {
     // SAFETY: a global command of the loaded entry.

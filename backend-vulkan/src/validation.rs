@@ -17,7 +17,7 @@ impl MessageLog {
         std::mem::take(&mut *self.messages.lock().unwrap_or_else(|p| p.into_inner()))
     }
 
-    fn push(&self, message: String) {
+    pub(crate) fn push(&self, message: String) {
         self.messages
             .lock()
             .unwrap_or_else(|p| p.into_inner())

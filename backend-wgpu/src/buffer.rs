@@ -6,6 +6,7 @@
 //! reading the GPU buffer back when the host needs it.
 
 use crate::gpu::Gpu;
+use crate::memory::Tracked;
 use optik_api::{Error, Result};
 
 /// One user buffer.
@@ -15,6 +16,15 @@ pub(crate) struct BufferObject {
     host: Vec<u8>,
     /// Whether `host` equals the GPU contents (false after a launch that may write).
     host_valid: bool,
+    _tracked: Tracked,
+}
+
+impl Drop for BufferObject {
+    /// Frees the GPU memory now rather than when wgpu drops its last reference (wgpu
+    /// still waits for submitted work that uses it).
+    fn drop(&mut self) {
+        self.gpu.destroy();
+    }
 }
 
 impl BufferObject {
@@ -45,6 +55,7 @@ impl BufferObject {
             size,
             host,
             host_valid: true,
+            _tracked: gpu.memory.track(gpu_size),
         })
     }
 
@@ -117,6 +128,14 @@ pub(crate) struct TextureObject {
     pub texture: wgpu::Texture,
     pub view: wgpu::TextureView,
     pub desc: optik_api::TextureDesc,
+    _tracked: Tracked,
+}
+
+impl Drop for TextureObject {
+    /// Frees the GPU memory now (see `BufferObject`'s `Drop`).
+    fn drop(&mut self) {
+        self.texture.destroy();
+    }
 }
 
 impl TextureObject {
@@ -142,10 +161,12 @@ impl TextureObject {
             },
         )?;
         let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+        let bytes = desc.width as u64 * desc.height as u64 * desc.format.texel_size() as u64;
         Ok(TextureObject {
             texture,
             view,
             desc: *desc,
+            _tracked: gpu.memory.track(bytes),
         })
     }
 

@@ -53,6 +53,14 @@ pub struct WgpuOptions {
     /// data is then split into more, smaller buffers: this is how the splitting that large
     /// scenes need on lavapipe's 128 MiB limit is tested on small scenes.
     pub max_storage_binding: Option<u64>,
+    /// Caps the workgroups per dispatch dimension below the adapter's
+    /// `max_compute_workgroups_per_dimension`, so that splitting a launch over a 2D grid of
+    /// workgroups and refusing launches beyond it can be tested with small launches.
+    pub max_workgroups_per_dimension: Option<u32>,
+    /// Caps the storage buffers a kernel may bind below the adapter's
+    /// `max_storage_buffers_per_shader_stage`, to test the error when the scene's chunks and
+    /// the user's buffers need more.
+    pub max_storage_buffers_per_stage: Option<u32>,
 }
 
 impl WgpuDevice {
@@ -63,7 +71,7 @@ impl WgpuDevice {
 
     /// [`WgpuDevice::new`] with options.
     pub fn with_options(options: WgpuOptions) -> Result<WgpuDevice> {
-        let gpu = Arc::new(Gpu::open(options.max_storage_binding)?);
+        let gpu = Arc::new(Gpu::open(&options)?);
         let id = DeviceId::next();
         let properties = DeviceProperties {
             max_trace_depth: 31,
@@ -121,7 +129,13 @@ impl WgpuDevice {
         let mut s = self.lock()?;
         let sizes = s.sizes();
         let p = s.pipelines.get_mut(pipeline)?;
-        Ok(p.variant(&self.gpu, sizes)?.source.clone())
+        Ok(p.variant(&self.gpu, sizes, false)?.source.clone())
+    }
+
+    /// The device's accounting of its live GPU allocations; the tracker stays readable
+    /// after the device is dropped.
+    pub fn memory(&self) -> crate::MemoryTracker {
+        self.gpu.memory.clone()
     }
 
     /// The adapter's limits as optik uses them (the storage binding size, possibly capped
@@ -296,7 +310,10 @@ impl State {
             features: SceneFeatures::of_geometry(options, inputs),
             options: *options,
             inputs: inputs.to_vec(),
-            refit: built.refit.map(Refit::Geometry).unwrap_or(Refit::None),
+            refit: built
+                .refit
+                .map(|r| Refit::Geometry(Box::new(r)))
+                .unwrap_or(Refit::None),
             kind_word: built.words[0][0],
         };
         Ok((built.words, object))
@@ -636,7 +653,7 @@ impl optik_api::Device for WgpuDevice {
             self.id.0 & 0xFFFF,
         )?;
         // Compile now, so that errors surface at link time.
-        p.variant(&self.gpu, s.sizes())?;
+        p.variant(&self.gpu, s.sizes(), false)?;
         Ok(s.pipelines.insert(p))
     }
 
@@ -662,7 +679,16 @@ impl optik_api::Device for WgpuDevice {
         sbt: &ShaderBindingTable,
         size: LaunchSize,
     ) -> Result<()> {
-        crate::launch::launch(self, pipeline, params, resources, sbt, size, None).map(drop)
+        crate::launch::launch(
+            self,
+            pipeline,
+            params,
+            resources,
+            sbt,
+            size,
+            crate::launch::Observe::default(),
+        )
+        .map(drop)
     }
 
     fn synchronize(&self) -> Result<()> {

@@ -15,6 +15,8 @@ pub(crate) struct Gpu {
     pub info: wgpu::AdapterInfo,
     pub limits: wgpu::Limits,
     pub features: wgpu::Features,
+    /// The device's long-lived allocations (`crate::memory`).
+    pub memory: crate::memory::MemoryTracker,
     lost: Arc<AtomicBool>,
     lost_reason: Arc<Mutex<String>>,
     uncaptured: Arc<Mutex<Vec<String>>>,
@@ -23,7 +25,7 @@ pub(crate) struct Gpu {
 impl Gpu {
     /// Opens the adapter named by [`ADAPTER_ENV`], or else the first of discrete GPUs,
     /// integrated GPUs, virtual GPUs and CPU adapters.
-    pub fn open(max_storage_binding: Option<u64>) -> Result<Gpu> {
+    pub fn open(options: &crate::WgpuOptions) -> Result<Gpu> {
         let instance = crate::probe::instance();
         let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::PRIMARY));
         if adapters.is_empty() {
@@ -69,12 +71,20 @@ impl Gpu {
         .map_err(|e| {
             Error::unsupported(format!("wgpu could not open adapter `{}`: {e}", info.name))
         })?;
-        // optik's own decisions (arena chunks, binding checks) may use a lower cap than the
-        // adapter's, so that splitting can be tested on any adapter.
+        // optik's own decisions (arena chunks, binding checks, the dispatch grid) may use
+        // lower caps than the adapter's, so that splitting can be tested on any adapter.
         let mut limits = adapter_limits;
-        if let Some(cap) = max_storage_binding {
+        if let Some(cap) = options.max_storage_binding {
             limits.max_storage_buffer_binding_size =
                 limits.max_storage_buffer_binding_size.min(cap);
+        }
+        if let Some(cap) = options.max_storage_buffers_per_stage {
+            limits.max_storage_buffers_per_shader_stage =
+                limits.max_storage_buffers_per_shader_stage.min(cap);
+        }
+        if let Some(cap) = options.max_workgroups_per_dimension {
+            limits.max_compute_workgroups_per_dimension =
+                limits.max_compute_workgroups_per_dimension.min(cap.max(1));
         }
         let lost = Arc::new(AtomicBool::new(false));
         let lost_reason = Arc::new(Mutex::new(String::new()));
@@ -105,6 +115,7 @@ impl Gpu {
             info,
             limits,
             features,
+            memory: crate::memory::MemoryTracker::default(),
             lost,
             lost_reason,
             uncaptured,

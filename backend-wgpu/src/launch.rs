@@ -13,8 +13,19 @@ use optik_api::{
     ShaderBindingTable, validate,
 };
 
-/// Runs a launch; with `timed`, waits for it and returns its GPU time in seconds (when the
-/// adapter offers timestamp queries).
+/// How the benchmark observes a launch; the default (the `Device` trait's launches) adds
+/// nothing.
+#[derive(Clone, Copy, Default)]
+pub(crate) struct Observe<'a> {
+    /// Wait for the launch and return its GPU time (timestamps around the compute pass).
+    pub timed: bool,
+    /// Run the instrumented kernel, adding its traffic counts to this buffer
+    /// (`kernel::counters::BUFFER_BYTES`, usage STORAGE).
+    pub counters: Option<&'a wgpu::Buffer>,
+}
+
+/// Runs a launch; when `observe.timed`, waits for it and returns its GPU time in seconds
+/// (when the adapter offers timestamp queries).
 pub(crate) fn launch(
     dev: &WgpuDevice,
     pipeline: Pipeline,
@@ -22,7 +33,7 @@ pub(crate) fn launch(
     resources: &[Resource],
     sbt: &ShaderBindingTable,
     size: LaunchSize,
-    timed: Option<()>,
+    observe: Observe<'_>,
 ) -> Result<Option<f64>> {
     let gpu = dev.gpu();
     let mut s = dev.lock()?;
@@ -57,7 +68,10 @@ pub(crate) fn launch(
     let sizes = s.sizes();
     let variant = {
         let state = &mut *s;
-        state.pipelines.get_mut(pipeline)?.variant(gpu, sizes)?
+        state
+            .pipelines
+            .get_mut(pipeline)?
+            .variant(gpu, sizes, observe.counters.is_some())?
     };
     // The SBT, from the host copies of its buffers (read back if a launch wrote them).
     let packed = {
@@ -96,12 +110,14 @@ pub(crate) fn launch(
                 gpu.limits.max_uniform_buffer_binding_size
             )));
         }
-        let b = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let b = gpu.scoped(&format!("allocating {label} ({size} bytes)"), || {
+            gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        })?;
         let mut padded = bytes.to_vec();
         padded.resize(size as usize, 0);
         gpu.queue.write_buffer(&b, 0, &padded);
@@ -220,17 +236,27 @@ pub(crate) fn launch(
             resource: c.as_entire_binding(),
         });
     }
+    if let Some(counters) = observe.counters {
+        backend_entries.push(wgpu::BindGroupEntry {
+            binding: crate::kernel::counters::binding(chunks.len() as u32),
+            resource: counters.as_entire_binding(),
+        });
+    }
     let total_groups = size.count().div_ceil(WORKGROUP_SIZE as u64);
     let per_dim = gpu.limits.max_compute_workgroups_per_dimension as u64;
     let x = total_groups.min(per_dim);
     let y = total_groups.div_ceil(x);
     if y > per_dim {
         return Err(Error::limit(format!(
-            "the launch needs {total_groups} workgroups of {WORKGROUP_SIZE}; this adapter dispatches at most {per_dim} x {per_dim}"
+            "a launch of {} x {} x {} = {} invocations needs {total_groups} workgroups of {WORKGROUP_SIZE}; this adapter dispatches at most {per_dim} x {per_dim} workgroups (max_compute_workgroups_per_dimension = {per_dim})",
+            size.width,
+            size.height,
+            size.depth,
+            size.count()
         )));
     }
-    let timestamps = timed.filter(|_| gpu.features.contains(wgpu::Features::TIMESTAMP_QUERY));
-    let query = timestamps.map(|_| {
+    let timestamps = observe.timed && gpu.features.contains(wgpu::Features::TIMESTAMP_QUERY);
+    let query = timestamps.then(|| {
         gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
             label: Some("optik launch timing"),
             ty: wgpu::QueryType::Timestamp,

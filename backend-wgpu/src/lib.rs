@@ -8,6 +8,7 @@
 //! - `kernel`: the generated WGSL (state, device API, traversal, dispatch, entry point),
 //!   specialised to the pipeline's features;
 //! - `pipeline`, `sbt`, `launch`: the OptiX objects over wgpu compute;
+//! - `memory`: the accounting of live GPU allocations ([`MemoryTracker`]);
 //! - [`bench`]: a timing entry point for the GPU machine.
 
 mod accel;
@@ -17,6 +18,7 @@ mod device;
 mod gpu;
 mod kernel;
 mod launch;
+mod memory;
 mod pipeline;
 mod probe;
 mod program;
@@ -24,6 +26,7 @@ mod sbt;
 
 pub use device::{WgpuDevice, WgpuOptions};
 pub use gpu::ADAPTER_ENV;
+pub use memory::MemoryTracker;
 pub use probe::{AdapterReport, probe};
 
 /// Opens a device of this backend on the adapter named by [`ADAPTER_ENV`], or else the

@@ -43,7 +43,8 @@ pub(crate) struct PipelineObject {
     pub lowered: Lowered,
     /// Per module: its bindings (numbers as the user wrote them) and their offset.
     pub bindings: Vec<(u32, Vec<BindingInfo>)>,
-    pub variants: HashMap<Sizes, Arc<Variant>>,
+    /// Compiled kernels by scene sizes and whether they are the instrumented (counting) one.
+    pub variants: HashMap<(Sizes, bool), Arc<Variant>>,
     /// Low 16 bits of the device id.
     pub device16: u32,
 }
@@ -185,9 +186,10 @@ pub(crate) fn link(
 }
 
 impl PipelineObject {
-    /// The kernel for `sizes`, compiled on first use.
-    pub fn variant(&mut self, gpu: &Gpu, sizes: Sizes) -> Result<Arc<Variant>> {
-        if let Some(v) = self.variants.get(&sizes) {
+    /// The kernel for `sizes`, compiled on first use; with `counters`, the instrumented
+    /// kernel of the traffic benchmark (`kernel::counters`).
+    pub fn variant(&mut self, gpu: &Gpu, sizes: Sizes, counters: bool) -> Result<Arc<Variant>> {
+        if let Some(v) = self.variants.get(&(sizes, counters)) {
             return Ok(v.clone());
         }
         let f64 = gpu.features.contains(wgpu::Features::SHADER_F64);
@@ -200,10 +202,11 @@ impl PipelineObject {
             max_continuation: self.link.max_continuation_callable_depth,
             sizes,
             lowered: &self.lowered,
+            counters,
         });
         check_kernel(&source, f64)?;
-        let v = Arc::new(compile(gpu, &source, &self.bindings, sizes)?);
-        self.variants.insert(sizes, v.clone());
+        let v = Arc::new(compile(gpu, &source, &self.bindings, sizes, counters)?);
+        self.variants.insert((sizes, counters), v.clone());
         Ok(v)
     }
 }
@@ -235,10 +238,11 @@ fn compile(
     source: &str,
     bindings: &[(u32, Vec<BindingInfo>)],
     sizes: Sizes,
+    counters: bool,
 ) -> Result<Variant> {
     let filterable = gpu.features.contains(wgpu::Features::FLOAT32_FILTERABLE);
     let mut user_entries = Vec::new();
-    let mut storage_count = 2 + sizes.chunks;
+    let mut storage_count = 2 + sizes.chunks + counters as u32;
     for (offset, list) in bindings {
         for b in list {
             let ty = match b.kind {
@@ -305,6 +309,18 @@ fn compile(
     }];
     for b in 1..3 + sizes.chunks {
         backend_entries.push(storage(b));
+    }
+    if counters {
+        backend_entries.push(wgpu::BindGroupLayoutEntry {
+            binding: kernel::counters::binding(sizes.chunks),
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: false },
+                has_dynamic_offset: false,
+                min_binding_size: std::num::NonZeroU64::new(kernel::counters::BUFFER_BYTES),
+            },
+            count: None,
+        });
     }
     gpu.scoped("compiling the wgpu megakernel", || {
         let user_layout = gpu

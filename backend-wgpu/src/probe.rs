@@ -69,10 +69,19 @@ impl fmt::Display for AdapterReport {
 
 /// The instance optik uses: every native backend wgpu was built with, honouring wgpu's
 /// environment variables (`WGPU_BACKEND`, ...).
+///
+/// One instance per process, never dropped: each wgpu instance is a Vulkan instance, and
+/// NVIDIA's driver fails `vkCreateInstance` after about 29 create/destroy rounds in one
+/// process (optik-vulkan's `instance` module has the measurement).
 pub(crate) fn instance() -> wgpu::Instance {
-    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-    desc.backends = wgpu::Backends::PRIMARY.with_env();
-    wgpu::Instance::new(desc)
+    static INSTANCE: std::sync::OnceLock<wgpu::Instance> = std::sync::OnceLock::new();
+    INSTANCE
+        .get_or_init(|| {
+            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+            desc.backends = wgpu::Backends::PRIMARY.with_env();
+            wgpu::Instance::new(desc)
+        })
+        .clone()
 }
 
 /// Every adapter wgpu finds here.

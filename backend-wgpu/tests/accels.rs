@@ -94,6 +94,7 @@ fn scenes_larger_than_one_storage_binding_are_split() {
     // 64 KiB per binding: a 64×64 grid of quads (8192 triangles) spans several.
     let dev = optik_wgpu::WgpuDevice::with_options(optik_wgpu::WgpuOptions {
         max_storage_binding: Some(64 * 1024),
+        ..Default::default()
     })
     .unwrap();
     let d: &dyn Device = &dev;

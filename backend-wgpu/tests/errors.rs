@@ -209,14 +209,209 @@ fn acceleration_structure_errors() {
 #[test]
 fn device_loss_is_an_error_not_a_panic() {
     let dev = optik_wgpu::WgpuDevice::new().unwrap();
+    let memory = dev.memory();
     let d: &dyn Device = &dev;
     let b = d.create_buffer(16).unwrap();
+    let gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
+    let m = module(d, RAY_LIST);
+    let g = ray_list_groups(d, m, 1, &[]);
+    let p = pipeline(d, &g, 1);
+    let table = numbered_sbt(d, &g);
+    let h = d.traversable_handle(gas).unwrap();
     dev.lose_device_for_testing();
     let e = d.create_buffer(16).unwrap_err();
     assert_eq!(e.kind(), ErrorKind::DeviceLost, "{e}");
+    assert!(e.message().contains("open a new device"), "{e}");
     assert_eq!(
         d.write_buffer(b, 0, &[0; 4]).unwrap_err().kind(),
         ErrorKind::DeviceLost
     );
+    let mut out = [0u8; 4];
+    assert_eq!(
+        d.read_buffer(b, 0, &mut out).unwrap_err().kind(),
+        ErrorKind::DeviceLost
+    );
+    let e = d
+        .launch(
+            p,
+            &params(h, &[0, 1, 0, 0xFF, 0, 0]),
+            &[Resource::buffer(1, b), Resource::buffer(2, b)],
+            &table,
+            LaunchSize::new(1, 1, 1),
+        )
+        .unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::DeviceLost, "{e}");
+    let vb = d.create_buffer(72);
+    assert_eq!(vb.unwrap_err().kind(), ErrorKind::DeviceLost);
+    assert_eq!(
+        d.destroy_accel(gas).unwrap_err().kind(),
+        ErrorKind::DeviceLost
+    );
     assert_eq!(d.synchronize().unwrap_err().kind(), ErrorKind::DeviceLost);
+    // Dropping a lost device frees everything without panicking.
+    drop(dev);
+    assert_eq!(memory.live_allocations(), 0);
+}
+
+/// A raygen-only pipeline writing `linear index + 1` at each launch index.
+fn index_writer(d: &dyn Device) -> (Pipeline, ShaderBindingTable) {
+    let m = module(
+        d,
+        &format!(
+            "{HEADER}\nfn raygen__index() {{\n    let id = rt_launch_index();\n    let dim = rt_launch_dimensions();\n    let i = (id.z * dim.y + id.y) * dim.x + id.x;\n    out[i] = i + 1u;\n}}\n"
+        ),
+    );
+    let g = groups(d, &[raygen(m, "raygen__index")]);
+    let p = pipeline(d, &g, 1);
+    let table = sbt(d, &g, &[]);
+    (p, table)
+}
+
+#[test]
+fn launches_are_split_over_the_workgroup_grid_or_refused_naming_the_limit() {
+    // Two workgroups of 64 per dimension: at most 2 x 2 x 64 = 256 invocations.
+    let dev = optik_wgpu::WgpuDevice::with_options(optik_wgpu::WgpuOptions {
+        max_workgroups_per_dimension: Some(2),
+        ..Default::default()
+    })
+    .unwrap();
+    let d: &dyn Device = &dev;
+    let (p, table) = index_writer(d);
+    let h = TraversableHandle::NULL;
+    // 250 invocations: four workgroups laid out 2 x 2, every index written exactly once.
+    let words = run(d, p, &table, &params(h, &[]), 25, 10, 250);
+    assert_eq!(words, (1..=250).collect::<Vec<u32>>());
+    let out = d.create_buffer(4 * 300).unwrap();
+    let e = d
+        .launch(
+            p,
+            &params(h, &[]),
+            &[Resource::buffer(1, out)],
+            &table,
+            LaunchSize::new(30, 10, 1),
+        )
+        .unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::LimitExceeded, "{e}");
+    for named in ["30 x 10 x 1 = 300 invocations", "5 workgroups", "2 x 2"] {
+        assert!(e.message().contains(named), "`{named}` missing: {e}");
+    }
+    // The refused launch changed nothing.
+    assert_eq!(read::<u32>(d, out), vec![0; 300]);
+}
+
+#[test]
+fn storage_bindings_over_the_adapter_limit_are_refused() {
+    let dev = optik_wgpu::WgpuDevice::with_options(optik_wgpu::WgpuOptions {
+        max_storage_binding: Some(64 << 10),
+        ..Default::default()
+    })
+    .unwrap();
+    let d: &dyn Device = &dev;
+    let (p, table) = index_writer(d);
+    let big = d.create_buffer(128 << 10).unwrap();
+    let e = d
+        .launch(
+            p,
+            &params(TraversableHandle::NULL, &[]),
+            &[Resource::buffer(1, big)],
+            &table,
+            LaunchSize::new(4, 1, 1),
+        )
+        .unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::LimitExceeded, "{e}");
+    assert!(
+        e.message().contains("binding 1") && e.message().contains("65536"),
+        "{e}"
+    );
+    // A view within the limit works.
+    d.launch(
+        p,
+        &params(TraversableHandle::NULL, &[]),
+        &[Resource::Buffer {
+            binding: 1,
+            buffer: big,
+            offset: 0,
+            size: Some(64 << 10),
+        }],
+        &table,
+        LaunchSize::new(4, 1, 1),
+    )
+    .unwrap();
+    let mut first = [0u8; 16];
+    d.read_buffer(big, 0, &mut first).unwrap();
+    assert_eq!(bytemuck::cast::<[u8; 16], [u32; 4]>(first), [1, 2, 3, 4]);
+}
+
+#[test]
+fn kernels_needing_more_storage_bindings_than_the_adapter_has_are_refused() {
+    // The RAY_LIST kernel binds 5 storage buffers: the SBT, the handle table, one scene
+    // chunk and the user's two.
+    let dev = optik_wgpu::WgpuDevice::with_options(optik_wgpu::WgpuOptions {
+        max_storage_buffers_per_stage: Some(4),
+        ..Default::default()
+    })
+    .unwrap();
+    let d: &dyn Device = &dev;
+    let _gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
+    let m = module(d, RAY_LIST);
+    let g = ray_list_groups(d, m, 1, &[]);
+    let e = d
+        .create_pipeline(
+            &PipelineCompileOptions::default(),
+            &PipelineLinkOptions::default(),
+            &g.all(),
+        )
+        .unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::LimitExceeded, "{e}");
+    assert!(
+        e.message().contains("needs 5 storage buffer bindings") && e.message().contains("allows 4"),
+        "{e}"
+    );
+}
+
+#[test]
+fn gpu_memory_is_freed_with_its_owners_and_the_device() {
+    let dev = optik_wgpu::WgpuDevice::new().unwrap();
+    let memory = dev.memory();
+    let d: &dyn Device = &dev;
+    // The empty device: the scene arena's first chunk.
+    let (base_count, base_bytes) = (memory.live_allocations(), memory.live_bytes());
+    assert!(base_count >= 1 && base_bytes > 0);
+    assert_eq!(memory.arena_bytes_in_use(), 0);
+    let b = d.create_buffer(1 << 20).unwrap();
+    assert_eq!(memory.live_allocations(), base_count + 1);
+    assert_eq!(memory.live_bytes(), base_bytes + (1 << 20));
+    d.destroy_buffer(b).unwrap();
+    assert_eq!(
+        (memory.live_allocations(), memory.live_bytes()),
+        (base_count, base_bytes)
+    );
+    let t = d
+        .create_texture(&TextureDesc {
+            width: 8,
+            height: 4,
+            format: TextureFormat::Rgba8Unorm,
+        })
+        .unwrap();
+    assert_eq!(memory.live_bytes(), base_bytes + 8 * 4 * 4);
+    d.destroy_texture(t).unwrap();
+    assert_eq!(memory.live_bytes(), base_bytes);
+    // Structures take arena space and give it back; the arena's chunks stay for reuse.
+    let gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
+    let used = memory.arena_bytes_in_use();
+    assert!(used > 0);
+    let gas2 = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 1.0), GeometryFlags::NONE);
+    assert!(memory.arena_bytes_in_use() > used);
+    d.destroy_accel(gas2).unwrap();
+    assert_eq!(memory.arena_bytes_in_use(), used);
+    d.destroy_accel(gas).unwrap();
+    assert_eq!(memory.arena_bytes_in_use(), 0);
+    // Dropping the device frees what is still alive: buffers, structures, the arena.
+    let _kept = d.create_buffer(4096).unwrap();
+    let _kept_gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
+    assert!(memory.live_allocations() > base_count);
+    drop(dev);
+    assert_eq!(memory.live_allocations(), 0);
+    assert_eq!(memory.live_bytes(), 0);
+    assert_eq!(memory.arena_bytes_in_use(), 0);
 }

@@ -320,7 +320,8 @@ impl Scene {
                 let (u, v) = (rnd(), rnd());
                 Hit {
                     s: DeviceState {
-                        present: u32::MAX,
+                        // The payload is offered by `offer_state`, pointing at `payload`.
+                        present: !DeviceState::PAYLOAD,
                         launch_index: [i as u32 % WIDTH, i as u32 / WIDTH, 0],
                         launch_dimensions: [WIDTH, WIDTH, 1],
                         primitive_index: (rnd() * TRIANGLES as f32) as u32,
@@ -372,9 +373,15 @@ impl Scene {
         }
     }
 
-    /// Whether the hits offer their state to programs as memory.
+    /// Whether the hits offer their state (payload registers included) to programs as
+    /// memory. The hits stay where they are in their vector from here on.
     fn offer_state(mut self, offer: bool) -> Self {
-        self.hits.iter_mut().for_each(|h| h.offer = offer);
+        for h in &mut self.hits {
+            h.offer = offer;
+            h.s.payload = h.payload.as_mut_ptr();
+            h.s.payload_len = h.payload.len() as u32;
+            h.s.present |= DeviceState::PAYLOAD;
+        }
         self
     }
 
@@ -455,6 +462,13 @@ fn check(jit: &JitModule) {
             p.outputs(),
             r.outputs(),
             "{name}: prepared JIT and Rust disagree"
+        );
+        let mut s = Scene::new().offer_state(true);
+        s.run_prepared(jit, program);
+        assert_eq!(
+            s.outputs(),
+            r.outputs(),
+            "{name}: JIT reading the offered state and Rust disagree"
         );
     }
 }

@@ -2,12 +2,15 @@
 """Embree (through the `embreex` package) as optik's CPU peer: the same mesh, the same rays.
 
 Usage: peer.py VERTICES.npy TRIANGLES.npy RAYS.npy OUT.npz --threads N --repeat K [--fast]
+              [--prim-npy PRIM.npy] [--t-npy T.npy]
 
 Reads float32 vertices (V, 3), uint32 triangles (F, 3) and rays (N, 8: origin xyz, tmin, direction
 xyz, tmax), builds an Embree scene (robust mode unless --fast), traces every ray with
 rtcIntersect1 on one thread and then on N threads (chunks traced from a thread pool; embreex
 releases the GIL around its loop), writes the hits (t, prim, u, v) to OUT.npz and prints one
 JSON line: build_s, trace_s_1 (one thread), trace_s_n (N threads), best of K repeats each.
+--prim-npy and --t-npy also write the hit triangles (uint32, 0xFFFFFFFF on a miss) and distances
+(float32, inf on a miss) as plain .npy files, which optik's bench-cpu reads to count disagreements.
 embreex cannot set tnear: rays must have tmin = 0 for an exact comparison.
 """
 import argparse
@@ -35,6 +38,8 @@ def main():
     p.add_argument("--threads", type=int, default=1)
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--fast", action="store_true", help="Embree's default (non-robust) kernels")
+    p.add_argument("--prim-npy", help="also write the hit triangles (uint32, 0xFFFFFFFF: miss) here")
+    p.add_argument("--t-npy", help="also write the hit distances (float32, inf: miss) here")
     a = p.parse_args()
 
     vertices = np.load(a.vertices).astype(np.float32)
@@ -76,8 +81,12 @@ def main():
     prim = res["primID"].astype(np.int64)
     hit = prim >= 0
     t = np.where(hit, res["tfar"], np.inf).astype(np.float32)
-    np.savez(a.out, t=t, prim=np.where(hit, prim, 0xFFFFFFFF).astype(np.uint32),
-             u=res["u"].astype(np.float32), v=res["v"].astype(np.float32))
+    prim32 = np.where(hit, prim, 0xFFFFFFFF).astype(np.uint32)
+    np.savez(a.out, t=t, prim=prim32, u=res["u"].astype(np.float32), v=res["v"].astype(np.float32))
+    if a.prim_npy:
+        np.save(a.prim_npy, prim32)
+    if a.t_npy:
+        np.save(a.t_npy, t)
     print(json.dumps({"build_s": build_s, "trace_s_1": best1, "trace_s_n": bestn,
                       "threads": a.threads, "rays": n, "robust": not a.fast}))
 

@@ -6,3 +6,4 @@ pub mod npy;
 pub mod raycast;
 pub mod rays;
 pub mod report;
+pub mod scenes;

@@ -30,6 +30,17 @@ fn header_value<'a>(header: &'a str, key: &str) -> Option<&'a str> {
 
 /// Parses a `.npy` file holding a little-endian float32 array.
 pub fn read_f32(bytes: &[u8], what: &str) -> Result<NpyArray> {
+    let (shape, data) = read::<f32>(bytes, what)?;
+    Ok(NpyArray { shape, data })
+}
+
+/// Parses a `.npy` file holding a little-endian uint32 array: its shape and elements.
+pub fn read_u32(bytes: &[u8], what: &str) -> Result<(Vec<usize>, Vec<u32>)> {
+    read::<u32>(bytes, what)
+}
+
+/// Parses a `.npy` file holding a little-endian array of `T`.
+fn read<T: NpyElement>(bytes: &[u8], what: &str) -> Result<(Vec<usize>, Vec<T>)> {
     if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
         return Err(Error::invalid(format!(
             "{what}: not a .npy file (it lacks the \\x93NUMPY magic)"
@@ -54,9 +65,12 @@ pub fn read_f32(bytes: &[u8], what: &str) -> Result<NpyArray> {
     let descr = header_value(header, "descr")
         .unwrap_or("?")
         .trim_matches(['\'', '"']);
-    if descr != "<f4" && descr != "f4" {
+    if descr != T::DESCR && descr != &T::DESCR[1..] {
         return Err(Error::invalid(format!(
-            "{what}: dtype is {descr}; expected float32 ('<f4'), for example np.asarray(rays, dtype=np.float32)"
+            "{what}: dtype is {descr}; expected {} ('{}'), for example np.asarray(rays, dtype=np.{})",
+            T::NAME,
+            T::DESCR,
+            T::NAME
         )));
     }
     if header_value(header, "fortran_order") != Some("False") {
@@ -85,30 +99,42 @@ pub fn read_f32(bytes: &[u8], what: &str) -> Result<NpyArray> {
     }
     let data = body[..count * 4]
         .chunks_exact(4)
-        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .map(|c| T::from_le_bytes([c[0], c[1], c[2], c[3]]))
         .collect();
-    Ok(NpyArray { shape, data })
+    Ok((shape, data))
 }
 
-/// Elements an array can be written with.
+/// Elements an array can be written and read with.
 pub trait NpyElement: Copy {
     /// NumPy's dtype string.
     const DESCR: &'static str;
+    /// NumPy's dtype name.
+    const NAME: &'static str;
     /// Little-endian bytes.
     fn le_bytes(self) -> [u8; 4];
+    /// The element of little-endian bytes.
+    fn from_le_bytes(bytes: [u8; 4]) -> Self;
 }
 
 impl NpyElement for f32 {
     const DESCR: &'static str = "<f4";
+    const NAME: &'static str = "float32";
     fn le_bytes(self) -> [u8; 4] {
         self.to_le_bytes()
+    }
+    fn from_le_bytes(bytes: [u8; 4]) -> f32 {
+        f32::from_le_bytes(bytes)
     }
 }
 
 impl NpyElement for u32 {
     const DESCR: &'static str = "<u4";
+    const NAME: &'static str = "uint32";
     fn le_bytes(self) -> [u8; 4] {
         self.to_le_bytes()
+    }
+    fn from_le_bytes(bytes: [u8; 4]) -> u32 {
+        u32::from_le_bytes(bytes)
     }
 }
 
@@ -210,6 +236,15 @@ mod tests {
         let a = read_f32(&bytes, "t").unwrap();
         assert_eq!(a.shape, vec![2, 8]);
         assert_eq!(a.data, data);
+    }
+
+    #[test]
+    fn round_trip_u32() {
+        let data: Vec<u32> = vec![0, 7, u32::MAX];
+        let (shape, back) = read_u32(&encode(&[3], &data), "prim.npy").unwrap();
+        assert_eq!((shape, back), (vec![3], data));
+        let e = read_u32(&encode(&[1], &[1.0f32]), "prim.npy").unwrap_err();
+        assert!(e.message().contains("expected uint32"), "{e}");
     }
 
     #[test]

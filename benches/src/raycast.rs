@@ -184,9 +184,9 @@ impl<'d> RayCaster<'d> {
         self.device.pipeline_features(self.pipeline)
     }
 
-    /// Traces `rays` (`RAY_FLOATS` floats each) `repeat` times; returns the hits and the best
-    /// launch time in seconds.
-    pub fn cast(&mut self, rays: &[f32], repeat: usize) -> Result<(Hits, f64)> {
+    /// Uploads `rays` (`RAY_FLOATS` floats each) and a hit buffer for them: a launch to run
+    /// as often as wanted (its buffers are freed when it drops).
+    pub fn upload(&self, rays: &[f32]) -> Result<Launch<'d>> {
         let n = rays.len() / RAY_FLOATS;
         let d = self.device;
         let ray_buffer = d.create_buffer((rays.len() * 4).max(4) as u64)?;
@@ -197,46 +197,48 @@ impl<'d> RayCaster<'d> {
                 return Err(e);
             }
         };
-        let result = self.cast_with(rays, repeat, ray_buffer, hit_buffer);
-        // Destroy errors only mean the device is gone; the cast's own result says more.
-        let _ = d.destroy_buffer(ray_buffer);
-        let _ = d.destroy_buffer(hit_buffer);
-        result
-    }
-
-    fn cast_with(
-        &mut self,
-        rays: &[f32],
-        repeat: usize,
-        ray_buffer: Buffer,
-        hit_buffer: Buffer,
-    ) -> Result<(Hits, f64)> {
-        let n = rays.len() / RAY_FLOATS;
-        let d = self.device;
-        d.write_buffer(ray_buffer, 0, bytemuck::cast_slice(rays))?;
         let mut params = Vec::with_capacity(16);
         for w in [self.handle[0], self.handle[1], n as u32, LAUNCH_WIDTH] {
             params.extend_from_slice(&w.to_le_bytes());
         }
-        let size = LaunchSize::new(
-            LAUNCH_WIDTH.min(n as u32),
-            (n as u32).div_ceil(LAUNCH_WIDTH),
-            1,
-        );
-        let resources = [
-            Resource::buffer(1, ray_buffer),
-            Resource::buffer(2, hit_buffer),
-        ];
-        let mut best = f64::INFINITY;
-        for _ in 0..repeat.max(1) {
-            d.synchronize()?;
-            let start = Instant::now();
-            d.launch(self.pipeline, &params, &resources, &self.sbt, size)?;
-            d.synchronize()?;
-            best = best.min(start.elapsed().as_secs_f64());
-        }
-        let mut raw = vec![0u8; n * HIT_WORDS * 4];
-        d.read_buffer(hit_buffer, 0, &mut raw)?;
+        let launch = Launch {
+            device: d,
+            rays: n,
+            params,
+            resources: [
+                Resource::buffer(1, ray_buffer),
+                Resource::buffer(2, hit_buffer),
+            ],
+            ray_buffer,
+            hit_buffer,
+            size: LaunchSize::new(
+                LAUNCH_WIDTH.min(n as u32),
+                (n as u32).div_ceil(LAUNCH_WIDTH),
+                1,
+            ),
+        };
+        // On an error the launch drops here and frees both buffers.
+        d.write_buffer(ray_buffer, 0, bytemuck::cast_slice(rays))?;
+        Ok(launch)
+    }
+
+    /// Runs `launch` once and waits for it.
+    pub fn run(&self, launch: &Launch) -> Result<()> {
+        let d = self.device;
+        d.launch(
+            self.pipeline,
+            &launch.params,
+            &launch.resources,
+            &self.sbt,
+            launch.size,
+        )?;
+        d.synchronize()
+    }
+
+    /// The hits `launch` wrote.
+    pub fn hits(&self, launch: &Launch) -> Result<Hits> {
+        let mut raw = vec![0u8; launch.rays * HIT_WORDS * 4];
+        self.device.read_buffer(launch.hit_buffer, 0, &mut raw)?;
         let words: &[u32] = bytemuck::cast_slice(&raw);
         let mut hits = Hits::default();
         for h in words.chunks_exact(HIT_WORDS) {
@@ -246,7 +248,48 @@ impl<'d> RayCaster<'d> {
             hits.u.push(f32::from_bits(h[3]));
             hits.v.push(f32::from_bits(h[4]));
         }
-        Ok((hits, best))
+        Ok(hits)
+    }
+
+    /// Traces `rays` (`RAY_FLOATS` floats each) `repeat` times; returns the hits and the best
+    /// launch time in seconds.
+    pub fn cast(&mut self, rays: &[f32], repeat: usize) -> Result<(Hits, f64)> {
+        let launch = self.upload(rays)?;
+        let mut best = f64::INFINITY;
+        for _ in 0..repeat.max(1) {
+            self.device.synchronize()?;
+            let start = Instant::now();
+            self.run(&launch)?;
+            best = best.min(start.elapsed().as_secs_f64());
+        }
+        Ok((self.hits(&launch)?, best))
+    }
+}
+
+/// Rays uploaded for a [`RayCaster`]: what one launch over them needs. Its buffers are freed
+/// when it drops.
+pub struct Launch<'d> {
+    device: &'d dyn Device,
+    rays: usize,
+    params: Vec<u8>,
+    resources: [Resource; 2],
+    ray_buffer: Buffer,
+    hit_buffer: Buffer,
+    size: LaunchSize,
+}
+
+impl Launch<'_> {
+    /// The number of rays.
+    pub fn rays(&self) -> usize {
+        self.rays
+    }
+}
+
+impl Drop for Launch<'_> {
+    fn drop(&mut self) {
+        // Destroy errors only mean the device is gone, which frees everything anyway.
+        let _ = self.device.destroy_buffer(self.ray_buffer);
+        let _ = self.device.destroy_buffer(self.hit_buffer);
     }
 }
 

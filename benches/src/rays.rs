@@ -42,40 +42,57 @@ pub fn camera(mesh: &Mesh, width: u32, height: u32, view: [f32; 3]) -> Vec<f32> 
     let (lo, hi) = mesh.bounds();
     let center: [f32; 3] = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
     let radius = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f32>().sqrt() * 0.5;
-    let len = view.iter().map(|v| v * v).sum::<f32>().sqrt();
-    let w: [f32; 3] = std::array::from_fn(|k| view[k] / len);
+    let w = normalize(view);
     let up = if w[1].abs() > 0.9 {
         [1.0, 0.0, 0.0]
     } else {
         [0.0, 1.0, 0.0]
     };
-    let cross = |a: [f32; 3], b: [f32; 3]| {
-        [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ]
-    };
-    let normalize = |a: [f32; 3]| {
-        let l = a.iter().map(|v| v * v).sum::<f32>().sqrt();
-        a.map(|v| v / l)
-    };
-    let u = normalize(cross(w, up));
-    let v = cross(u, w);
     let fov_tan = 0.5f32;
     let dist = radius / fov_tan * 1.1;
     let eye: [f32; 3] = std::array::from_fn(|k| center[k] - w[k] * dist);
     let aspect = width as f32 / height as f32;
+    camera_at(eye, w, up, 2.0 * (fov_tan * aspect).atan(), width, height)
+}
+
+/// Pinhole camera rays, `width × height`, from `eye` along `view` with `up` roughly up, over
+/// `horizontal_fov` radians across the width (a scene's own camera, e.g. one inside a room).
+pub fn camera_at(
+    eye: [f32; 3],
+    view: [f32; 3],
+    up: [f32; 3],
+    horizontal_fov: f32,
+    width: u32,
+    height: u32,
+) -> Vec<f32> {
+    let w = normalize(view);
+    let u = normalize(cross(w, up));
+    let v = cross(u, w);
+    let half_x = (0.5 * horizontal_fov).tan();
+    let half_y = half_x * height as f32 / width as f32;
     let mut rays = Vec::with_capacity((width * height) as usize * 8);
     for y in 0..height {
         for x in 0..width {
-            let sx = ((x as f32 + 0.5) / width as f32 * 2.0 - 1.0) * fov_tan * aspect;
-            let sy = (1.0 - (y as f32 + 0.5) / height as f32 * 2.0) * fov_tan;
+            let sx = ((x as f32 + 0.5) / width as f32 * 2.0 - 1.0) * half_x;
+            let sy = (1.0 - (y as f32 + 0.5) / height as f32 * 2.0) * half_y;
             let d = normalize(std::array::from_fn(|k| w[k] + sx * u[k] + sy * v[k]));
             push(&mut rays, eye, d, 0.0, f32::INFINITY);
         }
     }
     rays
+}
+
+fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn normalize(a: [f32; 3]) -> [f32; 3] {
+    let l = a.iter().map(|v| v * v).sum::<f32>().sqrt();
+    a.map(|v| v / l)
 }
 
 /// Incoherent rays: origins uniform in the mesh's bounding box, directions uniform on the sphere.
@@ -129,6 +146,22 @@ mod tests {
             let len: f32 = r[4..7].iter().map(|v| v * v).sum::<f32>().sqrt();
             assert!((len - 1.0).abs() < 1e-5);
         }
+        // A 90° camera along -z: the corner rays lean out by 45° across the width.
+        let at = camera_at(
+            [1.0, 2.0, 3.0],
+            [0.0, 0.0, -2.0],
+            [0.0, 1.0, 0.0],
+            90f32.to_radians(),
+            2,
+            2,
+        );
+        let first = &at[..8];
+        assert_eq!(first[..4], [1.0, 2.0, 3.0, 0.0]);
+        assert!(
+            first[4] < 0.0 && first[5] > 0.0 && first[6] < 0.0,
+            "{first:?}"
+        );
+        assert!((first[4] / first[6] - 0.5).abs() < 1e-6, "{first:?}");
         let aimed = aimed_at_vertices_and_edges(&m, [0.2, 0.2, 0.2]);
         assert_eq!(aimed.len(), (3 + 3) * 8);
         let mut rng = Rng::new(1);

@@ -228,45 +228,74 @@ fn throughput(opts: &ReportOptions, scenes: &[Scene], report: &mut Vec<Value>) {
                     continue;
                 }
             };
-            let result = (|| -> Result<(f64, f64, f64, Hits)> {
-                let mut caster = RayCaster::new(device.as_ref(), &scene.mesh)?;
-                let (camera_hits, cam_s) = caster.cast(&scene.camera, opts.repeat)?;
-                let (_, inc_s) = caster.cast(&scene.incoherent, opts.repeat)?;
-                Ok((caster.build_seconds, cam_s, inc_s, camera_hits))
-            })();
-            match result {
-                Ok((build, cam, inc, hits)) => {
-                    let cam_rate = mrays(scene.camera.len() / 8, cam);
-                    let inc_rate = mrays(scene.incoherent.len() / 8, inc);
-                    if kind == BackendKind::Cpu {
-                        cpu_rates = Some((cam_rate, inc_rate));
-                        cpu_camera_hits = Some(hits);
-                    }
-                    let vs_cpu = cpu_rates.map_or("".into(), |(c, i)| {
-                        format!("{:.2}x / {:.2}x", cam_rate / c, inc_rate / i)
-                    });
+            // Vulkan also with the driver's own triangle test (not watertight, DESIGN.md §5):
+            // what hardware triangles give against optik's emulated watertight ones.
+            let variants: &[(Accuracy, &str)] = if kind == BackendKind::Vulkan {
+                &[
+                    (Accuracy::ROBUST, ""),
+                    (
+                        Accuracy {
+                            triangle: optik::TriangleTest::Driver,
+                            ..Accuracy::ROBUST
+                        },
+                        " (driver triangles)",
+                    ),
+                ]
+            } else {
+                &[(Accuracy::ROBUST, "")]
+            };
+            for &(accuracy, label) in variants {
+                if let Err(e) = device.set_accuracy(accuracy) {
                     rows.push(vec![
                         scene.name.clone(),
-                        device.properties().device_name.clone(),
-                        format!("{:.1}", build * 1e3),
-                        format!("{cam_rate:.2}"),
-                        format!("{inc_rate:.2}"),
-                        vs_cpu,
+                        format!("{}{label}", kind.name()),
+                        format!("not offered: {}", e.message()),
+                        "".into(),
+                        "".into(),
+                        "".into(),
                     ]);
-                    report.push(
-                        json!({"section": "throughput", "scene": scene.name, "backend": kind.name(),
-                        "device": device.properties().device_name, "build_s": build,
-                        "camera_mrays_per_s": cam_rate, "incoherent_mrays_per_s": inc_rate}),
-                    );
+                    continue;
                 }
-                Err(e) => rows.push(vec![
-                    scene.name.clone(),
-                    kind.name().into(),
-                    format!("error: {}", e.message()),
-                    "".into(),
-                    "".into(),
-                    "".into(),
-                ]),
+                let result = (|| -> Result<(f64, f64, f64, Hits)> {
+                    let mut caster = RayCaster::new(device.as_ref(), &scene.mesh)?;
+                    let (camera_hits, cam_s) = caster.cast(&scene.camera, opts.repeat)?;
+                    let (_, inc_s) = caster.cast(&scene.incoherent, opts.repeat)?;
+                    Ok((caster.build_seconds, cam_s, inc_s, camera_hits))
+                })();
+                match result {
+                    Ok((build, cam, inc, hits)) => {
+                        let cam_rate = mrays(scene.camera.len() / 8, cam);
+                        let inc_rate = mrays(scene.incoherent.len() / 8, inc);
+                        if kind == BackendKind::Cpu {
+                            cpu_rates = Some((cam_rate, inc_rate));
+                            cpu_camera_hits = Some(hits);
+                        }
+                        let vs_cpu = cpu_rates.map_or("".into(), |(c, i)| {
+                            format!("{:.2}x / {:.2}x", cam_rate / c, inc_rate / i)
+                        });
+                        rows.push(vec![
+                            scene.name.clone(),
+                            format!("{}{label}", device.properties().device_name),
+                            format!("{:.1}", build * 1e3),
+                            format!("{cam_rate:.2}"),
+                            format!("{inc_rate:.2}"),
+                            vs_cpu,
+                        ]);
+                        report.push(
+                            json!({"section": "throughput", "scene": scene.name, "backend": format!("{}{label}", kind.name()),
+                            "device": device.properties().device_name, "build_s": build,
+                            "camera_mrays_per_s": cam_rate, "incoherent_mrays_per_s": inc_rate}),
+                        );
+                    }
+                    Err(e) => rows.push(vec![
+                        scene.name.clone(),
+                        kind.name().into(),
+                        format!("error: {}", e.message()),
+                        "".into(),
+                        "".into(),
+                        "".into(),
+                    ]),
+                }
             }
         }
         if opts.embree && opts.backends.contains(&BackendKind::Cpu) {
@@ -361,6 +390,13 @@ fn accuracy(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) {
             },
         ),
         ("moller-trumbore + plain (fast)", Accuracy::FAST),
+        (
+            "driver triangles + conservative",
+            Accuracy {
+                triangle: optik::TriangleTest::Driver,
+                ..Accuracy::ROBUST
+            },
+        ),
     ];
     for &kind in &opts.backends {
         let Ok(device) = open(kind, opts.threads) else {

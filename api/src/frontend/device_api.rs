@@ -290,11 +290,15 @@ impl DeviceFunction {
         }
     }
 
-    /// Whether this function ends the program that calls it (no return).
+    /// Whether this function ends the program that calls it (no return): the any-hit
+    /// terminators and `rt_throw_exception` (which ends the program even when the pipeline
+    /// does not check user exceptions).
     pub fn is_terminator(self) -> bool {
         matches!(
             self,
-            DeviceFunction::IgnoreIntersection | DeviceFunction::TerminateRay
+            DeviceFunction::IgnoreIntersection
+                | DeviceFunction::TerminateRay
+                | DeviceFunction::ThrowException
         )
     }
 }
@@ -442,6 +446,22 @@ mod tests {
             assert_eq!(DeviceFunction::from_name(f.name()), Some(f));
             assert!(f.name().starts_with("rt_"));
         }
+    }
+
+    #[test]
+    fn terminators_are_the_functions_that_end_their_program() {
+        let terminators: Vec<DeviceFunction> = DeviceFunction::ALL
+            .into_iter()
+            .filter(|f| f.is_terminator())
+            .collect();
+        assert_eq!(
+            terminators,
+            [
+                DeviceFunction::IgnoreIntersection,
+                DeviceFunction::TerminateRay,
+                DeviceFunction::ThrowException
+            ]
+        );
     }
 
     #[test]

@@ -206,12 +206,12 @@ pub(crate) fn reflect(
     let mut attribute_values_used = 0;
     for f in facts.values() {
         for i in &f.payload_indices {
-            payload_values_used =
-                payload_values_used.max(i.map_or(MAX_PAYLOAD, |i| (i + 1).min(MAX_PAYLOAD)));
+            payload_values_used = payload_values_used
+                .max(i.map_or(MAX_PAYLOAD, |i| i.saturating_add(1).min(MAX_PAYLOAD)));
         }
         for i in &f.attribute_indices {
             attribute_values_used = attribute_values_used
-                .max(i.map_or(MAX_ATTRIBUTES, |i| (i + 1).min(MAX_ATTRIBUTES)));
+                .max(i.map_or(MAX_ATTRIBUTES, |i| i.saturating_add(1).min(MAX_ATTRIBUTES)));
         }
     }
     let reports = programs

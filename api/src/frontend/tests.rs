@@ -111,6 +111,13 @@ fn dynamic_payload_index_uses_every_register() {
 }
 
 #[test]
+fn largest_constant_register_index_counts_as_all_registers() {
+    let src = "fn closesthit__a() { rt_set_payload(0xffffffffu, 1u); let a = rt_get_attribute(0xffffffffu); }\n";
+    let m = compile_src(src).unwrap();
+    assert_eq!((m.payload_values_used, m.attribute_values_used), (32, 8));
+}
+
+#[test]
 fn error_type_mismatch_points_at_the_expression() {
     // A u32 added to an f32 on line 3.
     let src = "fn raygen__a() {\n    let x: f32 = 1.0;\n    let y = x + 1u;\n}\n";

@@ -5,6 +5,7 @@ use super::aabb::Aabb;
 use super::bvh::{BuildQuality, Bvh};
 use super::curve_basis::BezierSegment;
 use super::micromap::MicromapArrayData;
+use super::wide::{SlotTriangles, WideBvh};
 use optik_api::decode::{self, BufferBytes};
 use optik_api::semantics::sbt_index;
 use optik_api::{
@@ -17,6 +18,18 @@ use std::sync::Arc;
 pub trait MicromapLookup {
     /// The built array of `array`, or the handle's error.
     fn micromap_array(&self, array: MicromapArray) -> Result<Arc<MicromapArrayData>>;
+}
+
+/// What triangle blocks are packed from: static triangles and their records (`None` for
+/// other geometry and moving triangles).
+fn slot_triangles<'a>(
+    geometry: &'a Geometry,
+    primitives: &'a [PrimitiveInfo],
+) -> Option<SlotTriangles<'a>> {
+    geometry.static_triangles().map(|vertices| SlotTriangles {
+        vertices,
+        infos: primitives,
+    })
 }
 
 /// What a primitive reports to programs, per slot.
@@ -126,6 +139,15 @@ pub enum Geometry {
 }
 
 impl Geometry {
+    /// The vertices of triangles without motion, per slot (what triangle blocks are made
+    /// of); `None` for other primitives and for moving triangles.
+    pub fn static_triangles(&self) -> Option<&[[[f32; 3]; 3]]> {
+        match self {
+            Geometry::Triangles(t) if t.keys.len() == 1 => Some(&t.keys[0]),
+            _ => None,
+        }
+    }
+
     /// The pipeline primitive-type flag of this geometry.
     pub fn primitive_type(&self) -> PrimitiveTypeFlags {
         match self {
@@ -191,6 +213,8 @@ impl Geometry {
 pub struct Gas {
     /// The BVH over slots.
     pub bvh: Bvh,
+    /// The same tree, 4-wide, with triangle blocks: what the CPU traversal walks.
+    pub wide: WideBvh,
     /// `primitive_order[slot]`: the primitive's index over all inputs, in input order.
     pub primitive_order: Vec<u32>,
     /// Per slot.
@@ -532,10 +556,13 @@ impl Gas {
         let quality = BuildQuality::from_flags(options.flags);
         let (bvh, order) = Bvh::build(&decoded.boxes, quality)?;
         let (motion, _) = motion_of(options);
-        let primitives = order.iter().map(|&i| decoded.infos[i as usize]).collect();
+        let primitives: Vec<PrimitiveInfo> =
+            order.iter().map(|&i| decoded.infos[i as usize]).collect();
+        let geometry = decoded.geometry.permuted(&order);
         Ok(Gas {
             bounds: bvh.bounds(),
-            geometry: decoded.geometry.permuted(&order),
+            wide: WideBvh::build(&bvh, slot_triangles(&geometry, &primitives)),
+            geometry,
             primitive_order: order,
             primitives,
             bvh,
@@ -561,6 +588,7 @@ impl Gas {
         self.geometry = decoded.geometry.permuted(order);
         self.primitives = order.iter().map(|&i| decoded.infos[i as usize]).collect();
         self.bvh.refit(|slot| boxes[order[slot] as usize]);
+        self.wide = WideBvh::build(&self.bvh, slot_triangles(&self.geometry, &self.primitives));
         self.bounds = self.bvh.bounds();
         Ok(())
     }
@@ -573,6 +601,7 @@ impl Gas {
     /// Bytes the structure occupies.
     pub fn size_in_bytes(&self) -> u64 {
         self.bvh.size_in_bytes()
+            + self.wide.size_in_bytes()
             + (self.primitive_order.len() * 4) as u64
             + (self.primitives.len() * std::mem::size_of::<PrimitiveInfo>()) as u64
             + self.geometry.size_in_bytes()

@@ -5,6 +5,8 @@
 //!
 //! - [`Bvh`] / [`BvhNode`]: a binary BVH, 32-byte nodes, root first, siblings adjacent,
 //!   leaves covering ranges of primitive *slots*;
+//! - [`wide::WideBvh`]: the same tree collapsed to 4-wide nodes, with triangles packed four
+//!   to a block: what the CPU traversal walks (the wgpu backend ignores it);
 //! - [`Gas`]: a geometry structure: per-slot [`PrimitiveInfo`] and per-key, per-slot
 //!   [`Geometry`] (triangle vertices, AABBs, spheres, curve control points);
 //! - [`Ias`]: an instance structure: per-slot [`InstanceRecord`]s naming children by handle;
@@ -21,6 +23,7 @@ mod gas;
 pub mod handle;
 mod instances;
 pub mod micromap;
+pub mod wide;
 
 pub use aabb::Aabb;
 pub use bvh::{BuildQuality, Bvh, BvhNode};
@@ -101,7 +104,16 @@ pub fn memory_usage(inputs: &[BuildInput], motion_keys: usize) -> AccelBufferSiz
         let n = input.num_primitives() as u64;
         prims += n;
         let (geometry, extra) = match input {
-            BuildInput::Triangles(t) => (36, if t.opacity_micromap.is_some() { 8 } else { 0 }),
+            // A static triangle may fill a block of its own.
+            BuildInput::Triangles(t) => (
+                36,
+                if t.opacity_micromap.is_some() { 8 } else { 0 }
+                    + if motion_keys == 1 {
+                        std::mem::size_of::<wide::TriangleBlock>() as u64
+                    } else {
+                        0
+                    },
+            ),
             BuildInput::CustomPrimitives(_) => (24, 0),
             BuildInput::Spheres(_) => (16, 0),
             BuildInput::Curves(_) => (64, 1),
@@ -110,8 +122,10 @@ pub fn memory_usage(inputs: &[BuildInput], motion_keys: usize) -> AccelBufferSiz
         per_key += n * geometry;
         per_prim += n * (extra + 4 + std::mem::size_of::<PrimitiveInfo>() as u64);
     }
-    // At most 2n - 1 nodes, plus the padding node after the root.
-    let nodes = 2 * prims * std::mem::size_of::<BvhNode>() as u64;
+    // At most 2n - 1 nodes, plus the padding node after the root; at most one wide node
+    // per inner binary node (or one for a leaf root).
+    let nodes = 2 * prims * std::mem::size_of::<BvhNode>() as u64
+        + prims.max(1) * std::mem::size_of::<wide::WideNode>() as u64;
     let output = nodes + per_prim + per_key * motion_keys as u64;
     AccelBufferSizes {
         output_size_in_bytes: output,

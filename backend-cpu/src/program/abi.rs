@@ -144,7 +144,7 @@ pub trait DeviceCalls {
 /// Each group of fields has a bit in `present`; a getter whose bit is clear calls its
 /// [`DeviceCalls`] method instead. Matrices are row-major 3×4, as the methods return them.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DeviceState {
     /// Which fields hold values: a union of the `DeviceState::*` bits.
     pub present: u32,
@@ -188,6 +188,20 @@ pub struct DeviceState {
     pub world_to_object: [f32; 12],
     /// `rt_remaining_trace_depth()` ([`DeviceState::TRACE_DEPTH`]).
     pub remaining_trace_depth: u32,
+    /// Registers `len` of `rt_get_payload` / `rt_set_payload` ([`DeviceState::PAYLOAD`]):
+    /// reads past it give 0 and writes past it are dropped, as the methods do.
+    pub payload_len: u32,
+    /// The payload registers ([`DeviceState::PAYLOAD`]): programs read and write them in
+    /// place, so this must point to `max(payload_len, 1)` words that nothing else uses
+    /// while the program runs, and writes must be allowed (a runtime that drops writes
+    /// leaves the bit clear).
+    pub payload: *mut u32,
+}
+
+impl Default for DeviceState {
+    fn default() -> DeviceState {
+        DeviceState::EMPTY
+    }
 }
 
 impl DeviceState {
@@ -209,6 +223,8 @@ impl DeviceState {
     pub const TRANSFORMS: u32 = 1 << 7;
     /// `remaining_trace_depth` is set.
     pub const TRACE_DEPTH: u32 = 1 << 8;
+    /// `payload` and `payload_len` are set.
+    pub const PAYLOAD: u32 = 1 << 9;
     /// Nothing set: every getter calls its method.
     pub const EMPTY: DeviceState = DeviceState {
         present: 0,
@@ -232,6 +248,8 @@ impl DeviceState {
         object_to_world: [0.0; 12],
         world_to_object: [0.0; 12],
         remaining_trace_depth: 0,
+        payload_len: 0,
+        payload: std::ptr::null_mut(),
     };
 }
 

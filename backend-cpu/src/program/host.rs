@@ -191,6 +191,14 @@ unsafe extern "C-unwind" fn rt_sbt_data_f32(ctx: *mut CallContext<'_>, i: u32) -
     unsafe { with_calls(ctx, 0.0, |c| c.sbt_data_f32(i)) }
 }
 
+/// Bit of `rt_report_intersection`'s result: the report was accepted.
+pub(crate) const REPORT_ACCEPTED: i64 = 1;
+/// Bit of `rt_report_intersection`'s result: the program must return
+/// (`DeviceCalls::unwinding`).
+pub(crate) const REPORT_UNWINDING: i64 = 2;
+
+/// `rt_report_intersection`: returns [`REPORT_ACCEPTED`] and [`REPORT_UNWINDING`] bits, so
+/// the program learns both in one call.
 unsafe extern "C-unwind" fn rt_report_intersection(
     ctx: *mut CallContext<'_>,
     t: f32,
@@ -199,10 +207,14 @@ unsafe extern "C-unwind" fn rt_report_intersection(
 ) -> u32 {
     // SAFETY: compiled code passes a stack slot holding the 8 attribute words.
     let attributes: [u32; 8] = unsafe { attributes.cast::<[u32; 8]>().read_unaligned() };
+    // A parked panic (no unwind tables) answers "unwinding": the program returns and
+    // `ProgramFn::call` resumes the panic.
     unsafe {
-        with_calls(ctx, false, |c| {
-            c.report_intersection(t, hit_kind, &attributes)
-        }) as u32
+        with_calls(ctx, REPORT_UNWINDING as u32, |c| {
+            let accepted = c.report_intersection(t, hit_kind, &attributes);
+            accepted as u32 * REPORT_ACCEPTED as u32
+                + c.unwinding() as u32 * REPORT_UNWINDING as u32
+        })
     }
 }
 
@@ -218,7 +230,8 @@ unsafe extern "C-unwind" fn rt_throw_exception(ctx: *mut CallContext<'_>, code: 
     unsafe { with_calls(ctx, (), |c| c.throw_exception(code)) }
 }
 
-/// `rt_trace`: the payload is the caller's `RtPayload` array in its own memory.
+/// `rt_trace`: the payload is the caller's `RtPayload` array in its own memory. Returns
+/// whether the program must return (`DeviceCalls::unwinding`), as the callables do.
 #[allow(clippy::too_many_arguments)]
 unsafe extern "C-unwind" fn rt_trace(
     ctx: *mut CallContext<'_>,
@@ -240,11 +253,11 @@ unsafe extern "C-unwind" fn rt_trace(
     miss_index: u32,
     payload: *mut u32,
     payload_len: u32,
-) {
+) -> u32 {
     // SAFETY: compiled code passes the address and length of a `array<u32, N>` it owns.
     let payload = unsafe { std::slice::from_raw_parts_mut(payload, payload_len as usize) };
     unsafe {
-        with_calls(ctx, (), |c| {
+        with_calls(ctx, 1, |c| {
             c.trace(
                 [handle_lo, handle_hi],
                 [ox, oy, oz],
@@ -258,7 +271,8 @@ unsafe extern "C-unwind" fn rt_trace(
                 sbt_stride,
                 miss_index,
                 payload,
-            )
+            );
+            c.unwinding() as u32
         })
     }
 }
@@ -268,10 +282,15 @@ unsafe extern "C-unwind" fn rt_direct_call(
     index: u32,
     args: *mut u32,
     len: u32,
-) {
+) -> u32 {
     // SAFETY: as for `rt_trace`'s payload.
     let args = unsafe { std::slice::from_raw_parts_mut(args, len as usize) };
-    unsafe { with_calls(ctx, (), |c| c.direct_call(index, args)) }
+    unsafe {
+        with_calls(ctx, 1, |c| {
+            c.direct_call(index, args);
+            c.unwinding() as u32
+        })
+    }
 }
 
 unsafe extern "C-unwind" fn rt_continuation_call(
@@ -279,10 +298,15 @@ unsafe extern "C-unwind" fn rt_continuation_call(
     index: u32,
     args: *mut u32,
     len: u32,
-) {
+) -> u32 {
     // SAFETY: as for `rt_trace`'s payload.
     let args = unsafe { std::slice::from_raw_parts_mut(args, len as usize) };
-    unsafe { with_calls(ctx, (), |c| c.continuation_call(index, args)) }
+    unsafe {
+        with_calls(ctx, 1, |c| {
+            c.continuation_call(index, args);
+            c.unwinding() as u32
+        })
+    }
 }
 
 /// The resource bound at `binding`, if any.
@@ -546,9 +570,9 @@ host_fns! {
     ignore_intersection => rt_ignore_intersection, CTX, NONE;
     terminate_ray => rt_terminate_ray, CTX, NONE;
     throw_exception => rt_throw_exception, &[P, I32], NONE;
-    trace => rt_trace, &[P, I32, I32, F32, F32, F32, F32, F32, F32, F32, F32, F32, I32, I32, I32, I32, I32, P, I32], NONE;
-    direct_call => rt_direct_call, &[P, I32, P, I32], NONE;
-    continuation_call => rt_continuation_call, &[P, I32, P, I32], NONE;
+    trace => rt_trace, &[P, I32, I32, F32, F32, F32, F32, F32, F32, F32, F32, F32, I32, I32, I32, I32, I32, P, I32], U1;
+    direct_call => rt_direct_call, &[P, I32, P, I32], U1;
+    continuation_call => rt_continuation_call, &[P, I32, P, I32], U1;
     texture_sample => optik_texture_sample, &[P, I32, I32, F32, F32, F32, I32, I32, P], NONE;
     texture_load => optik_texture_load, &[P, I32, I32, I32, I32, P], NONE;
     texture_size => optik_texture_size, &[P, I32, I32, P], NONE;

@@ -56,8 +56,8 @@ type EntryFn = unsafe extern "C-unwind" fn(*mut CallContext<'_>);
 
 /// The compiled programs of one module and the memory holding their code.
 pub(crate) struct Inner {
-    /// Entry points, and whether each reads `DeviceState` fields.
-    programs: HashMap<String, (EntryFn, bool)>,
+    /// Entry points, the `DeviceState` bits each reads, and whether it does nothing.
+    programs: HashMap<String, (EntryFn, u32, bool)>,
     /// The binding number of each buffer-table slot (`None`: a buffer without a binding).
     slot_bindings: Vec<Option<u32>>,
     stats: CompileStats,
@@ -106,9 +106,12 @@ impl std::fmt::Debug for JitModule {
 #[derive(Clone, Copy)]
 pub struct ProgramFn<'m> {
     entry: EntryFn,
-    /// Whether the program (or a helper) calls a getter `DeviceState` can answer; only
-    /// then is `DeviceCalls::state` asked for.
-    reads_state: bool,
+    /// The `DeviceState` bits of the getters the program (or a helper) calls; only when
+    /// there are some is `DeviceCalls::state` asked for.
+    state_bits: u32,
+    /// The program's body has no statement with an effect (see
+    /// [`ProgramFn::does_nothing`]).
+    empty: bool,
     slot_bindings: &'m [Option<u32>],
 }
 
@@ -155,6 +158,21 @@ fn buffer_table(slot_bindings: &[Option<u32>], bindings: &Bindings<'_>) -> Vec<B
 }
 
 impl ProgramFn<'_> {
+    /// The [`DeviceState`] bits (`DeviceState::RAY`, ...) of the values this program may
+    /// read from the state: a runtime that fills the state per call only needs these.
+    #[inline]
+    pub fn state_bits(&self) -> u32 {
+        self.state_bits
+    }
+
+    /// Whether calling the program can have no effect: its body is empty (expressions
+    /// evaluated for nothing at most), as a miss program that leaves the payload alone
+    /// often is. A runtime may skip the call.
+    #[inline]
+    pub fn does_nothing(&self) -> bool {
+        self.empty
+    }
+
     /// Runs the program once with `bindings`, answering device-API calls with `calls`.
     ///
     /// Buffer accesses are bounds-checked against the bound lengths; the runtime's part of
@@ -192,12 +210,38 @@ impl ProgramFn<'_> {
         }
     }
 
+    /// [`ProgramFn::call_prepared`] given what `calls.state()` returns, which saves asking
+    /// for it (a runtime that keeps its state at hand calls this).
+    #[inline]
+    pub fn call_prepared_with_state(
+        &self,
+        prepared: &PreparedBindings<'_>,
+        calls: &mut dyn DeviceCalls,
+        state: *const DeviceState,
+    ) {
+        if std::ptr::eq(prepared.layout, self.slot_bindings) {
+            self.run_with_state(prepared.table.as_ptr(), prepared.bindings, calls, state);
+        } else {
+            self.call(prepared.bindings, calls);
+        }
+    }
+
     fn run(&self, table: *const BufferSlot, bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
-        let state = if self.reads_state {
+        let state = if self.state_bits != 0 {
             calls.state()
         } else {
             std::ptr::null()
         };
+        self.run_with_state(table, bindings, calls, state);
+    }
+
+    fn run_with_state(
+        &self,
+        table: *const BufferSlot,
+        bindings: &Bindings<'_>,
+        calls: &mut dyn DeviceCalls,
+        state: *const DeviceState,
+    ) {
         let mut ctx = CallContext {
             buffers: table,
             zero_page: ZERO_PAGE.as_ptr(),
@@ -241,10 +285,11 @@ impl JitModule {
 
     /// The program named `name` (with its prefix, e.g. `closesthit__radiance`).
     pub fn program(&self, name: &str) -> Option<ProgramFn<'_>> {
-        let (entry, reads_state) = *self.inner.programs.get(name)?;
+        let (entry, state_bits, empty) = *self.inner.programs.get(name)?;
         Some(ProgramFn {
             entry,
-            reads_state,
+            state_bits,
+            empty,
             slot_bindings: &self.inner.slot_bindings,
         })
     }
@@ -376,20 +421,29 @@ fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner
         jit.clear_context(&mut ctx);
         stats.functions += 1;
         stats.disk_cache_hits += hit as usize;
-        let reads_state = program
+        let state_bits = program
             .device_functions
             .iter()
-            .any(|&f| lower::reads_state(f));
-        ids.push((program.name.clone(), id, unwind_info, reads_state));
+            .fold(0, |bits, &f| bits | lower::state_bits(f));
+        let empty = module.module.functions[program.function]
+            .body
+            .iter()
+            .all(|s| {
+                matches!(
+                    s,
+                    naga::Statement::Emit(_) | naga::Statement::Return { value: None }
+                )
+            });
+        ids.push((program.name.clone(), id, unwind_info, state_bits, empty));
     }
     jit.finalize_definitions().map_err(module_err)?;
     let mut programs = HashMap::new();
     let mut frames = Vec::new();
-    for (name, id, unwind_info, reads_state) in ids {
+    for (name, id, unwind_info, state_bits, empty) in ids {
         let ptr = jit.get_finalized_function(id);
         // SAFETY: the function was compiled with exactly this signature.
         let entry: EntryFn = unsafe { std::mem::transmute::<*const u8, EntryFn>(ptr) };
-        programs.insert(name, (entry, reads_state));
+        programs.insert(name, (entry, state_bits, empty));
         frames.extend(unwind_info.map(|info| (ptr as usize, info)));
     }
     #[cfg(target_os = "linux")]

@@ -1,9 +1,11 @@
 //! The traversal loop: graphs of instances and transforms down to geometry, BVH walks,
 //! primitive tests, culling and flag resolution.
 
-use super::ray::PreparedRay;
+use super::ray::{PreparedRay, WideRay};
+use super::simd::F4;
 use super::{Handler, Spec, curve, slab, sphere, triangle};
 use crate::accel::curve_basis::BezierSegment;
+use crate::accel::wide::{TriangleBlock, WideBvh};
 use crate::accel::{
     Aabb, Bvh, Gas, Geometry, Ias, InstanceRecord, MicromapRef, PrimitiveInfo, Resolved,
     SceneTable, Transform, Traversable,
@@ -296,10 +298,71 @@ impl<S: Spec> Walker<'_, S> {
             _ => KeyPosition { key: 0, t: 0.0 },
         };
         let pr = PreparedRay::new(path.object_origin, path.object_direction, S::CONSERVATIVE);
+        let wr = WideRay::new(&pr);
         let tmin = self.ray.tmin;
         let flags = self.ray.flags;
+        let wide = &g.wide;
         match &g.geometry {
-            Geometry::Triangles(tris) => walk(&g.bvh, &pr, tmin, h, |h, first, count| {
+            Geometry::Triangles(_) if !wide.blocks.is_empty() => {
+                // A zero direction hits no triangle (the scalar tests say so per triangle).
+                if !pr.moves {
+                    return;
+                }
+                walk_wide(wide, &wr, tmin, h, |h, first, count| {
+                    for k in 0..TriangleBlock::blocks_of(count) {
+                        let block = &wide.blocks[(first + k) as usize];
+                        let lanes = TriangleBlock::lane_mask(count, k);
+                        if S::WATERTIGHT {
+                            let hits = triangle::watertight4(&wr, block, lanes, tmin, h.t_max());
+                            let mut mask = hits.mask;
+                            while mask != 0 {
+                                let lane = mask.trailing_zeros() as usize;
+                                mask &= mask - 1;
+                                let hit = hits.lane(lane);
+                                // A hit an earlier lane's commit moved beyond the interval
+                                // is one the scalar order would not have found (`t` of a
+                                // hit is a number, so `>=` is `!<`).
+                                if hit.t >= h.t_max() {
+                                    continue;
+                                }
+                                let s = block.slots[lane] as usize;
+                                // The block holds the vertices key 0 holds (bit for bit), in
+                                // lines already loaded: reading the slot's key-0 copy cost a
+                                // cache miss per candidate.
+                                let tri = std::array::from_fn(|v| {
+                                    std::array::from_fn(|a| block.vertices[v][a][lane])
+                                });
+                                let info = &block.infos[lane];
+                                self.triangle_hit_at(g, s, info, tri, hit, path, h);
+                                if h.done() {
+                                    return;
+                                }
+                            }
+                        } else {
+                            for lane in 0..4 {
+                                if lanes >> lane & 1 == 0 {
+                                    continue;
+                                }
+                                let tri = std::array::from_fn(|v| {
+                                    std::array::from_fn(|a| block.vertices[v][a][lane])
+                                });
+                                let Some(hit) =
+                                    triangle::moller_trumbore(&pr, &tri, tmin, h.t_max())
+                                else {
+                                    continue;
+                                };
+                                let s = block.slots[lane] as usize;
+                                let info = &block.infos[lane];
+                                self.triangle_hit_at(g, s, info, tri, hit, path, h);
+                                if h.done() {
+                                    return;
+                                }
+                            }
+                        }
+                    }
+                })
+            }
+            Geometry::Triangles(tris) => walk_wide(wide, &wr, tmin, h, |h, first, count| {
                 for s in first as usize..(first + count) as usize {
                     let tri = lerp_key(&tris.keys, at, s, |a, b, f| {
                         std::array::from_fn(|v| lerp3(a[v], b[v], f))
@@ -310,40 +373,7 @@ impl<S: Spec> Walker<'_, S> {
                         triangle::moller_trumbore(&pr, &tri, tmin, h.t_max())
                     };
                     let Some(hit) = hit else { continue };
-                    let info = &g.primitives[s];
-                    // The test's facing is decided in object space; instances may flip it.
-                    let front =
-                        facing::is_front_face(if hit.front { -1.0 } else { 1.0 }, path.flip);
-                    if opacity::triangle_face_culled(front, info.flags(), path.flags, flags) {
-                        continue;
-                    }
-                    let micromap = match (&tris.micromaps, self.config.micromaps) {
-                        (Some(m), true) => match m.refs[s] {
-                            MicromapRef { array, index } if array != MicromapRef::NONE.array => {
-                                Some(m.arrays[array as usize].state(index, hit.u, hit.v))
-                            }
-                            _ => None,
-                        },
-                        _ => None,
-                    };
-                    let fate = opacity::resolve(info.flags(), path.flags, flags, micromap);
-                    if fate == CandidateFate::Culled {
-                        continue;
-                    }
-                    let data = HitData::Triangle {
-                        vertices: tri,
-                        barycentrics: [hit.u, hit.v],
-                    };
-                    h.candidate::<S>(
-                        &Candidate {
-                            t: hit.t,
-                            info,
-                            hit_kind: facing::triangle_hit_kind(front),
-                            data,
-                        },
-                        path,
-                        fate,
-                    );
+                    self.triangle_hit_at(g, s, &g.primitives[s], tri, hit, path, h);
                     if h.done() {
                         return;
                     }
@@ -353,7 +383,7 @@ impl<S: Spec> Walker<'_, S> {
                 if !self.config.intersection {
                     return;
                 }
-                walk(&g.bvh, &pr, tmin, h, |h, first, count| {
+                walk_wide(wide, &wr, tmin, h, |h, first, count| {
                     for s in first as usize..(first + count) as usize {
                         let aabb = lerp_key(&custom.keys, at, s, |a, b, f| Aabb {
                             min: lerp3(a.min, b.min, f),
@@ -374,7 +404,7 @@ impl<S: Spec> Walker<'_, S> {
                     }
                 })
             }
-            Geometry::Spheres(spheres) => walk(&g.bvh, &pr, tmin, h, |h, first, count| {
+            Geometry::Spheres(spheres) => walk_wide(wide, &wr, tmin, h, |h, first, count| {
                 for s in first as usize..(first + count) as usize {
                     let sp = lerp_key(&spheres.keys, at, s, |a, b, f| {
                         std::array::from_fn(|k| lerp(a[k], b[k], f))
@@ -404,7 +434,7 @@ impl<S: Spec> Walker<'_, S> {
                     }
                 }
             }),
-            Geometry::Curves(curves) => walk(&g.bvh, &pr, tmin, h, |h, first, count| {
+            Geometry::Curves(curves) => walk_wide(wide, &wr, tmin, h, |h, first, count| {
                 for s in first as usize..(first + count) as usize {
                     let cp = lerp_key(&curves.keys, at, s, |a, b, f| {
                         std::array::from_fn(|i| std::array::from_fn(|k| lerp(a[i][k], b[i][k], f)))
@@ -437,6 +467,60 @@ impl<S: Spec> Walker<'_, S> {
                 }
             }),
         }
+    }
+}
+
+impl<S: Spec> Walker<'_, S> {
+    /// A triangle's hit (with the slot's record and the vertices it was tested with):
+    /// facing, culling, micromap and flag resolution, then the handler's candidate.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn triangle_hit_at<H: Handler>(
+        &self,
+        g: &Gas,
+        s: usize,
+        info: &PrimitiveInfo,
+        tri: [[f32; 3]; 3],
+        hit: triangle::TriangleHit,
+        path: &Path,
+        h: &mut H,
+    ) {
+        let Geometry::Triangles(tris) = &g.geometry else {
+            return;
+        };
+        let flags = self.ray.flags;
+        // The test's facing is decided in object space; instances may flip it.
+        let front = facing::is_front_face(if hit.front { -1.0 } else { 1.0 }, path.flip);
+        if opacity::triangle_face_culled(front, info.flags(), path.flags, flags) {
+            return;
+        }
+        let micromap = match (&tris.micromaps, self.config.micromaps) {
+            (Some(m), true) => match m.refs[s] {
+                MicromapRef { array, index } if array != MicromapRef::NONE.array => {
+                    Some(m.arrays[array as usize].state(index, hit.u, hit.v))
+                }
+                _ => None,
+            },
+            _ => None,
+        };
+        let fate = opacity::resolve(info.flags(), path.flags, flags, micromap);
+        if fate == CandidateFate::Culled {
+            return;
+        }
+        let data = HitData::Triangle {
+            vertices: tri,
+            barycentrics: [hit.u, hit.v],
+        };
+        h.candidate::<S>(
+            &Candidate {
+                t: hit.t,
+                info,
+                hit_kind: facing::triangle_hit_kind(front),
+                data,
+            },
+            path,
+            fate,
+        );
     }
 }
 
@@ -533,6 +617,137 @@ fn walk<H: Handler>(
                 // nothing nearer.
                 if popped.1 <= h.t_max() {
                     break popped.0;
+                }
+            },
+        };
+    }
+}
+
+/// A stack entry of the wide walk: a child (inner: `count == 0`, `first` its node; leaf:
+/// `first`, `count` as the node stores them) and the distance where the ray enters it.
+#[derive(Clone, Copy)]
+struct Pending {
+    first: u32,
+    count: u32,
+    entry: f32,
+}
+
+/// Entries kept on the native stack: trees up to 63 levels deep (a node pushes at most
+/// three); deeper ones get a heap stack for the walk.
+const WIDE_STACK: usize = 190;
+
+/// Walks a wide BVH front to back: at each node the children the ray enters are visited
+/// nearest first (the others wait on a stack with their entry distances), and
+/// `leaf(handler, first, count)` is called for every leaf entered before the handler's
+/// current `t_max`, until the handler is done.
+#[inline(always)]
+fn walk_wide<H: Handler>(
+    wide: &WideBvh,
+    ray: &WideRay,
+    tmin: f32,
+    h: &mut H,
+    leaf: impl FnMut(&mut H, u32, u32),
+) {
+    if wide.nodes.is_empty() {
+        return;
+    }
+    // Pending children are siblings of the nodes on the path from the root: at most three
+    // per level.
+    let needed = 3 * wide.depth as usize + 1;
+    if needed <= WIDE_STACK {
+        let mut stack = [const { std::mem::MaybeUninit::<Pending>::uninit() }; WIDE_STACK];
+        walk_wide_with(wide, ray, tmin, h, leaf, &mut stack);
+    } else {
+        let mut heap: Vec<Pending> = Vec::with_capacity(needed);
+        walk_wide_with(wide, ray, tmin, h, leaf, heap.spare_capacity_mut());
+    }
+}
+
+/// [`walk_wide`] with a stack of enough entries (`3 * depth + 1`).
+#[inline(always)]
+fn walk_wide_with<H: Handler>(
+    wide: &WideBvh,
+    ray: &WideRay,
+    tmin: f32,
+    h: &mut H,
+    mut leaf: impl FnMut(&mut H, u32, u32),
+    stack: &mut [std::mem::MaybeUninit<Pending>],
+) {
+    let nodes = wide.nodes.as_slice();
+    let tmin4 = F4::splat(tmin);
+    let mut len = 0usize;
+    let mut current = Pending {
+        first: 0,
+        count: 0,
+        entry: tmin,
+    };
+    loop {
+        let mut next = None;
+        if current.count > 0 {
+            leaf(h, current.first, current.count);
+            if h.done() {
+                return;
+            }
+        } else {
+            let node = &nodes[current.first as usize];
+            let (mask, entry) = slab::entry4(ray, node, tmin4, F4::splat(h.t_max()));
+            let child = |lane: u32| Pending {
+                first: node.first[lane as usize],
+                count: node.count[lane as usize],
+                entry: entry[lane as usize],
+            };
+            match mask.count_ones() {
+                0 => {}
+                1 => next = Some(child(mask.trailing_zeros())),
+                2 => {
+                    // The common case, without a data-dependent branch: the nearer next,
+                    // the farther waits (ties keep child order).
+                    let a = child(mask.trailing_zeros());
+                    let b = child(31 - mask.leading_zeros());
+                    let (near, far) = if b.entry < a.entry { (b, a) } else { (a, b) };
+                    stack[len].write(far);
+                    len += 1;
+                    next = Some(near);
+                }
+                _ => {
+                    // Three or four, sorted by entry distance (insertion sort; ties keep
+                    // child order, so the walk is deterministic).
+                    let mut hit = [child(0); 4];
+                    let mut n = 0;
+                    let mut bits = mask;
+                    while bits != 0 {
+                        let c = child(bits.trailing_zeros());
+                        bits &= bits - 1;
+                        let mut i = n;
+                        while i > 0 && c.entry < hit[i - 1].entry {
+                            hit[i] = hit[i - 1];
+                            i -= 1;
+                        }
+                        hit[i] = c;
+                        n += 1;
+                    }
+                    // Farthest first, so the nearest waiting child is on top.
+                    for &c in hit[1..n].iter().rev() {
+                        stack[len].write(c);
+                        len += 1;
+                    }
+                    next = Some(hit[0]);
+                }
+            }
+        }
+        current = match next {
+            Some(c) => c,
+            None => loop {
+                if len == 0 {
+                    return;
+                }
+                len -= 1;
+                // SAFETY: entries below `len` were written by a push.
+                let popped = unsafe { stack[len].assume_init() };
+                // A child entered beyond the closest hit found since it was pushed can hold
+                // nothing nearer.
+                if popped.entry <= h.t_max() {
+                    break popped;
                 }
             },
         };

@@ -11,6 +11,7 @@
 mod curve;
 mod engine;
 mod ray;
+mod simd;
 mod slab;
 mod sphere;
 mod triangle;
@@ -19,10 +20,10 @@ pub use curve::{
     CURVE_TOLERANCE_RADIUS, CURVE_TOLERANCE_SIZE, CurveHit, MAX_DEPTH as CURVE_MAX_DEPTH,
 };
 pub use engine::{Candidate, CustomPrimitive, HitData, Path, TraceConfig, TraceRay, trace};
-pub use ray::{PreparedRay, SLAB_WIDENING};
-pub use slab::entry as slab_entry;
+pub use ray::{PreparedRay, SLAB_WIDENING, WideRay};
+pub use slab::{entry as slab_entry, entry4 as slab_entry4};
 pub use sphere::SphereHit;
-pub use triangle::{TriangleHit, moller_trumbore, watertight};
+pub use triangle::{BlockHits, TriangleHit, moller_trumbore, watertight, watertight4};
 
 /// The intersectors of the built-in primitives, for tools and the wgpu backend's tests.
 pub mod intersect {

@@ -6,6 +6,8 @@
 //! same ray with `+0.0` (obvhs's traversal does not: numerics.md F0). A zero component gets
 //! the reciprocal `+∞` and its near plane is the box's minimum.
 
+use super::simd::F4;
+
 /// The factor the conservative box test applies to a box's exit distance: `1 + 2γ(3)` with
 /// `γ(n) = nε / (1 − nε)`, `ε = 2⁻²⁴` (pbrt-v4's `Bounds3::IntersectP`, numerics.md §2.2).
 /// Each computed slab distance is within a factor `1 ± γ(3)` of the exact one (a
@@ -63,8 +65,42 @@ impl PreparedRay {
             exit_scale: if conservative { SLAB_WIDENING } else { 1.0 },
             negative: [dir[0] < 0.0, dir[1] < 0.0, dir[2] < 0.0],
             axes: [kx, ky, kz],
-            shear: [dir[kx] / dz, dir[ky] / dz, 1.0 / dz],
+            // `1.0 / dz` is `inv[kz]`, bit for bit: one division fewer per ray.
+            shear: [dir[kx] / dz, dir[ky] / dz, inv[kz]],
             moves: dz != 0.0,
+        }
+    }
+}
+
+/// A [`PreparedRay`]'s constants in all four lanes, for the 4-wide tests (only what they
+/// read, so it stays small to build per ray).
+#[derive(Clone, Copy)]
+pub struct WideRay {
+    /// Origin, per axis.
+    pub origin: [F4; 3],
+    /// Reciprocal direction, per axis.
+    pub inv: [F4; 3],
+    /// The exit scale of the box test.
+    pub exit_scale: F4,
+    /// The watertight test's shear constants.
+    pub shear: [F4; 3],
+    /// Per axis, whether the direction is negative.
+    pub negative: [bool; 3],
+    /// The watertight test's axes.
+    pub axes: [usize; 3],
+}
+
+impl WideRay {
+    /// The lanes of `ray`.
+    #[inline(always)]
+    pub fn new(ray: &PreparedRay) -> WideRay {
+        WideRay {
+            origin: ray.origin.map(F4::splat),
+            inv: ray.inv.map(F4::splat),
+            exit_scale: F4::splat(ray.exit_scale),
+            shear: ray.shear.map(F4::splat),
+            negative: ray.negative,
+            axes: ray.axes,
         }
     }
 }

@@ -7,7 +7,9 @@
 //! below ignore it, so such a ray counts as inside the slab (boxes are closed), the same for
 //! `+0.0` and `-0.0` directions.
 
-use super::ray::PreparedRay;
+use super::ray::{PreparedRay, WideRay};
+use super::simd::F4;
+use crate::accel::wide::WideNode;
 
 /// The entry distance of the ray into the box `[min, max]` within `[tmin, tmax]`, or
 /// `None` on a miss.
@@ -40,9 +42,101 @@ pub fn entry(
     if t0 <= t1 { Some(t0) } else { None }
 }
 
+/// [`entry`] for the four children of a wide node at once, lane by lane the same
+/// arithmetic: the mask of the children the ray enters (bit `i` for child `i`) and their
+/// entry distances.
+#[inline(always)]
+pub fn entry4(ray: &WideRay, node: &WideNode, tmin: F4, tmax: F4) -> (u32, [f32; 4]) {
+    let mut t0 = tmin;
+    let mut exit = F4::splat(f32::INFINITY);
+    for a in 0..3 {
+        let (near, far) = if ray.negative[a] {
+            (&node.max[a], &node.min[a])
+        } else {
+            (&node.min[a], &node.max[a])
+        };
+        let tn = (F4::load(near) - ray.origin[a]) * ray.inv[a];
+        let tf = (F4::load(far) - ray.origin[a]) * ray.inv[a];
+        t0 = tn.max(t0);
+        exit = tf.min(exit);
+    }
+    let t1 = (exit * ray.exit_scale).min(tmax);
+    (t0.le(t1).bits(), t0.to_array())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn four_lanes_agree_with_the_scalar_test_bit_for_bit() {
+        let mut state = 99u64;
+        let mut rnd = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let specials = [0.0, -0.0, 1.0, f32::INFINITY, f32::NEG_INFINITY];
+        for i in 0..20000 {
+            let mut node = WideNode {
+                min: [[0.0; 4]; 3],
+                max: [[0.0; 4]; 3],
+                first: [0; 4],
+                count: [0; 4],
+            };
+            for lane in 0..4 {
+                for a in 0..3 {
+                    let lo = (rnd() - 0.5) * 10.0;
+                    node.min[a][lane] = lo;
+                    node.max[a][lane] = lo + rnd() * 4.0;
+                }
+            }
+            // Unused children: the empty box.
+            if i % 7 == 0 {
+                for a in 0..3 {
+                    node.min[a][3] = f32::INFINITY;
+                    node.max[a][3] = f32::NEG_INFINITY;
+                }
+            }
+            let mut o = [
+                (rnd() - 0.5) * 20.0,
+                (rnd() - 0.5) * 20.0,
+                (rnd() - 0.5) * 20.0,
+            ];
+            let mut d = [rnd() - 0.5, rnd() - 0.5, rnd() - 0.5];
+            if i % 3 == 0 {
+                // Axis-parallel rays, origins on slab planes: the NaN cases.
+                d[i % 2] = specials[i % 2];
+                o[(i / 3) % 3] = node.min[(i / 3) % 3][i % 4];
+            }
+            let (tmin, tmax) = if i % 5 == 0 {
+                (2.0, 3.0)
+            } else {
+                (0.0, f32::INFINITY)
+            };
+            for conservative in [false, true] {
+                let r = PreparedRay::new(o, d, conservative);
+                let (mask, t) = entry4(&WideRay::new(&r), &node, F4::splat(tmin), F4::splat(tmax));
+                for (lane, &entered) in t.iter().enumerate() {
+                    let min = std::array::from_fn(|a| node.min[a][lane]);
+                    let max = std::array::from_fn(|a| node.max[a][lane]);
+                    let want = entry(&r, &min, &max, tmin, tmax);
+                    let got = (mask >> lane & 1 == 1).then_some(entered);
+                    assert_eq!(
+                        want.map(f32::to_bits),
+                        got.map(f32::to_bits),
+                        "{o:?} {d:?} lane {lane}"
+                    );
+                }
+                assert_eq!(
+                    mask >> 3 & (i % 7 == 0) as u32,
+                    0,
+                    "empty boxes are never entered"
+                );
+            }
+        }
+    }
 
     const BOX_MIN: [f32; 3] = [10.0, 0.0, 0.0];
     const BOX_MAX: [f32; 3] = [10.0, 1.0, 1.0];

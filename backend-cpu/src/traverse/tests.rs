@@ -375,3 +375,73 @@ fn unsupported_primitive_types_are_skipped_with_a_debug_exception() {
         vec![optik_api::semantics::exception::INVALID_TRAVERSABLE; 3]
     );
 }
+
+/// A tree deeper than the walk's inline stack (a chain of 80 wide nodes, each with one
+/// triangle and the rest of the chain) is walked with a heap stack and still gives every
+/// triangle.
+#[test]
+fn trees_deeper_than_the_inline_stack_are_walked() {
+    use crate::accel::wide::{TriangleBlock, WideBvh, WideNode};
+    let n = 80u32;
+    let mut v = Vec::new();
+    let mut idx = Vec::new();
+    for i in 0..n {
+        let x = i as f32;
+        v.extend([[x, 0.0, 1.0], [x + 0.5, 0.0, 1.0], [x, 1.0, 1.0]]);
+        idx.push([3 * i, 3 * i + 1, 3 * i + 2]);
+    }
+    let mut gas = triangle_gas(&v, &idx);
+    let crate::accel::Geometry::Triangles(tris) = &gas.geometry else {
+        unreachable!("a triangle structure")
+    };
+    let slots = tris.keys[0].clone();
+    let empty = WideNode {
+        min: [[f32::INFINITY; 4]; 3],
+        max: [[f32::NEG_INFINITY; 4]; 3],
+        first: [0; 4],
+        count: [0; 4],
+    };
+    let mut chain = WideBvh {
+        nodes: vec![empty; n as usize],
+        blocks: Vec::new(),
+        depth: n,
+    };
+    for (i, tri) in slots.iter().enumerate() {
+        let mut block = TriangleBlock {
+            vertices: [[[0.0; 4]; 3]; 3],
+            slots: [u32::MAX; 4],
+            infos: [bytemuck::Zeroable::zeroed(); 4],
+        };
+        for (vi, vertex) in tri.iter().enumerate() {
+            for (a, &c) in vertex.iter().enumerate() {
+                block.vertices[vi][a][0] = c;
+            }
+        }
+        block.slots[0] = i as u32;
+        block.infos[0] = gas.primitives[i];
+        chain.blocks.push(block);
+        let node = &mut chain.nodes[i];
+        for a in 0..3 {
+            node.min[a][0] = tri.iter().map(|p| p[a]).fold(f32::INFINITY, f32::min);
+            node.max[a][0] = tri.iter().map(|p| p[a]).fold(f32::NEG_INFINITY, f32::max);
+            // The rest of the chain, inside the scene's box.
+            node.min[a][1] = gas.bounds.min[a];
+            node.max[a][1] = gas.bounds.max[a];
+        }
+        (node.first[0], node.count[0]) = (i as u32, 1);
+        if i + 1 < slots.len() {
+            node.first[1] = i as u32 + 1;
+        } else {
+            for a in 0..3 {
+                (node.min[a][1], node.max[a][1]) = (f32::INFINITY, f32::NEG_INFINITY);
+            }
+        }
+    }
+    gas.wide = chain;
+    let (scene, root) = scene_of(gas);
+    for i in 0..n {
+        let origin = [i as f32 + 0.125, 0.25, 0.0];
+        let h = closest::<Robust>(&scene, root, &ray(origin, [0.0, 0.0, 1.0]));
+        assert_eq!(h.hit.map(|(_, p, _)| p), Some(i), "triangle {i}");
+    }
+}

@@ -6,7 +6,9 @@
 //! seen from the origin). Degenerate triangles (zero area), triangles with NaN or infinite
 //! vertices and zero directions never hit; NaNs fall through every comparison to a miss.
 
-use super::ray::PreparedRay;
+use super::ray::{PreparedRay, WideRay};
+use super::simd::F4;
+use crate::accel::wide::TriangleBlock;
 
 /// A triangle hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -96,6 +98,106 @@ pub fn watertight(
         v: w * inv,
         front: det > 0.0,
     })
+}
+
+/// Hits of a 4-wide triangle test, lane by lane.
+#[derive(Clone, Copy, Debug)]
+pub struct BlockHits {
+    /// Lanes that hit (bit `i` for lane `i`).
+    pub mask: u32,
+    /// Per lane, as [`TriangleHit`] (meaningful in hit lanes only).
+    pub t: [f32; 4],
+    /// Weights of vertex 1.
+    pub u: [f32; 4],
+    /// Weights of vertex 2.
+    pub v: [f32; 4],
+    /// Lanes whose triangle faces the ray.
+    pub front: u32,
+}
+
+impl BlockHits {
+    /// Lane `lane`'s hit.
+    #[inline(always)]
+    pub fn lane(&self, lane: usize) -> TriangleHit {
+        TriangleHit {
+            t: self.t[lane],
+            u: self.u[lane],
+            v: self.v[lane],
+            front: self.front >> lane & 1 == 1,
+        }
+    }
+}
+
+/// [`watertight`] for the lanes `lanes` of a triangle block at once, lane by lane the same
+/// arithmetic (the f64 fallback included), so each lane's answer is bit for bit the scalar
+/// test's. The ray must move (`PreparedRay::moves`).
+#[inline(always)]
+pub fn watertight4(
+    ray: &WideRay,
+    block: &TriangleBlock,
+    lanes: u32,
+    tmin: f32,
+    tmax: f32,
+) -> BlockHits {
+    let none = BlockHits {
+        mask: 0,
+        t: [0.0; 4],
+        u: [0.0; 4],
+        v: [0.0; 4],
+        front: 0,
+    };
+    let [kx, ky, kz] = ray.axes;
+    let [sx, sy, sz] = ray.shear;
+    let o = &ray.origin;
+    let rel = |v: usize, k: usize| F4::load(&block.vertices[v][k]) - o[k];
+    let (a, b, c) = (
+        [rel(0, kx), rel(0, ky), rel(0, kz)],
+        [rel(1, kx), rel(1, ky), rel(1, kz)],
+        [rel(2, kx), rel(2, ky), rel(2, kz)],
+    );
+    let (ax, ay) = (a[0] - sx * a[2], a[1] - sy * a[2]);
+    let (bx, by) = (b[0] - sx * b[2], b[1] - sy * b[2]);
+    let (cx, cy) = (c[0] - sx * c[2], c[1] - sy * c[2]);
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    let zero = F4::splat(0.0);
+    let exact = (u.eq(zero) | v.eq(zero) | w.eq(zero)).bits() & lanes;
+    if exact != 0 {
+        // Edge functions exactly zero: recomputed in f64, as the scalar test does.
+        let [ax, ay, bx, by, cx, cy] = [ax, ay, bx, by, cx, cy].map(F4::to_array);
+        let (mut uu, mut vv, mut ww) = (u.to_array(), v.to_array(), w.to_array());
+        let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
+        for lane in 0..4 {
+            if exact >> lane & 1 == 1 {
+                uu[lane] = f(cx[lane], by[lane], cy[lane], bx[lane]);
+                vv[lane] = f(ax[lane], cy[lane], ay[lane], cx[lane]);
+                ww[lane] = f(bx[lane], ay[lane], by[lane], ax[lane]);
+            }
+        }
+        (u, v, w) = (F4::load(&uu), F4::load(&vv), F4::load(&ww));
+    }
+    let negative = u.lt(zero) | v.lt(zero) | w.lt(zero);
+    let positive = u.gt(zero) | v.gt(zero) | w.gt(zero);
+    let det = u + v + w;
+    let inside = lanes & !(negative & positive).bits() & !det.eq(zero).bits();
+    if inside == 0 {
+        return none;
+    }
+    let (az, bz, cz) = (sz * a[2], sz * b[2], sz * c[2]);
+    let t = (u * az + v * bz + w * cz) / det;
+    let mask = inside & (t.gt(F4::splat(tmin)) & t.lt(F4::splat(tmax))).bits();
+    if mask == 0 {
+        return none;
+    }
+    let inv = F4::splat(1.0) / det;
+    BlockHits {
+        mask,
+        t: t.to_array(),
+        u: (v * inv).to_array(),
+        v: (w * inv).to_array(),
+        front: det.gt(zero).bits(),
+    }
 }
 
 /// Möller–Trumbore: faster, not watertight (rays through shared edges can slip between
@@ -278,6 +380,82 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Builds a block from up to four triangles.
+    fn block(tris: &[[[f32; 3]; 3]]) -> TriangleBlock {
+        let mut b = TriangleBlock {
+            vertices: [[[0.0; 4]; 3]; 3],
+            slots: [u32::MAX; 4],
+            infos: [bytemuck::Zeroable::zeroed(); 4],
+        };
+        for (lane, t) in tris.iter().enumerate() {
+            for (v, vertex) in t.iter().enumerate() {
+                for (a, &c) in vertex.iter().enumerate() {
+                    b.vertices[v][a][lane] = c;
+                }
+            }
+            b.slots[lane] = lane as u32;
+        }
+        b
+    }
+
+    #[test]
+    fn four_lanes_agree_with_the_scalar_test_bit_for_bit() {
+        let mut rng = Rng(5);
+        let mut hits = 0;
+        let mut exact = 0;
+        for i in 0..20000 {
+            // Every fourth block shares edges on an integer grid, where edge functions are
+            // exactly zero and the f64 fallback decides.
+            let tris: Vec<[[f32; 3]; 3]> = (0..4)
+                .map(|k| {
+                    if i % 4 == 0 {
+                        let (x, y) = ((k % 2) as f32, (k / 2) as f32);
+                        [[x, y, 3.0], [x + 1.0, y, 3.0], [x + 1.0, y + 1.0, 3.0]]
+                    } else {
+                        [rng.v(2.0), rng.v(2.0), rng.v(2.0)]
+                    }
+                })
+                .collect();
+            let (o, d) = if i % 4 == 0 {
+                let o = [
+                    (rng.f() * 4.0).round() * 0.5,
+                    (rng.f() * 4.0).round() * 0.5,
+                    0.0,
+                ];
+                (o, [0.0, if i % 8 == 0 { -0.0 } else { 0.0 }, 1.0])
+            } else {
+                let o = rng.v(8.0);
+                (o, sub(rng.v(1.0), o))
+            };
+            let r = ray(o, d);
+            if !r.moves {
+                continue;
+            }
+            let lanes = if i % 3 == 0 { 0b0111 } else { 0b1111 };
+            let (tmin, tmax) = if i % 5 == 0 {
+                (1.0, 4.0)
+            } else {
+                (0.0, f32::INFINITY)
+            };
+            let got = watertight4(&WideRay::new(&r), &block(&tris), lanes, tmin, tmax);
+            for (lane, tri) in tris.iter().enumerate() {
+                let want = if lanes >> lane & 1 == 1 {
+                    watertight(&r, tri, tmin, tmax)
+                } else {
+                    None
+                };
+                let have = (got.mask >> lane & 1 == 1).then(|| got.lane(lane));
+                let bits = |h: Option<TriangleHit>| {
+                    h.map(|h| (h.t.to_bits(), h.u.to_bits(), h.v.to_bits(), h.front))
+                };
+                assert_eq!(bits(want), bits(have), "block {i} lane {lane}");
+                hits += want.is_some() as u32;
+                exact += (i % 4 == 0 && want.is_some()) as u32;
+            }
+        }
+        assert!(hits > 2000 && exact > 500, "{hits} {exact}");
     }
 
     #[test]

@@ -188,3 +188,25 @@ fn naming_a_device_that_does_not_exist_lists_the_devices() {
         "{e}"
     );
 }
+
+/// NVIDIA's driver fails `vkCreateInstance` after about 29 create/destroy rounds in one
+/// process; optik keeps its instances for the process's life, so devices can be opened and
+/// dropped any number of times (a long test run does this).
+#[test]
+fn devices_open_and_drop_any_number_of_times() {
+    for round in 0..40 {
+        let options = VulkanOptions {
+            validation: false,
+            device: None,
+            force_staging: false,
+            pipeline_cache: false,
+            cache_dir: None,
+        };
+        if let Err(e) = optik_vulkan::VulkanDevice::open(&options) {
+            panic!(
+                "opening the device for the {}th time failed: {e}",
+                round + 1
+            );
+        }
+    }
+}

@@ -8,6 +8,7 @@
 //! place (by copying into a bigger buffer); full chunks never move.
 
 use crate::gpu::Gpu;
+use crate::memory::{MemoryTracker, Tracked};
 use optik_api::{Error, ErrorKind, Result};
 use std::collections::BTreeMap;
 
@@ -25,6 +26,15 @@ pub(crate) struct Arena {
     chunk_len: Vec<u64>,
     /// Free ranges (offset → length) below the capacity.
     free: BTreeMap<u64, u64>,
+    /// The chunks' entries in the device's accounting, in the same order.
+    tracked: Vec<Tracked>,
+    memory: MemoryTracker,
+}
+
+impl Drop for Arena {
+    fn drop(&mut self) {
+        self.memory.set_arena_in_use(0);
+    }
 }
 
 impl Arena {
@@ -38,6 +48,8 @@ impl Arena {
             chunks: vec![first],
             chunk_len: vec![INITIAL_VEC4S],
             free: BTreeMap::from([(0, INITIAL_VEC4S)]),
+            tracked: vec![gpu.memory.track(INITIAL_VEC4S * VEC4_BYTES)],
+            memory: gpu.memory.clone(),
         })
     }
 
@@ -74,6 +86,7 @@ impl Arena {
                 if len > n {
                     self.free.insert(off + n, len - n);
                 }
+                self.account();
                 return Ok(off);
             }
             self.grow(gpu, n)?;
@@ -97,6 +110,14 @@ impl Arena {
             len += next_len;
         }
         self.free.insert(start, len);
+        self.account();
+    }
+
+    /// Tells the device's accounting how much of the arena is in use.
+    fn account(&self) {
+        let free: u64 = self.free.values().sum();
+        self.memory
+            .set_arena_in_use((self.capacity() - free) * VEC4_BYTES);
     }
 
     /// Makes room for at least `n` more vec4s at the end.
@@ -124,6 +145,7 @@ impl Arena {
             gpu.queue.submit([encoder.finish()]);
             remaining = remaining.saturating_sub(new_len - self.chunk_len[last]);
             self.chunks[last] = bigger;
+            self.tracked[last] = gpu.memory.track(new_len * VEC4_BYTES);
             self.chunk_len[last] = new_len;
         }
         while remaining > 0 {
@@ -137,6 +159,7 @@ impl Arena {
                 ));
             }
             self.chunks.push(create_chunk(gpu, len)?);
+            self.tracked.push(gpu.memory.track(len * VEC4_BYTES));
             self.chunk_len.push(len);
             remaining = remaining.saturating_sub(len);
         }

@@ -24,7 +24,8 @@ use optik_api::{
 /// What a built object keeps for updates.
 #[derive(Clone)]
 pub(crate) enum Refit {
-    Geometry(geometry::RefitState),
+    // Boxed: the geometry's refit state is large and most structures hold instances or none.
+    Geometry(Box<geometry::RefitState>),
     Instances(instances::Bvh4WithOrder),
     None,
 }
@@ -78,7 +79,8 @@ pub(crate) struct Scene {
     table: Vec<[u32; 4]>,
     /// Per slot: the live object's handle.
     owners: Vec<Option<Accel>>,
-    table_buffer: Option<wgpu::Buffer>,
+    /// The GPU copy of `table` with its entry in the device's accounting.
+    table_buffer: Option<(wgpu::Buffer, crate::memory::Tracked)>,
     table_dirty: bool,
 }
 
@@ -157,20 +159,21 @@ impl Scene {
         let fits = self
             .table_buffer
             .as_ref()
-            .is_some_and(|b| b.size() >= needed);
+            .is_some_and(|(b, _)| b.size() >= needed);
         if !fits {
             let size = needed.next_power_of_two().max(256);
-            self.table_buffer = Some(gpu.scoped("allocating the handle table", || {
+            let buffer = gpu.scoped("allocating the handle table", || {
                 gpu.device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("optik handle table"),
                     size,
                     usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
                     mapped_at_creation: false,
                 })
-            })?);
+            })?;
+            self.table_buffer = Some((buffer, gpu.memory.track(size)));
             self.table_dirty = true;
         }
-        let buffer = self
+        let (buffer, _) = self
             .table_buffer
             .as_ref()
             .ok_or_else(|| Error::backend("handle table missing"))?;

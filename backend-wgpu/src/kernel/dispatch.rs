@@ -233,5 +233,6 @@ fn optk_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
         super::WORKGROUP_SIZE
     ));
     out.push_str(&switch(c, Site::Raygen, "    "));
+    super::counters::flush(c, out);
     out.push_str("}\n");
 }

@@ -15,6 +15,7 @@
 //! which primitive intersectors, motion, instancing, any-hit, intersection, micromap and
 //! exception code is written at all.
 
+pub(crate) mod counters;
 mod dispatch;
 mod state;
 mod traverse;
@@ -62,6 +63,9 @@ pub(crate) struct KernelConfig<'a> {
     pub max_continuation: u32,
     pub sizes: Sizes,
     pub lowered: &'a Lowered,
+    /// The instrumented benchmark kernel: traffic counters (`counters`), never in a
+    /// pipeline's normal kernel.
+    pub counters: bool,
 }
 
 impl KernelConfig<'_> {
@@ -168,7 +172,12 @@ fn bindings(c: &KernelConfig<'_>, out: &mut String) {
             3 + i
         ));
     }
+    counters::declare(c, out);
     out.push_str("\nfn optk_fetch(i: u32) -> vec4<u32> {\n");
+    let counted = counters::count(c, counters::Counter::ArenaFetches, "1u");
+    if !counted.is_empty() {
+        out.push_str(&format!("    {counted}\n"));
+    }
     if c.sizes.chunks <= 1 {
         out.push_str("    return optk_scene0[i];\n}\n\n");
     } else {
@@ -193,6 +202,11 @@ fn snippets(c: &KernelConfig<'_>, out: &mut String) {
     };
     let add = |out: &mut String, s: &str| out.push_str(&wgsl::specialise(s, options));
     add(out, wgsl::RAY);
+    // The hit state holds instance transforms whenever instancing is compiled in, even in
+    // a kernel that never traces (a raygen-only pipeline made before any structure).
+    if c.instancing() || c.motion() {
+        add(out, wgsl::MOTION);
+    }
     if !c.traces() {
         return;
     }
@@ -213,9 +227,6 @@ fn snippets(c: &KernelConfig<'_>, out: &mut String) {
     }
     if c.curves() {
         add(out, wgsl::CURVE);
-    }
-    if c.instancing() || c.motion() {
-        add(out, wgsl::MOTION);
     }
     if c.micromaps() {
         add(out, wgsl::MICROMAP);

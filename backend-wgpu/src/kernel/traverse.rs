@@ -19,6 +19,16 @@ use super::KernelConfig;
 use optik_api::{ExceptionFlags, TriangleTest};
 
 pub(super) fn write(c: &KernelConfig<'_>, out: &mut String) {
+    if c.counters {
+        let mut text = String::new();
+        write_plain(c, &mut text);
+        out.push_str(&super::counters::instrument(&text));
+    } else {
+        write_plain(c, out);
+    }
+}
+
+fn write_plain(c: &KernelConfig<'_>, out: &mut String) {
     level_struct(c, out);
     rules(c, out);
     enter(c, out);

@@ -4,14 +4,16 @@
 //! context first; getters whose value the runtime offers in its `DeviceState` read it
 //! from there when present (a load instead of a call). Results wider than a scalar come back through the scratch slot.
 //! `rt_trace`, `rt_direct_call` and `rt_continuation_call` pass the address and length of
-//! the caller's `RtPayload`; the runtime copies in and out. The terminators
+//! the caller's `RtPayload`; the runtime copies in and out. These three and
+//! `rt_report_intersection` also tell whether the runtime is unwinding
+//! (`DeviceCalls::unwinding`); the program then returns at once. The terminators
 //! (`rt_ignore_intersection`, `rt_terminate_ray`, `rt_throw_exception`) call the host and
 //! then jump to the program's exit, whichever inlined helper they are in.
 
 use super::place::Place;
 use super::{LResult, LowerError, Lowered, Lowerer};
 use crate::program::abi::DeviceState;
-use crate::program::host::{CallContext, HostFn};
+use crate::program::host::{CallContext, HostFn, REPORT_ACCEPTED, REPORT_UNWINDING};
 use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::types::{F32, I32, I64};
 use cranelift_codegen::ir::{BlockArg, InstBuilder, MemFlagsData, Type, Value};
@@ -65,21 +67,24 @@ impl Lowerer<'_, '_> {
                 let r = scalar(self, HostFn::is_front_face_hit);
                 Some(vec![self.b.ins().icmp_imm_u(IntCC::NotEqual, r, 0)])
             }
-            D::GetPayload | D::GetAttribute | D::SbtDataU32 | D::SbtDataF32 => {
+            D::GetPayload => {
+                let i = self.scalar(args[0])?;
+                Some(vec![self.payload_access(i, None)])
+            }
+            D::SetPayload => {
+                let i = self.scalar(args[0])?;
+                let v = self.scalar(args[1])?;
+                self.payload_access(i, Some(v));
+                None
+            }
+            D::GetAttribute | D::SbtDataU32 | D::SbtDataF32 => {
                 let i = self.scalar(args[0])?;
                 let f = match df {
-                    D::GetPayload => HostFn::get_payload,
                     D::GetAttribute => HostFn::get_attribute,
                     D::SbtDataU32 => HostFn::sbt_data_u32,
                     _ => HostFn::sbt_data_f32,
                 };
                 Some(self.call_host(f, &[ctx, i]))
-            }
-            D::SetPayload => {
-                let i = self.scalar(args[0])?;
-                let v = self.scalar(args[1])?;
-                self.call_host(HostFn::set_payload, &[ctx, i, v]);
-                None
             }
             D::ReportIntersection => {
                 let t = self.scalar(args[0])?;
@@ -92,7 +97,11 @@ impl Lowerer<'_, '_> {
                         .store(MemFlagsData::trusted(), a, at, 4 * i as i32);
                 }
                 let r = self.call_host(HostFn::report_intersection, &[ctx, t, kind, at])[0];
-                Some(vec![self.b.ins().icmp_imm_u(IntCC::NotEqual, r, 0)])
+                let accepted = self.b.ins().band_imm_u(r, REPORT_ACCEPTED);
+                let accepted = self.b.ins().icmp_imm_u(IntCC::NotEqual, accepted, 0);
+                let unwinding = self.b.ins().band_imm_u(r, REPORT_UNWINDING);
+                self.return_if(unwinding);
+                Some(vec![accepted])
             }
             D::IgnoreIntersection | D::TerminateRay => {
                 let f = if df == D::TerminateRay {
@@ -113,10 +122,12 @@ impl Lowerer<'_, '_> {
                 for &a in &args[..11] {
                     call_args.extend(self.values(a)?);
                 }
+                let mut unwinding = None;
                 self.with_payload(args[11], |s, ptr, len| {
                     call_args.extend([ptr, len]);
-                    s.call_host(HostFn::trace, &call_args);
+                    unwinding = Some(s.call_host(HostFn::trace, &call_args)[0]);
                 })?;
+                self.return_if(unwinding.expect("with_payload calls back"));
                 None
             }
             D::DirectCall | D::ContinuationCall => {
@@ -126,9 +137,11 @@ impl Lowerer<'_, '_> {
                 } else {
                     HostFn::continuation_call
                 };
+                let mut unwinding = None;
                 self.with_payload(args[1], |s, ptr, len| {
-                    s.call_host(f, &[ctx, index, ptr, len]);
+                    unwinding = Some(s.call_host(f, &[ctx, index, ptr, len])[0]);
                 })?;
+                self.return_if(unwinding.expect("with_payload calls back"));
                 None
             }
             D::OffsetRay => {
@@ -140,16 +153,23 @@ impl Lowerer<'_, '_> {
         if let (Some(r), Some(v)) = (result, value) {
             self.frame_mut().cache[r.index()] = Some(Lowered::Value(v));
         }
-        if matches!(
-            df,
-            D::IgnoreIntersection | D::TerminateRay | D::ThrowException
-        ) {
+        if df.is_terminator() {
             // The program ends here, from however deep an inlined helper.
             let exit = self.exit;
             self.goto(exit, &[]);
             self.start_dead_block();
         }
         Ok(())
+    }
+
+    /// Returns from the program when `flag` (a host call's result) is nonzero: the runtime
+    /// asks it to (`DeviceCalls::unwinding`), from however deep an inlined helper.
+    fn return_if(&mut self, flag: Value) {
+        let go_on = self.b.create_block();
+        let exit = self.exit;
+        self.branch(flag, exit, go_on);
+        self.b.seal_block(go_on);
+        self.enter(go_on);
     }
 
     /// A getter the runtime may answer from its `DeviceState`: the field's leaves when the
@@ -203,6 +223,92 @@ impl Lowerer<'_, '_> {
         self.b.seal_block(merge);
         self.b.switch_to_block(merge);
         self.b.block_params(merge).to_vec()
+    }
+
+    /// `rt_get_payload(i)` (`value` is `None`; returns the register) or
+    /// `rt_set_payload(i, value)`: in the runtime's payload memory when its `DeviceState`
+    /// offers it, else through the methods. Registers past the length read 0 and ignore
+    /// writes either way.
+    fn payload_access(&mut self, i: Value, value: Option<Value>) -> Value {
+        let ctx = self.ctx;
+        let call = |s: &mut Self| match value {
+            None => s.call_host(HostFn::get_payload, &[ctx, i])[0],
+            Some(v) => {
+                s.call_host(HostFn::set_payload, &[ctx, i, v]);
+                s.b.ins().iconst(I32, 0)
+            }
+        };
+        if !self.live {
+            return call(self);
+        }
+        let pointer_flags = MemFlagsData::trusted().with_readonly().with_can_move();
+        let state = self
+            .b
+            .ins()
+            .load(I64, pointer_flags, ctx, CallContext::STATE_OFFSET);
+        let present = self.b.ins().load(I32, MemFlagsData::trusted(), state, 0);
+        let has = self
+            .b
+            .ins()
+            .band_imm_u(present, DeviceState::PAYLOAD as i64);
+        let (fast, slow, merge) = (
+            self.b.create_block(),
+            self.b.create_block(),
+            self.b.create_block(),
+        );
+        self.b.append_block_param(merge, I32);
+        self.live_blocks.extend([fast, slow, merge]);
+        self.b.ins().brif(has, fast, &[], slow, &[]);
+        self.b.seal_block(fast);
+        self.b.seal_block(slow);
+
+        self.b.switch_to_block(fast);
+        let len = self.b.ins().load(
+            I32,
+            MemFlagsData::trusted(),
+            state,
+            std::mem::offset_of!(DeviceState, payload_len) as i32,
+        );
+        let words = self.b.ins().load(
+            I64,
+            MemFlagsData::trusted(),
+            state,
+            std::mem::offset_of!(DeviceState, payload) as i32,
+        );
+        let inside = self.b.ins().icmp(IntCC::UnsignedLessThan, i, len);
+        match value {
+            None => {
+                // Register 0 exists (the pointer is to at least one word), so a clamped
+                // index loads without a branch.
+                let zero = self.b.ins().iconst(I32, 0);
+                let index = self.b.ins().select(inside, i, zero);
+                let offset = self.b.ins().uextend(I64, index);
+                let offset = self.b.ins().ishl_imm_u(offset, 2);
+                let at = self.b.ins().iadd(words, offset);
+                let loaded = self.b.ins().load(I32, MemFlagsData::trusted(), at, 0);
+                let v = self.b.ins().select(inside, loaded, zero);
+                self.b.ins().jump(merge, &[v.into()]);
+            }
+            Some(v) => {
+                let store = self.b.create_block();
+                let zero = self.b.ins().iconst(I32, 0);
+                self.live_blocks.insert(store);
+                self.b.ins().brif(inside, store, &[], merge, &[zero.into()]);
+                self.b.seal_block(store);
+                self.b.switch_to_block(store);
+                let offset = self.b.ins().uextend(I64, i);
+                let offset = self.b.ins().ishl_imm_u(offset, 2);
+                let at = self.b.ins().iadd(words, offset);
+                self.b.ins().store(MemFlagsData::trusted(), v, at, 0);
+                self.b.ins().jump(merge, &[zero.into()]);
+            }
+        }
+        self.b.switch_to_block(slow);
+        let called = call(self);
+        self.b.ins().jump(merge, &[called.into()]);
+        self.b.seal_block(merge);
+        self.b.switch_to_block(merge);
+        self.b.block_params(merge)[0]
     }
 
     /// A getter through its `DeviceCalls` method (matrices row-major, as the host has them).
@@ -417,9 +523,12 @@ fn columns_4x3(row_major: &[Value]) -> Vec<Value> {
         .collect()
 }
 
-/// Whether a device function is a getter the runtime's `DeviceState` can answer.
-pub(crate) fn reads_state(df: D) -> bool {
-    state_field(df).is_some()
+/// The `DeviceState` bits a device function reads when present (0: none).
+pub(crate) fn state_bits(df: D) -> u32 {
+    match df {
+        D::GetPayload | D::SetPayload => DeviceState::PAYLOAD,
+        _ => state_field(df).map_or(0, |(bit, ..)| bit),
+    }
 }
 
 /// The `DeviceState` field of a getter: (present bit, byte offset, leaf type, leaves).

@@ -28,7 +28,7 @@ use cranelift_codegen::ir::{
 };
 use cranelift_codegen::isa::TargetFrontendConfig;
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
-pub(crate) use device::reads_state;
+pub(crate) use device::state_bits;
 use naga::{Expression, Function, GlobalVariable, Handle};
 use optik_api::frontend::{CompiledModule, DeviceFunction};
 pub(crate) use place::Place;

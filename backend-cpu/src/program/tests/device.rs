@@ -1,6 +1,7 @@
 //! Device functions through a recording `DeviceCalls`: every getter, payload and
 //! attribute registers, `rt_trace` and the callables with their payload copies, the
-//! terminators ending the program from inside helpers, and `rt_offset_ray`.
+//! terminators ending the program from inside helpers, returns when the runtime unwinds,
+//! the `DeviceState` fast paths, and `rt_offset_ray`.
 
 use super::*;
 
@@ -426,6 +427,7 @@ fn offered_state(present: u32) -> DeviceState {
         object_to_world: std::array::from_fn(|i| 100.0 + i as f32),
         world_to_object: std::array::from_fn(|i| 200.0 + i as f32),
         remaining_trace_depth: 3,
+        ..DeviceState::EMPTY
     }
 }
 
@@ -503,4 +505,168 @@ fn state_updates_made_by_calls_are_seen_afterwards() {
         buffers.words[0],
         vec![50.0f32.to_bits(), 2.5f32.to_bits(), 1]
     );
+}
+
+const UNWIND: &str = r#"
+@group(0) @binding(1) var<storage, read_write> out: array<u32>;
+
+fn trace_in_helper() {
+    var p: RtPayload;
+    rt_trace(vec2<u32>(1u, 0u), vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), 0.0, 1.0, 0.0,
+        0xffu, 0u, 0u, 1u, 0u, &p);
+    out[1] = 1u;
+}
+
+fn raygen__trace() {
+    out[0] = 1u;
+    trace_in_helper();
+    out[2] = 1u;
+}
+
+fn closesthit__direct() {
+    out[0] = 1u;
+    var args: RtPayload;
+    rt_direct_call(0u, &args);
+    out[1] = 1u;
+}
+
+fn closesthit__continuation() {
+    out[0] = 1u;
+    var args: RtPayload;
+    rt_continuation_call(0u, &args);
+    out[1] = 1u;
+}
+
+fn intersection__twice() {
+    let attrs = RtAttributes(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
+    out[0] = select(0u, 1u, rt_report_intersection(1.0, 0u, attrs));
+    out[1] = select(0u, 1u, rt_report_intersection(0.5, 0u, attrs));
+}
+"#;
+
+#[test]
+fn programs_return_when_the_runtime_unwinds() {
+    let module = jit(UNWIND);
+    for (program, ran, calls) in [
+        ("raygen__trace", vec![1, 0, 0], 1),
+        ("closesthit__direct", vec![1, 0, 0], 1),
+        ("closesthit__continuation", vec![1, 0, 0], 1),
+        ("intersection__twice", vec![0, 0, 0], 1),
+    ] {
+        let mut buffers = Buffers::new(vec![vec![0; 3]]);
+        let mut mock = Mock {
+            unwind_after_calls: true,
+            ..Mock::default()
+        };
+        buffers.run(&module, program, &mut mock);
+        assert_eq!(
+            buffers.words[0], ran,
+            "{program}: nothing runs after the call"
+        );
+        assert_eq!(mock.events.len(), calls, "{program}: {:?}", mock.events);
+
+        // Without unwinding every statement runs.
+        let mut buffers = Buffers::new(vec![vec![0; 3]]);
+        let mut mock = Mock::default();
+        buffers.run(&module, program, &mut mock);
+        assert_ne!(buffers.words[0], ran, "{program} runs on");
+    }
+}
+
+const PAYLOAD_ACCESS: &str = r#"
+@group(0) @binding(1) var<storage, read_write> out: array<u32>;
+
+fn closesthit__payload() {
+    let n = arrayLength(&out);
+    for (var i = 0u; i < n; i++) {
+        out[i] = rt_get_payload(i);
+        rt_set_payload(i, 100u + i);
+    }
+    rt_set_payload(0xffffffffu, 1u);
+}
+"#;
+
+#[test]
+fn payload_registers_read_and_written_in_the_offered_memory() {
+    let module = jit(PAYLOAD_ACCESS);
+    let mut words = [11u32, 12, 13, 14, 0xaaaa];
+    let mut mock = Mock {
+        state: Some(Box::new(DeviceState {
+            present: DeviceState::PAYLOAD,
+            payload_len: 4,
+            payload: words.as_mut_ptr(),
+            ..DeviceState::EMPTY
+        })),
+        ..Mock::default()
+    };
+    let mut buffers = Buffers::new(vec![vec![0; 6]]);
+    buffers.run(&module, "closesthit__payload", &mut mock);
+    assert_eq!(
+        buffers.words[0],
+        [11, 12, 13, 14, 0, 0],
+        "past the length reads 0"
+    );
+    assert_eq!(
+        words,
+        [100, 101, 102, 103, 0xaaaa],
+        "past the length drops writes"
+    );
+    assert!(
+        mock.events.is_empty(),
+        "no method was called: {:?}",
+        mock.events
+    );
+
+    // Without the bit, the methods answer.
+    let mut mock = Mock {
+        payload: vec![1, 2],
+        state: Some(Box::new(offered_state(DeviceState::RAY))),
+        ..Mock::default()
+    };
+    let mut buffers = Buffers::new(vec![vec![0; 2]]);
+    buffers.run(&module, "closesthit__payload", &mut mock);
+    assert_eq!(buffers.words[0], [1, 2]);
+    assert_eq!(
+        mock.events,
+        vec![
+            Event::SetPayload(0, 100),
+            Event::SetPayload(1, 101),
+            Event::SetPayload(u32::MAX, 1)
+        ]
+    );
+}
+
+#[test]
+fn state_bits_name_what_programs_read() {
+    let module = jit(DEVICE);
+    let all = module.program("closesthit__all").expect("compiled");
+    for bit in [
+        DeviceState::LAUNCH_INDEX,
+        DeviceState::RAY,
+        DeviceState::TRANSFORMS,
+        DeviceState::PAYLOAD,
+    ] {
+        assert_ne!(all.state_bits() & bit, 0, "bit {bit:#x}");
+    }
+    let code = module.program("exception__code").expect("compiled");
+    assert_eq!(code.state_bits(), 0, "rt_exception_code has no state field");
+}
+
+#[test]
+fn empty_programs_say_they_do_nothing() {
+    let module = jit(r#"
+@group(0) @binding(1) var<storage, read_write> out: array<u32>;
+fn miss__empty() {}
+fn miss__only_values() { let x = 3u * 7u; let y = out[2]; }
+fn miss__writes() { out[0] = 1u; }
+fn miss__calls() { rt_set_payload(0u, 1u); }
+fn helper() { out[1] = 2u; }
+fn miss__through_a_helper() { helper(); }
+"#);
+    let nothing = |name: &str| module.program(name).expect("compiled").does_nothing();
+    assert!(nothing("miss__empty"));
+    assert!(nothing("miss__only_values"));
+    for name in ["miss__writes", "miss__calls", "miss__through_a_helper"] {
+        assert!(!nothing(name), "{name}");
+    }
 }

@@ -179,6 +179,9 @@ pub struct Mock {
     pub trace_adds: u32,
     /// Values offered as memory (`DeviceCalls::state`), if any.
     pub state: Option<Box<DeviceState>>,
+    /// `unwinding()` answers true once a call that runs other programs (trace, callables,
+    /// report) was made.
+    pub unwind_after_calls: bool,
 }
 
 pub const OBJECT_TO_WORLD: [f32; 12] = [
@@ -327,6 +330,18 @@ impl DeviceCalls for Mock {
     }
     fn remaining_trace_depth(&self) -> u32 {
         5
+    }
+    fn unwinding(&self) -> bool {
+        self.unwind_after_calls
+            && self.events.iter().any(|e| {
+                matches!(
+                    e,
+                    Event::Trace { .. }
+                        | Event::DirectCall(..)
+                        | Event::ContinuationCall(..)
+                        | Event::Report(..)
+                )
+            })
     }
     fn state(&self) -> *const DeviceState {
         self.state

@@ -1,0 +1,353 @@
+//! The 4-wide BVH the CPU traversal walks, collapsed from the binary [`Bvh`] (which stays
+//! the layout the wgpu backend uploads), and triangles packed four to a block for the
+//! 4-lane triangle test.
+//!
+//! Why: a binary node costs two box tests and a decision per step; a 4-wide node tests its
+//! four children in one 4-lane slab test, so a ray takes about half as many steps, and four
+//! triangles of a leaf share one 4-lane watertight test (docs/cpu-backend.md,
+//! "Performance").
+//!
+//! Layout:
+//! - [`WideNode`] (128 bytes, two cache lines): the children's boxes as structure of arrays
+//!   (`min[axis][child]`), then per child `first` and `count`. `count == 0`: an inner child,
+//!   `first` its node index; `count > 0`: a leaf of `count` primitives, `first` its first
+//!   block (triangle structures with blocks) or its first slot (every other structure).
+//!   Unused children have the empty box (`+∞` minimum, `−∞` maximum), which no ray enters.
+//! - `nodes[0]` is the root; children come after parents.
+//! - Every child box is the box of the binary node it came from, so the wide BVH is exactly
+//!   as conservative as the binary one (boxes are exact unions of primitive boxes).
+//! - [`TriangleBlock`]: the vertices of up to four triangles of one leaf, as
+//!   `vertices[vertex][axis][lane]`, their slots, and a copy of their [`PrimitiveInfo`]s
+//!   (what a hit needs next: its flags, indices; reading it from `Gas::primitives` cost a
+//!   cache miss per candidate). A leaf of `count` triangles has
+//!   `ceil(count / 4)` consecutive blocks; lanes past the leaf's last triangle hold zeros,
+//!   slot `u32::MAX` and a zeroed record, and the traversal masks them out. Blocks exist for static triangle
+//!   structures (one motion key); moving triangles are interpolated per slot instead.
+
+use super::aabb::Aabb;
+use super::bvh::Bvh;
+use super::gas::PrimitiveInfo;
+
+/// Children per node.
+pub const WIDTH: usize = 4;
+
+/// A node of the 4-wide BVH (see the module docs).
+#[repr(C, align(64))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WideNode {
+    /// `min[axis][child]`: the children's smallest corners.
+    pub min: [[f32; WIDTH]; 3],
+    /// `max[axis][child]`: the children's largest corners.
+    pub max: [[f32; WIDTH]; 3],
+    /// Inner child: its node index. Leaf: its first block or first slot.
+    pub first: [u32; WIDTH],
+    /// 0 for an inner (or unused) child; the number of primitives of a leaf.
+    pub count: [u32; WIDTH],
+}
+
+impl WideNode {
+    /// A node whose children are all unused.
+    const EMPTY: WideNode = WideNode {
+        min: [[f32::INFINITY; WIDTH]; 3],
+        max: [[f32::NEG_INFINITY; WIDTH]; 3],
+        first: [0; WIDTH],
+        count: [0; WIDTH],
+    };
+
+    fn set_box(&mut self, child: usize, b: &Aabb) {
+        for axis in 0..3 {
+            self.min[axis][child] = b.min[axis];
+            self.max[axis][child] = b.max[axis];
+        }
+    }
+}
+
+/// Up to four triangles of one leaf, lane by lane (see the module docs).
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriangleBlock {
+    /// `vertices[vertex][axis][lane]`.
+    pub vertices: [[[f32; WIDTH]; 3]; 3],
+    /// The slot of each lane's triangle; `u32::MAX` for an unused lane.
+    pub slots: [u32; WIDTH],
+    /// Each lane's `Gas::primitives[slot]` (zeroed for an unused lane).
+    pub infos: [PrimitiveInfo; WIDTH],
+}
+
+impl TriangleBlock {
+    /// Lanes holding triangles in block `index` of a leaf of `count` triangles, as a
+    /// bit mask (lane `i` is bit `i`).
+    #[inline]
+    pub fn lane_mask(count: u32, index: u32) -> u32 {
+        let lanes = count.saturating_sub(index * WIDTH as u32).min(WIDTH as u32);
+        (1 << lanes) - 1
+    }
+
+    /// The blocks a leaf of `count` triangles has.
+    #[inline]
+    pub fn blocks_of(count: u32) -> u32 {
+        count.div_ceil(WIDTH as u32)
+    }
+}
+
+/// What triangle blocks are packed from, per slot.
+#[derive(Clone, Copy, Debug)]
+pub struct SlotTriangles<'a> {
+    /// The static vertices.
+    pub vertices: &'a [[[f32; 3]; 3]],
+    /// The primitive records (`Gas::primitives`).
+    pub infos: &'a [PrimitiveInfo],
+}
+
+/// The 4-wide BVH of a geometry structure.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct WideBvh {
+    /// Root first; empty when the structure holds no primitive.
+    pub nodes: Vec<WideNode>,
+    /// Triangle blocks (empty unless built from static triangles); leaves then point here.
+    pub blocks: Vec<TriangleBlock>,
+    /// The deepest leaf's level (the root's children are level 1); sizes traversal stacks.
+    pub depth: u32,
+}
+
+impl WideBvh {
+    /// Collapses `bvh` into four-wide nodes. With `triangles` (per slot, the static
+    /// vertices and the primitive records), leaves point to triangle blocks packed from them.
+    pub fn build(bvh: &Bvh, triangles: Option<SlotTriangles<'_>>) -> WideBvh {
+        let binary = bvh.nodes();
+        let mut wide = WideBvh::default();
+        if binary.is_empty() {
+            return wide;
+        }
+        wide.nodes.push(WideNode::EMPTY);
+        // (binary node, wide node it becomes, level of its children)
+        let mut stack = vec![(0usize, 0usize, 1u32)];
+        while let Some((source, target, level)) = stack.pop() {
+            wide.depth = wide.depth.max(level);
+            let children = gather_children(binary, source);
+            let mut node = WideNode::EMPTY;
+            for (lane, &c) in children.iter().enumerate() {
+                let child = &binary[c];
+                node.set_box(lane, &child.aabb());
+                if child.is_leaf() {
+                    node.count[lane] = child.count;
+                    node.first[lane] = match triangles {
+                        Some(tris) => wide.push_blocks(&tris, child.first, child.count),
+                        None => child.first,
+                    };
+                } else {
+                    node.first[lane] = wide.nodes.len() as u32;
+                    wide.nodes.push(WideNode::EMPTY);
+                    stack.push((c, node.first[lane] as usize, level + 1));
+                }
+            }
+            wide.nodes[target] = node;
+        }
+        wide
+    }
+
+    /// Appends the blocks of the leaf holding slots `first .. first + count`; returns the
+    /// index of its first block.
+    fn push_blocks(&mut self, tris: &SlotTriangles<'_>, first: u32, count: u32) -> u32 {
+        let start = self.blocks.len() as u32;
+        for b in 0..TriangleBlock::blocks_of(count) {
+            let mut block = TriangleBlock {
+                vertices: [[[0.0; WIDTH]; 3]; 3],
+                slots: [u32::MAX; WIDTH],
+                infos: [bytemuck::Zeroable::zeroed(); WIDTH],
+            };
+            for lane in 0..WIDTH as u32 {
+                let i = b * WIDTH as u32 + lane;
+                if i >= count {
+                    break;
+                }
+                let slot = first + i;
+                let tri = &tris.vertices[slot as usize];
+                for (v, vertex) in tri.iter().enumerate() {
+                    for (axis, &c) in vertex.iter().enumerate() {
+                        block.vertices[v][axis][lane as usize] = c;
+                    }
+                }
+                block.slots[lane as usize] = slot;
+                block.infos[lane as usize] = tris.infos[slot as usize];
+            }
+            self.blocks.push(block);
+        }
+        start
+    }
+
+    /// Bytes the nodes and blocks occupy.
+    pub fn size_in_bytes(&self) -> u64 {
+        (self.nodes.len() * std::mem::size_of::<WideNode>()
+            + self.blocks.len() * std::mem::size_of::<TriangleBlock>()) as u64
+    }
+}
+
+/// The binary nodes that become the children of the wide node made from `source`: its two
+/// children, then repeatedly the inner one with the largest surface area replaced by its
+/// own two, until there are four or only leaves. A leaf root is its own only child.
+fn gather_children(binary: &[super::BvhNode], source: usize) -> Vec<usize> {
+    let node = &binary[source];
+    if node.is_leaf() {
+        return vec![source];
+    }
+    let mut children = vec![node.first as usize, node.first as usize + 1];
+    while children.len() < WIDTH {
+        let widest = children
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| !binary[**c].is_leaf())
+            .max_by(|(_, a), (_, b)| {
+                let area = |c: usize| binary[c].aabb().half_area();
+                area(**a).total_cmp(&area(**b))
+            })
+            .map(|(i, _)| i);
+        let Some(i) = widest else { break };
+        let inner = &binary[children[i]];
+        children[i] = inner.first as usize;
+        children.push(inner.first as usize + 1);
+    }
+    children
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::BuildQuality;
+
+    fn boxes(n: usize) -> Vec<Aabb> {
+        (0..n)
+            .map(|i| {
+                let x = (i * 7 % 13) as f32 + i as f32 * 0.01;
+                Aabb {
+                    min: [x, (i % 5) as f32, 0.0],
+                    max: [x + 0.5, (i % 5) as f32 + 1.0, 1.0],
+                }
+            })
+            .collect()
+    }
+
+    /// Every slot is reached exactly once, each child box holds what is below it, and
+    /// leaves keep the binary tree's leaves.
+    fn check(wide: &WideBvh, slots: usize, slot_box: impl Fn(usize) -> Aabb) {
+        let mut seen = vec![0u32; slots];
+        let mut stack = vec![(0usize, Aabb::EMPTY, true)];
+        while let Some((n, parent, root)) = stack.pop() {
+            let node = &wide.nodes[n];
+            for lane in 0..WIDTH {
+                let b = Aabb {
+                    min: std::array::from_fn(|a| node.min[a][lane]),
+                    max: std::array::from_fn(|a| node.max[a][lane]),
+                };
+                if !root && b.is_valid() {
+                    assert_eq!(parent.union(&b), parent, "child box inside its parent");
+                }
+                if node.count[lane] > 0 {
+                    let count = node.count[lane];
+                    let mut leaf_slots = Vec::new();
+                    if wide.blocks.is_empty() {
+                        leaf_slots.extend(node.first[lane]..node.first[lane] + count);
+                    } else {
+                        for k in 0..TriangleBlock::blocks_of(count) {
+                            let block = &wide.blocks[(node.first[lane] + k) as usize];
+                            let mask = TriangleBlock::lane_mask(count, k);
+                            for (l, &s) in block.slots.iter().enumerate() {
+                                assert_eq!(mask >> l & 1 == 1, s != u32::MAX);
+                                if s != u32::MAX {
+                                    leaf_slots.push(s);
+                                }
+                            }
+                        }
+                    }
+                    assert_eq!(leaf_slots.len(), count as usize);
+                    for s in leaf_slots {
+                        seen[s as usize] += 1;
+                        assert_eq!(
+                            b.union(&slot_box(s as usize)),
+                            b,
+                            "slot {s} in its leaf box"
+                        );
+                    }
+                } else if b.is_valid() {
+                    assert!(node.first[lane] as usize > n, "children after parents");
+                    stack.push((node.first[lane] as usize, b, false));
+                }
+            }
+        }
+        assert!(seen.iter().all(|&k| k == 1), "{seen:?}");
+    }
+
+    #[test]
+    fn collapse_keeps_every_slot_once() {
+        for n in [1usize, 2, 3, 5, 17, 1000] {
+            let b = boxes(n);
+            let (bvh, order) = Bvh::build(&b, BuildQuality::Balanced).unwrap();
+            let wide = WideBvh::build(&bvh, None);
+            assert!(wide.blocks.is_empty());
+            check(&wide, n, |s| b[order[s] as usize]);
+            assert!(wide.depth <= bvh.depth, "{} > {}", wide.depth, bvh.depth);
+        }
+    }
+
+    #[test]
+    fn triangle_blocks_hold_each_leaf_in_order() {
+        let n = 300;
+        let tris: Vec<[[f32; 3]; 3]> = (0..n)
+            .map(|i| {
+                let x = (i * 37 % 101) as f32;
+                [[x, 0.0, 0.0], [x + 1.0, 0.0, 0.5], [x, 1.0, 1.0]]
+            })
+            .collect();
+        let b: Vec<Aabb> = tris
+            .iter()
+            .map(|t| {
+                let mut b = Aabb::EMPTY;
+                t.iter().for_each(|&p| b.grow(p));
+                b
+            })
+            .collect();
+        let (bvh, order) = Bvh::build(&b, BuildQuality::FastTrace).unwrap();
+        let slotted: Vec<[[f32; 3]; 3]> = order.iter().map(|&i| tris[i as usize]).collect();
+        let infos: Vec<PrimitiveInfo> = (0..n as u32)
+            .map(|s| PrimitiveInfo {
+                primitive_index: order[s as usize],
+                sbt_gas_index: s % 3,
+                geometry_flags: s % 2,
+                input: 0,
+            })
+            .collect();
+        let wide = WideBvh::build(
+            &bvh,
+            Some(SlotTriangles {
+                vertices: &slotted,
+                infos: &infos,
+            }),
+        );
+        check(&wide, n, |s| b[order[s] as usize]);
+        for block in &wide.blocks {
+            for (lane, &s) in block.slots.iter().enumerate() {
+                if s == u32::MAX {
+                    assert_eq!(block.infos[lane], bytemuck::Zeroable::zeroed());
+                    continue;
+                }
+                assert_eq!(block.infos[lane], infos[s as usize]);
+                for (v, vertex) in slotted[s as usize].iter().enumerate() {
+                    for (a, &c) in vertex.iter().enumerate() {
+                        assert_eq!(block.vertices[v][a][lane], c);
+                    }
+                }
+            }
+        }
+        assert_eq!(WideBvh::build(&Bvh::default(), None), WideBvh::default());
+    }
+
+    #[test]
+    fn lane_masks() {
+        assert_eq!(TriangleBlock::lane_mask(1, 0), 0b1);
+        assert_eq!(TriangleBlock::lane_mask(4, 0), 0b1111);
+        assert_eq!(TriangleBlock::lane_mask(7, 0), 0b1111);
+        assert_eq!(TriangleBlock::lane_mask(7, 1), 0b111);
+        assert_eq!(TriangleBlock::blocks_of(8), 2);
+        assert_eq!(TriangleBlock::blocks_of(9), 3);
+    }
+}

@@ -1,0 +1,315 @@
+//! Four f32 lanes: SSE on x86-64 (always present there), plain arrays elsewhere.
+//!
+//! Only what the 4-wide box and triangle tests need. Every operation is the IEEE operation
+//! of the scalar code lane by lane, in the same order (no fused multiply-add), so a lane of
+//! a 4-wide test computes bit for bit what the scalar test computes. `min` and `max` are the
+//! scalar code's selections, NaN included: `a.min(b)` is `if a < b { a } else { b }` and
+//! `a.max(b)` is `if a > b { a } else { b }` (SSE's `minps`/`maxps` behave exactly so).
+
+// SAFETY (every `unsafe` in `imp` for x86-64): SSE and SSE2 are part of the x86-64
+// baseline, so these intrinsics are always available; loads and stores go through arrays
+// of the right size.
+#[cfg(target_arch = "x86_64")]
+mod imp {
+    use std::arch::x86_64::*;
+
+    /// Four f32 lanes.
+    #[derive(Clone, Copy)]
+    pub struct F4(__m128);
+
+    /// Four lane masks (all ones or all zeros per lane).
+    #[derive(Clone, Copy)]
+    pub struct M4(__m128);
+
+    impl F4 {
+        /// Four lanes from an array.
+        #[inline(always)]
+        pub fn load(a: &[f32; 4]) -> F4 {
+            // SAFETY: `a` is 16 readable bytes; the load is unaligned.
+            F4(unsafe { _mm_loadu_ps(a.as_ptr()) })
+        }
+
+        /// The same value in every lane.
+        #[inline(always)]
+        pub fn splat(x: f32) -> F4 {
+            F4(unsafe { _mm_set1_ps(x) })
+        }
+
+        /// The lanes as an array.
+        #[inline(always)]
+        pub fn to_array(self) -> [f32; 4] {
+            let mut out = [0.0; 4];
+            // SAFETY: `out` is 16 writable bytes; the store is unaligned.
+            unsafe { _mm_storeu_ps(out.as_mut_ptr(), self.0) };
+            out
+        }
+
+        /// `if self < b { self } else { b }` per lane.
+        #[inline(always)]
+        pub fn min(self, b: F4) -> F4 {
+            F4(unsafe { _mm_min_ps(self.0, b.0) })
+        }
+
+        /// `if self > b { self } else { b }` per lane.
+        #[inline(always)]
+        pub fn max(self, b: F4) -> F4 {
+            F4(unsafe { _mm_max_ps(self.0, b.0) })
+        }
+
+        /// `self < b`.
+        #[inline(always)]
+        pub fn lt(self, b: F4) -> M4 {
+            M4(unsafe { _mm_cmplt_ps(self.0, b.0) })
+        }
+
+        /// `self <= b`.
+        #[inline(always)]
+        pub fn le(self, b: F4) -> M4 {
+            M4(unsafe { _mm_cmple_ps(self.0, b.0) })
+        }
+
+        /// `self > b`.
+        #[inline(always)]
+        pub fn gt(self, b: F4) -> M4 {
+            M4(unsafe { _mm_cmpgt_ps(self.0, b.0) })
+        }
+
+        /// `self == b`.
+        #[inline(always)]
+        pub fn eq(self, b: F4) -> M4 {
+            M4(unsafe { _mm_cmpeq_ps(self.0, b.0) })
+        }
+    }
+
+    impl std::ops::Add for F4 {
+        type Output = F4;
+        #[inline(always)]
+        fn add(self, b: F4) -> F4 {
+            F4(unsafe { _mm_add_ps(self.0, b.0) })
+        }
+    }
+
+    impl std::ops::Sub for F4 {
+        type Output = F4;
+        #[inline(always)]
+        fn sub(self, b: F4) -> F4 {
+            F4(unsafe { _mm_sub_ps(self.0, b.0) })
+        }
+    }
+
+    impl std::ops::Mul for F4 {
+        type Output = F4;
+        #[inline(always)]
+        fn mul(self, b: F4) -> F4 {
+            F4(unsafe { _mm_mul_ps(self.0, b.0) })
+        }
+    }
+
+    impl std::ops::Div for F4 {
+        type Output = F4;
+        #[inline(always)]
+        fn div(self, b: F4) -> F4 {
+            F4(unsafe { _mm_div_ps(self.0, b.0) })
+        }
+    }
+
+    impl M4 {
+        /// Lane `i` set is bit `i`.
+        #[inline(always)]
+        pub fn bits(self) -> u32 {
+            unsafe { _mm_movemask_ps(self.0) as u32 }
+        }
+    }
+
+    impl std::ops::BitAnd for M4 {
+        type Output = M4;
+        #[inline(always)]
+        fn bitand(self, b: M4) -> M4 {
+            M4(unsafe { _mm_and_ps(self.0, b.0) })
+        }
+    }
+
+    impl std::ops::BitOr for M4 {
+        type Output = M4;
+        #[inline(always)]
+        fn bitor(self, b: M4) -> M4 {
+            M4(unsafe { _mm_or_ps(self.0, b.0) })
+        }
+    }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+mod imp {
+    /// Four f32 lanes.
+    #[derive(Clone, Copy)]
+    pub struct F4([f32; 4]);
+
+    /// Four lane masks.
+    #[derive(Clone, Copy)]
+    pub struct M4([bool; 4]);
+
+    impl F4 {
+        /// Four lanes from an array.
+        #[inline(always)]
+        pub fn load(a: &[f32; 4]) -> F4 {
+            F4(*a)
+        }
+
+        /// The same value in every lane.
+        #[inline(always)]
+        pub fn splat(x: f32) -> F4 {
+            F4([x; 4])
+        }
+
+        /// The lanes as an array.
+        #[inline(always)]
+        pub fn to_array(self) -> [f32; 4] {
+            self.0
+        }
+
+        #[inline(always)]
+        fn zip(self, b: F4, f: impl Fn(f32, f32) -> f32) -> F4 {
+            F4(std::array::from_fn(|i| f(self.0[i], b.0[i])))
+        }
+
+        #[inline(always)]
+        fn test(self, b: F4, f: impl Fn(f32, f32) -> bool) -> M4 {
+            M4(std::array::from_fn(|i| f(self.0[i], b.0[i])))
+        }
+
+        /// `if self < b { self } else { b }` per lane.
+        #[inline(always)]
+        pub fn min(self, b: F4) -> F4 {
+            self.zip(b, |x, y| if x < y { x } else { y })
+        }
+
+        /// `if self > b { self } else { b }` per lane.
+        #[inline(always)]
+        pub fn max(self, b: F4) -> F4 {
+            self.zip(b, |x, y| if x > y { x } else { y })
+        }
+
+        /// `self < b`.
+        #[inline(always)]
+        pub fn lt(self, b: F4) -> M4 {
+            self.test(b, |x, y| x < y)
+        }
+
+        /// `self <= b`.
+        #[inline(always)]
+        pub fn le(self, b: F4) -> M4 {
+            self.test(b, |x, y| x <= y)
+        }
+
+        /// `self > b`.
+        #[inline(always)]
+        pub fn gt(self, b: F4) -> M4 {
+            self.test(b, |x, y| x > y)
+        }
+
+        /// `self == b`.
+        #[inline(always)]
+        pub fn eq(self, b: F4) -> M4 {
+            self.test(b, |x, y| x == y)
+        }
+    }
+
+    impl std::ops::Add for F4 {
+        type Output = F4;
+        #[inline(always)]
+        fn add(self, b: F4) -> F4 {
+            self.zip(b, |x, y| x + y)
+        }
+    }
+
+    impl std::ops::Sub for F4 {
+        type Output = F4;
+        #[inline(always)]
+        fn sub(self, b: F4) -> F4 {
+            self.zip(b, |x, y| x - y)
+        }
+    }
+
+    impl std::ops::Mul for F4 {
+        type Output = F4;
+        #[inline(always)]
+        fn mul(self, b: F4) -> F4 {
+            self.zip(b, |x, y| x * y)
+        }
+    }
+
+    impl std::ops::Div for F4 {
+        type Output = F4;
+        #[inline(always)]
+        fn div(self, b: F4) -> F4 {
+            self.zip(b, |x, y| x / y)
+        }
+    }
+
+    impl M4 {
+        /// Lane `i` set is bit `i`.
+        #[inline(always)]
+        pub fn bits(self) -> u32 {
+            self.0
+                .iter()
+                .enumerate()
+                .fold(0, |acc, (i, &b)| acc | (b as u32) << i)
+        }
+    }
+
+    impl std::ops::BitAnd for M4 {
+        type Output = M4;
+        #[inline(always)]
+        fn bitand(self, b: M4) -> M4 {
+            M4(std::array::from_fn(|i| self.0[i] & b.0[i]))
+        }
+    }
+
+    impl std::ops::BitOr for M4 {
+        type Output = M4;
+        #[inline(always)]
+        fn bitor(self, b: M4) -> M4 {
+            M4(std::array::from_fn(|i| self.0[i] | b.0[i]))
+        }
+    }
+}
+
+pub use imp::F4;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lanes_follow_the_scalar_selections_with_nan() {
+        let nan = f32::NAN;
+        let a = F4::load(&[1.0, nan, 3.0, -0.0]);
+        let b = F4::load(&[2.0, 5.0, nan, 0.0]);
+        let scalar_min = |x: f32, y: f32| if x < y { x } else { y };
+        let scalar_max = |x: f32, y: f32| if x > y { x } else { y };
+        let (aa, bb) = (a.to_array(), b.to_array());
+        let min = a.min(b).to_array();
+        let max = a.max(b).to_array();
+        for i in 0..4 {
+            assert_eq!(
+                min[i].to_bits(),
+                scalar_min(aa[i], bb[i]).to_bits(),
+                "min {i}"
+            );
+            assert_eq!(
+                max[i].to_bits(),
+                scalar_max(aa[i], bb[i]).to_bits(),
+                "max {i}"
+            );
+        }
+        assert_eq!(a.lt(b).bits(), 0b0001);
+        assert_eq!(a.le(b).bits(), 0b1001);
+        assert_eq!(a.gt(b).bits(), 0b0000);
+        assert_eq!(a.eq(b).bits(), 0b1000);
+        assert_eq!((a.lt(b) | a.eq(b)).bits(), 0b1001);
+        assert_eq!((a.le(b) & a.eq(b)).bits(), 0b1000);
+        let q = (a * b + F4::splat(1.0) - b / F4::splat(2.0)).to_array();
+        assert_eq!(q[0], 1.0 * 2.0 + 1.0 - 1.0);
+        assert!(q[1].is_nan());
+    }
+}

@@ -1,0 +1,422 @@
+//! `bench-cpu`: optik's CPU backend against Embree, in one run.
+//!
+//! For the Stanford bunny and the Breakfast Room, camera and incoherent rays, one thread and
+//! all threads, it times `optik trace`'s launch (a raygen reads rays, the closest-hit writes
+//! the record: the public API) and Embree through `benches/embree/peer.py` (embreex, robust
+//! mode, `rtcIntersect1` loops) on the same rays, and prints Mrays/s, the ratios, the build
+//! time ratio and how many rays the two disagree on (different triangle, or hit against
+//! miss). Both sides run robust: optik's default accuracy (watertight triangles,
+//! conservative boxes) and Embree's robust flag. Rays start at `tmin = 0`, since embreex
+//! cannot set tnear.
+//!
+//! ```text
+//! cargo run --release -p optik-benches --bin bench-cpu -- [--repeat K] [--threads N]
+//!     [--python PYTHON] [--no-embree] [--save-rays DIR]
+//! ```
+//!
+//! `--save-rays DIR` also writes each ray set as `DIR/<scene>-<rays>.npy`, the input of
+//! `optik trace --rays`, e.g. to count instructions with `valgrind --tool=callgrind`.
+//!
+//! Scenes come from `$OPTIK_SCENES` (default `../shared/scenes` next to the repository
+//! root); a missing scene is skipped with a message. Without embreex (or with `--no-embree`)
+//! only optik's figures are printed.
+
+use optik::{BackendChoice, BackendKind, Device, OpenOptions};
+use optik_benches::mesh::Mesh;
+use optik_benches::raycast::{RAY_FLOATS, RayCaster};
+use optik_benches::scenes::{self, RaySet, Scene};
+use optik_benches::{mesh, npy};
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+/// Command-line options.
+struct Options {
+    repeat: usize,
+    threads: usize,
+    python: String,
+    embree: bool,
+    save_rays: Option<PathBuf>,
+}
+
+fn parse_options() -> Result<Options, String> {
+    let mut o = Options {
+        repeat: 5,
+        threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+        python: "python3".into(),
+        embree: true,
+        save_rays: None,
+    };
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        let mut value = |name: &str| args.next().ok_or_else(|| format!("{name} needs a value"));
+        match a.as_str() {
+            "--repeat" => o.repeat = parse_count(&value("--repeat")?, "--repeat")?,
+            "--threads" => o.threads = parse_count(&value("--threads")?, "--threads")?,
+            "--python" => o.python = value("--python")?,
+            "--no-embree" => o.embree = false,
+            "--save-rays" => o.save_rays = Some(PathBuf::from(value("--save-rays")?)),
+            "-h" | "--help" => {
+                return Err(
+                    "usage: bench-cpu [--repeat K] [--threads N] [--python PYTHON] [--no-embree] [--save-rays DIR]"
+                        .into(),
+                );
+            }
+            other => return Err(format!("unknown argument {other:?}; see --help")),
+        }
+    }
+    Ok(o)
+}
+
+fn parse_count(s: &str, name: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(n) if n > 0 => Ok(n),
+        _ => Err(format!("{name} {s:?}: expected a count of at least 1")),
+    }
+}
+
+/// One row of the table.
+struct Row {
+    scene: &'static str,
+    rays: &'static str,
+    count: usize,
+    threads: usize,
+    optik_s: f64,
+    embree_s: Option<f64>,
+    mismatches: Option<Mismatches>,
+}
+
+/// Rays optik and Embree disagree on.
+#[derive(Clone, Copy)]
+struct Mismatches {
+    /// A different triangle, or a hit against a miss.
+    total: usize,
+    /// Of those, a hit against a miss.
+    hit_miss: usize,
+    /// Largest relative difference of the hit distances where both hit.
+    max_relative_t: f64,
+}
+
+impl Mismatches {
+    fn of(prim: &[u32], t: &[f32], peer: &Peer) -> Mismatches {
+        let mut m = Mismatches {
+            total: 0,
+            hit_miss: 0,
+            max_relative_t: 0.0,
+        };
+        for i in 0..prim.len().min(peer.prim.len()) {
+            if prim[i] == peer.prim[i] {
+                continue;
+            }
+            m.total += 1;
+            if (prim[i] == u32::MAX) != (peer.prim[i] == u32::MAX) {
+                m.hit_miss += 1;
+            } else {
+                let (a, b) = (t[i] as f64, peer.t[i] as f64);
+                m.max_relative_t = m.max_relative_t.max((a - b).abs() / b.abs().max(1e-30));
+            }
+        }
+        m
+    }
+}
+
+/// Build times of one scene.
+struct Build {
+    scene: &'static str,
+    optik_s: f64,
+    embree_s: Option<f64>,
+}
+
+/// What the Embree peer reported for one ray set.
+struct Peer {
+    build_s: f64,
+    trace_s_1: f64,
+    trace_s_n: f64,
+    prim: Vec<u32>,
+    t: Vec<f32>,
+}
+
+fn main() -> ExitCode {
+    let options = match parse_options() {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("bench-cpu: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let work = std::env::temp_dir().join(format!("optik-bench-cpu-{}", std::process::id()));
+    if let Err(e) = std::fs::create_dir_all(&work) {
+        eprintln!("bench-cpu: cannot make {}: {e}", work.display());
+        return ExitCode::FAILURE;
+    }
+    let mut rows = Vec::new();
+    let mut builds = Vec::new();
+    let mut embree = options.embree;
+    for scene in scenes::ALL {
+        match run_scene(&scene, &options, &mut embree, &work, &mut rows) {
+            Ok(Some(b)) => builds.push(b),
+            Ok(None) => {}
+            Err(e) => {
+                eprintln!("bench-cpu: {}: {e}", scene.name);
+                let _ = std::fs::remove_dir_all(&work);
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&work);
+    print_tables(&rows, &builds, &options);
+    ExitCode::SUCCESS
+}
+
+/// Benchmarks one scene; `None` when its file is missing.
+fn run_scene(
+    scene: &Scene,
+    options: &Options,
+    embree: &mut bool,
+    work: &Path,
+    rows: &mut Vec<Row>,
+) -> optik::Result<Option<Build>> {
+    let path = match scenes::find(scene) {
+        Ok(p) => p,
+        Err(message) => {
+            eprintln!("bench-cpu: skipping: {message}");
+            return Ok(None);
+        }
+    };
+    let mesh = mesh::load(&path)?;
+    eprintln!(
+        "bench-cpu: {} ({} triangles)",
+        scene.name,
+        mesh.triangles.len()
+    );
+    let files = MeshFiles::write(&mesh, work)?;
+    let mut build = Build {
+        scene: scene.name,
+        optik_s: f64::INFINITY,
+        embree_s: None,
+    };
+    for set in scenes::ray_sets(scene, &mesh) {
+        let count = set.rays.len() / RAY_FLOATS;
+        if let Some(dir) = &options.save_rays {
+            let name = format!("{}-{}.npy", scene.name.replace(' ', "-"), set.name);
+            write(
+                &dir.join(name),
+                &npy::encode(&[count, RAY_FLOATS], &set.rays),
+            )?;
+        }
+        // optik: all threads first, then one; each on its own device.
+        let mut times = Vec::new();
+        let mut one_thread = (Vec::new(), Vec::new());
+        for threads in [options.threads, 1] {
+            let device = optik::open_with(
+                BackendChoice::Named(BackendKind::Cpu),
+                &OpenOptions {
+                    threads: Some(threads),
+                },
+            )?;
+            let (seconds, build_s, hits) =
+                trace_optik(device.as_ref(), &mesh, &set, options.repeat)?;
+            build.optik_s = build.optik_s.min(build_s);
+            times.push((threads, seconds));
+            one_thread = hits;
+        }
+        let peer = if *embree {
+            match run_peer(&files, &set, options, work) {
+                Ok(p) => Some(p),
+                Err(e) => {
+                    eprintln!("bench-cpu: Embree left out: {e}");
+                    *embree = false;
+                    None
+                }
+            }
+        } else {
+            None
+        };
+        if let Some(p) = &peer {
+            build.embree_s = Some(build.embree_s.map_or(p.build_s, |b: f64| b.min(p.build_s)));
+        }
+        let mismatches = peer
+            .as_ref()
+            .map(|p| Mismatches::of(&one_thread.0, &one_thread.1, p));
+        for (threads, seconds) in times.into_iter().rev() {
+            let embree_s = peer.as_ref().map(|p| {
+                if threads == 1 {
+                    p.trace_s_1
+                } else {
+                    p.trace_s_n
+                }
+            });
+            rows.push(Row {
+                scene: scene.name,
+                rays: set.name,
+                count,
+                threads,
+                optik_s: seconds,
+                embree_s,
+                mismatches,
+            });
+        }
+    }
+    Ok(Some(build))
+}
+
+/// What one optik run gives: the best launch time, the build time, the hit triangles and
+/// distances.
+type OptikRun = (f64, f64, (Vec<u32>, Vec<f32>));
+
+/// Builds, traces `repeat` times and returns what the run gives.
+fn trace_optik(
+    device: &dyn Device,
+    mesh: &Mesh,
+    set: &RaySet,
+    repeat: usize,
+) -> optik::Result<OptikRun> {
+    let mut caster = RayCaster::new(device, mesh)?;
+    let (hits, seconds) = caster.cast(&set.rays, repeat)?;
+    Ok((seconds, caster.build_seconds, (hits.prim, hits.t)))
+}
+
+/// The mesh as the peer reads it.
+struct MeshFiles {
+    vertices: PathBuf,
+    triangles: PathBuf,
+}
+
+impl MeshFiles {
+    fn write(mesh: &Mesh, work: &Path) -> optik::Result<MeshFiles> {
+        let vertices = work.join("vertices.npy");
+        let triangles = work.join("triangles.npy");
+        let flat_v: Vec<f32> = mesh.positions.iter().flatten().copied().collect();
+        let flat_t: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+        write(&vertices, &npy::encode(&[mesh.positions.len(), 3], &flat_v))?;
+        write(
+            &triangles,
+            &npy::encode(&[mesh.triangles.len(), 3], &flat_t),
+        )?;
+        Ok(MeshFiles {
+            vertices,
+            triangles,
+        })
+    }
+}
+
+fn write(path: &Path, bytes: &[u8]) -> optik::Result<()> {
+    std::fs::write(path, bytes).map_err(|e| optik::Error::from(e).context(path.display()))
+}
+
+/// Runs `peer.py` on the rays with one and `options.threads` threads.
+fn run_peer(
+    files: &MeshFiles,
+    set: &RaySet,
+    options: &Options,
+    work: &Path,
+) -> Result<Peer, String> {
+    let rays = work.join("rays.npy");
+    let out = work.join("embree.npz");
+    let prim = work.join("embree_prim.npy");
+    let t = work.join("embree_t.npy");
+    let count = set.rays.len() / RAY_FLOATS;
+    write(&rays, &npy::encode(&[count, RAY_FLOATS], &set.rays)).map_err(|e| e.to_string())?;
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("embree/peer.py");
+    let output = Command::new(&options.python)
+        .arg(&script)
+        .args([&files.vertices, &files.triangles, &rays, &out])
+        .args(["--threads", &options.threads.to_string()])
+        .args(["--repeat", &options.repeat.to_string()])
+        .arg("--prim-npy")
+        .arg(&prim)
+        .arg("--t-npy")
+        .arg(&t)
+        .output()
+        .map_err(|e| format!("cannot run {} {}: {e}", options.python, script.display()))?;
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let line = stdout.lines().last().unwrap_or("");
+    let json: serde_json::Value = serde_json::from_str(line).map_err(|_| {
+        format!(
+            "peer.py printed no JSON (status {}): {}{}",
+            output.status,
+            stdout,
+            String::from_utf8_lossy(&output.stderr)
+        )
+    })?;
+    if let Some(e) = json.get("error") {
+        return Err(format!("peer.py: {e}"));
+    }
+    let number = |key: &str| {
+        json.get(key)
+            .and_then(|v| v.as_f64())
+            .ok_or_else(|| format!("peer.py's JSON lacks {key}: {line}"))
+    };
+    let read = |path: &Path| std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()));
+    let what = |path: &Path| path.display().to_string();
+    let (_, prim_data) = npy::read_u32(&read(&prim)?, &what(&prim)).map_err(|e| e.to_string())?;
+    let t_data = npy::read_f32(&read(&t)?, &what(&t))
+        .map_err(|e| e.to_string())?
+        .data;
+    Ok(Peer {
+        build_s: number("build_s")?,
+        trace_s_1: number("trace_s_1")?,
+        trace_s_n: number("trace_s_n")?,
+        prim: prim_data,
+        t: t_data,
+    })
+}
+
+fn print_tables(rows: &[Row], builds: &[Build], options: &Options) {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|n| n.trim().to_string())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.into());
+    println!(
+        "optik CPU (watertight + conservative) vs Embree (robust), best of {} launches; {} threads available; {cpu}",
+        options.repeat, options.threads
+    );
+    println!();
+    println!(
+        "| scene | rays | count | threads | optik Mrays/s | Embree Mrays/s | optik / Embree | prim mismatches (hit/miss) |"
+    );
+    println!("|---|---|---:|---:|---:|---:|---:|---:|");
+    let rate = |count: usize, s: f64| count as f64 / s / 1e6;
+    for r in rows {
+        let optik = rate(r.count, r.optik_s);
+        let (embree, ratio) = match r.embree_s {
+            Some(e) => {
+                let e = rate(r.count, e);
+                (format!("{e:.2}"), format!("{:.2}", optik / e))
+            }
+            None => ("-".into(), "-".into()),
+        };
+        let mismatches = r
+            .mismatches
+            .map_or("-".into(), |m| format!("{} ({})", m.total, m.hit_miss));
+        println!(
+            "| {} | {} | {} | {} | {optik:.2} | {embree} | {ratio} | {mismatches} |",
+            r.scene, r.rays, r.count, r.threads
+        );
+    }
+    let worst = rows
+        .iter()
+        .filter_map(|r| r.mismatches)
+        .map(|m| m.max_relative_t)
+        .fold(0.0f64, f64::max);
+    if rows.iter().any(|r| r.mismatches.is_some()) {
+        println!();
+        println!(
+            "Mismatches are per ray set (the one-thread run); where both hit a different triangle the distances differ by at most {worst:.1e} (relative)."
+        );
+    }
+    println!();
+    println!("| scene | optik build s | Embree build s | optik / Embree time |");
+    println!("|---|---:|---:|---:|");
+    for b in builds {
+        let (embree, ratio) = match b.embree_s {
+            Some(e) => (format!("{e:.3}"), format!("{:.2}", b.optik_s / e)),
+            None => ("-".into(), "-".into()),
+        };
+        println!("| {} | {:.3} | {embree} | {ratio} |", b.scene, b.optik_s);
+    }
+}
