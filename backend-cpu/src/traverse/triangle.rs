@@ -163,22 +163,47 @@ pub fn watertight4(
     let mut w = bx * ay - by * ax;
     let zero = F4::splat(0.0);
     let exact = (u.eq(zero) | v.eq(zero) | w.eq(zero)).bits() & lanes;
+    // The signs the inside test reads: the edge functions, with exact zeros tie-broken.
+    let (mut su, mut sv, mut sw) = (u, v, w);
     if exact != 0 {
-        // Edge functions exactly zero: recomputed in f64, as the scalar test does.
+        // Edge functions exactly zero: recomputed in f64 and tie-broken, as the scalar test
+        // does.
         let [ax, ay, bx, by, cx, cy] = [ax, ay, bx, by, cx, cy].map(F4::to_array);
         let (mut uu, mut vv, mut ww) = (u.to_array(), v.to_array(), w.to_array());
         let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
+        let (mut s_u, mut s_v, mut s_w) = (uu, vv, ww);
         for lane in 0..4 {
             if exact >> lane & 1 == 1 {
                 uu[lane] = f(cx[lane], by[lane], cy[lane], bx[lane]);
                 vv[lane] = f(ax[lane], cy[lane], ay[lane], cx[lane]);
                 ww[lane] = f(bx[lane], ay[lane], by[lane], ax[lane]);
+                let (pa, pb, pc) = (
+                    (ax[lane], ay[lane]),
+                    (bx[lane], by[lane]),
+                    (cx[lane], cy[lane]),
+                );
+                s_u[lane] = if uu[lane] == 0.0 {
+                    pushed_sign(pc, pb)
+                } else {
+                    uu[lane]
+                };
+                s_v[lane] = if vv[lane] == 0.0 {
+                    pushed_sign(pa, pc)
+                } else {
+                    vv[lane]
+                };
+                s_w[lane] = if ww[lane] == 0.0 {
+                    pushed_sign(pb, pa)
+                } else {
+                    ww[lane]
+                };
             }
         }
         (u, v, w) = (F4::load(&uu), F4::load(&vv), F4::load(&ww));
+        (su, sv, sw) = (F4::load(&s_u), F4::load(&s_v), F4::load(&s_w));
     }
-    let negative = u.lt(zero) | v.lt(zero) | w.lt(zero);
-    let positive = u.gt(zero) | v.gt(zero) | w.gt(zero);
+    let negative = su.lt(zero) | sv.lt(zero) | sw.lt(zero);
+    let positive = su.gt(zero) | sv.gt(zero) | sw.gt(zero);
     let det = u + v + w;
     let inside = lanes & !(negative & positive).bits() & !det.eq(zero).bits();
     if inside == 0 {
