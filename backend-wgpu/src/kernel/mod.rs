@@ -193,6 +193,11 @@ fn snippets(c: &KernelConfig<'_>, out: &mut String) {
     };
     let add = |out: &mut String, s: &str| out.push_str(&wgsl::specialise(s, options));
     add(out, wgsl::RAY);
+    // The transform type is part of the program state wherever the scene has instances,
+    // even in pipelines that never trace (raygen and callables only).
+    if c.instancing() || c.motion() {
+        add(out, wgsl::MOTION);
+    }
     if !c.traces() {
         return;
     }
@@ -213,9 +218,6 @@ fn snippets(c: &KernelConfig<'_>, out: &mut String) {
     }
     if c.curves() {
         add(out, wgsl::CURVE);
-    }
-    if c.instancing() || c.motion() {
-        add(out, wgsl::MOTION);
     }
     if c.micromaps() {
         add(out, wgsl::MICROMAP);
