@@ -1,6 +1,7 @@
-//! The blessed references hold no NaN or infinity (checked with OpenImageIO's
-//! `oiiotool --stats` and with the suite's own gate), and every reference belongs to a case of
-//! the catalog. The checker itself is tested on a file it must reject.
+//! The blessed references hold no NaN or infinity (checked with the suite's own reader and
+//! gate always, and with OpenImageIO's `oiiotool --stats` where it is installed), and every
+//! reference belongs to a case of the catalog. The checkers themselves are tested on a file
+//! they must reject.
 
 use optik_conformance::compare::nan_inf_gate;
 use optik_conformance::exrio;
@@ -9,6 +10,16 @@ use optik_conformance::{catalog, runner};
 use std::path::Path;
 use std::process::Command;
 
+/// Whether OpenImageIO's `oiiotool` runs here (`scripts/setup` installs it; a machine
+/// without it still gets the Rust check).
+fn have_oiiotool() -> bool {
+    let found = Command::new("oiiotool").arg("--version").output().is_ok();
+    if !found {
+        eprintln!("oiiotool is not installed (apt-get install openimageio-tools): Rust check only");
+    }
+    found
+}
+
 /// NaN and infinity counts that `oiiotool --stats` reports for `path` (its `Stats NanCount:`
 /// and `Stats InfCount:` lines, summed over channels).
 fn oiio_nan_inf(path: &Path) -> (u64, u64) {
@@ -16,7 +27,7 @@ fn oiio_nan_inf(path: &Path) -> (u64, u64) {
         .arg("--stats")
         .arg(path)
         .output()
-        .expect("OpenImageIO's oiiotool must be installed (apt-get install openimageio-tools)");
+        .expect("run oiiotool");
     let text = String::from_utf8_lossy(&out.stdout);
     let sum = |key: &str| -> u64 {
         text.lines()
@@ -60,21 +71,23 @@ fn the_checker_rejects_nan_and_inf() {
         ],
     };
     exrio::write(&path, &image).unwrap();
-    assert_eq!(oiio_nan_inf(&path), (2, 1));
     assert!(nan_inf_gate(&exrio::read(&path).unwrap()).is_err());
+    if have_oiiotool() {
+        assert_eq!(oiio_nan_inf(&path), (2, 1));
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn references_are_finite_and_belong_to_cases() {
     let dir = runner::default_references_dir();
-    let Ok(entries) = std::fs::read_dir(&dir) else {
-        eprintln!(
-            "no references folder at {} yet: nothing blessed",
+    let entries = std::fs::read_dir(&dir).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e} (the references are committed; `optik conformance bless` writes them)",
             dir.display()
-        );
-        return;
-    };
+        )
+    });
+    let oiio = have_oiiotool();
     let stems: Vec<String> = catalog::all()
         .iter()
         .flat_map(|c| {
@@ -115,7 +128,7 @@ fn references_are_finite_and_belong_to_cases() {
             }
             Err(e) => problems.push(e),
         }
-        let (nan, inf) = oiio_nan_inf(&path);
+        let (nan, inf) = if oiio { oiio_nan_inf(&path) } else { (0, 0) };
         if nan + inf > 0 {
             problems.push(format!(
                 "{}: oiiotool counts {nan} NaN and {inf} Inf",
@@ -125,5 +138,6 @@ fn references_are_finite_and_belong_to_cases() {
         checked += 1;
     }
     eprintln!("checked {checked} references");
+    assert!(checked > 0, "{}: no reference EXR", dir.display());
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }

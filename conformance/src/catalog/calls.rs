@@ -1049,7 +1049,7 @@ fn raygen__tree() {
 
 fn recursion_tree() -> Case {
     let (scene, root) = one_quad();
-    let depth = 6u32;
+    let depth = 3u32;
     fn child(ctx: &mut Ctx<'_, '_>, hit: bool) -> Result<[u32; 2], crate::oracle::model::Unwind> {
         let mut p = [0u32; 8];
         let x = if hit { 0.25 } else { 5.0 };
