@@ -12,6 +12,7 @@ macro_rules! outln {
 }
 
 mod compile;
+mod conformance;
 mod info;
 mod report;
 mod trace;
@@ -35,6 +36,10 @@ enum Command {
     Info,
     /// Casts rays (a float32 .npy of shape (N, 8)) against a mesh and writes hits to a .npz.
     Trace(trace::TraceArgs),
+    /// Runs the conformance suite on the chosen backends and prints the case × backend table;
+    /// `--list` shows the catalog, `--out DIR` writes EXRs and an HTML report, `bless` writes
+    /// references where the oracle and every available backend agree.
+    Conformance(conformance::ConformanceArgs),
     /// Measures backends, accuracy options, specialisation and scaling side by side (DESIGN.md §8).
     BenchReport(report::ReportArgs),
 }
@@ -45,6 +50,7 @@ fn main() -> ExitCode {
         Command::Compile(args) => compile::run(&args),
         Command::Info => info::run(),
         Command::Trace(args) => trace::run(&args),
+        Command::Conformance(args) => conformance::run(&args),
         Command::BenchReport(args) => report::run(&args),
     };
     ExitCode::from(code)

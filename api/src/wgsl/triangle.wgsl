@@ -72,7 +72,21 @@ fn optk_edge64(p: vec2<f32>, q: vec2<f32>) -> f32 { // @f64
     return r; // @f64
 } // @f64
 
-// Woop, Benthin and Wald's watertight test.
+// The sign an edge function takes when the ray's point in the sheared plane is pushed by
+// (ε, ε²): its own sign where it is nonzero, else the sign of its x derivative, or of its y
+// derivative where that is zero too. A neighbour sharing the edge takes its ends in the
+// other order and gets exactly the opposite sign (subtraction is antisymmetric), so a ray
+// through a shared edge or vertex of a closed mesh lands in exactly one triangle (the
+// rasterisers' top-left rule in symbolic form; the CPU backend's `pushed_sign`).
+fn optk_edge_pushed(e: f32, p: vec2<f32>, q: vec2<f32>) -> f32 {
+    if e != 0.0 {
+        return e;
+    }
+    let dx = p.y - q.y;
+    return select(q.x - p.x, dx, dx != 0.0);
+}
+
+// Woop, Benthin and Wald's watertight test, with exact-zero edge functions tie-broken.
 fn optk_tri_watertight(w: OptkWoop, o: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, tmin: f32, tmax: f32) -> OptkTriHit {
     if !w.usable {
         return optk_tri_miss();
@@ -91,7 +105,10 @@ fn optk_tri_watertight(w: OptkWoop, o: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, 
         ev = optk_edge64(pa, pc); // @f64
         ew = optk_edge64(pb, pa); // @f64
     } // @f64
-    if (eu < 0.0 || ev < 0.0 || ew < 0.0) && (eu > 0.0 || ev > 0.0 || ew > 0.0) {
+    let su = optk_edge_pushed(eu, pc, pb);
+    let sv = optk_edge_pushed(ev, pa, pc);
+    let sw = optk_edge_pushed(ew, pb, pa);
+    if (su < 0.0 || sv < 0.0 || sw < 0.0) && (su > 0.0 || sv > 0.0 || sw > 0.0) {
         return optk_tri_miss();
     }
     let det = eu + ev + ew;

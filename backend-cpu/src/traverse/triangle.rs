@@ -27,9 +27,25 @@ fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
-/// Woop, Benthin and Wald's watertight test (JCGT 2013) with the double-precision fallback:
-/// an edge function that is exactly zero in f32 is recomputed in f64, so rays through
-/// shared edges and vertices of a closed mesh hit exactly one side (numerics.md §1).
+/// The sign an edge function takes when the ray's point in the sheared plane is pushed by
+/// (ε, ε²), for an edge function that is exactly zero: the sign of its x derivative, or of
+/// its y derivative where that is zero. `p` and `q` are the edge's ends as the edge function
+/// `p.x·q.y − p.y·q.x` takes them. A neighbour sharing the edge takes the ends in the other
+/// order and gets exactly the opposite sign (f32 subtraction is antisymmetric), so a ray
+/// through a shared edge or vertex lands inside exactly one triangle of a closed mesh: the
+/// one holding the pushed point (the top-left rule of rasterisers, in symbolic form).
+#[inline(always)]
+fn pushed_sign(p: (f32, f32), q: (f32, f32)) -> f32 {
+    let dx = p.1 - q.1;
+    let dy = q.0 - p.0;
+    if dx != 0.0 { dx } else { dy }
+}
+
+/// Woop, Benthin and Wald's watertight test (JCGT 2013) with the double-precision fallback
+/// (an edge function that is exactly zero in f32 is recomputed in f64, whose products of f32
+/// values are exact) and a tie-break for edge functions that are exactly zero even then
+/// ([`pushed_sign`]): rays through shared edges and vertices of a closed mesh hit exactly
+/// one triangle, never none or two (numerics.md §1, DESIGN.md §5).
 #[inline(always)]
 pub fn watertight(
     ray: &PreparedRay,
@@ -58,7 +74,12 @@ pub fn watertight(
         v = f(ax, cy, ay, cx);
         w = f(bx, ay, by, ax);
     }
-    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+    // Signs for the inside test; zeros (the ray's point on an edge line) tie-broken.
+    let (pa, pb, pc) = ((ax, ay), (bx, by), (cx, cy));
+    let su = if u == 0.0 { pushed_sign(pc, pb) } else { u };
+    let sv = if v == 0.0 { pushed_sign(pa, pc) } else { v };
+    let sw = if w == 0.0 { pushed_sign(pb, pa) } else { w };
+    if (su < 0.0 || sv < 0.0 || sw < 0.0) && (su > 0.0 || sv > 0.0 || sw > 0.0) {
         return None;
     }
     let det = u + v + w;
@@ -142,22 +163,47 @@ pub fn watertight4(
     let mut w = bx * ay - by * ax;
     let zero = F4::splat(0.0);
     let exact = (u.eq(zero) | v.eq(zero) | w.eq(zero)).bits() & lanes;
+    // The signs the inside test reads: the edge functions, with exact zeros tie-broken.
+    let (mut su, mut sv, mut sw) = (u, v, w);
     if exact != 0 {
-        // Edge functions exactly zero: recomputed in f64, as the scalar test does.
+        // Edge functions exactly zero: recomputed in f64 and tie-broken, as the scalar test
+        // does.
         let [ax, ay, bx, by, cx, cy] = [ax, ay, bx, by, cx, cy].map(F4::to_array);
         let (mut uu, mut vv, mut ww) = (u.to_array(), v.to_array(), w.to_array());
         let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
+        let (mut s_u, mut s_v, mut s_w) = (uu, vv, ww);
         for lane in 0..4 {
             if exact >> lane & 1 == 1 {
                 uu[lane] = f(cx[lane], by[lane], cy[lane], bx[lane]);
                 vv[lane] = f(ax[lane], cy[lane], ay[lane], cx[lane]);
                 ww[lane] = f(bx[lane], ay[lane], by[lane], ax[lane]);
+                let (pa, pb, pc) = (
+                    (ax[lane], ay[lane]),
+                    (bx[lane], by[lane]),
+                    (cx[lane], cy[lane]),
+                );
+                s_u[lane] = if uu[lane] == 0.0 {
+                    pushed_sign(pc, pb)
+                } else {
+                    uu[lane]
+                };
+                s_v[lane] = if vv[lane] == 0.0 {
+                    pushed_sign(pa, pc)
+                } else {
+                    vv[lane]
+                };
+                s_w[lane] = if ww[lane] == 0.0 {
+                    pushed_sign(pb, pa)
+                } else {
+                    ww[lane]
+                };
             }
         }
         (u, v, w) = (F4::load(&uu), F4::load(&vv), F4::load(&ww));
+        (su, sv, sw) = (F4::load(&s_u), F4::load(&s_v), F4::load(&s_w));
     }
-    let negative = u.lt(zero) | v.lt(zero) | w.lt(zero);
-    let positive = u.gt(zero) | v.gt(zero) | w.gt(zero);
+    let negative = su.lt(zero) | sv.lt(zero) | sw.lt(zero);
+    let positive = su.gt(zero) | sv.gt(zero) | sw.gt(zero);
     let det = u + v + w;
     let inside = lanes & !(negative & positive).bits() & !det.eq(zero).bits();
     if inside == 0 {
@@ -440,8 +486,8 @@ mod tests {
     #[test]
     fn watertight_never_leaks_through_an_axis_aligned_grid() {
         // Integer-coordinate quads split in two: rays along the axes through every shared
-        // edge and vertex must hit exactly once (f64 fallback territory: edge functions are
-        // exactly zero). Möller–Trumbore is allowed to fail here.
+        // edge and vertex must hit exactly once (edge functions exactly zero even in f64:
+        // the tie-break decides). Möller–Trumbore is allowed to fail here.
         let mut tris = Vec::new();
         for i in 0..4 {
             for j in 0..4 {
@@ -459,7 +505,45 @@ mod tests {
                         .iter()
                         .filter(|t| watertight(&r, t, 0.0, f32::INFINITY).is_some())
                         .count();
-                    assert!(n >= 1, "leak at {o:?}");
+                    assert_eq!(n, 1, "leak or double hit at {o:?} along {d:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn watertight_hits_a_closed_fan_exactly_once_at_its_vertex_and_edges() {
+        // Fans around a centre in tilted planes, rays from random origins aimed at the centre
+        // and at points of the shared edges: edge functions are zero or within rounding of
+        // it, and every ray must hit exactly one triangle (no double hits, no leaks).
+        let mut rng = Rng(2024);
+        for n in [3usize, 4, 7, 16, 64] {
+            for _ in 0..20 {
+                let centre = rng.v(4.0);
+                let (e1, e2) = (rng.v(1.0), rng.v(1.0));
+                let rim: Vec<[f32; 3]> = (0..n)
+                    .map(|k| {
+                        let a = k as f32 / n as f32 * std::f32::consts::TAU;
+                        let (c, s) = (a.cos(), a.sin());
+                        std::array::from_fn(|i| centre[i] + c * e1[i] + s * e2[i])
+                    })
+                    .collect();
+                let fan: Vec<[[f32; 3]; 3]> =
+                    (0..n).map(|k| [centre, rim[k], rim[(k + 1) % n]]).collect();
+                let mut aims = vec![centre];
+                for r in &rim {
+                    for f in [0.25f32, 0.5] {
+                        aims.push(std::array::from_fn(|i| centre[i] + f * (r[i] - centre[i])));
+                    }
+                }
+                for aim in aims {
+                    let o = rng.v(16.0);
+                    let r = ray(o, sub(aim, o));
+                    let hits = fan
+                        .iter()
+                        .filter(|t| watertight(&r, t, 0.0, f32::INFINITY).is_some())
+                        .count();
+                    assert_eq!(hits, 1, "fan of {n}, ray {o:?} towards {aim:?}");
                 }
             }
         }

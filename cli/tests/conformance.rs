@@ -1,0 +1,72 @@
+//! `optik conformance`: the catalog as JSON, and a run of one case on the CPU backend.
+
+use std::collections::BTreeSet;
+use std::process::Command;
+
+fn optik(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_optik"))
+        .args(args)
+        .output()
+        .expect("run optik")
+}
+
+#[test]
+fn list_json_has_at_least_85_cases_in_11_groups() {
+    let out = optik(&["conformance", "--list", "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    let cases = doc["cases"].as_array().expect("a `cases` array");
+    let mut groups = BTreeSet::new();
+    let mut names = BTreeSet::new();
+    for c in cases {
+        let name = c["name"].as_str().expect("a name");
+        let group = c["group"].as_str().expect("a group");
+        assert!(
+            name.starts_with(&format!("{group}.")),
+            "{name} is not in its group {group}"
+        );
+        assert!(
+            c["records"].as_array().is_some_and(|r| !r.is_empty()),
+            "no recorded channels: {c}"
+        );
+        assert!(c["tolerance"].is_string(), "{c}");
+        assert!(names.insert(name.to_string()), "{name} listed twice");
+        groups.insert(group.to_string());
+    }
+    assert!(cases.len() >= 85, "{} cases", cases.len());
+    assert!(groups.len() >= 11, "{} groups: {groups:?}", groups.len());
+    let numerics = names.iter().filter(|n| n.starts_with("numerics.")).count();
+    assert!(numerics >= 25, "{numerics} numerics cases");
+}
+
+#[test]
+fn runs_a_case_on_the_cpu_and_reports_json() {
+    let out = optik(&[
+        "conformance",
+        "--backend",
+        "cpu",
+        "--filter",
+        "flags.facing_hitkind",
+        "--json",
+    ]);
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    let cases = doc["cases"].as_array().expect("a `cases` array");
+    assert_eq!(cases.len(), 1, "{doc}");
+    assert_eq!(cases[0]["name"], "flags.facing_hitkind");
+    assert_eq!(cases[0]["backend"], "cpu");
+    assert_eq!(cases[0]["status"], "pass", "{doc}");
+    assert_eq!(doc["passed"], 1);
+    assert!(out.status.success());
+}
+
+#[test]
+fn unknown_backend_is_a_clear_error() {
+    let out = optik(&["conformance", "--backend", "metal"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("unknown backend `metal`"), "{err}");
+}

@@ -1,0 +1,144 @@
+//! Reading and writing [`RecordImage`]s as OpenEXR files with the `exr` crate: integer
+//! channels as `UINT`, float channels as `FLOAT`, one part, ZIP compression, so that
+//! OpenImageIO (`idiff`, `oiiotool`) reads them as they are.
+
+use crate::image::{Channel, ChannelKind, RecordImage};
+use exr::prelude::*;
+use std::path::Path;
+
+/// Writes `image` to `path`, creating parent folders.
+pub fn write(path: &Path, image: &RecordImage) -> std::result::Result<(), String> {
+    if image.width == 0 || image.height == 0 {
+        return Err(format!(
+            "{}: an EXR image needs at least one pixel, this one is {}×{}",
+            path.display(),
+            image.width,
+            image.height
+        ));
+    }
+    if image.channels.is_empty() {
+        return Err(format!(
+            "{}: an EXR image needs at least one channel",
+            path.display()
+        ));
+    }
+    if let Some(parent) = path.parent() {
+        std::fs::create_dir_all(parent)
+            .map_err(|e| format!("cannot create {}: {e}", parent.display()))?;
+    }
+    let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = image
+        .channels
+        .iter()
+        .map(|c| {
+            let samples = match c.kind {
+                ChannelKind::Uint => FlatSamples::U32(c.values.clone()),
+                ChannelKind::Float => {
+                    FlatSamples::F32(c.values.iter().map(|b| f32::from_bits(*b)).collect())
+                }
+            };
+            AnyChannel::new(c.name.as_str(), samples)
+        })
+        .collect();
+    let layer = Layer::new(
+        (image.width, image.height),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(channels),
+    );
+    Image::from_layer(layer)
+        .write()
+        .to_file(path)
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+/// Reads an image written by [`write`] (or any single-part EXR): `UINT` channels as
+/// integers, `FLOAT` and `HALF` channels as floats; channels in the file's (sorted) order.
+pub fn read(path: &Path) -> std::result::Result<RecordImage, String> {
+    let image = read_all_flat_layers_from_file(path)
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let layer = image
+        .layer_data
+        .first()
+        .ok_or_else(|| format!("{}: the file has no image part", path.display()))?;
+    let size = layer.size;
+    let channels = layer
+        .channel_data
+        .list
+        .iter()
+        .map(|c| {
+            let name = c.name.to_string();
+            match &c.sample_data {
+                FlatSamples::U32(v) => Channel {
+                    name,
+                    kind: ChannelKind::Uint,
+                    values: v.clone(),
+                },
+                FlatSamples::F32(v) => Channel {
+                    name,
+                    kind: ChannelKind::Float,
+                    values: v.iter().map(|f| f.to_bits()).collect(),
+                },
+                FlatSamples::F16(v) => Channel {
+                    name,
+                    kind: ChannelKind::Float,
+                    values: v.iter().map(|h| h.to_f32().to_bits()).collect(),
+                },
+            }
+        })
+        .collect();
+    Ok(RecordImage {
+        width: size.0,
+        height: size.1,
+        channels,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip_keeps_integers_and_float_bits() {
+        let dir = std::env::temp_dir().join(format!("optik-conf-exr-{}", std::process::id()));
+        let path = dir.join("rt.exr");
+        let image = RecordImage {
+            width: 3,
+            height: 2,
+            channels: vec![
+                Channel {
+                    name: "prim".into(),
+                    kind: ChannelKind::Uint,
+                    values: vec![0, 1, u32::MAX, 7, 0xFFFF_FFFE, 42],
+                },
+                Channel {
+                    name: "t".into(),
+                    kind: ChannelKind::Float,
+                    values: [0.0f32, -0.0, 1.5, 1e-40, f32::MAX, 3.25]
+                        .iter()
+                        .map(|f| f.to_bits())
+                        .collect(),
+                },
+            ],
+        };
+        write(&path, &image).unwrap();
+        let back = read(&path).unwrap();
+        assert!(back.same_layout(&image), "{}", back.layout_text());
+        assert_eq!(back.channel("prim"), image.channel("prim"));
+        assert_eq!(back.channel("t"), image.channel("t"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn empty_images_are_refused_with_a_reason() {
+        let e = write(
+            Path::new("/tmp/never.exr"),
+            &RecordImage {
+                width: 0,
+                height: 1,
+                channels: vec![],
+            },
+        )
+        .unwrap_err();
+        assert!(e.contains("at least one pixel"), "{e}");
+    }
+}

@@ -1,0 +1,341 @@
+//! Running cases on backends: opening devices, running each case, judging its launches
+//! against the oracle and the references, and keeping the images for reports.
+
+use crate::case::Case;
+use crate::exrio;
+use crate::image::RecordImage;
+use crate::judge;
+use crate::oracle::{self, Expectation};
+use optik::{BackendKind, Device, ErrorKind};
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::{Path, PathBuf};
+
+/// The outcome of a case on a backend.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Status {
+    /// Every launch matched.
+    Pass,
+    /// Something did not match, or the backend failed.
+    Fail,
+    /// The backend cannot run here, or does not support what the case needs.
+    Skip,
+}
+
+impl Status {
+    /// `pass`, `fail` or `skip`, as the JSON report spells them.
+    pub fn name(self) -> &'static str {
+        match self {
+            Status::Pass => "pass",
+            Status::Fail => "fail",
+            Status::Skip => "skip",
+        }
+    }
+}
+
+/// The images of one launch, for reports.
+#[derive(Clone, Debug)]
+pub struct LaunchImages {
+    /// The reference file stem (`tri.t_plane`, `launch.index_dims.launch3`).
+    pub stem: String,
+    /// The oracle's canonical image.
+    pub expected: RecordImage,
+    /// The backend's output.
+    pub output: Option<RecordImage>,
+    /// The reference, when one exists.
+    pub reference: Option<RecordImage>,
+    /// The difference image (see [`judge::difference_image`]).
+    pub diff: Option<RecordImage>,
+}
+
+/// One case on one backend.
+#[derive(Clone, Debug)]
+pub struct CaseResult {
+    /// Case name.
+    pub name: String,
+    /// Group name.
+    pub group: String,
+    /// Backend.
+    pub backend: BackendKind,
+    /// Outcome.
+    pub status: Status,
+    /// Why, or a short account.
+    pub detail: String,
+    /// Worst error against the tolerance (fraction of it), when it ran.
+    pub max_error: Option<f64>,
+    /// Images per launch.
+    pub launches: Vec<LaunchImages>,
+}
+
+/// The folder of blessed references in the source tree.
+pub fn default_references_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("references")
+}
+
+/// The reference of launch `k` for `backend`: the backend's own file where the case allows
+/// one and it exists, else the common one.
+pub fn reference_path(dir: &Path, case: &Case, k: usize, backend: Option<BackendKind>) -> PathBuf {
+    let stem = case.launch_stem(k);
+    if let Some(b) = backend.filter(|b| case.backend_specific.iter().any(|(kind, _)| kind == b)) {
+        let own = dir.join(format!("{stem}.{}.exr", b.name()));
+        if own.exists() {
+            return own;
+        }
+    }
+    dir.join(format!("{stem}.exr"))
+}
+
+/// A device, or why its backend cannot run here.
+type Opened = Result<Box<dyn Device>, String>;
+
+/// Devices opened at most once per backend.
+pub struct Devices {
+    opened: Vec<(BackendKind, Opened)>,
+}
+
+impl Devices {
+    /// Opens each backend (a failure to open is kept as the reason to skip).
+    pub fn open(kinds: &[BackendKind]) -> Self {
+        let opened = kinds
+            .iter()
+            .map(|k| {
+                let r = catch_unwind(|| optik::open_backend(*k))
+                    .map_err(|_| format!("opening the {k} backend panicked"))
+                    .and_then(|r| r.map_err(|e| e.message().to_string()));
+                (*k, r)
+            })
+            .collect();
+        Devices { opened }
+    }
+
+    /// The backends, with their device or the reason they cannot run.
+    pub fn iter(&self) -> impl Iterator<Item = (BackendKind, Result<&dyn Device, &str>)> {
+        self.opened
+            .iter()
+            .map(|(k, r)| (*k, r.as_ref().map(|d| d.as_ref()).map_err(|e| e.as_str())))
+    }
+
+    /// The backends that opened.
+    pub fn available(&self) -> Vec<BackendKind> {
+        self.opened
+            .iter()
+            .filter(|(_, r)| r.is_ok())
+            .map(|(k, _)| *k)
+            .collect()
+    }
+}
+
+/// The oracle's expectation of a case (launch by launch).
+pub fn expectations(case: &Case) -> Result<Vec<Expectation>, String> {
+    catch_unwind(AssertUnwindSafe(|| oracle::expect(case)))
+        .unwrap_or_else(|_| Err("the oracle panicked on this case".into()))
+}
+
+/// Runs one case on one device and judges it (against references in `references`, if given).
+pub fn run_on(
+    case: &Case,
+    expected: &Result<Vec<Expectation>, String>,
+    backend: BackendKind,
+    device: &dyn Device,
+    references: Option<&Path>,
+) -> CaseResult {
+    let mut result = CaseResult {
+        name: case.name.clone(),
+        group: case.group.name().into(),
+        backend,
+        status: Status::Fail,
+        detail: String::new(),
+        max_error: None,
+        launches: Vec::new(),
+    };
+    let expected = match expected {
+        Ok(e) => e,
+        Err(e) => {
+            result.detail = format!("the oracle cannot evaluate this case: {e}");
+            return result;
+        }
+    };
+    let outputs = catch_unwind(AssertUnwindSafe(|| {
+        crate::device_run::run_case(device, case)
+    }));
+    let outputs = match outputs {
+        Err(_) => {
+            result.detail = "the backend panicked".into();
+            return result;
+        }
+        Ok(Err(e)) if e.kind() == ErrorKind::Unsupported => {
+            result.status = Status::Skip;
+            result.detail = e.message().to_string();
+            return result;
+        }
+        Ok(Err(e)) => {
+            result.detail = format!("error: {e}");
+            return result;
+        }
+        Ok(Ok(o)) => o,
+    };
+    let mut pass = true;
+    let mut details = Vec::new();
+    let mut max_error: f64 = 0.0;
+    for (k, (e, words)) in expected.iter().zip(&outputs).enumerate() {
+        let output = judge::image_from_words(case, e.width, e.height, words);
+        let reference = references.and_then(|dir| {
+            let p = reference_path(dir, case, k, Some(backend));
+            p.exists().then(|| exrio::read(&p)).and_then(|r| r.ok())
+        });
+        let v = judge::judge(case, e, &output, reference.as_ref());
+        max_error = max_error.max(v.max_error);
+        if !v.pass {
+            pass = false;
+            details.push(if expected.len() > 1 {
+                format!("launch {k}: {}", v.detail)
+            } else {
+                v.detail.clone()
+            });
+        }
+        result.launches.push(LaunchImages {
+            stem: case.launch_stem(k),
+            expected: judge::canonical_image(case, e),
+            diff: v
+                .pixel_state
+                .iter()
+                .any(|s| *s != 0)
+                .then(|| judge::difference_image(&v, e.width, e.height)),
+            output: Some(output),
+            reference,
+        });
+    }
+    if outputs.len() != expected.len() {
+        pass = false;
+        details.push(format!(
+            "{} launches ran, {} expected",
+            outputs.len(),
+            expected.len()
+        ));
+    }
+    result.status = if pass { Status::Pass } else { Status::Fail };
+    result.max_error = Some(max_error);
+    result.detail = if pass {
+        let refs = result
+            .launches
+            .iter()
+            .filter(|l| l.reference.is_some())
+            .count();
+        format!(
+            "{} launch(es) match the oracle{}",
+            outputs.len(),
+            if refs == outputs.len() {
+                " and the references"
+            } else {
+                "; no reference yet (bless)"
+            }
+        )
+    } else {
+        details.join("; ")
+    };
+    result
+}
+
+/// Runs every case on every backend of `devices`.
+pub fn run_all(
+    cases: &[Case],
+    devices: &Devices,
+    references: Option<&Path>,
+    mut progress: impl FnMut(&CaseResult),
+) -> Vec<CaseResult> {
+    let mut results = Vec::new();
+    for case in cases {
+        let expected = expectations(case);
+        for (backend, device) in devices.iter() {
+            let r = match device {
+                Ok(d) => run_on(case, &expected, backend, d, references),
+                Err(reason) => CaseResult {
+                    name: case.name.clone(),
+                    group: case.group.name().into(),
+                    backend,
+                    status: Status::Skip,
+                    detail: reason.to_string(),
+                    max_error: None,
+                    launches: expected
+                        .as_ref()
+                        .map(|es| {
+                            es.iter()
+                                .enumerate()
+                                .map(|(k, e)| LaunchImages {
+                                    stem: case.launch_stem(k),
+                                    expected: judge::canonical_image(case, e),
+                                    output: None,
+                                    reference: references.and_then(|dir| {
+                                        exrio::read(&reference_path(dir, case, k, None)).ok()
+                                    }),
+                                    diff: None,
+                                })
+                                .collect()
+                        })
+                        .unwrap_or_default(),
+                },
+            };
+            progress(&r);
+            results.push(r);
+        }
+    }
+    results
+}
+
+/// Whether `name` matches a glob of `*` (any run) and `?` (one character). A pattern without
+/// wildcards or dots names a group (`sbt` is `sbt.*`); several patterns may be given,
+/// separated by commas.
+pub fn filter_matches(filter: &str, name: &str) -> bool {
+    filter
+        .split(',')
+        .map(str::trim)
+        .filter(|p| !p.is_empty())
+        .any(|p| {
+            if !p.contains(['*', '?', '.']) {
+                return glob(&format!("{p}.*"), name);
+            }
+            glob(p, name)
+        })
+}
+
+fn glob(pattern: &str, name: &str) -> bool {
+    let (p, n): (Vec<char>, Vec<char>) = (pattern.chars().collect(), name.chars().collect());
+    let (mut pi, mut ni) = (0, 0);
+    let (mut star, mut mark) = (None, 0);
+    while ni < n.len() {
+        if pi < p.len() && (p[pi] == '?' || p[pi] == n[ni]) {
+            pi += 1;
+            ni += 1;
+        } else if pi < p.len() && p[pi] == '*' {
+            star = Some(pi);
+            mark = ni;
+            pi += 1;
+        } else if let Some(s) = star {
+            pi = s + 1;
+            mark += 1;
+            ni = mark;
+        } else {
+            return false;
+        }
+    }
+    while pi < p.len() && p[pi] == '*' {
+        pi += 1;
+    }
+    pi == p.len()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn globs() {
+        assert!(filter_matches("sbt.*", "sbt.hit_index_grid"));
+        assert!(filter_matches("sbt", "sbt.hit_index_grid"));
+        assert!(!filter_matches("sbt", "tri.t_plane"));
+        assert!(filter_matches("*.closed_*", "tri.closed_fan"));
+        assert!(filter_matches("tri.t_plane", "tri.t_plane"));
+        assert!(!filter_matches("tri.t_plane", "tri.t_planes"));
+        assert!(filter_matches("x.*, tri.?_plane", "tri.t_plane"));
+        assert!(filter_matches("*", "anything.at_all"));
+    }
+}
