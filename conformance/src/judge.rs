@@ -311,7 +311,19 @@ fn judge_image(
         pixel_state,
     };
     if let Some(r) = reference.filter(|_| v.pass) {
-        let cr = compare::compare(out, r, o);
+        // Where the oracle admits several records, any of them may stand in the reference
+        // (it holds the canonical one): those pixels are judged against the oracle only.
+        let mut r = r.clone();
+        if r.pixel_count() == n && r.channels.len() == out.channels.len() {
+            for (i, adm) in e.admissible.iter().enumerate().take(n) {
+                if adm.len() >= 2 {
+                    for (rc, oc) in r.channels.iter_mut().zip(&out.channels) {
+                        rc.values[i] = oc.values[i];
+                    }
+                }
+            }
+        }
+        let cr = compare::compare(out, &r, o);
         if !cr.verdict.passes() {
             v.pass = false;
             v.detail = format!(

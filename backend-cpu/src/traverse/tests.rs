@@ -252,11 +252,13 @@ fn closed_mesh_never_leaks() {
 
 #[test]
 fn signed_zero_rays_give_identical_answers_through_a_bvh() {
-    // numerics.md F0: a 32×32 quad wall at x = 10, rays with d = (1, ±0, 0).
+    // numerics.md F0: a quad wall at x = 10 over [0, 1]² and one cell beyond (so rays on the
+    // unit square's border cross shared edges, not the wall's own border, where the
+    // tie-break may go either way), rays with d = (1, ±0, 0).
     let mut v = Vec::new();
     let mut idx = Vec::new();
-    for i in 0..32u32 {
-        for j in 0..32u32 {
+    for i in -1..33i32 {
+        for j in -1..33i32 {
             let (y, z) = (i as f32 / 32.0, j as f32 / 32.0);
             let base = v.len() as u32;
             v.extend([

@@ -243,10 +243,12 @@ fn invalid_rays_run_no_program_and_keep_the_payload() {
 fn signed_zero_directions_hit_the_same() {
     let kit = Kit::new();
     let log = Log::default();
-    // A wall at x = 10 made of many triangles; rays along +x with ±0 in y and z.
+    // A wall at x = 10 made of many triangles over [0, 1]² and one cell beyond (rays on the
+    // square's border cross shared edges, not the wall's own border); rays along +x with ±0
+    // in y and z.
     let mut v = Vec::new();
-    for i in 0..16 {
-        for j in 0..16 {
+    for i in -1..17 {
+        for j in -1..17 {
             let (y, z) = (i as f32 / 16.0, j as f32 / 16.0);
             let q = quad(y, z, y + 1.0 / 16.0, z + 1.0 / 16.0, 10.0);
             v.extend(q.into_iter().map(|p| [p[2], p[0], p[1]]));
