@@ -16,7 +16,9 @@
 //!
 //! Emulated triangles (every triangle test but `TriangleTest::Driver`) are AABBs padded so
 //! that the driver's box test cannot miss a ray that touches the triangle ([`pad_triangle_box`]);
-//! optik's triangle intersection stage decides the hit.
+//! optik's triangle intersection stage decides the hit. Custom primitives', spheres' and
+//! curves' boxes are padded the same way, so a ray grazing a box face still runs the
+//! intersection program (conformance `numerics.near_box_faces`).
 
 use super::tables::{self, NONE, Record};
 use optik_api::decode::{self, BufferBytes};
@@ -122,8 +124,8 @@ struct MicromapBlock<'a> {
     states: &'a [u8],
 }
 
-/// Boxes of a geometry not yet written (triangle boxes are padded once the whole structure's
-/// extent is known).
+/// Boxes of a geometry not yet written (boxes are padded once the whole structure's extent
+/// is known).
 struct PendingBoxes {
     geometry: usize,
     boxes: Vec<[f32; 6]>,
@@ -189,7 +191,9 @@ impl Builder {
         self.pending.push(PendingBoxes {
             geometry,
             boxes: items.iter().map(|(_, it)| it.bbox).collect(),
-            pad: record.kind == GasKind::Triangles,
+            // Every kind is padded: a driver's box test must never miss a box the ray
+            // touches (custom primitives, spheres and curves included, see near_box_faces).
+            pad: true,
         });
         let prims: Vec<u32> = items.iter().map(|(p, _)| *p).collect();
         let remap = remap_table(
@@ -229,7 +233,7 @@ impl Builder {
         start as u32
     }
 
-    /// Pads triangle boxes, writes every box array into `bytes` and pads the data.
+    /// Pads every box, writes every box array into `bytes` and pads the data.
     fn finish(mut self) -> DecodedGas {
         let mut lo = [f32::INFINITY; 3];
         let mut hi = [f32::NEG_INFINITY; 3];

@@ -120,9 +120,10 @@ struct _OptikTriangle {
     live: bool,
 }
 
+// A motion transform above the primitive that vanished at the ray's time hides it too.
 fn _optik_triangle(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> _OptikTriangle {
     let k = _optik_geometry_key(g1);
-    if k.key < 0 {
+    if k.key < 0 || !_optik_path().live {
         return _OptikTriangle(vec3<f32>(), vec3<f32>(), vec3<f32>(), false);
     }
     let a = g0.z + (u32(k.key) * g1.z + p) * 9u;
@@ -139,7 +140,7 @@ fn _optik_triangle(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> _OptikTriangle {
 // A sphere (centre, radius) at the ray's time; radius -1 when it vanished.
 fn _optik_sphere_at(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> vec4<f32> {
     let k = _optik_geometry_key(g1);
-    if k.key < 0 {
+    if k.key < 0 || !_optik_path().live {
         return vec4<f32>(0.0, 0.0, 0.0, -1.0);
     }
     let a = g0.z + (u32(k.key) * g1.z + p) * 4u;
@@ -162,7 +163,7 @@ struct _OptikSegment {
 
 fn _optik_segment(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> _OptikSegment {
     let k = _optik_geometry_key(g1);
-    if k.key < 0 {
+    if k.key < 0 || !_optik_path().live {
         return _OptikSegment(vec4<f32>(), vec4<f32>(), vec4<f32>(), vec4<f32>(), 0u, false);
     }
     let a = g0.z + (u32(k.key) * g1.z + p) * 17u;

@@ -118,9 +118,11 @@ pub fn lower_stages(
     };
     let mut module = naga::front::wgsl::parse_str(&source)
         .map_err(|e| internal("parse", e.emit_to_string(&source)))?;
+    let mut raising = unwind::ENDING_REPORTS.to_vec();
     if config.unwinds() {
-        unwind::insert_unwinding(&mut module).map_err(|e| internal("exception unwinding", e))?;
+        raising.extend_from_slice(unwind::RAISING);
     }
+    unwind::insert_unwinding(&mut module, &raising).map_err(|e| internal("unwinding", e))?;
     // The watertight triangle test's exact fallback uses f64 (when the device has it).
     let mut capabilities = naga::valid::Capabilities::default();
     capabilities.set(

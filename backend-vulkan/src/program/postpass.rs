@@ -216,13 +216,19 @@ fn allowed(intrinsic: Intrinsic, stage: VkStage) -> bool {
 /// Whether an intrinsic a stage may not use is nevertheless reachable there, but never runs:
 /// direct callables compiled into intersection and any-hit stages (program/inline.rs) go
 /// through the same device functions as elsewhere, whose bodies choose the inlined path in
-/// those stages before they would execute a callable or touch a payload. Such intrinsics
-/// get a body that does nothing.
+/// those stages before they would execute a callable or touch a payload, and a raygen stage
+/// of such a module never takes the inlined path. Such intrinsics get a body that does
+/// nothing.
 fn unreached(intrinsic: Intrinsic, stage: VkStage) -> bool {
     use Intrinsic as I;
     match intrinsic {
         I::ExecuteCallable => matches!(stage, VkStage::Intersection | VkStage::AnyHit),
-        I::PayloadGet | I::PayloadSet => stage == VkStage::Intersection,
+        // A raygen reaches them only through the inlined callables of its module, which
+        // run in intersection and any-hit stages only (rt_direct_call checks the stage; the
+        // front end refuses rt_get_payload and rt_set_payload in raygen programs).
+        I::PayloadGet | I::PayloadSet => {
+            matches!(stage, VkStage::Intersection | VkStage::Raygen)
+        }
         _ => false,
     }
 }

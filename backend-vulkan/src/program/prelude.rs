@@ -316,6 +316,8 @@ fn state_functions(c: &LoweringConfig) -> String {
         ));
     } else {
         s.push_str("fn _optik_unwinding() -> bool {\n    return false;\n}\n");
+        // Set when a report ended the ray: the intersection program returns (unwind.rs).
+        s.push_str("var<private> _optik_unwound: bool;\n");
     }
     s
 }
@@ -424,7 +426,9 @@ fn device_functions(c: &LoweringConfig) -> String {
             // native triangle's attribute memory undefined, and the CPU backend reads 0.
             F::GetAttribute => "if _optik_ctx == _OPTIK_CTX_TRIANGLES && i >= 2u {\n        return 0u;\n    }\n    return _optik_attribute_get(min(i, 7u));".into(),
             // OptiX keeps 7 bits of a reported hit kind; Vulkan reserves 128..255 too.
-            F::ReportIntersection => "return _optik_report_intersection(t, hit_kind & 0x7Fu, attributes);".into(),
+            // A report accepted under TERMINATE_ON_FIRST_HIT (Vulkan's bit 4 as optik's) ends
+            // the ray: the program unwinds (unwind.rs), as the CPU backend's does.
+            F::ReportIntersection => "let accepted = _optik_report_intersection(t, hit_kind & 0x7Fu, attributes);\n    if accepted && (_optik_ray_flags() & 4u) != 0u {\n        _optik_unwound = true;\n    }\n    return accepted;".into(),
             F::IgnoreIntersection => "_optik_ignore_intersection();".into(),
             F::TerminateRay => "_optik_terminate_ray();".into(),
             F::WorldRayOrigin => "return _optik_world_ray_origin();".into(),

@@ -10,16 +10,22 @@ use std::collections::{HashMap, HashSet};
 
 /// The device functions that may raise: the traces and calls (whose callees may raise, and
 /// which check their arguments) and the throw.
-const RAISING: &[&str] = &[
+pub const RAISING: &[&str] = &[
     "rt_trace",
     "rt_direct_call",
     "rt_continuation_call",
     "rt_throw_exception",
 ];
 
-/// Inserts the unwinding checks into the user's functions of `module`, which holds the
-/// Vulkan prelude (and so `_optik_unwound`).
-pub fn insert_unwinding(module: &mut Module) -> Result<(), String> {
+/// The device functions that may end the calling intersection program: a report accepted
+/// under TERMINATE_ON_FIRST_HIT ends the ray, and the CPU backend unwinds the program there,
+/// while Vulkan's OpReportIntersectionKHR returns to it (the prelude sets `_optik_unwound`).
+pub const ENDING_REPORTS: &[&str] = &["rt_report_intersection"];
+
+/// Inserts the unwinding checks after every call to one of `raising` (or to a function
+/// that reaches one) into the user's functions of `module`, which holds the Vulkan prelude
+/// (and so `_optik_unwound`).
+pub fn insert_unwinding(module: &mut Module, raising: &[&str]) -> Result<(), String> {
     let by_name: HashMap<&str, Handle<Function>> = module
         .functions
         .iter()
@@ -31,7 +37,7 @@ pub fn insert_unwinding(module: &mut Module) -> Result<(), String> {
         .find(|(_, g)| g.name.as_deref() == Some("_optik_unwound"))
         .map(|(h, _)| h)
         .ok_or("the prelude lacks _optik_unwound")?;
-    let mut may_raise: HashSet<Handle<Function>> = RAISING
+    let mut may_raise: HashSet<Handle<Function>> = raising
         .iter()
         .filter_map(|n| by_name.get(n).copied())
         .collect();
