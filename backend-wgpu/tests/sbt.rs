@@ -60,7 +60,8 @@ fn rays() -> Vec<Ray> {
     vec![
         down(0.75, 0.25),
         down(0.25, 0.75),
-        down(2.5, 0.5),
+        // Inside the second quad's first triangle, off the diagonal it shares with the other.
+        down(2.75, 0.25),
         down(5.0, 0.5),
     ]
 }
