@@ -126,6 +126,38 @@ impl StagePlan {
     }
 }
 
+/// Gives every procedural hit group an intersection stage index of its own.
+///
+/// Mesa's ray tracing pipelines (lavapipe, RADV) inline the any-hit program into the
+/// intersection stage; two groups that name the same intersection stage index with different
+/// any-hit programs (or one with none) then share one inlined copy, and a group without an
+/// any-hit runs another group's. Repeating the stage's create info (same module, same entry)
+/// costs one more stage entry and no extra SPIR-V.
+fn distinct_intersection_stages(
+    groups: &[VkGroup],
+    stage_infos: &mut Vec<vk::PipelineShaderStageCreateInfo<'_>>,
+) -> Vec<VkGroup> {
+    let mut used = std::collections::HashSet::new();
+    groups
+        .iter()
+        .map(|g| match *g {
+            VkGroup::Hit {
+                closest,
+                any,
+                intersection: Some(is),
+            } if !used.insert(is) => {
+                stage_infos.push(stage_infos[is as usize]);
+                VkGroup::Hit {
+                    closest,
+                    any,
+                    intersection: Some(stage_infos.len() as u32 - 1),
+                }
+            }
+            other => other,
+        })
+        .collect()
+}
+
 fn vk_stage_flags(s: VkStage) -> vk::ShaderStageFlags {
     match s {
         VkStage::Raygen => vk::ShaderStageFlags::RAYGEN_KHR,
@@ -512,7 +544,7 @@ impl Inner {
             .iter()
             .map(|s| CString::new(s.entry_name.clone()).unwrap_or_default())
             .collect();
-        let stage_infos: Vec<vk::PipelineShaderStageCreateInfo> = stages
+        let mut stage_infos: Vec<vk::PipelineShaderStageCreateInfo> = stages
             .iter()
             .zip(&shader_modules)
             .zip(&names)
@@ -523,8 +555,8 @@ impl Inner {
                     .name(n)
             })
             .collect();
-        let group_infos: Vec<vk::RayTracingShaderGroupCreateInfoKHR> = group_plan
-            .groups
+        let groups = distinct_intersection_stages(&group_plan.groups, &mut stage_infos);
+        let group_infos: Vec<vk::RayTracingShaderGroupCreateInfoKHR> = groups
             .iter()
             .map(|g| match *g {
                 VkGroup::General(s) => vk::RayTracingShaderGroupCreateInfoKHR::default()

@@ -18,18 +18,7 @@ use std::io::Write;
 /// Cases a backend is known to fail, each with what is wrong: reported as ignored with the
 /// reason (never as passed), and as a failure the day they pass, so the list cannot go stale.
 /// Every entry is an open bug of that backend (issue 6 for Vulkan).
-const KNOWN_FAILURES: &[(&str, &str, &str)] = &[
-    (
-        "sbt.null_programs",
-        "vulkan",
-        "an any-hit runs for a hit group that has none (record 1: ah_count 1); not yet found whether the SBT translation or the driver picks another group's any-hit",
-    ),
-    (
-        "numerics.degenerate_neighbours",
-        "vulkan",
-        "two rays beside degenerate triangles get two any-hit calls instead of one in the emulated watertight path; NO_DUPLICATE_ANY_HIT_INVOCATION on every geometry did not change it",
-    ),
-];
+const KNOWN_FAILURES: &[(&str, &str, &str)] = &[];
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -128,7 +117,7 @@ fn main() {
                 .find(|(c, b, _)| *c == case.name && *b == kind.name());
             match (r.status, known) {
                 (Status::Fail, Some((_, _, why))) => {
-                    println!("ignored, known failure: {why}");
+                    println!("ignored, known failure: {why}\n{}", r.detail);
                     ignored += 1;
                 }
                 (Status::Pass, Some(_)) => {

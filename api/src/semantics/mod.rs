@@ -8,5 +8,6 @@ pub mod exception;
 pub mod facing;
 pub mod motion;
 pub mod opacity;
+pub mod primitive;
 pub mod ray;
 pub mod sbt_index;

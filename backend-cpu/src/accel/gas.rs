@@ -7,7 +7,7 @@ use super::curve_basis::BezierSegment;
 use super::micromap::MicromapArrayData;
 use super::wide::{SlotTriangles, WideBvh};
 use optik_api::decode::{self, BufferBytes};
-use optik_api::semantics::sbt_index;
+use optik_api::semantics::{primitive, sbt_index};
 use optik_api::{
     AccelBuildOptions, BuildInput, CurveEndcaps, CurveType, Error, GeometryFlags, MicromapArray,
     MotionOptions, PrimitiveTypeFlags, Result, SceneFeatures,
@@ -246,22 +246,6 @@ fn motion_of(options: &AccelBuildOptions) -> (Option<MotionOptions>, usize) {
     }
 }
 
-fn finite3(p: &[f32; 3]) -> bool {
-    p.iter().all(|v| v.is_finite())
-}
-
-/// Whether a triangle has zero area (its edge cross product is exactly zero in f64).
-fn degenerate(t: &[[f32; 3]; 3]) -> bool {
-    let e = |a: usize, k: usize| t[a][k] as f64 - t[0][k] as f64;
-    let (e1, e2) = ([e(1, 0), e(1, 1), e(1, 2)], [e(2, 0), e(2, 1), e(2, 2)]);
-    let n = [
-        e1[1] * e2[2] - e1[2] * e2[1],
-        e1[2] * e2[0] - e1[0] * e2[2],
-        e1[0] * e2[1] - e1[1] * e2[0],
-    ];
-    n == [0.0; 3]
-}
-
 /// Per primitive of one input: its record offset (checked) and flags.
 fn records(
     offsets: Option<&optik_api::SbtIndexOffsets>,
@@ -329,8 +313,8 @@ fn decode_inputs(
                             d.vertices[idx[1] as usize],
                             d.vertices[idx[2] as usize],
                         ];
-                        if tri.iter().all(finite3) {
-                            some_key_has_area[p] |= !degenerate(&tri);
+                        if tri.iter().all(primitive::finite_point) {
+                            some_key_has_area[p] |= !primitive::zero_area(&tri);
                             let b = &mut boxes[first_prim + p];
                             for v in tri {
                                 b.grow(v);

@@ -22,6 +22,7 @@
 
 use super::tables::{self, NONE, Record};
 use optik_api::decode::{self, BufferBytes};
+use optik_api::semantics::primitive;
 use optik_api::{
     AccelBuildOptions, BuildFlags, BuildInput, CurveEndcaps, CurveType, Error, GeometryFlags,
     MicromapArray, OpacityMicromapArrayDesc, OpacityMicromapFormat, Result,
@@ -449,11 +450,18 @@ pub fn decode_gas(
                         let tri = indices[p as usize];
                         let mut bbox = [f32::NAN; 6];
                         let mut data = Vec::with_capacity(9 * keys);
+                        let mut some_key_has_area = false;
                         for (k, key) in per_key.iter().enumerate() {
                             let v = tri.map(|x| key.vertices[x as usize]);
                             let kb = box_of(&v);
                             bbox = if k == 0 { kb } else { union(&bbox, &kb) };
+                            some_key_has_area |= !primitive::zero_area(&v);
                             data.extend(v.iter().flatten().map(|c| c.to_bits()));
+                        }
+                        // A triangle of zero area in every key is left out like a NaN one
+                        // (DESIGN.md §4): the device test alone lets slivers through.
+                        if !some_key_has_area {
+                            bbox = [f32::NAN; 6];
                         }
                         let micromap = match (&array, &micromap_ids) {
                             (Some(a), Some(ids)) => Some(micromap_words(a, ids[p as usize])),
@@ -492,22 +500,20 @@ pub fn decode_gas(
                         basis: 0,
                         kind: GasKind::Custom,
                     };
-                    // With motion, the keys' boxes: intersection programs run only when the
-                    // ray meets the box at its time (prelude.rs, `_optik_vanished`).
+                    // The keys' boxes as given: intersection programs run only when the ray
+                    // meets the box (at its time), as on the CPU backend; the driver's test
+                    // of the padded (and, in hardware, quantised) box lets more rays through
+                    // (emulation.rs, `_optik_vanished`).
                     b.push_boxes(all, records > 1, record, None, |p| BoxItem {
                         bbox: per_key
                             .iter()
                             .map(|k| k[p as usize])
                             .reduce(|a, x| union(&a, &x))
                             .unwrap_or([f32::NAN; 6]),
-                        data: if keys > 1 {
-                            per_key
-                                .iter()
-                                .flat_map(|k| k[p as usize].map(f32::to_bits))
-                                .collect()
-                        } else {
-                            Vec::new()
-                        },
+                        data: per_key
+                            .iter()
+                            .flat_map(|k| k[p as usize].map(f32::to_bits))
+                            .collect(),
                         micromap: None,
                     });
                 }
@@ -625,14 +631,13 @@ fn push_native_triangles(
     let n = tris.indices.len() as u32;
     let records = t.flags.len() as u32;
     let offsets = decode::sbt_offsets(t.sbt_index_offsets.as_ref(), n, records, bytes)?;
-    // A triangle with a NaN or infinite vertex never hits and must not disturb its
-    // neighbours: it becomes degenerate (all three indices on one finite vertex), which
+    // A triangle with a NaN or infinite vertex, or of zero area, never hits and must not
+    // disturb its neighbours: it becomes a point (all three indices on one finite vertex), which
     // Vulkan never reports. (Vulkan's own rule, a NaN x making a triangle inactive, is not
     // safe to rely on: lavapipe lets one such triangle hide its neighbours.) Degenerate
     // triangles stay active, so refits keep working.
-    let finite = |v: &[f32; 3]| v.iter().all(|c| c.is_finite());
     let mut vertices: Vec<f32> = tris.vertices.iter().flatten().copied().collect();
-    let stand_in = match tris.vertices.iter().position(finite) {
+    let stand_in = match tris.vertices.iter().position(primitive::finite_point) {
         Some(i) => i as u32,
         None => {
             vertices.extend([0.0, 0.0, 0.0]);
@@ -645,7 +650,7 @@ fn push_native_triangles(
         let mut idx: Vec<u32> = Vec::with_capacity(prims.len() * 3);
         for &p in prims {
             let tri = tris.indices[p as usize];
-            let usable = tri.iter().all(|&v| finite(&tris.vertices[v as usize]));
+            let usable = primitive::triangle_hittable(&tri.map(|v| tris.vertices[v as usize]));
             idx.extend(if usable { tri } else { [stand_in; 3] });
         }
         let idx_bytes: Vec<u8> = idx.iter().flat_map(|v| v.to_le_bytes()).collect();

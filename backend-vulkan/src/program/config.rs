@@ -96,6 +96,12 @@ impl LoweringConfig {
         optik_api::PrimitiveTypeFlags(self.primitive_types).intersects(types)
     }
 
+    /// Whether user intersection programs run behind optik's own test of the primitive's box
+    /// (emulation.rs): whenever the pipeline intersects custom primitives.
+    pub fn box_guard(&self) -> bool {
+        self.intersects(optik_api::PrimitiveTypeFlags::CUSTOM)
+    }
+
     /// Whether stages check for and unwind exceptions.
     pub fn unwinds(&self) -> bool {
         !self.exceptions.is_empty()

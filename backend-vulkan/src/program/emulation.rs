@@ -30,6 +30,9 @@ fn _optik_time() -> f32 {
     );
     if !c.motion_structures {
         s.push_str(STATIC_PRIMITIVES);
+        if c.box_guard() {
+            s.push_str(STATIC_BOX_GUARD);
+        }
         return s;
     }
     s.push_str(&MOTION_PRIMITIVES.replace(
@@ -93,8 +96,21 @@ fn _optik_world_to_obj() -> mat4x3<f32> {
     return _optik_world_to_object();
 }
 
+"#;
+
+/// The box guard of static scenes: whether the ray misses the hit's custom primitive's own
+/// box (the geometry's data holds the boxes as given). The driver tests padded boxes, and
+/// hardware quantises them, so it runs intersection programs for rays that miss the box;
+/// the CPU backend runs them only for rays that meet it.
+const STATIC_BOX_GUARD: &str = r#"
 fn _optik_vanished() -> bool {
-    return false;
+    let g0 = _optik_geometry_record();
+    if ((g0.w >> 8u) & 0xFFu) != 1u || g0.z == 0xFFFFFFFFu {
+        return false;
+    }
+    let a = g0.z + _optik_primitive_id() * 6u;
+    let r = optk_slab_ray(_optik_obj_origin(), optk_canonical_direction(_optik_obj_direction()));
+    return !optk_box1(r, _optik_data_vec3(a), _optik_data_vec3(a + 3u), _optik_ray_tmin(), _optik_ray_tmax());
 }
 "#;
 
@@ -298,9 +314,9 @@ fn _optik_world_to_obj() -> mat4x3<f32> {
 }
 
 // Whether the hit's primitive does not exist at the ray's time (a vanish flag of its motion
-// chain or of its geometry's keys), or, for custom primitives with motion keys, the ray
-// misses the primitive's box at that time (the CPU backend runs intersection programs only
-// for rays that meet the interpolated box).
+// chain or of its geometry's keys), or, for custom primitives, the ray misses the
+// primitive's box at that time (the CPU backend runs intersection programs only for rays
+// that meet the interpolated box; the driver's test of the padded box lets more through).
 fn _optik_vanished() -> bool {
     if !_optik_path().live {
         return true;
@@ -311,7 +327,7 @@ fn _optik_vanished() -> bool {
     if k.key < 0 {
         return true;
     }
-    if ((g0.w >> 8u) & 0xFFu) != 1u || g1.x == 0xFFFFFFFFu || g0.z == 0xFFFFFFFFu {
+    if ((g0.w >> 8u) & 0xFFu) != 1u || g0.z == 0xFFFFFFFFu {
         return false;
     }
     let a = g0.z + (u32(k.key) * g1.z + _optik_primitive_id()) * 6u;

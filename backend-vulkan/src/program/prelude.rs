@@ -97,15 +97,17 @@ pub fn prelude(c: &LoweringConfig) -> String {
             i.stand_in_body()
         ));
     }
-    if c.triangles.emulated() || c.motion_structures {
+    if c.triangles.emulated() || c.motion_structures || c.box_guard() {
         s.push_str(optik_api::wgsl::RAY);
     }
     if c.motion_structures {
+        s.push_str(optik_api::wgsl::MOTION);
+    }
+    if c.motion_structures || c.box_guard() {
         let options = optik_api::wgsl::SnippetOptions {
             conservative_boxes: true,
             f64_fallback: false,
         };
-        s.push_str(optik_api::wgsl::MOTION);
         s.push_str(&optik_api::wgsl::specialise(optik_api::wgsl::SLAB, options));
     }
     s.push_str(
@@ -265,6 +267,13 @@ fn _optik_geometry_slot() -> u32 {
 
 fn _optik_geometry_record() -> vec4<u32> {
     return _optik_geometries[_optik_geometry_slot()];
+}
+
+// The hit geometry's kind (tables.rs): 0 triangles, 1 custom primitives, 2 spheres, 3 curves.
+// A hit group's built-in intersection stage runs only on geometry of its own kind, so a box
+// whose group has no intersection program is never hit, as on the CPU backend.
+fn _optik_geometry_kind() -> u32 {
+    return (_optik_geometry_record().w >> 8u) & 0xFFu;
 }
 
 fn _optik_geometry_extra() -> vec4<u32> {
@@ -752,7 +761,7 @@ pub fn wrapper(entry_fn: &str, role: &StageRole, c: &LoweringConfig) -> String {
                     "    // The pipeline does not intersect {types}.\n    {raise}\n    return;\n"
                 ));
             }
-            if c.motion_structures && matches!(role, StageRole::Program { .. }) {
+            if (c.motion_structures || c.box_guard()) && matches!(role, StageRole::Program { .. }) {
                 b.push_str("    if _optik_vanished() {\n        return;\n    }\n");
             }
             b.push_str(&format!("    {program}();\n"));
