@@ -24,6 +24,7 @@ pub mod launch;
 pub mod program;
 pub mod sbt;
 pub mod semantics;
+pub mod shapes;
 pub mod validate;
 pub mod wgsl;
 

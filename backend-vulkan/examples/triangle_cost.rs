@@ -38,68 +38,13 @@ fn miss__ms() {
 }
 "#;
 
+/// The shared icosphere (`optik_api::shapes`), flattened for buffer upload.
 fn icosphere(subdivisions: u32) -> (Vec<f32>, Vec<u32>) {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut p: Vec<[f64; 3]> = vec![
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ];
-    let mut tris: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..subdivisions {
-        let mut mids = std::collections::HashMap::new();
-        let mut next = Vec::with_capacity(tris.len() * 4);
-        for [a, b, c] in tris {
-            let mut mid = |x: u32, y: u32| -> u32 {
-                *mids.entry((x.min(y), x.max(y))).or_insert_with(|| {
-                    let (u, v) = (p[x as usize], p[y as usize]);
-                    p.push(std::array::from_fn(|k| 0.5 * (u[k] + v[k])));
-                    (p.len() - 1) as u32
-                })
-            };
-            let (ab, bc, ca) = (mid(a, b), mid(b, c), mid(c, a));
-            next.extend_from_slice(&[[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        tris = next;
-    }
-    let vertices = p
-        .iter()
-        .flat_map(|v| {
-            let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            v.map(|c| (c / len) as f32)
-        })
-        .collect();
-    (vertices, tris.into_iter().flatten().collect())
+    let (vertices, triangles) = optik_api::shapes::icosphere(subdivisions);
+    (
+        vertices.into_iter().flatten().collect(),
+        triangles.into_iter().flatten().collect(),
+    )
 }
 
 /// A device set up to trace the camera under one accuracy.

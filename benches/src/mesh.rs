@@ -342,72 +342,10 @@ pub fn parse_ply(bytes: &[u8], name: &str) -> Result<Mesh> {
 }
 
 impl Mesh {
-    /// A closed unit icosphere: an icosahedron subdivided `subdivisions` times, vertices pushed to
-    /// the sphere, shared between faces (so edges are shared exactly). Counter-clockwise seen from
-    /// outside.
+    /// A closed unit icosphere (`optik::shapes::icosphere`: an icosahedron subdivided
+    /// `subdivisions` times, edges shared exactly, counter-clockwise seen from outside).
     pub fn icosphere(subdivisions: u32) -> Mesh {
-        let t = (1.0 + 5f64.sqrt()) / 2.0;
-        let mut positions: Vec<[f64; 3]> = vec![
-            [-1.0, t, 0.0],
-            [1.0, t, 0.0],
-            [-1.0, -t, 0.0],
-            [1.0, -t, 0.0],
-            [0.0, -1.0, t],
-            [0.0, 1.0, t],
-            [0.0, -1.0, -t],
-            [0.0, 1.0, -t],
-            [t, 0.0, -1.0],
-            [t, 0.0, 1.0],
-            [-t, 0.0, -1.0],
-            [-t, 0.0, 1.0],
-        ];
-        let mut triangles: Vec<[u32; 3]> = vec![
-            [0, 11, 5],
-            [0, 5, 1],
-            [0, 1, 7],
-            [0, 7, 10],
-            [0, 10, 11],
-            [1, 5, 9],
-            [5, 11, 4],
-            [11, 10, 2],
-            [10, 7, 6],
-            [7, 1, 8],
-            [3, 9, 4],
-            [3, 4, 2],
-            [3, 2, 6],
-            [3, 6, 8],
-            [3, 8, 9],
-            [4, 9, 5],
-            [2, 4, 11],
-            [6, 2, 10],
-            [8, 6, 7],
-            [9, 8, 1],
-        ];
-        for _ in 0..subdivisions {
-            let mut midpoints = std::collections::HashMap::new();
-            let mut midpoint = |a: u32, b: u32, positions: &mut Vec<[f64; 3]>| -> u32 {
-                *midpoints.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                    let (pa, pb) = (positions[a as usize], positions[b as usize]);
-                    positions.push(std::array::from_fn(|k| 0.5 * (pa[k] + pb[k])));
-                    (positions.len() - 1) as u32
-                })
-            };
-            let mut next = Vec::with_capacity(triangles.len() * 4);
-            for [a, b, c] in triangles {
-                let ab = midpoint(a, b, &mut positions);
-                let bc = midpoint(b, c, &mut positions);
-                let ca = midpoint(c, a, &mut positions);
-                next.extend_from_slice(&[[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-            }
-            triangles = next;
-        }
-        let positions = positions
-            .iter()
-            .map(|p| {
-                let len = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
-                p.map(|c| (c / len) as f32)
-            })
-            .collect();
+        let (positions, triangles) = optik::shapes::icosphere(subdivisions);
         Mesh {
             positions,
             triangles,

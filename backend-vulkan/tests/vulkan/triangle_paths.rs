@@ -297,71 +297,6 @@ fn every_triangle_path_runs_any_hit_and_opacity_as_optik_defines() {
     }
 }
 
-/// A unit icosphere with `subdivisions` levels, as the benches' `Mesh::icosphere`.
-pub fn icosphere(subdivisions: u32) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut positions: Vec<[f64; 3]> = vec![
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ];
-    let mut triangles: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..subdivisions {
-        let mut midpoints = std::collections::HashMap::new();
-        let mut next = Vec::with_capacity(triangles.len() * 4);
-        for [a, b, c] in triangles {
-            let mut mid = |x: u32, y: u32| -> u32 {
-                *midpoints.entry((x.min(y), x.max(y))).or_insert_with(|| {
-                    let (p, q) = (positions[x as usize], positions[y as usize]);
-                    positions.push(std::array::from_fn(|k| 0.5 * (p[k] + q[k])));
-                    (positions.len() - 1) as u32
-                })
-            };
-            let (ab, bc, ca) = (mid(a, b), mid(b, c), mid(c, a));
-            next.extend_from_slice(&[[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        triangles = next;
-    }
-    let positions = positions
-        .iter()
-        .map(|p| {
-            let len = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
-            p.map(|c| (c / len) as f32)
-        })
-        .collect();
-    (positions, triangles)
-}
-
 /// Rays from `inside` aimed exactly at every vertex and every edge midpoint of a mesh.
 fn aimed_at_vertices_and_edges(
     positions: &[[f32; 3]],
@@ -389,7 +324,7 @@ fn aimed_at_vertices_and_edges(
 
 #[test]
 fn optik_watertight_triangles_never_let_rays_out_of_a_closed_mesh() {
-    let (positions, triangles) = icosphere(3);
+    let (positions, triangles) = optik_api::shapes::icosphere(3);
     let inside = [0.0123, -0.0311, 0.0217];
     let rays = aimed_at_vertices_and_edges(&positions, &triangles, inside);
     for accuracy in paths() {

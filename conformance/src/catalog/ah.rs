@@ -17,6 +17,7 @@ pub fn ah_cases() -> Vec<Case> {
         control("ignore"),
         control("terminate"),
         terminate_from_is(),
+        terminate_ends_traversal(),
         single_call(),
         order_independence(),
     ]
@@ -202,6 +203,80 @@ fn control(kind: &str) -> Case {
         ];
     }
     case.build()
+}
+
+fn terminate_ends_traversal() -> Case {
+    // Every any-hit call terminates, so whichever candidate traversal meets first is the only
+    // one: one any-hit call, closest-hit runs, miss does not, in every traversal order.
+    // Eight stacked non-opaque quads, and two instances of boxes whose intersection programs
+    // report far beyond the boxes (t = 100 in one, 90 in the other): a backend that went on
+    // after the terminate would run the other box's program, which reports inside the
+    // shrunken interval (90 < 100) or not, depending on order; rays cross the two boxes in
+    // both orders, so one of them sees a second any-hit call.
+    let mut verts = Vec::new();
+    for layer in 0..8 {
+        verts.extend(quad(0.0, 0.0, 1.0, 1.0, -1.0 - layer as f32));
+    }
+    let mut scene = Scene::default();
+    let tris = scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(verts, GeometryFlags::NONE),
+    )])));
+    let boxes_at = |scene: &mut Scene, near_x: f32, far_x: f32| {
+        scene.add(Node::Gas(Gas::new(vec![GeomInput::Aabbs(Aabbs::new(
+            vec![
+                [near_x, 0.0, -1.25, near_x + 1.0, 1.0, -0.75],
+                [far_x, 0.0, -2.25, far_x + 1.0, 1.0, -1.75],
+            ],
+            GeometryFlags::NONE,
+        ))])))
+    };
+    // Instance A is nearer at x in [2, 3], instance B at x in [4, 5].
+    let a = boxes_at(&mut scene, 2.0, 4.0);
+    let b = boxes_at(&mut scene, 4.0, 2.0);
+    let root = scene.add(Node::Ias(vec![
+        InstanceDesc::of(tris),
+        InstanceDesc {
+            sbt_offset: 1,
+            ..InstanceDesc::of(a)
+        },
+        InstanceDesc {
+            sbt_offset: 2,
+            ..InstanceDesc::of(b)
+        },
+    ]));
+    let report_at =
+        |k: u32, t: f32| SbtEntry::new(1, vec![k, action::TERMINATE, 0, 0, 1, t.to_bits()]);
+    let records = vec![
+        SbtEntry::new(0, vec![0, action::TERMINATE]),
+        report_at(1, 100.0),
+        report_at(2, 90.0),
+    ];
+    let mut rng = Rng::new(31);
+    let rays: Vec<Ray> = (0..24)
+        .map(|k| {
+            let x = 2.0 * (k / 8) as f64;
+            let o = [x + rng.range(0.1, 0.9), rng.range(0.1, 0.9), 0.0];
+            Ray::new(v32(o), [0.0, 0.0, -1.0])
+        })
+        .collect();
+    StdCase::new(
+        Group::Ah,
+        "terminate_ends_traversal",
+        "rt_terminate_ray in every any-hit program, over eight stacked triangles and two stacked boxes whose intersection programs report beyond them: traversal ends at the first candidate, whichever it is (one intersection and one any-hit call, closest-hit runs, miss does not)",
+        &[Rule::IgnoreTerminate, Rule::AnyHitPerCandidate],
+        scene,
+        Some(root),
+    )
+    .hits(
+        vec![
+            hit_group(Some(prog::CH), Some(prog::AH), None),
+            hit_group(Some(prog::CH_ATTRS), Some(prog::AH), Some(prog::IS_FIXED)),
+        ],
+        records,
+    )
+    .launch(24, rays)
+    .record(vec![ch::hit(), ch::ah_count(), ch::is_count(), ch::programs()])
+    .build()
 }
 
 fn terminate_from_is() -> Case {

@@ -147,77 +147,13 @@ pub fn cube(lo: f32, hi: f32) -> Mesh {
     }
 }
 
-/// An icosphere of radius 1 at the origin, subdivided `levels` times, facing out.
+/// An icosphere of radius 1 at the origin, subdivided `levels` times, facing out
+/// (`optik::shapes::icosphere`, the mesh the benchmarks and backend tests use too).
 pub fn icosphere(levels: u32) -> Mesh {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut v: Vec<[f64; 3]> = vec![
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ];
-    let mut f: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    let norm = |p: [f64; 3]| {
-        let l = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
-        [p[0] / l, p[1] / l, p[2] / l]
-    };
-    v.iter_mut().for_each(|p| *p = norm(*p));
-    for _ in 0..levels {
-        let mut cache = std::collections::HashMap::new();
-        let mut mid = |a: u32, b: u32, v: &mut Vec<[f64; 3]>| -> u32 {
-            *cache.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                let (pa, pb) = (v[a as usize], v[b as usize]);
-                v.push(norm([
-                    (pa[0] + pb[0]) / 2.0,
-                    (pa[1] + pb[1]) / 2.0,
-                    (pa[2] + pb[2]) / 2.0,
-                ]));
-                v.len() as u32 - 1
-            })
-        };
-        let mut nf = Vec::new();
-        for t in &f {
-            let (a, b, c) = (
-                mid(t[0], t[1], &mut v),
-                mid(t[1], t[2], &mut v),
-                mid(t[2], t[0], &mut v),
-            );
-            nf.extend([[t[0], a, c], [t[1], b, a], [t[2], c, b], [a, b, c]]);
-        }
-        f = nf;
-    }
+    let (vertices, triangles) = optik::shapes::icosphere(levels);
     Mesh {
-        vertices: v.into_iter().map(v32).collect(),
-        triangles: f,
+        vertices,
+        triangles,
     }
 }
 
