@@ -374,21 +374,7 @@ fn raygen_std(ctx: &mut Ctx<'_, '_>, offset: bool) -> Flow {
     }
     let mut p = [0u32; 32];
     p[2] = w[14];
-    let handle = [ctx.param(0), ctx.param(1)];
-    ctx.trace(
-        handle,
-        origin,
-        [f(4), f(5), f(6)],
-        f(3),
-        f(7),
-        f(8),
-        w[9],
-        w[10],
-        w[11],
-        w[12],
-        w[13],
-        &mut p,
-    )?;
+    trace_words_from(ctx, origin, &w, &mut p)?;
     or_word(ctx, rec::PROGRAMS, p[0] | 1);
     let s = slot(ctx, 0);
     ctx.write(2, s + rec::AH_COUNT, p[1]);
@@ -900,4 +886,36 @@ pub fn uint_channel(name: &str, word: usize) -> ChannelSpec {
         kind: ChannelKind::Uint,
         tolerance: Tolerance::Exact,
     }
+}
+
+/// Traces the ray of [`Ray::words`] `w` (launch parameters 0 and 1 hold the handle) with
+/// `payload`, as the kit's raygen programs do.
+pub fn trace_words(ctx: &mut Ctx<'_, '_>, w: &[u32], payload: &mut [u32]) -> Flow {
+    let origin = [0, 1, 2].map(|k| f32::from_bits(w[k]));
+    trace_words_from(ctx, origin, w, payload)
+}
+
+/// [`trace_words`] from another origin.
+pub fn trace_words_from(
+    ctx: &mut Ctx<'_, '_>,
+    origin: [f32; 3],
+    w: &[u32],
+    payload: &mut [u32],
+) -> Flow {
+    let f = |k: usize| f32::from_bits(w[k]);
+    let handle = [ctx.param(0), ctx.param(1)];
+    ctx.trace(
+        handle,
+        origin,
+        [f(4), f(5), f(6)],
+        f(3),
+        f(7),
+        f(8),
+        w[9],
+        w[10],
+        w[11],
+        w[12],
+        w[13],
+        payload,
+    )
 }

@@ -205,19 +205,12 @@ const GUARD: &str = r#"
 // Ray i runs down -z at x = xs[i], y = 0.5, inside and just outside box 0's face x = 1.
 @group(0) @binding(2) var<storage, read> xs: array<f32>;
 
-fn raygen__rg() {
+fn raygen__xs() {
     let i = rt_launch_index().x;
     var p: RtPayload;
     p[0] = 0xFFu;
     rt_trace(params.handle, vec3<f32>(xs[i], 0.5, 5.0), vec3<f32>(0.0, 0.0, -1.0), 0.0, 100.0, 0.0, 0xFFu, 0u, 0u, 1u, 0u, &p);
     out[i] = p[0];
-}
-fn intersection__box() {
-    var a: RtAttributes;
-    rt_report_intersection(1.0, 0u, a);
-}
-fn closesthit__ch() {
-    rt_set_payload(0u, rt_primitive_index());
 }
 "#;
 
@@ -235,8 +228,9 @@ fn intersection_programs_run_only_for_rays_that_meet_the_box() {
         ],
         GeometryFlags::DISABLE_ANYHIT,
     );
-    let m = dev.module(&format!("{RAY_HEADER}{GUARD}"));
-    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
+    // IDS's intersection program reports unconditionally: it hits whenever it runs.
+    let m = dev.module(&format!("{RAY_HEADER}{IDS}{GUARD}"));
+    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__xs")));
     let hg = dev.group(ProgramGroupDesc::HitGroup {
         closest_hit: Some(prog(m, "closesthit__ch")),
         any_hit: None,

@@ -3,7 +3,7 @@
 
 use super::util::*;
 use crate::case::*;
-use crate::kit::{Ray, StdCase, ch, hit_group, uint_channel};
+use crate::kit::{Ray, StdCase, ch, hit_group, trace_words, uint_channel};
 use crate::oracle::exec::Ctx;
 use crate::oracle::model::{Flow, Models};
 use crate::scene::{Gas, GeomInput, Scene, Triangles};
@@ -131,26 +131,6 @@ fn own_case(
 /// Reads ray `id` of the rays buffer as the standard layout's words.
 fn ray_words(ctx: &mut Ctx<'_, '_>, id: u32) -> Vec<u32> {
     (0..16).map(|k| ctx.read(1, id as usize * 16 + k)).collect()
-}
-
-/// Traces ray words `w` with `payload`.
-fn trace_words(ctx: &mut Ctx<'_, '_>, w: &[u32], payload: &mut [u32]) -> Flow {
-    let f = |k: usize| f32::from_bits(w[k]);
-    let handle = [ctx.param(0), ctx.param(1)];
-    ctx.trace(
-        handle,
-        [f(0), f(1), f(2)],
-        [f(4), f(5), f(6)],
-        f(3),
-        f(7),
-        f(8),
-        w[9],
-        w[10],
-        w[11],
-        w[12],
-        w[13],
-        payload,
-    )
 }
 
 const PAYLOAD_WGSL: &str = r#"
@@ -492,20 +472,8 @@ fn spill_across_calls() -> Case {
             ..Default::default()
         },
     };
-    let sbt = SbtLayout {
-        miss: vec![SbtEntry::new(0, vec![])],
-        hit: vec![SbtEntry::new(0, vec![])],
-        callables: vec![SbtEntry::new(0, vec![]), SbtEntry::new(1, vec![])],
-        ..Default::default()
-    };
-    let rays = (0..8)
-        .map(|k| {
-            Ray::new(
-                [0.5 + if k % 2 == 0 { 0.0 } else { 5.0 }, 0.5, 1.0],
-                [0.0, 0.0, -1.0],
-            )
-        })
-        .collect();
+    let sbt = plain_sbt(vec![SbtEntry::new(0, vec![]), SbtEntry::new(1, vec![])]);
+    let rays = hit_and_miss_rays();
     own_case(
         Group::Call,
         "spill_across_calls",
@@ -702,20 +670,8 @@ fn direct_all_stages() -> Case {
             ..Default::default()
         },
     };
-    let sbt = SbtLayout {
-        miss: vec![SbtEntry::new(0, vec![])],
-        hit: vec![SbtEntry::new(0, vec![])],
-        callables: vec![SbtEntry::new(0, vec![7]), SbtEntry::new(1, vec![])],
-        ..Default::default()
-    };
-    let rays = (0..8)
-        .map(|k| {
-            Ray::new(
-                [0.5 + if k % 2 == 0 { 0.0 } else { 5.0 }, 0.5, 1.0],
-                [0.0, 0.0, -1.0],
-            )
-        })
-        .collect();
+    let sbt = plain_sbt(vec![SbtEntry::new(0, vec![7]), SbtEntry::new(1, vec![])]);
+    let rays = hit_and_miss_rays();
     own_case(
         Group::Call,
         "direct_all_stages",
@@ -853,12 +809,7 @@ fn continuation_trace() -> Case {
             ..Default::default()
         },
     };
-    let sbt = SbtLayout {
-        miss: vec![SbtEntry::new(0, vec![])],
-        hit: vec![SbtEntry::new(0, vec![])],
-        callables: vec![SbtEntry::new(0, vec![])],
-        ..Default::default()
-    };
+    let sbt = plain_sbt(vec![SbtEntry::new(0, vec![])]);
     let rays = (0..8)
         .map(|k| {
             Ray::new(
@@ -1130,11 +1081,7 @@ fn recursion_tree() -> Case {
             ..Default::default()
         },
     };
-    let sbt = SbtLayout {
-        miss: vec![SbtEntry::new(0, vec![])],
-        hit: vec![SbtEntry::new(0, vec![])],
-        ..Default::default()
-    };
+    let sbt = plain_sbt(Vec::new());
     own_case(
         Group::Trace,
         "recursion_tree",
@@ -1158,4 +1105,27 @@ fn recursion_tree() -> Case {
             .map(|(k, n)| uint_channel(n, k))
             .collect(),
     )
+}
+
+/// One miss and one hit record without data, and `callables`.
+fn plain_sbt(callables: Vec<SbtEntry>) -> SbtLayout {
+    SbtLayout {
+        miss: vec![SbtEntry::new(0, vec![])],
+        hit: vec![SbtEntry::new(0, vec![])],
+        callables,
+        ..Default::default()
+    }
+}
+
+/// Eight rays down -z, alternately through the box over the unit square (x, y in [0, 1]) and
+/// beside it (x = 5.5).
+fn hit_and_miss_rays() -> Vec<Ray> {
+    (0..8)
+        .map(|k| {
+            Ray::new(
+                [0.5 + if k % 2 == 0 { 0.0 } else { 5.0 }, 0.5, 1.0],
+                [0.0, 0.0, -1.0],
+            )
+        })
+        .collect()
 }

@@ -4,7 +4,7 @@
 use super::util::*;
 use crate::case::*;
 use crate::image::ChannelKind;
-use crate::kit::{self, Ray, StdCase, action, ch, hit_group, prog, uint_channel};
+use crate::kit::{self, Ray, StdCase, action, ch, hit_group, prog, trace_words, uint_channel};
 use crate::oracle::model::Models;
 use crate::scene::{Aabbs, Gas, GeomInput, InstanceDesc, Node, Scene, Triangles};
 use crate::tolerance::Tolerance;
@@ -234,23 +234,8 @@ fn state_models() -> Models {
             return Ok(());
         }
         let w: Vec<u32> = (0..16).map(|k| ctx.read(1, id as usize * 16 + k)).collect();
-        let f = |k: usize| f32::from_bits(w[k]);
         let mut p = [0u32; 8];
-        let handle = [ctx.param(0), ctx.param(1)];
-        ctx.trace(
-            handle,
-            [f(0), f(1), f(2)],
-            [f(4), f(5), f(6)],
-            f(3),
-            f(7),
-            f(8),
-            w[9],
-            w[10],
-            w[11],
-            w[12],
-            w[13],
-            &mut p,
-        )?;
+        trace_words(ctx, &w, &mut p)?;
         ctx.write(2, id as usize * 48 + 44, p[0] | 1);
         Ok(())
     });
@@ -589,23 +574,8 @@ pub fn xform_models() -> Models {
             return Ok(());
         }
         let w: Vec<u32> = (0..16).map(|k| ctx.read(1, id as usize * 16 + k)).collect();
-        let f = |k: usize| f32::from_bits(w[k]);
         let mut p = [0u32; 8];
-        let handle = [ctx.param(0), ctx.param(1)];
-        ctx.trace(
-            handle,
-            [f(0), f(1), f(2)],
-            [f(4), f(5), f(6)],
-            f(3),
-            f(7),
-            f(8),
-            w[9],
-            w[10],
-            w[11],
-            w[12],
-            w[13],
-            &mut p,
-        )
+        trace_words(ctx, &w, &mut p)
     });
     m
 }
