@@ -296,6 +296,14 @@ pub trait Device: Send + Sync {
     ) -> Result<()>;
     /// Waits for every launch to finish.
     fn synchronize(&self) -> Result<()>;
+
+    /// What the driver reported since the last call, oldest first: the Khronos validation
+    /// layer's messages on the Vulkan backend when validation is on (`OPTIK_VALIDATION=1`);
+    /// nothing on backends without such a channel. The conformance suite fails a case on
+    /// any (DESIGN.md §9).
+    fn take_diagnostics(&self) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 #[cfg(test)]

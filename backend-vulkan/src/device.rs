@@ -513,4 +513,8 @@ impl Device for VulkanDevice {
     fn synchronize(&self) -> Result<()> {
         self.with(|i| i.wait_launches())
     }
+
+    fn take_diagnostics(&self) -> Vec<String> {
+        self.take_validation_messages()
+    }
 }

@@ -131,7 +131,58 @@ pub fn expectations(case: &Case) -> Result<Vec<Expectation>, String> {
 }
 
 /// Runs one case on one device and judges it (against references in `references`, if given).
+/// A driver diagnostic (a Vulkan validation message) during the case fails it, whatever its
+/// records say.
 pub fn run_on(
+    case: &Case,
+    expected: &Result<Vec<Expectation>, String>,
+    backend: BackendKind,
+    device: &dyn Device,
+    references: Option<&Path>,
+) -> CaseResult {
+    // Anything reported before the case belongs to whoever used the device before it.
+    let earlier = device.take_diagnostics();
+    let result = judged_run(case, expected, backend, device, references);
+    let result = failed_by_diagnostics(result, &device.take_diagnostics());
+    if !earlier.is_empty() {
+        eprintln!(
+            "note: {} driver diagnostic(s) were pending before {} on {}; the first: {}",
+            earlier.len(),
+            case.name,
+            backend.name(),
+            earlier[0]
+        );
+    }
+    result
+}
+
+/// `result`, failed when the driver reported anything during the case (the messages lead
+/// its detail).
+fn failed_by_diagnostics(mut result: CaseResult, messages: &[String]) -> CaseResult {
+    if messages.is_empty() {
+        return result;
+    }
+    result.status = Status::Fail;
+    let shown: Vec<&str> = messages.iter().take(3).map(String::as_str).collect();
+    let more = if messages.len() > shown.len() {
+        " | …"
+    } else {
+        ""
+    };
+    let then = if result.detail.is_empty() {
+        String::new()
+    } else {
+        format!("; {}", result.detail)
+    };
+    result.detail = format!(
+        "{} driver diagnostic(s) (validation layer) during the case: {}{more}{then}",
+        messages.len(),
+        shown.join(" | "),
+    );
+    result
+}
+
+fn judged_run(
     case: &Case,
     expected: &Result<Vec<Expectation>, String>,
     backend: BackendKind,
@@ -337,5 +388,30 @@ mod tests {
         assert!(!filter_matches("tri.t_plane", "tri.t_planes"));
         assert!(filter_matches("x.*, tri.?_plane", "tri.t_plane"));
         assert!(filter_matches("*", "anything.at_all"));
+    }
+
+    #[test]
+    fn a_driver_diagnostic_fails_a_passing_case() {
+        let passed = CaseResult {
+            name: "tri.t_plane".into(),
+            group: "tri".into(),
+            backend: BackendKind::Vulkan,
+            status: Status::Pass,
+            detail: "1 launch(es) match the oracle and the references".into(),
+            max_error: Some(0.0),
+            launches: Vec::new(),
+        };
+        let quiet = failed_by_diagnostics(passed.clone(), &[]);
+        assert_eq!(quiet.status, Status::Pass);
+        let messages: Vec<String> = (0..5).map(|k| format!("VUID-{k}")).collect();
+        let failed = failed_by_diagnostics(passed, &messages);
+        assert_eq!(failed.status, Status::Fail);
+        assert!(
+            failed.detail.starts_with("5 driver diagnostic(s)")
+                && failed.detail.contains("VUID-0 | VUID-1 | VUID-2 | …")
+                && !failed.detail.contains("VUID-3"),
+            "{}",
+            failed.detail
+        );
     }
 }
