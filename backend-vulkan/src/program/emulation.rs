@@ -31,10 +31,12 @@ fn _optik_time() -> f32 {
     if !c.motion_structures {
         s.push_str(STATIC_PRIMITIVES);
         if c.box_guard() {
+            s.push_str(BOX_MISS);
             s.push_str(STATIC_BOX_GUARD);
         }
         return s;
     }
+    s.push_str(BOX_MISS);
     s.push_str(&MOTION_PRIMITIVES.replace(
         "$KEY",
         if c.motion {
@@ -98,6 +100,15 @@ fn _optik_world_to_obj() -> mat4x3<f32> {
 
 "#;
 
+/// Whether the object-space ray misses a box in its current interval, by the shared
+/// conservative slab test (the CPU backend's): the box guard of custom primitives.
+const BOX_MISS: &str = r#"
+fn _optik_misses_box(lo: vec3<f32>, hi: vec3<f32>) -> bool {
+    let r = optk_slab_ray(_optik_obj_origin(), optk_canonical_direction(_optik_obj_direction()));
+    return !optk_box1(r, lo, hi, _optik_ray_tmin(), _optik_ray_tmax());
+}
+"#;
+
 /// The box guard of static scenes: whether the ray misses the hit's custom primitive's own
 /// box (the geometry's data holds the boxes as given). The driver tests padded boxes, and
 /// hardware quantises them, so it runs intersection programs for rays that miss the box;
@@ -105,12 +116,11 @@ fn _optik_world_to_obj() -> mat4x3<f32> {
 const STATIC_BOX_GUARD: &str = r#"
 fn _optik_vanished() -> bool {
     let g0 = _optik_geometry_record();
-    if ((g0.w >> 8u) & 0xFFu) != 1u || g0.z == 0xFFFFFFFFu {
+    if _optik_kind(g0) != 1u || g0.z == 0xFFFFFFFFu {
         return false;
     }
     let a = g0.z + _optik_primitive_id() * 6u;
-    let r = optk_slab_ray(_optik_obj_origin(), optk_canonical_direction(_optik_obj_direction()));
-    return !optk_box1(r, _optik_data_vec3(a), _optik_data_vec3(a + 3u), _optik_ray_tmin(), _optik_ray_tmax());
+    return _optik_misses_box(_optik_data_vec3(a), _optik_data_vec3(a + 3u));
 }
 "#;
 
@@ -327,7 +337,7 @@ fn _optik_vanished() -> bool {
     if k.key < 0 {
         return true;
     }
-    if ((g0.w >> 8u) & 0xFFu) != 1u || g0.z == 0xFFFFFFFFu {
+    if _optik_kind(g0) != 1u || g0.z == 0xFFFFFFFFu {
         return false;
     }
     let a = g0.z + (u32(k.key) * g1.z + _optik_primitive_id()) * 6u;
@@ -338,8 +348,7 @@ fn _optik_vanished() -> bool {
         lo = lo * (1.0 - k.frac) + _optik_data_vec3(b) * k.frac;
         hi = hi * (1.0 - k.frac) + _optik_data_vec3(b + 3u) * k.frac;
     }
-    let r = optk_slab_ray(_optik_obj_origin(), optk_canonical_direction(_optik_obj_direction()));
-    return !optk_box1(r, lo, hi, _optik_ray_tmin(), _optik_ray_tmax());
+    return _optik_misses_box(lo, hi);
 }
 "#;
 

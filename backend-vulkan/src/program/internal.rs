@@ -21,7 +21,7 @@ pub fn internal_programs(c: &LoweringConfig, curve_basis: u32) -> String {
     s.push_str(wgsl::CURVE);
     s.push_str(SPHERE_AND_CURVE);
     s.push_str(&format!(
-        "\nfn _optik_builtin_curve() {{\n    if _optik_geometry_kind() != 3u {{\n        return;\n    }}\n    let c = _optik_curve_candidate({curve_basis}u);\n    if c.hit {{\n        _optik_report_intersection(c.t, 0u, c.attributes);\n    }}\n}}\n"
+        "\nfn _optik_builtin_curve() {{\n    if _optik_kind(_optik_geometry_record()) != 3u {{\n        return;\n    }}\n    let c = _optik_curve_candidate({curve_basis}u);\n    if c.hit {{\n        _optik_report_intersection(c.t, 0u, c.attributes);\n    }}\n}}\n"
     ));
     if c.triangles.emulated() {
         s.push_str(&triangle_stage(c));
@@ -59,7 +59,7 @@ struct _OptikCandidate {
 // (kind 1), in the open interval (tmin, tmax) as triangles and the other backends' spheres;
 // the object-space sphere goes into attributes 0..3 for rt_sphere.
 fn _optik_builtin_sphere() {
-    if _optik_geometry_kind() != 2u {
+    if _optik_kind(_optik_geometry_record()) != 2u {
         return;
     }
     let s = _optik_sphere_at(_optik_geometry_record(), _optik_geometry_extra(), _optik_primitive_id());
@@ -223,7 +223,7 @@ fn _optik_triangle_candidate() -> _OptikCandidate {{
 }}
 
 fn _optik_builtin_triangle() {{
-    if _optik_geometry_kind() != 0u {{
+    if _optik_kind(_optik_geometry_record()) != 0u {{
         return;
     }}
     let c = _optik_triangle_candidate();
@@ -296,7 +296,7 @@ fn past_table_stages(c: &LoweringConfig) -> String {
 // The intersection stage of records past the user's, for every primitive kind.
 fn _optik_builtin_past_table() {{
     let g0 = _optik_geometry_record();
-    let kind = (g0.w >> 8u) & 0xFFu;
+    let kind = _optik_kind(g0);
     var h: _OptikCandidate;{triangles}{spheres}{curves}{custom}
     if h.hit {{
         {found}

@@ -269,11 +269,12 @@ fn _optik_geometry_record() -> vec4<u32> {
     return _optik_geometries[_optik_geometry_slot()];
 }
 
-// The hit geometry's kind (tables.rs): 0 triangles, 1 custom primitives, 2 spheres, 3 curves.
-// A hit group's built-in intersection stage runs only on geometry of its own kind, so a box
-// whose group has no intersection program is never hit, as on the CPU backend.
-fn _optik_geometry_kind() -> u32 {
-    return (_optik_geometry_record().w >> 8u) & 0xFFu;
+// The kind of the geometry with table record `g0` (tables.rs): 0 triangles, 1 custom
+// primitives, 2 spheres, 3 curves. A hit group's built-in intersection stage runs only on
+// geometry of its own kind, so a box whose group has no intersection program is never hit,
+// as on the CPU backend.
+fn _optik_kind(g0: vec4<u32>) -> u32 {
+    return (g0.w >> 8u) & 0xFFu;
 }
 
 fn _optik_geometry_extra() -> vec4<u32> {
