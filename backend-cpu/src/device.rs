@@ -163,7 +163,9 @@ fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
         .map_err(|e| Error::backend(format!("cannot start launch threads: {e}")))
 }
 
-fn cpu_name() -> String {
+/// The host processor's model name (`/proc/cpuinfo`), or the architecture where that is not
+/// readable; the CPU device's `device_name` begins with it.
+pub fn cpu_name() -> String {
     std::fs::read_to_string("/proc/cpuinfo")
         .ok()
         .and_then(|s| {

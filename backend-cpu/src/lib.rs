@@ -26,7 +26,7 @@ pub mod pipeline;
 mod sbt;
 
 #[cfg(feature = "runtime")]
-pub use device::{CpuDevice, MAX_CALLABLE_DEPTH};
+pub use device::{CpuDevice, MAX_CALLABLE_DEPTH, cpu_name};
 #[cfg(feature = "runtime")]
 pub use pipeline::{NativeModuleDesc, NativeProgram};
 

@@ -38,17 +38,7 @@ fn miss__main() {
 #[test]
 fn wgsl_programs_trace_through_the_jit() {
     let dev = CpuDevice::with_threads(2).unwrap();
-    let tri: [[f32; 3]; 3] = [[0.0, 0.0, 5.0], [0.0, 4.0, 5.0], [4.0, 0.0, 5.0]];
-    let vb = dev.create_buffer(36).unwrap();
-    dev.write_buffer(vb, 0, bytemuck::cast_slice(&tri)).unwrap();
-    let input = TriangleArray::new(BufferView::new(vb), 3, GeometryFlags::DISABLE_ANYHIT);
-    let accel = dev
-        .accel_build(
-            &AccelBuildOptions::default(),
-            &[BuildInput::Triangles(input)],
-        )
-        .unwrap();
-    let handle = dev.traversable_handle(accel).unwrap();
+    let handle = one_triangle(&dev);
     let options = PipelineCompileOptions {
         num_payload_values: Setting::Value(4),
         ..Default::default()

@@ -130,6 +130,23 @@ fn closesthit__ch() {
 }
 "#;
 
+/// A pipeline of IDS's programs (one hit group, no any-hit) plus `more` WGSL, raygen `raygen`,
+/// and its table.
+fn ids_pipeline(dev: &TestDevice, more: &str, raygen: &str) -> (Pipeline, ShaderBindingTable) {
+    let m = dev.module(&format!("{RAY_HEADER}{IDS}{more}"));
+    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, raygen)));
+    let hg = dev.group(ProgramGroupDesc::HitGroup {
+        closest_hit: Some(prog(m, "closesthit__ch")),
+        any_hit: None,
+        intersection: Some(prog(m, "intersection__box")),
+        builtin: BuiltinIntersector::Triangle,
+    });
+    let pipeline = dev.pipeline(&[rg, hg], 1);
+    let mut table = Table::new(rg);
+    table.hit.push((hg, &[]));
+    (pipeline, table.build(dev))
+}
+
 #[test]
 fn unusable_boxes_never_hit_and_refits_that_change_them_keep_the_handle() {
     let dev = device();
@@ -152,18 +169,7 @@ fn unusable_boxes_never_hit_and_refits_that_change_them_keep_the_handle() {
         .accel_build(&options, std::slice::from_ref(&input))
         .unwrap();
     let h = dev.traversable_handle(gas).unwrap();
-    let m = dev.module(&format!("{RAY_HEADER}{IDS}"));
-    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
-    let hg = dev.group(ProgramGroupDesc::HitGroup {
-        closest_hit: Some(prog(m, "closesthit__ch")),
-        any_hit: None,
-        intersection: Some(prog(m, "intersection__box")),
-        builtin: BuiltinIntersector::Triangle,
-    });
-    let pipeline = dev.pipeline(&[rg, hg], 1);
-    let mut table = Table::new(rg);
-    table.hit.push((hg, &[]));
-    let sbt = table.build(&dev);
+    let (pipeline, sbt) = ids_pipeline(&dev, "", "raygen__rg");
     let ias = dev.instances(&[Instance::new(h)]);
     let run = |accel: Accel| {
         run_rays(
@@ -229,18 +235,7 @@ fn intersection_programs_run_only_for_rays_that_meet_the_box() {
         GeometryFlags::DISABLE_ANYHIT,
     );
     // IDS's intersection program reports unconditionally: it hits whenever it runs.
-    let m = dev.module(&format!("{RAY_HEADER}{IDS}{GUARD}"));
-    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__xs")));
-    let hg = dev.group(ProgramGroupDesc::HitGroup {
-        closest_hit: Some(prog(m, "closesthit__ch")),
-        any_hit: None,
-        intersection: Some(prog(m, "intersection__box")),
-        builtin: BuiltinIntersector::Triangle,
-    });
-    let pipeline = dev.pipeline(&[rg, hg], 1);
-    let mut table = Table::new(rg);
-    table.hit.push((hg, &[]));
-    let sbt = table.build(&dev);
+    let (pipeline, sbt) = ids_pipeline(&dev, GUARD, "raygen__xs");
     let xs = [
         0.5f32,
         1.0,

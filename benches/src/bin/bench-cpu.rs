@@ -362,15 +362,7 @@ fn run_peer(
 }
 
 fn print_tables(rows: &[Row], builds: &[Build], options: &Options) {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split(':').nth(1))
-                .map(|n| n.trim().to_string())
-        })
-        .unwrap_or_else(|| std::env::consts::ARCH.into());
+    let cpu = optik::backends::cpu::cpu_name();
     println!(
         "optik CPU (watertight + conservative) vs Embree (robust), best of {} launches; {} threads available; {cpu}",
         options.repeat, options.threads
