@@ -1,0 +1,1 @@
+//! optik-io: reading and writing the files optik's command, renderer and benches share.
