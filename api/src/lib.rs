@@ -25,6 +25,7 @@ pub mod program;
 pub mod sbt;
 pub mod semantics;
 pub mod shapes;
+pub mod unwind;
 pub mod validate;
 pub mod wgsl;
 

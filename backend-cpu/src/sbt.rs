@@ -2,8 +2,8 @@
 //! to a program group of the pipeline before any program runs.
 
 use crate::pipeline::{Callable, GroupObject, GroupPrograms, PipelineObject, PreparedModules};
-use optik_api::sbt::{SBT_RECORD_HEADER_SIZE, SbtHeader};
-use optik_api::{Buffer, DeviceId, Error, GroupRegion, Result, SbtRegion, ShaderBindingTable};
+use optik_api::sbt::SBT_RECORD_HEADER_SIZE;
+use optik_api::{Buffer, DeviceId, GroupRegion, Result, SbtRegion, ShaderBindingTable};
 
 /// The programs of a record's group, ready to call.
 #[derive(Clone, Copy, Default)]
@@ -84,45 +84,15 @@ impl<'l> Reader<'_, 'l> {
         region: GroupRegion,
     ) -> Result<Record<'l>> {
         let bytes = self.bytes.buffer(buffer).map_err(|e| e.context(what))?;
+        let group: &'l GroupObject =
+            optik_api::sbt::resolve_record_header(what, bytes, offset, region, self.device, |h| {
+                self.pipeline
+                    .groups
+                    .iter()
+                    .find(|(g, _)| optik_api::Handle::raw(g) == h)
+                    .map(|(_, g)| g.as_ref())
+            })?;
         let start = offset as usize;
-        let header = bytes
-            .get(start..start + SBT_RECORD_HEADER_SIZE as usize)
-            .ok_or_else(|| {
-                Error::invalid(format!(
-                    "{what}: the record's header lies outside its buffer of {} bytes",
-                    bytes.len()
-                ))
-            })?;
-        let h = SbtHeader::unpack(header).ok_or_else(|| {
-            Error::invalid(format!(
-                "{what} (byte offset {offset}): the first 32 bytes are not a record header; write the bytes of sbt_record_pack_header(group) there"
-            ))
-        })?;
-        if h.group.device != self.device {
-            return Err(Error::invalid(format!(
-                "{what} (byte offset {offset}): the header names a program group of {}, not of this device ({})",
-                h.group.device, self.device
-            )));
-        }
-        if h.region != region {
-            return Err(Error::invalid(format!(
-                "{what} (byte offset {offset}): the header names a {} group, but this record needs a {} group",
-                h.region.name(),
-                region.name()
-            )));
-        }
-        let group: &'l GroupObject = self
-            .pipeline
-            .groups
-            .iter()
-            .find(|(g, _)| optik_api::Handle::raw(g) == h.group)
-            .map(|(_, g)| g.as_ref())
-            .ok_or_else(|| {
-                Error::invalid(format!(
-                    "{what} (byte offset {offset}): the header names program group {:?}, which is not one of this pipeline's groups (or was destroyed)",
-                    h.group
-                ))
-            })?;
         let data_start = start + SBT_RECORD_HEADER_SIZE as usize;
         let data_end = (data_start + data_len.min(self.max_data)).min(bytes.len());
         Ok(Record {

@@ -93,6 +93,8 @@ struct Region {
 struct Reader<'a> {
     bytes: &'a dyn BufferBytes,
     pipeline: &'a PipelineObject,
+    /// The device whose groups headers must name.
+    device: DeviceId,
 }
 
 impl Reader<'_> {
@@ -106,27 +108,9 @@ impl Reader<'_> {
         region: GroupRegion,
     ) -> Result<&GroupHandles> {
         let bytes = self.bytes.bytes(buffer)?;
-        let header = bytes
-            .get(offset as usize..offset as usize + sbt::SBT_RECORD_HEADER_SIZE as usize)
-            .and_then(SbtHeader::unpack)
-            .ok_or_else(|| {
-                Error::invalid(format!(
-                    "{what} at byte {offset} holds no record header; write the 32 bytes sbt_record_pack_header returns at the start of every record"
-                ))
-            })?;
-        let (group_region, handles) = self.pipeline.handles.get(&header.group).ok_or_else(|| {
-            Error::invalid(format!(
-                "{what}: its header names program group {:?}, which is not one of this pipeline's groups (pack headers for the groups the pipeline was created with)",
-                header.group
-            ))
+        let handles = sbt::resolve_record_header(what, bytes, offset, region, self.device, |h| {
+            self.pipeline.handles.get(&h).map(|(_, handles)| handles)
         })?;
-        if *group_region != region {
-            return Err(Error::invalid(format!(
-                "{what}: its header names a {} group, but the record is in the {} region",
-                group_region.name(),
-                region.name()
-            )));
-        }
         Ok(handles)
     }
 
@@ -214,6 +198,7 @@ impl Inner {
             let reader = Reader {
                 bytes: &snapshot,
                 pipeline: self.pipelines.get(pipeline)?,
+                device: pipeline.raw().device,
             };
             read_regions(
                 &reader,

@@ -12,6 +12,7 @@ use crate::gpu::Gpu;
 use crate::kernel::Sizes;
 use crate::pipeline::{self, PipelineObject};
 use crate::program::{GroupObject, ModuleObject, ModuleSource};
+use optik_accel::{MicromapArrayData, MicromapLookup};
 use optik_api::decode::BufferBytes;
 use optik_api::{
     Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BufferView,
@@ -21,7 +22,6 @@ use optik_api::{
     ProgramRef, ProgramSource, Resource, Result, SbtHeader, SceneFeatures, ShaderBindingTable,
     Texture, TextureDesc, TransformDesc, TraversableHandle, validate,
 };
-use optik_cpu::accel::{MicromapArrayData, MicromapLookup};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 /// A wgpu device running optik pipelines as compute megakernels.
@@ -164,7 +164,7 @@ impl BufferBytes for HostBytes<'_> {
     }
 }
 
-/// Micromap arrays for optik-cpu's geometry builder.
+/// Micromap arrays for optik-accel's geometry builder.
 struct Micromaps<'a>(&'a HandleTable<MicromapArray, Arc<MicromapArrayData>>);
 
 impl MicromapLookup for Micromaps<'_> {

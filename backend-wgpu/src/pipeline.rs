@@ -47,6 +47,8 @@ pub(crate) struct PipelineObject {
     pub variants: HashMap<(Sizes, bool), Arc<Variant>>,
     /// Low 16 bits of the device id.
     pub device16: u32,
+    /// The device whose groups the pipeline links (what SBT headers must name).
+    pub device: optik_api::DeviceId,
 }
 
 /// Links a pipeline over `groups` (handle and object), for a scene of `scene` features.
@@ -182,6 +184,7 @@ pub(crate) fn link(
         bindings,
         variants: HashMap::new(),
         device16,
+        device: groups[0].0.raw().device,
     })
 }
 

@@ -4,14 +4,11 @@
 //! Records keep the user's layout and strides; each 32-byte header (packed by
 //! `optik_api::SbtHeader`) is replaced by `(pipeline group index, group flags, 0 × 6)`, so
 //! the kernel's `switch` selects the program and `rt_sbt_data_*` reads the data after the
-//! header at the same offsets the user wrote it. Headers are checked on the host: a record
-//! whose header is not one, or names a group outside the pipeline or of another region, is
-//! an error naming the record.
+//! header at the same offsets the user wrote it. Headers are checked on the host by
+//! `optik_api::sbt::resolve_record_header`, the check every backend shares.
 
 use crate::pipeline::PipelineObject;
-use optik_api::{
-    Buffer, Error, GroupRegion, Result, SBT_RECORD_HEADER_SIZE, SbtHeader, ShaderBindingTable,
-};
+use optik_api::{Buffer, Error, GroupRegion, Result, SBT_RECORD_HEADER_SIZE, ShaderBindingTable};
 
 /// Bytes of data copied after a raygen or exception record's header: they have no stride,
 /// so their data runs to the end of the buffer, capped as a record of the largest stride
@@ -56,30 +53,14 @@ pub(crate) fn pack(
             .map(|(_, d)| d)
             .ok_or_else(|| Error::backend("SBT buffer cache"))?;
         let header_end = offset + SBT_RECORD_HEADER_SIZE as u64;
-        let header = data
-            .get(offset as usize..header_end as usize)
-            .ok_or_else(|| {
-                Error::invalid(format!(
-                    "{what}: the record's header lies outside its buffer"
-                ))
-            })?;
-        let h = SbtHeader::unpack(header).ok_or_else(|| {
-            Error::invalid(format!(
-                "{what}: the record does not start with a header packed by sbt_record_pack_header"
-            ))
-        })?;
-        let group = pipeline.group_index.get(&h.group).copied().ok_or_else(|| {
-            Error::invalid(format!(
-                "{what}: the record's header names a program group that is not part of this pipeline"
-            ))
-        })?;
-        if h.region != region {
-            return Err(Error::invalid(format!(
-                "{what}: the record's header is for a {} group, but this is the {} region",
-                h.region.name(),
-                region.name()
-            )));
-        }
+        let group = optik_api::sbt::resolve_record_header(
+            &what,
+            data,
+            offset,
+            region,
+            pipeline.device,
+            |h| pipeline.group_index.get(&h).copied(),
+        )?;
         let at = words.len() as u32;
         words.push(group);
         words.push(pipeline.groups[group as usize].flags);

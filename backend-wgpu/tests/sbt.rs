@@ -177,7 +177,10 @@ fn bad_headers_are_errors_naming_the_record() {
     d.write_buffer(hit.buffer, hit.offset + 2 * STRIDE as u64, &header)
         .unwrap();
     let e = launch(&table).unwrap_err();
-    assert!(e.message().contains("not part of this pipeline"), "{e}");
+    assert!(
+        e.message().contains("not one of this pipeline's groups"),
+        "{e}"
+    );
     // Misaligned strides are caught by validation.
     table.hitgroup = Some(SbtRegion { stride: 40, ..hit });
     assert!(launch(&table).is_err());

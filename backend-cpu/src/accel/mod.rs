@@ -1,97 +1,27 @@
-//! Acceleration structures: built with obvhs's PLOC builder, stored in optik's own layout.
-//!
-//! This module is the CPU backend's and the wgpu backend's source of built structures (the
-//! wgpu backend uploads them as they are), so everything here is public and documented:
-//!
-//! - [`Bvh`] / [`BvhNode`]: a binary BVH, 32-byte nodes, root first, siblings adjacent,
-//!   leaves covering ranges of primitive *slots*;
-//! - [`wide::WideBvh`]: the same tree collapsed to 4-wide nodes, with triangles packed four
-//!   to a block: what the CPU traversal walks (the wgpu backend ignores it);
-//! - [`Gas`]: a geometry structure: per-slot [`PrimitiveInfo`] and per-key, per-slot
-//!   [`Geometry`] (triangle vertices, AABBs, spheres, curve control points);
-//! - [`Ias`]: an instance structure: per-slot [`InstanceRecord`]s naming children by handle;
-//! - [`Transform`]: static, matrix-motion and SRT-motion transforms;
-//! - [`SceneTable`] and the handle encoding in [`handle`]: what a traversable handle names.
-//!
-//! Builders read inputs through [`optik_api::decode`] from any [`BufferBytes`] and resolve
-//! children through a [`SceneTable`], so they need no CPU device.
+//! Acceleration structures: optik-accel builds them (obvhs PLOC, shared with every
+//! backend); this module adds the CPU backend's own encoding, the 4-wide BVH with triangle
+//! blocks the traversal walks ([`wide::WideBvh`]), and names the shared types with it.
 
-mod aabb;
-mod bvh;
-pub mod curve_basis;
-mod gas;
-pub mod handle;
-mod instances;
-pub mod micromap;
 pub mod wide;
 
-pub use aabb::Aabb;
-pub use bvh::{BuildQuality, Bvh, BvhNode};
-pub use gas::{
-    Curves, CustomPrimitives, Gas, Geometry, MicromapLookup, MicromapRef, PrimitiveInfo, Spheres,
-    TriangleMicromaps, Triangles, curve_caps,
+pub use optik_accel::Ias;
+pub use optik_accel::{
+    Aabb, BufferBytes, BuildQuality, Bvh, BvhNode, Curves, CustomPrimitives, GasEncoding, Geometry,
+    InstanceRecord, MicromapArrayData, MicromapLookup, MicromapRef, PrimitiveInfo, Spheres,
+    Transform, TransformKind, TriangleMicromaps, Triangles, curve_basis, curve_caps, handle,
+    micromap,
 };
-pub use handle::{Resolved, SceneTable};
-pub use instances::{Ias, InstanceRecord, Transform, TransformKind};
-pub use micromap::MicromapArrayData;
-pub use optik_api::decode::BufferBytes;
 
-use optik_api::{AccelBufferSizes, BuildInput, SceneFeatures};
+use optik_api::{AccelBufferSizes, BuildInput};
 
-/// Anything a traversable handle can name.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Traversable {
-    /// A geometry acceleration structure.
-    Geometry(Gas),
-    /// An instance acceleration structure.
-    Instances(Ias),
-    /// A transform.
-    Transform(Transform),
-}
-
-impl Traversable {
-    /// A box holding everything below, at every time, in the space of whoever references it.
-    pub fn bounds(&self) -> Aabb {
-        match self {
-            Traversable::Geometry(g) => g.bounds,
-            Traversable::Instances(i) => i.bounds,
-            Traversable::Transform(t) => t.bounds,
-        }
-    }
-
-    /// What the traversable and everything below it contain.
-    pub fn features(&self) -> SceneFeatures {
-        match self {
-            Traversable::Geometry(g) => g.features,
-            Traversable::Instances(i) => i.features,
-            Traversable::Transform(t) => t.features,
-        }
-    }
-
-    /// Levels of instances and transforms above geometry (0 for a geometry structure).
-    pub fn depth(&self) -> u32 {
-        match self {
-            Traversable::Geometry(_) => 0,
-            Traversable::Instances(i) => i.depth,
-            Traversable::Transform(t) => t.depth,
-        }
-    }
-
-    /// Bytes the structure occupies.
-    pub fn size_in_bytes(&self) -> u64 {
-        match self {
-            Traversable::Geometry(g) => g.size_in_bytes(),
-            Traversable::Instances(i) => i.size_in_bytes(),
-            Traversable::Transform(t) => t.size_in_bytes(),
-        }
-    }
-
-    /// A copy with every array's capacity trimmed to its length (compaction).
-    pub fn compacted(&self) -> Traversable {
-        // `Clone` of a `Vec` allocates exactly its length.
-        self.clone()
-    }
-}
+/// A geometry structure with the CPU's wide BVH.
+pub type Gas = optik_accel::Gas<wide::WideBvh>;
+/// Anything a traversable handle names, with the CPU's wide BVH in geometry.
+pub type Traversable = optik_accel::Traversable<wide::WideBvh>;
+/// The CPU device's handle table.
+pub type SceneTable = optik_accel::SceneTable<wide::WideBvh>;
+/// What a handle resolves to in the CPU device's table.
+pub type Resolved<'a> = optik_accel::Resolved<'a, wide::WideBvh>;
 
 /// An upper bound of the memory a build of `inputs` needs (validated inputs), the way
 /// OptiX's `optixAccelComputeMemoryUsage` reports it: the output size is what a build

@@ -1,5 +1,5 @@
-//! The 4-wide BVH the CPU traversal walks, collapsed from the binary [`Bvh`] (which stays
-//! the layout the wgpu backend uploads), and triangles packed four to a block for the
+//! The 4-wide BVH the CPU traversal walks, collapsed from optik-accel's binary [`Bvh`] with
+//! its child order (`optik_accel::widen`), and triangles packed four to a block for the
 //! 4-lane triangle test.
 //!
 //! Why: a binary node costs two box tests and a decision per step; a 4-wide node tests its
@@ -24,12 +24,11 @@
 //!   slot `u32::MAX` and a zeroed record, and the traversal masks them out. Blocks exist for static triangle
 //!   structures (one motion key); moving triangles are interpolated per slot instead.
 
-use super::aabb::Aabb;
-use super::bvh::Bvh;
-use super::gas::PrimitiveInfo;
+use optik_accel::widen;
+use optik_accel::{Aabb, Bvh, GasEncoding, Geometry, PrimitiveInfo};
 
 /// Children per node.
-pub const WIDTH: usize = 4;
+pub const WIDTH: usize = widen::WIDTH;
 
 /// A node of the 4-wide BVH (see the module docs).
 #[repr(C, align(64))]
@@ -124,7 +123,7 @@ impl WideBvh {
         let mut stack = vec![(0usize, 0usize, 1u32)];
         while let Some((source, target, level)) = stack.pop() {
             wide.depth = wide.depth.max(level);
-            let children = gather_children(binary, source);
+            let children = widen::children(binary, source);
             let mut node = WideNode::EMPTY;
             for (lane, &c) in children.iter().enumerate() {
                 let child = &binary[c];
@@ -183,37 +182,25 @@ impl WideBvh {
     }
 }
 
-/// The binary nodes that become the children of the wide node made from `source`: its two
-/// children, then repeatedly the inner one with the largest surface area replaced by its
-/// own two, until there are four or only leaves. A leaf root is its own only child.
-fn gather_children(binary: &[super::BvhNode], source: usize) -> Vec<usize> {
-    let node = &binary[source];
-    if node.is_leaf() {
-        return vec![source];
+impl GasEncoding for WideBvh {
+    /// Static triangles get blocks; every other structure gets nodes only.
+    fn encode(bvh: &Bvh, geometry: &Geometry, primitives: &[PrimitiveInfo]) -> WideBvh {
+        let triangles = geometry.static_triangles().map(|vertices| SlotTriangles {
+            vertices,
+            infos: primitives,
+        });
+        WideBvh::build(bvh, triangles)
     }
-    let mut children = vec![node.first as usize, node.first as usize + 1];
-    while children.len() < WIDTH {
-        let widest = children
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| !binary[**c].is_leaf())
-            .max_by(|(_, a), (_, b)| {
-                let area = |c: usize| binary[c].aabb().half_area();
-                area(**a).total_cmp(&area(**b))
-            })
-            .map(|(i, _)| i);
-        let Some(i) = widest else { break };
-        let inner = &binary[children[i]];
-        children[i] = inner.first as usize;
-        children.push(inner.first as usize + 1);
+
+    fn size_in_bytes(&self) -> u64 {
+        WideBvh::size_in_bytes(self)
     }
-    children
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::accel::BuildQuality;
+    use optik_accel::BuildQuality;
 
     fn boxes(n: usize) -> Vec<Aabb> {
         (0..n)

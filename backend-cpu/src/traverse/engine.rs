@@ -301,7 +301,7 @@ impl<S: Spec> Walker<'_, S> {
         let wr = WideRay::new(&pr);
         let tmin = self.ray.tmin;
         let flags = self.ray.flags;
-        let wide = &g.wide;
+        let wide = &g.encoding;
         match &g.geometry {
             Geometry::Triangles(_) if !wide.blocks.is_empty() => {
                 // A zero direction hits no triangle (the scalar tests say so per triangle).

@@ -439,7 +439,7 @@ fn trees_deeper_than_the_inline_stack_are_walked() {
             }
         }
     }
-    gas.wide = chain;
+    gas.encoding = chain;
     let (scene, root) = scene_of(gas);
     for i in 0..n {
         let origin = [i as f32 + 0.125, 0.25, 0.0];

@@ -724,34 +724,14 @@ fn remap_table(data: &mut Vec<u32>, prims: &[u32], subset: bool) -> u32 {
     base
 }
 
-/// A box holding a curve segment's swept spheres. Uniform B-splines lie in the convex hull of
-/// their control points; Catmull-Rom segments do not, so their Bezier control points (whose
-/// hull holds the segment) are bounded instead. Radii interpolate with the same weights.
+/// A box holding a curve segment's swept spheres: optik-accel's curve bounds (the Bézier
+/// form's control points, which hold the segment, grown by the largest radius), from the
+/// segment's `t.control_points()` control points.
 fn curve_bounds(t: CurveType, points: &[[f32; 4]]) -> [f32; 6] {
-    let hull: Vec<[f32; 4]> = if t == CurveType::RoundCatmullRom && points.len() == 4 {
-        let (p0, p1, p2, p3) = (points[0], points[1], points[2], points[3]);
-        let b1: [f32; 4] = std::array::from_fn(|k| p1[k] + (p2[k] - p0[k]) / 6.0);
-        let b2: [f32; 4] = std::array::from_fn(|k| p2[k] - (p3[k] - p1[k]) / 6.0);
-        vec![p1, b1, b2, p2]
-    } else {
-        points.to_vec()
-    };
-    let r = hull.iter().map(|p| p[3].abs()).fold(0.0f32, f32::max);
-    let mut b = [
-        f32::INFINITY,
-        f32::INFINITY,
-        f32::INFINITY,
-        f32::NEG_INFINITY,
-        f32::NEG_INFINITY,
-        f32::NEG_INFINITY,
-    ];
-    for p in &hull {
-        for k in 0..3 {
-            b[k] = b[k].min(p[k] - r);
-            b[k + 3] = b[k + 3].max(p[k] + r);
-        }
-    }
-    b
+    let cp: [[f32; 4]; 4] = std::array::from_fn(|j| points[j.min(points.len() - 1)]);
+    optik_accel::curve_basis::BezierSegment::from_basis(t, &cp)
+        .bounds()
+        .to_six()
 }
 
 #[cfg(test)]

@@ -138,54 +138,30 @@ fn corners(b: &Aabb) -> impl Iterator<Item = [f64; 3]> + '_ {
     })
 }
 
-fn transform(m: &Matrix3x4, p: [f64; 3]) -> [f64; 3] {
-    std::array::from_fn(|r| {
-        m[4 * r] as f64 * p[0]
-            + m[4 * r + 1] as f64 * p[1]
-            + m[4 * r + 2] as f64 * p[2]
-            + m[4 * r + 3] as f64
-    })
+/// optik-accel's bound of `b` under a transform (the one every backend uses), with this
+/// backend's proxy-box margin on top: the driver tests rays against the proxy boxes in its
+/// own arithmetic, so they get the padding of [`padded_box`].
+fn through_accel(b: &Aabb, bound: impl Fn(&optik_accel::Aabb) -> optik_accel::Aabb) -> Aabb {
+    let out = bound(&optik_accel::Aabb::from_six(*b));
+    if !out.is_usable() {
+        return optik_accel::Aabb::EMPTY.to_six();
+    }
+    padded_box(corners(&out.to_six()))
 }
 
 /// A box carried through a fixed transform.
 pub fn bound_static(m: &Matrix3x4, b: &Aabb) -> Aabb {
-    padded_box(corners(b).map(|p| transform(m, p)))
+    through_accel(b, |c| c.transformed(m))
 }
 
-/// A box carried through matrix motion at every time: a point moves on straight segments
-/// between its keyed positions (element-wise matrix lerp), so the union of the box under
-/// each key holds it.
+/// A box carried through matrix motion at every time (`optik_accel::matrix_motion_bounds`).
 pub fn bound_matrix_motion(keys: &[Matrix3x4], b: &Aabb) -> Aabb {
-    padded_box(
-        keys.iter()
-            .flat_map(|m| corners(b).map(move |p| transform(m, p))),
-    )
+    through_accel(b, |c| optik_accel::matrix_motion_bounds(keys, c))
 }
 
-/// A box carried through SRT motion at every time. A point `p` is at `T(t) + R(t) S(t) p`:
-/// `S(t) p` and `T(t)` are linear in `t` between keys (all 16 values lerp), and `R(t)` is a
-/// rotation (nlerp normalises the quaternion), so `|R(t) S(t) p| <= max_k |S_k p|` and the
-/// point lies within that radius of the segment between the keys' translations.
+/// A box carried through SRT motion at every time (`optik_accel::srt_motion_bounds`).
 pub fn bound_srt_motion(keys: &[SrtData], b: &Aabb) -> Aabb {
-    let mut radius = 0.0f64;
-    for k in keys {
-        // Keys' quaternions are unit within 1e-3 (validate::transform): pad the rotation's
-        // gain for them.
-        let s: Matrix3x4 = [
-            k.sx, k.a, k.b, k.pvx, 0.0, k.sy, k.c, k.pvy, 0.0, 0.0, k.sz, k.pvz,
-        ];
-        for p in corners(b) {
-            let q = transform(&s, p);
-            radius = radius.max((q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt());
-        }
-    }
-    radius *= 1.01;
-    padded_box(keys.iter().flat_map(|k| {
-        let t = [k.tx as f64, k.ty as f64, k.tz as f64];
-        [-1.0, 1.0]
-            .into_iter()
-            .map(move |sign| t.map(|c| c + sign * radius))
-    }))
+    through_accel(b, |c| optik_accel::srt_motion_bounds(keys, c))
 }
 
 /// A box carried through a link at every time.

@@ -3,12 +3,12 @@
 //! and leaves unknown ones to any-hit, with FORCE_OPACITY_MICROMAP_2_STATE (ray and
 //! instance), DISABLE_OPACITY_MICROMAPS and every other opacity flag as
 //! `optik_api::semantics::opacity::resolve` defines them. The micro-triangles come from the
-//! CPU backend's bird-curve indexing (`optik_cpu::accel::micromap`).
+//! shared bird-curve indexing (`optik_accel::micromap`).
 
 use crate::common::*;
+use optik_accel::micromap::micro_triangle;
 use optik_api::semantics::opacity::{CandidateFate, MicromapState, resolve};
 use optik_api::*;
-use optik_cpu::accel::micromap::micro_triangle;
 
 const PROGRAMS: &str = r#"
 struct Params { handle: vec2<u32>, n: u32, pad: u32 }

@@ -1,14 +1,12 @@
-//! The four-wide BVH the GPU traverses, made by widening the binary BVH optik-cpu builds
-//! (`optik_cpu::accel::Bvh`, shared by both backends).
+//! The four-wide BVH the GPU traverses, made by widening the binary BVH optik-accel builds
+//! (`optik_accel::Bvh`), with the children `optik_accel::widen` picks, in its order.
 //!
-//! Each binary inner node becomes a four-wide node by repeatedly opening its child of
-//! largest surface area until it has four children or only leaves. Nodes are numbered
+//! Nodes are numbered
 //! breadth-first, so children come after parents. Every wide child remembers the binary node
 //! it stands for, so a refit of the binary tree (updates) carries over without changing the
 //! topology. The GPU layout (`optik_api::wgsl::BVH4`): 128 bytes per node, child boxes as f32.
 
-use super::aabb::Aabb;
-use optik_cpu::accel::BvhNode;
+use optik_accel::{Aabb, BvhNode, widen};
 
 /// Child kind of an empty slot.
 pub(crate) const KIND_EMPTY: u32 = 0;
@@ -35,21 +33,13 @@ pub(crate) struct Bvh4 {
     pub nodes: Vec<Node4>,
 }
 
-/// A binary node's box.
-fn box_of(n: &BvhNode) -> Aabb {
-    Aabb {
-        min: n.min,
-        max: n.max,
-    }
-}
-
 impl Bvh4 {
     /// Widens a binary BVH: `bin[0]` is the root; an inner node's children are at `first`
-    /// and `first + 1`; a leaf covers slots `first .. first + count` (optik-cpu's layout).
+    /// and `first + 1`; a leaf covers slots `first .. first + count` (optik-accel's layout).
     pub fn from_binary(bin: &[BvhNode]) -> Bvh4 {
-        let Some(root) = bin.first() else {
+        if bin.is_empty() {
             return Bvh4::default();
-        };
+        }
         let empty = Node4 {
             bounds: [Aabb::EMPTY; 4],
             child: [0; 4],
@@ -57,35 +47,12 @@ impl Bvh4 {
             source: [0; 4],
         };
         let mut nodes = vec![empty];
-        if root.count > 0 {
-            nodes[0].bounds[0] = box_of(root);
-            nodes[0].child[0] = root.first;
-            nodes[0].kind[0] = root.count + 1;
-            return Bvh4 { nodes };
-        }
+        // A leaf root is its own only child.
         let mut queue = std::collections::VecDeque::from([(0usize, 0usize)]);
         while let Some((b, w)) = queue.pop_front() {
-            let n = bin[b];
-            let mut open = vec![n.first as usize, n.first as usize + 1];
-            while open.len() < 4 {
-                let widest = open
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, c)| bin[**c].count == 0)
-                    .max_by(|(_, a), (_, c)| {
-                        box_of(&bin[**a])
-                            .half_area()
-                            .total_cmp(&box_of(&bin[**c]).half_area())
-                    })
-                    .map(|(i, _)| i);
-                let Some(i) = widest else { break };
-                let c = open.swap_remove(i);
-                open.push(bin[c].first as usize);
-                open.push(bin[c].first as usize + 1);
-            }
-            for (slot, &c) in open.iter().enumerate() {
+            for (slot, &c) in widen::children(bin, b).iter().enumerate() {
                 let child = bin[c];
-                nodes[w].bounds[slot] = box_of(&child);
+                nodes[w].bounds[slot] = child.aabb();
                 nodes[w].source[slot] = c as u32;
                 if child.count > 0 {
                     nodes[w].child[slot] = child.first;
@@ -109,7 +76,7 @@ impl Bvh4 {
                 if n.kind[c] != KIND_EMPTY
                     && let Some(b) = bin.get(n.source[c] as usize)
                 {
-                    n.bounds[c] = box_of(b);
+                    n.bounds[c] = b.aabb();
                 }
             }
         }
@@ -185,20 +152,20 @@ impl Node4 {
     pub fn bounds(&self) -> Aabb {
         (0..4)
             .filter(|&c| self.kind[c] != KIND_EMPTY)
-            .fold(Aabb::EMPTY, |acc, c| acc.union(self.bounds[c]))
+            .fold(Aabb::EMPTY, |acc, c| acc.union(&self.bounds[c]))
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use optik_cpu::accel::{Aabb as CpuAabb, BuildQuality, Bvh};
+    use optik_accel::{BuildQuality, Bvh};
 
-    fn boxes(n: usize) -> Vec<CpuAabb> {
+    fn boxes(n: usize) -> Vec<Aabb> {
         (0..n)
             .map(|i| {
                 let x = (i * 37 % 101) as f32;
-                CpuAabb {
+                Aabb {
                     min: [x, (i % 7) as f32, 0.0],
                     max: [x + 0.5, (i % 7) as f32 + 1.0, 1.0],
                 }
@@ -226,11 +193,7 @@ mod tests {
                             for s in node.child[c]..node.child[c] + k - 1 {
                                 seen[s as usize] += 1;
                                 let pb = b[order[s as usize] as usize];
-                                let pb = Aabb {
-                                    min: pb.min,
-                                    max: pb.max,
-                                };
-                                assert_eq!(node.bounds[c].union(pb), node.bounds[c]);
+                                assert_eq!(node.bounds[c].union(&pb), node.bounds[c]);
                             }
                         }
                     }
@@ -250,7 +213,7 @@ mod tests {
         let b = boxes(200);
         let (mut bin, order) = Bvh::build(&b, BuildQuality::Balanced).unwrap();
         let mut bvh = Bvh4::from_binary(bin.nodes());
-        let moved: Vec<CpuAabb> = b.iter().map(|x| x.padded(0.5)).collect();
+        let moved: Vec<Aabb> = b.iter().map(|x| x.padded(0.5)).collect();
         bin.refit(|slot| moved[order[slot] as usize]);
         bvh.refit_from_binary(bin.nodes());
         assert_eq!(

@@ -1,17 +1,16 @@
-//! Geometry acceleration structures: built by optik-cpu's builder
-//! (`optik_cpu::accel::Gas`: decoding, which primitives can be hit, the binary BVH, the slot
-//! order) and encoded here in the GPU layout of [`super::layout`].
+//! Geometry acceleration structures: built by optik-accel (`optik_accel::Gas`: decoding,
+//! which primitives can be hit, the binary BVH, the slot order) and encoded here in the GPU
+//! layout of [`super::layout`].
 //!
 //! Triangles keep full f32 vertices (48 bytes per triangle and key), so the GPU's
 //! watertight test sees exactly the vertices the user gave (no f16 edges, research/numerics.md
 //! F7). Motion geometry stores every key.
 
-use super::aabb::Aabb;
 use super::bvh4::{Bvh4, NODE_VEC4S};
 use super::layout::{self, HEADER_VEC4S, kind, prim};
+use optik_accel::{Aabb, Gas, Geometry, MicromapLookup, MicromapRef, curve_caps};
 use optik_api::decode::BufferBytes;
 use optik_api::{AccelBuildOptions, BuildFlags, BuildInput, Error, OpacityMicromapFormat, Result};
-use optik_cpu::accel::{Gas, Geometry, MicromapLookup, MicromapRef, curve_caps};
 
 /// What an update needs: the host structure and the wide tree of the build.
 #[derive(Clone, Debug)]
@@ -41,7 +40,7 @@ pub(crate) fn build(
     let words = encode(&gas, &bvh)?;
     Ok(BuiltGeometry {
         words,
-        bounds: bounds_of(&gas),
+        bounds: gas.bounds,
         stack_need: bvh.stack_need(|_, _| 0),
         refit: options
             .flags
@@ -65,17 +64,10 @@ pub(crate) fn update(
     let words = encode(&gas, &bvh)?;
     Ok(BuiltGeometry {
         words,
-        bounds: bounds_of(&gas),
+        bounds: gas.bounds,
         stack_need: bvh.stack_need(|_, _| 0),
         refit: Some(RefitState { gas, bvh }),
     })
-}
-
-fn bounds_of(gas: &Gas) -> Aabb {
-    Aabb {
-        min: gas.bounds.min,
-        max: gas.bounds.max,
-    }
 }
 
 fn bits3(v: [f32; 3], w: u32) -> [u32; 4] {

@@ -4,16 +4,14 @@
 //! structure is built (its box, its stack need) and again on the GPU at every visit, through
 //! the device's handle table: a child destroyed later is simply missed.
 
-use super::aabb::Aabb;
 use super::bvh4::{Bvh4, NODE_VEC4S};
 use super::layout::{self, HEADER_VEC4S, INSTANCE_VEC4S, kind};
+use optik_accel::{Aabb, BuildQuality, Bvh, TransformKind, motion_bounds};
 use optik_api::decode::{self, BufferBytes};
-use optik_api::semantics::{affine, motion, sbt_index};
+use optik_api::semantics::{affine, sbt_index};
 use optik_api::{
-    AccelBuildOptions, InstanceArray, Matrix3x4, MotionKinds, Result, SceneFeatures, SrtData,
-    TransformDesc,
+    AccelBuildOptions, InstanceArray, MotionKinds, Result, SceneFeatures, TransformDesc,
 };
-use optik_cpu::accel::{Aabb as CpuAabb, BuildQuality, Bvh};
 
 /// What a parent needs to know about a child traversable.
 #[derive(Clone, Copy, Debug)]
@@ -42,7 +40,7 @@ pub(crate) struct BuiltParent {
     pub refit: Option<Bvh4WithOrder>,
 }
 
-/// The trees of an instance structure's build, kept for updates: optik-cpu's binary BVH
+/// The trees of an instance structure's build, kept for updates: optik-accel's binary BVH
 /// and slot order, and the wide tree made from it.
 #[derive(Clone, Debug)]
 pub(crate) struct Bvh4WithOrder {
@@ -85,23 +83,16 @@ pub(crate) fn build_instances(
         records.push([link[0], link[1], 0, 0]);
         children.push(child);
     }
-    let cpu_boxes: Vec<CpuAabb> = boxes
-        .iter()
-        .map(|b| CpuAabb {
-            min: b.min,
-            max: b.max,
-        })
-        .collect();
     let topo = match topology {
         Some(t) => {
             let mut t = t.clone();
             let order = t.order.clone();
-            t.binary.refit(|slot| cpu_boxes[order[slot] as usize]);
+            t.binary.refit(|slot| boxes[order[slot] as usize]);
             t.bvh.refit_from_binary(t.binary.nodes());
             t
         }
         None => {
-            let (binary, order) = Bvh::build(&cpu_boxes, BuildQuality::from_flags(options.flags))?;
+            let (binary, order) = Bvh::build(&boxes, BuildQuality::from_flags(options.flags))?;
             Bvh4WithOrder {
                 bvh: Bvh4::from_binary(binary.nodes()),
                 binary,
@@ -174,18 +165,14 @@ pub(crate) fn build_transform(desc: &TransformDesc, child: Option<ChildInfo>) ->
                 1,
                 None,
                 data,
-                child_bounds.transformed(object_to_world),
+                motion_bounds(&TransformKind::of(desc), &child_bounds),
                 MotionKinds::default(),
                 true,
             )
         }
         TransformDesc::MatrixMotion { motion, keys, .. } => {
             let data = keys.iter().flat_map(layout::matrix_rows).collect();
-            // Lerped matrices map a point to a blend of its key images: the union of the
-            // key boxes holds every time.
-            let bounds = keys
-                .iter()
-                .fold(Aabb::EMPTY, |b, k| b.union(child_bounds.transformed(k)));
+            let bounds = motion_bounds(&TransformKind::of(desc), &child_bounds);
             (
                 kind::MATRIX_MOTION,
                 keys.len() as u32,
@@ -212,7 +199,7 @@ pub(crate) fn build_transform(desc: &TransformDesc, child: Option<ChildInfo>) ->
                 keys.len() as u32,
                 Some(*motion),
                 data,
-                srt_bounds(keys, &child_bounds),
+                motion_bounds(&TransformKind::of(desc), &child_bounds),
                 MotionKinds {
                     srt: true,
                     ..Default::default()
@@ -244,114 +231,5 @@ pub(crate) fn build_transform(desc: &TransformDesc, child: Option<ChildInfo>) ->
         levels: child.map_or(0, |c| c.levels),
         features,
         refit: None,
-    }
-}
-
-/// Sub-steps per key interval when bounding SRT motion.
-const SRT_STEPS: usize = 32;
-
-/// A box holding `child` under SRT motion at every time. Rotations move points along arcs,
-/// which can leave the key boxes: the box of many sampled times is padded by how far an
-/// arc between two samples strays from its chord, r·(1 − cos(Δ/2)) for a point at distance
-/// r from the rotation centre turned by Δ between samples (doubled for safety).
-fn srt_bounds(keys: &[SrtData], child: &Aabb) -> Aabb {
-    if !child.is_usable() {
-        return Aabb::EMPTY;
-    }
-    let corners: Vec<[f32; 3]> = (0..8)
-        .map(|c| {
-            std::array::from_fn(|i| {
-                if c & (1 << i) != 0 {
-                    child.max[i]
-                } else {
-                    child.min[i]
-                }
-            })
-        })
-        .collect();
-    let reach = keys
-        .iter()
-        .flat_map(|k| {
-            let scale_only = SrtData {
-                qx: 0.0,
-                qy: 0.0,
-                qz: 0.0,
-                qw: 1.0,
-                tx: 0.0,
-                ty: 0.0,
-                tz: 0.0,
-                ..*k
-            };
-            let m: Matrix3x4 = motion::srt_to_matrix(&scale_only);
-            corners.iter().map(move |p| {
-                let q = affine::transform_point(&m, *p);
-                (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt()
-            })
-        })
-        .fold(0.0f32, f32::max);
-    let mut bounds = Aabb::EMPTY;
-    let mut widest_turn = 0.0f32;
-    for k in 0..keys.len().saturating_sub(1) {
-        let mut previous: Option<[f32; 4]> = None;
-        for s in 0..=SRT_STEPS {
-            let at = motion::KeyPosition {
-                key: k,
-                t: s as f32 / SRT_STEPS as f32,
-            };
-            let key = motion::interpolate_srt(keys, at);
-            bounds = bounds.union(child.transformed(&motion::srt_to_matrix(&key)));
-            let q = [key.qx, key.qy, key.qz, key.qw];
-            if let Some(p) = previous {
-                let dot = (0..4).map(|i| p[i] * q[i]).sum::<f32>().abs().min(1.0);
-                widest_turn = widest_turn.max(2.0 * dot.acos());
-            }
-            previous = Some(q);
-        }
-    }
-    if keys.len() == 1 {
-        bounds = child.transformed(&motion::srt_to_matrix(&keys[0]));
-    }
-    let pad = 2.0 * reach * (1.0 - (widest_turn * 0.5).cos());
-    bounds.padded(pad).widened_relative()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn srt_bounds_hold_the_arc() {
-        // A unit box at x in [4, 5] turning 90° about z: at 45° it reaches x = y ≈ 3.2..,
-        // with |p| up to √(25 + 1) — outside the union of the two key boxes.
-        let child = Aabb {
-            min: [4.0, -0.5, -0.5],
-            max: [5.0, 0.5, 0.5],
-        };
-        let half = std::f32::consts::FRAC_PI_4;
-        let k0 = SrtData::identity();
-        let k1 = SrtData {
-            qz: half.sin(),
-            qw: half.cos(),
-            ..SrtData::identity()
-        };
-        let b = srt_bounds(&[k0, k1], &child);
-        for s in 0..=100 {
-            let t = s as f32 / 100.0;
-            let key = motion::interpolate_srt(&[k0, k1], motion::KeyPosition { key: 0, t });
-            let m = motion::srt_to_matrix(&key);
-            for c in 0..8 {
-                let p: [f32; 3] = std::array::from_fn(|i| {
-                    if c & (1 << i) != 0 {
-                        child.max[i]
-                    } else {
-                        child.min[i]
-                    }
-                });
-                let q = affine::transform_point(&m, p);
-                for i in 0..3 {
-                    assert!(b.min[i] <= q[i] && q[i] <= b.max[i], "{q:?} outside {b:?}");
-                }
-            }
-        }
     }
 }

@@ -5,7 +5,6 @@
 //! and the device id (48..64), so the GPU can check a handle from launch parameters or an
 //! instance against the table: a destroyed, foreign or made-up handle is missed.
 
-pub(crate) mod aabb;
 pub(crate) mod arena;
 pub(crate) mod bvh4;
 pub(crate) mod geometry;
@@ -13,9 +12,9 @@ pub(crate) mod instances;
 pub(crate) mod layout;
 
 use crate::gpu::Gpu;
-use aabb::Aabb;
 use arena::Arena;
 use instances::ChildInfo;
+use optik_accel::Aabb;
 use optik_api::{
     Accel, AccelBuildOptions, BuildInput, DeviceId, Error, Handle, Result, SceneFeatures,
     TraversableHandle,

@@ -8,7 +8,7 @@
 //! traversal and intersection, not ray loading. Every ray's closest t is written out and
 //! the hits are counted on the host as a check. The same programs run on any backend
 //! through the public API ([`bench_device`], wall-clock timed), so one run compares the
-//! wgpu backend with the Vulkan one. `cargo run --release -p optik-wgpu --example
+//! wgpu backend with the Vulkan one. `cargo run --release -p optik-benches --example
 //! bench_trace -- [mesh.obj[.gz]]` prints a report (see docs/wgpu-backend.md §11).
 
 pub mod bandwidth;

@@ -16,7 +16,8 @@
 //! Device-API calls become calls to stubs named `optk_*_fn`; after naga writes the module
 //! with `wgsl-out`, the stubs' bodies are cut out and `crate::kernel` supplies real ones.
 //! After every call that may unwind (ignore, terminate, an exception), the copy checks
-//! `optk_unwinding_fn()` and returns, which is how "does not return" is expressed in WGSL.
+//! `optk_unwinding_fn()` and returns (the shared pass of `optik_api::unwind`), which is how
+//! "does not return" is expressed in WGSL.
 
 use super::analysis::{self, FnFacts};
 use naga::{
@@ -24,6 +25,7 @@ use naga::{
     Scalar, Span, Statement, Type, TypeInner,
 };
 use optik_api::frontend::{CompiledModule, DeviceFunction};
+use optik_api::unwind::{self, Unwinding, UnwoundFlag};
 use optik_api::{Error, Result};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 
@@ -478,15 +480,13 @@ impl<'a> Lowering<'a> {
             }
         }
         let body = std::mem::take(&mut func.body);
-        func.body = rewrite_block(
-            body,
-            &mut func.expressions,
-            &func.result,
-            &target,
-            &unwinds,
-            unwinding,
-            false,
-        );
+        let result_ty = func.result.as_ref().map(|r| r.ty);
+        let how = Unwinding {
+            flag: unwinding.map(UnwoundFlag::Call),
+            may_unwind: &|c| unwinds.contains(&c),
+            redirect: &|c| target.get(&c).copied().unwrap_or(c),
+        };
+        func.body = unwind::insert_checks(body, &mut func.expressions, result_ty, &how);
         let original = func.name.clone().unwrap_or_else(|| "f".into());
         let name = stable_name(&w.prefix, &original, w.count);
         w.count += 1;
@@ -570,121 +570,6 @@ impl<'a> Lowering<'a> {
         w.stubs.insert(UNWINDING_STUB.to_string(), h);
         h
     }
-}
-
-/// Redirects calls to their copies and, after each call that may unwind, returns when
-/// `optk_unwinding_fn()` says so. Inside a loop's `continuing` block (where WGSL forbids
-/// `return`) the check moves to the start of the loop body instead.
-fn rewrite_block(
-    block: Block,
-    exprs: &mut naga::Arena<Expression>,
-    result: &Option<FunctionResult>,
-    target: &HashMap<Handle<Function>, Handle<Function>>,
-    unwinds: &BTreeSet<Handle<Function>>,
-    unwinding: Option<Handle<Function>>,
-    in_continuing: bool,
-) -> Block {
-    let mut out = Block::with_capacity(block.len());
-    let check = |exprs: &mut naga::Arena<Expression>, out: &mut Block, span: Span| {
-        let Some(stub) = unwinding else { return };
-        let flag = exprs.append(Expression::CallResult(stub), span);
-        out.push(
-            Statement::Call {
-                function: stub,
-                arguments: Vec::new(),
-                result: Some(flag),
-            },
-            span,
-        );
-        let value = result
-            .as_ref()
-            .map(|r| exprs.append(Expression::ZeroValue(r.ty), span));
-        out.push(
-            Statement::If {
-                condition: flag,
-                accept: Block::from_vec(vec![Statement::Return { value }]),
-                reject: Block::new(),
-            },
-            span,
-        );
-    };
-    for (stmt, span) in block.span_into_iter() {
-        let rec = |b: Block, exprs: &mut naga::Arena<Expression>, cont: bool| {
-            rewrite_block(b, exprs, result, target, unwinds, unwinding, cont)
-        };
-        match stmt {
-            Statement::Call {
-                function,
-                arguments,
-                result: call_result,
-            } => {
-                let may_unwind = unwinds.contains(&function);
-                out.push(
-                    Statement::Call {
-                        function: target.get(&function).copied().unwrap_or(function),
-                        arguments,
-                        result: call_result,
-                    },
-                    span,
-                );
-                if may_unwind && !in_continuing {
-                    check(exprs, &mut out, span);
-                }
-            }
-            Statement::Block(b) => out.push(Statement::Block(rec(b, exprs, in_continuing)), span),
-            Statement::If {
-                condition,
-                accept,
-                reject,
-            } => {
-                let accept = rec(accept, exprs, in_continuing);
-                let reject = rec(reject, exprs, in_continuing);
-                out.push(
-                    Statement::If {
-                        condition,
-                        accept,
-                        reject,
-                    },
-                    span,
-                );
-            }
-            Statement::Switch { selector, cases } => {
-                let cases = cases
-                    .into_iter()
-                    .map(|c| naga::SwitchCase {
-                        body: rec(c.body, exprs, in_continuing),
-                        ..c
-                    })
-                    .collect();
-                out.push(Statement::Switch { selector, cases }, span);
-            }
-            Statement::Loop {
-                body,
-                continuing,
-                break_if,
-            } => {
-                let mut calls = BTreeSet::new();
-                analysis::collect_calls(&continuing, &mut calls);
-                let continuing_unwinds = calls.iter().any(|c| unwinds.contains(c));
-                let mut new_body = Block::new();
-                if continuing_unwinds {
-                    check(exprs, &mut new_body, span);
-                }
-                new_body.extend_block(rec(body, exprs, in_continuing));
-                let continuing = rec(continuing, exprs, true);
-                out.push(
-                    Statement::Loop {
-                        body: new_body,
-                        continuing,
-                        break_if,
-                    },
-                    span,
-                );
-            }
-            other => out.push(other, span),
-        }
-    }
-    out
 }
 
 /// Validates a lowered module, writes it as WGSL and cuts out the stubs' bodies.

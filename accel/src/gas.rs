@@ -5,7 +5,6 @@ use super::aabb::Aabb;
 use super::bvh::{BuildQuality, Bvh};
 use super::curve_basis::BezierSegment;
 use super::micromap::MicromapArrayData;
-use super::wide::{SlotTriangles, WideBvh};
 use optik_api::decode::{self, BufferBytes};
 use optik_api::semantics::{primitive, sbt_index};
 use optik_api::{
@@ -20,16 +19,23 @@ pub trait MicromapLookup {
     fn micromap_array(&self, array: MicromapArray) -> Result<Arc<MicromapArrayData>>;
 }
 
-/// What triangle blocks are packed from: static triangles and their records (`None` for
-/// other geometry and moving triangles).
-fn slot_triangles<'a>(
-    geometry: &'a Geometry,
-    primitives: &'a [PrimitiveInfo],
-) -> Option<SlotTriangles<'a>> {
-    geometry.static_triangles().map(|vertices| SlotTriangles {
-        vertices,
-        infos: primitives,
-    })
+/// A backend's own encoding of a built geometry structure, kept beside it and rebuilt with
+/// it (the CPU backend's wide nodes and triangle blocks); `()` for a backend that encodes
+/// elsewhere.
+pub trait GasEncoding: Clone + std::fmt::Debug + PartialEq + Send + Sync + 'static {
+    /// Encodes a structure whose tree, per-slot geometry and records are built.
+    fn encode(bvh: &Bvh, geometry: &Geometry, primitives: &[PrimitiveInfo]) -> Self;
+
+    /// Bytes the encoding occupies.
+    fn size_in_bytes(&self) -> u64;
+}
+
+impl GasEncoding for () {
+    fn encode(_: &Bvh, _: &Geometry, _: &[PrimitiveInfo]) {}
+
+    fn size_in_bytes(&self) -> u64 {
+        0
+    }
 }
 
 /// What a primitive reports to programs, per slot.
@@ -208,13 +214,13 @@ impl Geometry {
     }
 }
 
-/// A built geometry acceleration structure.
+/// A built geometry acceleration structure, with a backend's encoding `E`.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Gas {
+pub struct Gas<E: GasEncoding = ()> {
     /// The BVH over slots.
     pub bvh: Bvh,
-    /// The same tree, 4-wide, with triangle blocks: what the CPU traversal walks.
-    pub wide: WideBvh,
+    /// The backend's encoding of the structure, rebuilt on every build and refit.
+    pub encoding: E,
     /// `primitive_order[slot]`: the primitive's index over all inputs, in input order.
     pub primitive_order: Vec<u32>,
     /// Per slot.
@@ -527,7 +533,7 @@ fn decode_inputs(
     }
 }
 
-impl Gas {
+impl<E: GasEncoding> Gas<E> {
     /// Builds a geometry structure from validated inputs (`optik_api::validate::build_inputs`
     /// passed) whose buffers `bytes` reads.
     pub fn build(
@@ -535,7 +541,7 @@ impl Gas {
         inputs: &[BuildInput],
         bytes: &dyn BufferBytes,
         micromaps: &dyn MicromapLookup,
-    ) -> Result<Gas> {
+    ) -> Result<Gas<E>> {
         let decoded = decode_inputs(options, inputs, bytes, micromaps)?;
         let quality = BuildQuality::from_flags(options.flags);
         let (bvh, order) = Bvh::build(&decoded.boxes, quality)?;
@@ -545,7 +551,7 @@ impl Gas {
         let geometry = decoded.geometry.permuted(&order);
         Ok(Gas {
             bounds: bvh.bounds(),
-            wide: WideBvh::build(&bvh, slot_triangles(&geometry, &primitives)),
+            encoding: E::encode(&bvh, &geometry, &primitives),
             geometry,
             primitive_order: order,
             primitives,
@@ -572,7 +578,7 @@ impl Gas {
         self.geometry = decoded.geometry.permuted(order);
         self.primitives = order.iter().map(|&i| decoded.infos[i as usize]).collect();
         self.bvh.refit(|slot| boxes[order[slot] as usize]);
-        self.wide = WideBvh::build(&self.bvh, slot_triangles(&self.geometry, &self.primitives));
+        self.encoding = E::encode(&self.bvh, &self.geometry, &self.primitives);
         self.bounds = self.bvh.bounds();
         Ok(())
     }
@@ -585,7 +591,7 @@ impl Gas {
     /// Bytes the structure occupies.
     pub fn size_in_bytes(&self) -> u64 {
         self.bvh.size_in_bytes()
-            + self.wide.size_in_bytes()
+            + self.encoding.size_in_bytes()
             + (self.primitive_order.len() * 4) as u64
             + (self.primitives.len() * std::mem::size_of::<PrimitiveInfo>()) as u64
             + self.geometry.size_in_bytes()

@@ -1,7 +1,7 @@
 //! Curve bases as Bézier control points.
 //!
 //! Every round curve segment is stored with its control points in the input's basis. Both
-//! the bounds (here) and the intersector (`traverse::curve`) first convert a segment to
+//! the bounds (here) and the CPU intersector (backend-cpu/src/traverse/curve.rs) first convert a segment to
 //! Bézier form, whose control polygon holds the curve (the convex hull property): centre
 //! and radius alike, since OptiX interpolates the radius with the same basis as the centre.
 
@@ -117,13 +117,14 @@ impl BezierSegment {
     }
 
     /// A box holding the swept tube: the control points' box grown by the largest control
-    /// radius (radii along the curve are convex combinations of the control radii).
+    /// radius magnitude (radii along the curve are convex combinations of the control
+    /// radii). Every backend bounds curves with this.
     pub fn bounds(&self) -> Aabb {
         let mut b = Aabb::EMPTY;
         let mut r = 0.0f32;
         for p in &self.points[..=self.degree] {
             b.grow([p[0], p[1], p[2]]);
-            r = r.max(p[3]);
+            r = r.max(p[3].abs());
         }
         b.padded(r).rounded_out()
     }

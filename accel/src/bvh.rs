@@ -1,8 +1,7 @@
 //! The binary BVH every acceleration structure uses: built by obvhs's PLOC builder, stored in
-//! optik's own node layout, traversed by `crate::traverse`.
+//! optik's own node layout, which every backend widens or encodes (`widen`).
 //!
-//! Layout (the contract with `traverse` and with the wgpu backend, which uploads these nodes
-//! as they are):
+//! Layout (the contract with the backends' traversals and encodings):
 //! - `nodes()[0]` is the root; `nodes()[1]` is unused padding;
 //! - an inner node (`count == 0`) has its two children at `first` (always even) and
 //!   `first + 1`, so siblings share one 64-byte cache line (the array is 64-byte aligned);

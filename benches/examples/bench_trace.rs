@@ -17,8 +17,8 @@
 //! the Vulkan device; `OPTIK_ACCURACY` (`robust`, `fast`, `watertight+plain`, ...) the wgpu
 //! backend's triangle and box tests.
 
+use optik::backends::wgpu::bench::BenchConfig;
 use optik_api::{Accuracy, BoxTest, TriangleTest};
-use optik_wgpu::bench::BenchConfig;
 use std::io::Read;
 
 /// Vertices and triangles.
@@ -100,7 +100,7 @@ fn main() {
                 if v.len() != 7 {
                     fail("--camera needs eye x y z, view x y z and a field of view in degrees".into());
                 }
-                camera = Some(optik_wgpu::bench::Camera {
+                camera = Some(optik::backends::wgpu::bench::Camera {
                     eye: [v[0], v[1], v[2]],
                     view: [v[3], v[4], v[5]],
                     horizontal_fov_degrees: v[6],
@@ -129,7 +129,7 @@ fn main() {
     };
     let (vertices, indices) = match &mesh {
         Some(path) => load_obj(path).unwrap_or_else(|e| fail(e)),
-        None => optik_wgpu::bench::bumpy_sphere(512),
+        None => optik::backends::wgpu::bench::bumpy_sphere(512),
     };
     println!(
         "mesh             {}",
@@ -138,7 +138,7 @@ fn main() {
     println!("launch           {} x {}", config.width, config.height);
     println!("\n== wgpu, accuracy {:?}", config.accuracy);
     let mut summary = Vec::new();
-    match optik_wgpu::bench::bench_trace(&vertices, &indices, &config) {
+    match optik::backends::wgpu::bench::bench_trace(&vertices, &indices, &config) {
         Ok(report) => {
             print!("{report}");
             summary.push(("wgpu, GPU timestamps".to_string(), report.clone(), false));
@@ -170,7 +170,7 @@ fn vulkan_reports(
     vertices: &[[f32; 3]],
     indices: &[[u32; 3]],
     config: &BenchConfig,
-    summary: &mut Vec<(String, optik_wgpu::bench::BenchReport, bool)>,
+    summary: &mut Vec<(String, optik::backends::wgpu::bench::BenchReport, bool)>,
 ) {
     let driver = Accuracy {
         triangle: TriangleTest::Driver,
@@ -179,8 +179,8 @@ fn vulkan_reports(
     for (name, accuracy) in [("robust", Accuracy::ROBUST), ("driver triangles", driver)] {
         println!("\n== Vulkan, accuracy {accuracy:?}");
         // A fresh device per accuracy, so each builds and compiles as a new user would.
-        let result = optik_vulkan::open().and_then(|dev| {
-            optik_wgpu::bench::bench_device(
+        let result = optik::backends::vulkan::open().and_then(|dev| {
+            optik::backends::wgpu::bench::bench_device(
                 dev.as_ref(),
                 vertices,
                 indices,

@@ -1,7 +1,7 @@
 //! Traversable handles and the table that resolves them.
 //!
 //! A [`TraversableHandle`] is 64 bits (DESIGN.md §2) that users copy into launch parameters
-//! and instances, so it must be checkable without trusting it. optik-cpu packs three fields:
+//! and instances, so it must be checkable without trusting it. optik packs three fields:
 //!
 //! | bits | field |
 //! |---|---|
@@ -16,7 +16,7 @@
 //! between a handle's creation and its use, or two live devices whose ids agree in 16 bits
 //! and whose slot and generation agree too.
 
-use super::Traversable;
+use super::{GasEncoding, Traversable};
 use optik_api::{DeviceId, TraversableHandle};
 use std::sync::Arc;
 
@@ -60,33 +60,33 @@ pub fn decode(handle: TraversableHandle) -> Option<HandleParts> {
 
 /// What a handle names.
 #[derive(Clone, Copy, Debug)]
-pub enum Resolved<'a> {
+pub enum Resolved<'a, E: GasEncoding = ()> {
     /// The null handle (0): every ray misses.
     Null,
     /// Not a live traversable of this table: destroyed, foreign or garbage.
     Invalid,
     /// A live traversable.
-    Live(&'a Arc<Traversable>),
+    Live(&'a Arc<Traversable<E>>),
 }
 
 #[derive(Clone)]
-struct Entry {
+struct Entry<E: GasEncoding> {
     generation: u32,
-    traversable: Arc<Traversable>,
+    traversable: Arc<Traversable<E>>,
 }
 
 /// The live traversables of one device by slot: what handles resolve against, at build
 /// time (instance children, transform children) and at trace time (a launch takes a
 /// snapshot, a cheap clone of `Arc`s).
 #[derive(Clone)]
-pub struct SceneTable {
+pub struct SceneTable<E: GasEncoding = ()> {
     device: DeviceId,
-    entries: Vec<Option<Entry>>,
+    entries: Vec<Option<Entry<E>>>,
 }
 
-impl SceneTable {
+impl<E: GasEncoding> SceneTable<E> {
     /// An empty table for `device`'s handles.
-    pub fn new(device: DeviceId) -> SceneTable {
+    pub fn new(device: DeviceId) -> SceneTable<E> {
         SceneTable {
             device,
             entries: Vec::new(),
@@ -103,7 +103,7 @@ impl SceneTable {
         &mut self,
         slot: u32,
         generation: u32,
-        traversable: Arc<Traversable>,
+        traversable: Arc<Traversable<E>>,
     ) -> TraversableHandle {
         let i = slot as usize;
         if self.entries.len() <= i {
@@ -124,7 +124,7 @@ impl SceneTable {
     }
 
     /// Resolves a handle.
-    pub fn resolve(&self, handle: TraversableHandle) -> Resolved<'_> {
+    pub fn resolve(&self, handle: TraversableHandle) -> Resolved<'_, E> {
         let Some(parts) = decode(handle) else {
             return if handle.0 == 0 {
                 Resolved::Null
@@ -142,7 +142,7 @@ impl SceneTable {
     }
 
     /// The live traversables.
-    pub fn iter(&self) -> impl Iterator<Item = &Arc<Traversable>> {
+    pub fn iter(&self) -> impl Iterator<Item = &Arc<Traversable<E>>> {
         self.entries
             .iter()
             .filter_map(|e| e.as_ref().map(|e| &e.traversable))

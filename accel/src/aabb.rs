@@ -33,6 +33,18 @@ impl Aabb {
         }
     }
 
+    /// The box as `min.xyz, max.xyz` (custom primitive inputs' and Vulkan's layout).
+    pub fn to_six(&self) -> [f32; 6] {
+        [
+            self.min[0],
+            self.min[1],
+            self.min[2],
+            self.max[0],
+            self.max[1],
+            self.max[2],
+        ]
+    }
+
     /// Whether the box holds at least one point (`min <= max` on every axis).
     pub fn is_valid(&self) -> bool {
         (0..3).all(|i| self.min[i] <= self.max[i])
@@ -96,17 +108,40 @@ impl Aabb {
         })
     }
 
-    /// The box of this box's corners after `m`, rounded out (a conservative bound of the
-    /// transformed box). The empty box stays empty.
+    /// The box of this box's corners after `m`, a conservative bound of the transformed box
+    /// on every backend: corners are transformed in f64 (so the matrix product adds no
+    /// rounding of its own), then the box is rounded out per axis and widened by 2⁻²⁰ of its
+    /// largest coordinate magnitude, which covers the f32 rounding of the matrix a traversal
+    /// applies to rays. The empty box stays empty.
     pub fn transformed(&self, m: &Matrix3x4) -> Aabb {
         if !self.is_valid() {
             return Aabb::EMPTY;
         }
         let mut r = Aabb::EMPTY;
         for c in self.corners() {
-            r.grow(optik_api::semantics::affine::transform_point(m, c));
+            let p = c.map(f64::from);
+            r.grow(std::array::from_fn(|row| {
+                (f64::from(m[row * 4]) * p[0]
+                    + f64::from(m[row * 4 + 1]) * p[1]
+                    + f64::from(m[row * 4 + 2]) * p[2]
+                    + f64::from(m[row * 4 + 3])) as f32
+            }));
         }
-        r.rounded_out()
+        r.rounded_out().widened_relative()
+    }
+
+    /// Whether the box is non-empty with finite corners: a primitive or child with such a
+    /// box can be hit; any other never is.
+    pub fn is_usable(&self) -> bool {
+        self.is_valid() && self.is_finite()
+    }
+
+    /// The box grown on every side by 2⁻²⁰ of its largest coordinate magnitude.
+    pub fn widened_relative(&self) -> Aabb {
+        let scale = (0..3)
+            .map(|i| self.min[i].abs().max(self.max[i].abs()))
+            .fold(0.0f32, f32::max);
+        self.padded(scale * (1.0 / 1_048_576.0))
     }
 
     /// Half the surface area (a SAH cost measure); 0 for an empty box.

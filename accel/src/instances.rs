@@ -6,6 +6,7 @@
 
 use super::aabb::Aabb;
 use super::bvh::{BuildQuality, Bvh};
+use super::gas::GasEncoding;
 use super::handle::{Resolved, SceneTable};
 use optik_api::decode::{self, BufferBytes};
 use optik_api::semantics::{affine, motion, sbt_index};
@@ -61,8 +62,8 @@ struct Child {
     features: SceneFeatures,
 }
 
-fn resolve_child(
-    scene: &SceneTable,
+fn resolve_child<E: GasEncoding>(
+    scene: &SceneTable<E>,
     handle: TraversableHandle,
     what: &dyn Fn() -> String,
 ) -> Result<Option<Child>> {
@@ -99,10 +100,10 @@ struct DecodedInstances {
     depth: u32,
 }
 
-fn decode_instances(
+fn decode_instances<E: GasEncoding>(
     input: &InstanceArray,
     bytes: &dyn BufferBytes,
-    scene: &SceneTable,
+    scene: &SceneTable<E>,
     max_graph_depth: u32,
 ) -> Result<DecodedInstances> {
     let instances = decode::instances(input, bytes).map_err(|e| e.context("build_inputs[0]"))?;
@@ -155,11 +156,11 @@ fn decode_instances(
 
 impl Ias {
     /// Builds an instance structure from a validated input; children resolve in `scene`.
-    pub fn build(
+    pub fn build<E: GasEncoding>(
         options: &AccelBuildOptions,
         input: &InstanceArray,
         bytes: &dyn BufferBytes,
-        scene: &SceneTable,
+        scene: &SceneTable<E>,
         max_graph_depth: u32,
     ) -> Result<Ias> {
         let d = decode_instances(input, bytes, scene, max_graph_depth)?;
@@ -177,11 +178,11 @@ impl Ias {
 
     /// Refits to new instance transforms and children (same count). Instances left out at
     /// build (null child, singular transform) stay out. On error nothing changes.
-    pub fn refit(
+    pub fn refit<E: GasEncoding>(
         &mut self,
         input: &InstanceArray,
         bytes: &dyn BufferBytes,
-        scene: &SceneTable,
+        scene: &SceneTable<E>,
         max_graph_depth: u32,
     ) -> Result<()> {
         let d = decode_instances(input, bytes, scene, max_graph_depth)?;
@@ -225,6 +226,30 @@ pub enum TransformKind {
         /// The keys.
         keys: Vec<SrtData>,
     },
+}
+
+impl TransformKind {
+    /// What a transform description does.
+    pub fn of(desc: &TransformDesc) -> TransformKind {
+        match desc {
+            TransformDesc::Static {
+                object_to_world,
+                world_to_object,
+                ..
+            } => TransformKind::Static {
+                object_to_world: *object_to_world,
+                world_to_object: *world_to_object,
+            },
+            TransformDesc::MatrixMotion { motion, keys, .. } => TransformKind::MatrixMotion {
+                motion: *motion,
+                keys: keys.clone(),
+            },
+            TransformDesc::SrtMotion { motion, keys, .. } => TransformKind::SrtMotion {
+                motion: *motion,
+                keys: keys.clone(),
+            },
+        }
+    }
 }
 
 /// A transform traversable.
@@ -297,7 +322,9 @@ fn srt_interval_bounds(child: &Aabb, a: &SrtData, b: &SrtData) -> Aabb {
         .rounded_out()
 }
 
-fn motion_bounds(kind: &TransformKind, child: &Aabb) -> Aabb {
+/// A box holding `child` (a box in the transform's child space) under `kind` at every
+/// time, in the transform's parent space: the one bound every backend uses for transforms.
+pub fn motion_bounds(kind: &TransformKind, child: &Aabb) -> Aabb {
     if !child.is_valid() {
         return Aabb::EMPTY;
     }
@@ -305,43 +332,40 @@ fn motion_bounds(kind: &TransformKind, child: &Aabb) -> Aabb {
         TransformKind::Static {
             object_to_world, ..
         } => child.transformed(object_to_world),
-        // A point under lerped matrices moves on the segment between its keyed positions.
-        TransformKind::MatrixMotion { keys, .. } => keys
-            .iter()
-            .fold(Aabb::EMPTY, |acc, m| acc.union(&child.transformed(m))),
-        TransformKind::SrtMotion { keys, .. } => keys.windows(2).fold(Aabb::EMPTY, |acc, w| {
-            acc.union(&srt_interval_bounds(child, &w[0], &w[1]))
-        }),
+        TransformKind::MatrixMotion { keys, .. } => matrix_motion_bounds(keys, child),
+        TransformKind::SrtMotion { keys, .. } => srt_motion_bounds(keys, child),
     }
+}
+
+/// A box holding `child` under matrix motion through `keys` at every time: a point under
+/// lerped matrices moves on the segment between its keyed positions, so the union of the
+/// key boxes holds it.
+pub fn matrix_motion_bounds(keys: &[Matrix3x4], child: &Aabb) -> Aabb {
+    keys.iter()
+        .fold(Aabb::EMPTY, |acc, m| acc.union(&child.transformed(m)))
+}
+
+/// A box holding `child` under SRT motion through `keys` at every time (empty for an
+/// invalid child box, and for fewer than two keys, which validation refuses).
+pub fn srt_motion_bounds(keys: &[SrtData], child: &Aabb) -> Aabb {
+    if !child.is_valid() {
+        return Aabb::EMPTY;
+    }
+    keys.windows(2).fold(Aabb::EMPTY, |acc, w| {
+        acc.union(&srt_interval_bounds(child, &w[0], &w[1]))
+    })
 }
 
 impl Transform {
     /// A transform from a validated description (`optik_api::validate::transform` passed).
-    pub fn new(
+    pub fn new<E: GasEncoding>(
         desc: &TransformDesc,
-        scene: &SceneTable,
+        scene: &SceneTable<E>,
         max_graph_depth: u32,
     ) -> Result<Transform> {
         let child = desc.child();
         let resolved = resolve_child(scene, child, &|| "transform child".to_string())?;
-        let kind = match desc {
-            TransformDesc::Static {
-                object_to_world,
-                world_to_object,
-                ..
-            } => TransformKind::Static {
-                object_to_world: *object_to_world,
-                world_to_object: *world_to_object,
-            },
-            TransformDesc::MatrixMotion { motion, keys, .. } => TransformKind::MatrixMotion {
-                motion: *motion,
-                keys: keys.clone(),
-            },
-            TransformDesc::SrtMotion { motion, keys, .. } => TransformKind::SrtMotion {
-                motion: *motion,
-                keys: keys.clone(),
-            },
-        };
+        let kind = TransformKind::of(desc);
         let (motion_kind, is_static) = match &kind {
             TransformKind::Static { .. } => (MotionKinds::default(), true),
             TransformKind::MatrixMotion { .. } => (
@@ -469,5 +493,60 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn srt_bounds_hold_the_arc_outside_the_key_boxes() {
+        // A box at x in [4, 5] turning 90° about z: at 45° its far corner is at
+        // |p| = √(25 + 0.25 + 0.25), on the diagonal, outside the union of the key boxes.
+        let child = Aabb {
+            min: [4.0, -0.5, -0.5],
+            max: [5.0, 0.5, 0.5],
+        };
+        let q = quat([0.0, 0.0, 1.0], std::f32::consts::FRAC_PI_2);
+        let k0 = SrtData::identity();
+        let k1 = SrtData {
+            qx: q[0],
+            qy: q[1],
+            qz: q[2],
+            qw: q[3],
+            ..SrtData::identity()
+        };
+        let keys = [k0, k1];
+        let bounds = srt_motion_bounds(&keys, &child);
+        let kind = TransformKind::SrtMotion {
+            motion: MotionOptions {
+                num_keys: 2,
+                flags: optik_api::MotionFlags::default(),
+                time_begin: 0.0,
+                time_end: 1.0,
+            },
+            keys: keys.to_vec(),
+        };
+        assert_eq!(motion_bounds(&kind, &child), bounds);
+        let keys_only = matrix_motion_bounds(
+            &[motion::srt_to_matrix(&k0), motion::srt_to_matrix(&k1)],
+            &child,
+        );
+        let mut outside_keys = false;
+        for s in 0..=100 {
+            let at = motion::KeyPosition {
+                key: 0,
+                t: s as f32 / 100.0,
+            };
+            let m = motion::srt_to_matrix(&motion::interpolate_srt(&keys, at));
+            for c in child.corners() {
+                let p = affine::transform_point(&m, c);
+                outside_keys |= (0..3).any(|i| p[i] < keys_only.min[i] || p[i] > keys_only.max[i]);
+                for i in 0..3 {
+                    assert!(
+                        bounds.min[i] <= p[i] && p[i] <= bounds.max[i],
+                        "{p:?} outside {bounds:?}"
+                    );
+                }
+            }
+        }
+        assert!(outside_keys, "the test's arc leaves the key boxes");
+        assert_eq!(srt_motion_bounds(&keys, &Aabb::EMPTY), Aabb::EMPTY);
     }
 }
