@@ -2,7 +2,7 @@
 
 use super::abi::{Bindings, BoundResource, DeviceCalls, DeviceState};
 use super::cache::{self, DiskStore, ModuleKey};
-use super::host::{BufferSlot, CallContext, HostFn, ZERO_PAGE};
+use super::host::{BufferSlot, CallContext, HostFn, NEVER_STOP, ZERO_PAGE};
 use super::lower::{self, LowerError, ModuleEnv};
 use cranelift_codegen::control::ControlPlane;
 use cranelift_codegen::settings::{self, Configurable};
@@ -249,6 +249,10 @@ impl ProgramFn<'_> {
                 &DeviceState::EMPTY
             } else {
                 state
+            },
+            stop: {
+                let stop = calls.stop_flag();
+                if stop.is_null() { &NEVER_STOP } else { stop }
             },
             calls: calls as *mut dyn DeviceCalls,
             bindings: bindings as *const Bindings<'_>,
