@@ -182,3 +182,84 @@ fn runaway_programs_stop_on_a_deadline_a_token_and_an_interrupt() {
     clear_interrupt();
     r.still_works();
 }
+
+/// A loop whose trip count is read at run time (so it is not unrolled): each iteration
+/// runs the back-edge check.
+const HOT_LOOP: &str = r#"
+@group(0) @binding(0) var<uniform> params: vec4<u32>;
+@group(0) @binding(1) var<storage, read_write> out: array<u32>;
+
+fn raygen__main() {
+    let i = rt_launch_index().x;
+    var h = i;
+    var acc = 0.0;
+    for (var k = 0u; k < params.x; k++) {
+        h = h * 747796405u + 2891336453u;
+        acc = acc * 0.999 + f32(h >> 20u);
+    }
+    out[i % arrayLength(&out)] = h ^ bitcast<u32>(acc);
+}
+"#;
+
+/// What the back-edge check costs in a tight loop: run once with and once without
+/// `OPTIK_JIT_STOP_CHECKS=0` and compare the printed times.
+#[test]
+#[ignore = "a measurement, not a check: run with --ignored --nocapture, with and without OPTIK_JIT_STOP_CHECKS=0"]
+fn back_edge_check_cost() {
+    let dev = CpuDevice::with_threads(1).unwrap();
+    let options = PipelineCompileOptions::default();
+    let (module, _) = dev
+        .create_module(
+            &ModuleCompileOptions::default(),
+            &options,
+            &ProgramSource::new("hot.wgsl", HOT_LOOP),
+        )
+        .unwrap();
+    let groups = dev
+        .create_program_groups(&[ProgramGroupDesc::Raygen(ProgramRef::new(
+            module,
+            "raygen__main",
+        ))])
+        .unwrap();
+    let pipeline = dev
+        .create_pipeline(&options, &PipelineLinkOptions::default(), &groups)
+        .unwrap();
+    let sbt_buffer = dev.create_buffer(32).unwrap();
+    dev.write_buffer(
+        sbt_buffer,
+        0,
+        &dev.sbt_record_pack_header(groups[0]).unwrap(),
+    )
+    .unwrap();
+    let sbt = ShaderBindingTable {
+        raygen: SbtRecord {
+            buffer: sbt_buffer,
+            offset: 0,
+        },
+        exception: None,
+        miss: None,
+        hitgroup: None,
+        callables: None,
+    };
+    let out = dev.create_buffer(1024 * 4).unwrap();
+    let params: [u32; 4] = [1000, 0, 0, 0];
+    let mut best = f64::INFINITY;
+    for _ in 0..15 {
+        let t = Instant::now();
+        dev.launch(
+            pipeline,
+            bytemuck::cast_slice(&params),
+            &[Resource::buffer(1, out)],
+            &sbt,
+            LaunchSize::new(4096, 1, 1),
+        )
+        .unwrap();
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    let checks = std::env::var("OPTIK_JIT_STOP_CHECKS").unwrap_or_default() != "0";
+    println!(
+        "back-edge checks {}: {:.3} ns per iteration (best of 15 launches of 4096 x 1000 iterations)",
+        if checks { "on" } else { "off" },
+        best * 1e9 / 4096e3
+    );
+}

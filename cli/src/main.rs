@@ -12,6 +12,7 @@ macro_rules! outln {
 }
 
 mod args;
+mod cancel;
 mod compile;
 mod conformance;
 mod info;
@@ -52,6 +53,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = parse();
+    cancel::install();
     let code = match cli.command {
         Command::Compile(args) => compile::run(&args),
         Command::Info => info::run(),

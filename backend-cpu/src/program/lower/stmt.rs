@@ -315,7 +315,7 @@ impl<'m> Lowerer<'m, '_> {
     /// not marked read-only, so it stays in the loop; it hits L1 and the branch predicts,
     /// which keeps the check to about a cycle an iteration.
     fn stop_check(&mut self) {
-        if !self.live {
+        if !self.live || !stop_checks() {
             return;
         }
         let flag = self
@@ -393,6 +393,14 @@ impl<'m> Lowerer<'m, '_> {
             self.b.ins().iconst(t, 0)
         }
     }
+}
+
+/// Whether back-edges check the stop flag: always, unless `OPTIK_JIT_STOP_CHECKS=0` turns
+/// them off to measure what they cost (launches then cannot stop a program that loops
+/// forever). Read once per process.
+fn stop_checks() -> bool {
+    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *ON.get_or_init(|| std::env::var_os("OPTIK_JIT_STOP_CHECKS").is_none_or(|v| v != "0"))
 }
 
 /// Copies of one loop's iteration at most.
