@@ -35,7 +35,9 @@ const EXIT_STATUS: &str = "Exit status: 0 success; 1 the work failed (a compile 
 
 #[derive(Subcommand)]
 enum Command {
-    /// Compiles a WGSL module and lists its programs, or prints each error as FILE:LINE:COLUMN.
+    /// Compiles a WGSL module and lists its programs (kind, name, line, device functions
+    /// called), bindings and registers used, or prints each error as FILE:LINE:COLUMN with the
+    /// source line; a module without programs is an error.
     Compile(compile::CompileArgs),
     /// Lists each backend and whether it can run here, what `--backend auto` picks and why,
     /// and the Vulkan devices and wgpu adapters found.
@@ -43,8 +45,10 @@ enum Command {
     /// Casts rays (a float32 .npy of shape (N, 8)) against a mesh and writes hits to a .npz.
     Trace(trace::TraceArgs),
     /// Runs the conformance suite on the chosen backends and prints the case × backend table;
-    /// `--list` shows the catalog, `--out DIR` writes EXRs and an HTML report, `bless` writes
-    /// references where the oracle and every available backend agree.
+    /// each case is judged against the f64 oracle and its reference (built into this binary; a
+    /// missing or unreadable one fails the case). `--list` shows the catalog, `--out DIR`
+    /// writes EXRs and an HTML report, `bless` writes references where the oracle and every
+    /// available backend agree.
     Conformance(conformance::ConformanceArgs),
     /// Measures backends, accuracy options, specialisation and scaling side by side on the
     /// test scenes, with Embree as a CPU peer, and prints the report.

@@ -7,10 +7,11 @@ use std::path::PathBuf;
 /// Arguments of `optik bench-report`.
 #[derive(clap::Args)]
 pub struct ReportArgs {
-    /// Folder with the test scenes (stanford-bunny/, breakfast-room/); default $OPTIK_SCENES or ../shared/scenes.
-    #[arg(long)]
+    /// Folder with the test scenes (stanford-bunny/, breakfast-room/); default $OPTIK_SCENES or
+    /// ../shared/scenes. Without them a generated sphere is measured.
+    #[arg(long, value_name = "DIR")]
     scenes: Option<PathBuf>,
-    /// Backends to measure: cpu, wgpu, vulkan (default: all).
+    /// Backends to measure, comma-separated: cpu, wgpu, vulkan (default: all).
     #[arg(long, value_delimiter = ',')]
     backend: Vec<String>,
     /// 1920x1080 camera rays and 2M incoherent rays (default: 640x360 and 230 400).
@@ -27,7 +28,7 @@ pub struct ReportArgs {
     #[arg(long)]
     no_embree: bool,
     /// Also write the figures as JSON here.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
 }
 
@@ -45,6 +46,10 @@ pub fn run(args: &ReportArgs) -> u8 {
     }
     if backends.is_empty() {
         backends = BackendKind::ALL.to_vec();
+    }
+    if let Some(dir) = args.scenes.as_ref().filter(|d| !d.is_dir()) {
+        eprintln!("--scenes {}: not a folder", dir.display());
+        return 2;
     }
     if let Some(n) = args.threads
         && args.no_embree

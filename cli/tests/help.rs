@@ -91,6 +91,11 @@ fn bench_report_refuses_zero_and_unbounded_counts() {
         ("--repeat", "0", "expected a count of at least 1"),
         ("--threads", "0", "expected a thread count from 1 to"),
         ("--threads", "5000", "expected a thread count from 1 to"),
+        (
+            "--scenes",
+            "/nonexistent/scenes",
+            "--scenes /nonexistent/scenes: not a folder",
+        ),
     ] {
         let (code, _, err) = optik(&["bench-report", option, value]);
         assert_eq!(code, Some(2), "{option} {value}: {err}");

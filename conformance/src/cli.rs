@@ -20,7 +20,7 @@ pub struct ConformanceArgs {
     pub backend: String,
     /// Only cases whose name matches this glob (`*`, `?`; a bare group name means `group.*`;
     /// several patterns separated by commas).
-    #[arg(long)]
+    #[arg(long, value_name = "GLOB")]
     pub filter: Option<String>,
     /// Print one JSON document instead of the table.
     #[arg(long)]
@@ -36,7 +36,7 @@ pub struct ConformanceArgs {
     #[arg(long)]
     pub explain: bool,
     /// Write outputs, references, differences and index.html here.
-    #[arg(long)]
+    #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Read references from this folder instead of the ones built into the binary; with
     /// `bless`, write them here (default there: the source tree's conformance/references).
