@@ -3,15 +3,20 @@
 //! One host API ([`Device`] and the types of [`optik_api`]) and one program language (WGSL
 //! with an OptiX-style device API) on three backends: CPU (`optik-cpu`), wgpu compute
 //! (`optik-wgpu`) and Vulkan ray tracing (`optik-vulkan`). This facade re-exports the API
-//! and opens devices: a named backend, or the best one available (Vulkan ray tracing where
-//! present, else wgpu, else CPU).
+//! and opens devices: a named backend, or the best one available (Vulkan ray tracing on a
+//! GPU, else wgpu on a GPU, else CPU; software GPU drivers only when named).
 
 pub use optik_api::*;
+
+mod auto;
+pub use auto::{AutoChoice, FoundDevice, auto_choice, decide_auto};
 
 /// Which backend [`open`] should use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum BackendChoice {
-    /// The first available of Vulkan ray tracing, wgpu, CPU.
+    /// The fastest real device here: Vulkan ray tracing on a GPU, else wgpu on a GPU, else
+    /// the CPU backend. Software Vulkan or wgpu devices (lavapipe, llvmpipe) are never chosen
+    /// automatically: they are correct but hundreds of times slower than the CPU backend.
     Auto,
     /// Exactly this backend, or an error saying why it cannot run.
     Named(BackendKind),
@@ -48,17 +53,61 @@ pub fn open_backend(kind: BackendKind) -> Result<Box<dyn Device>> {
 /// Settings for opening a device that only some backends use.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct OpenOptions {
-    /// CPU worker threads (`None`: one per core). Results do not depend on it.
+    /// CPU worker threads (`None`: one per core), 1 to [`max_cpu_threads`]. Results do not
+    /// depend on it. Only the CPU backend uses it.
     pub threads: Option<usize>,
 }
 
-/// Opens a device: a named backend, or the first that works of Vulkan, wgpu and CPU.
+impl OpenOptions {
+    /// The options that a device of `kind` ignores, each as a sentence for a warning: a
+    /// user who asked for 8 threads should hear that a GPU backend has no use for them.
+    pub fn ignored_by(&self, kind: BackendKind) -> Vec<String> {
+        let mut ignored = Vec::new();
+        if let Some(n) = self.threads
+            && kind != BackendKind::Cpu
+        {
+            ignored.push(format!(
+                "the thread count ({n}) is ignored: only the CPU backend has worker threads, and the device is {kind}"
+            ));
+        }
+        ignored
+    }
+
+    /// Checks the values themselves, whatever the backend.
+    fn check(&self) -> Result<()> {
+        if let Some(n) = self.threads {
+            let max = max_cpu_threads();
+            if n == 0 || n > max {
+                return Err(Error::invalid(format!(
+                    "{n} CPU worker threads asked for; give 1 to {max} (this machine has {} cores; results do not depend on the count)",
+                    cores()
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The most CPU worker threads a device may have: 1024, or four per core on machines with
+/// more than 256 cores. Starting thousands of threads takes tens of seconds and, beyond
+/// that, exhausts process ids; no launch gets faster past a few threads per core.
+pub fn max_cpu_threads() -> usize {
+    1024.max(4 * cores())
+}
+
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// Opens a device: a named backend, or the automatic choice ([`auto_choice`]).
 pub fn open(choice: BackendChoice) -> Result<Box<dyn Device>> {
     open_with(choice, &OpenOptions::default())
 }
 
-/// Opens a device with options.
+/// Opens a device with options. The options are checked whatever the backend; those the
+/// chosen backend ignores are listed by [`OpenOptions::ignored_by`].
 pub fn open_with(choice: BackendChoice, options: &OpenOptions) -> Result<Box<dyn Device>> {
+    options.check()?;
     let open_one = |kind| match kind {
         BackendKind::Cpu => open_cpu_with(options.threads),
         other => open_backend(other),
@@ -66,8 +115,9 @@ pub fn open_with(choice: BackendChoice, options: &OpenOptions) -> Result<Box<dyn
     match choice {
         BackendChoice::Named(kind) => open_one(kind),
         BackendChoice::Auto => {
+            let pick = auto_choice();
             let mut reasons = Vec::new();
-            for kind in [BackendKind::Vulkan, BackendKind::Wgpu, BackendKind::Cpu] {
+            for kind in pick.order {
                 match open_one(kind) {
                     Ok(d) => return Ok(d),
                     Err(e) => reasons.push(format!("{kind}: {}", e.message())),
@@ -95,7 +145,7 @@ pub fn backend_statuses() -> Vec<BackendStatus> {
 }
 
 #[cfg(not(all(feature = "cpu", feature = "wgpu", feature = "vulkan")))]
-fn not_built(kind: BackendKind) -> Error {
+pub(crate) fn not_built(kind: BackendKind) -> Error {
     Error::unsupported(format!(
         "the {kind} backend was not compiled into this build (enable the `{kind}` feature of the optik crate)"
     ))

@@ -10,7 +10,7 @@ use crate::features::FeatureSet;
 use crate::handle::{
     Accel, Buffer, DeviceId, MicromapArray, Module, Pipeline, ProgramGroup, Texture,
 };
-use crate::launch::{LaunchSize, Resource, TextureDesc};
+use crate::launch::{LaunchOptions, LaunchSize, Resource, TextureDesc};
 use crate::program::{
     ModuleCompileOptions, PipelineCompileOptions, PipelineLinkOptions, ProgramGroupDesc,
 };
@@ -286,6 +286,7 @@ pub trait Device: Send + Sync {
     /// Launches `size` raygen invocations (OptiX `optixLaunch`). `params` are the bytes of
     /// the `params` uniform; `resources` bind `@group(0)` variables from 1 up. Asynchronous:
     /// [`Device::synchronize`] or a read waits. A launch with a zero dimension does nothing.
+    /// The same as [`Device::launch_with`] with default options.
     fn launch(
         &self,
         pipeline: Pipeline,
@@ -293,6 +294,30 @@ pub trait Device: Send + Sync {
         resources: &[Resource],
         sbt: &ShaderBindingTable,
         size: LaunchSize,
+    ) -> Result<()> {
+        self.launch_with(
+            pipeline,
+            params,
+            resources,
+            sbt,
+            size,
+            &LaunchOptions::default(),
+        )
+    }
+    /// [`Device::launch`] that may be stopped early: by `options.deadline`, by
+    /// `options.cancel`, or by [`interrupt_launches`](crate::interrupt_launches) (Ctrl-C in
+    /// the `optik` command). A stopped launch returns an `ErrorKind::TimedOut` or
+    /// `ErrorKind::Cancelled` error and what it wrote is incomplete; the device stays usable.
+    /// A launch with a deadline or a token waits for its work to finish (or stop) before it
+    /// returns.
+    fn launch_with(
+        &self,
+        pipeline: Pipeline,
+        params: &[u8],
+        resources: &[Resource],
+        sbt: &ShaderBindingTable,
+        size: LaunchSize,
+        options: &LaunchOptions,
     ) -> Result<()>;
     /// Waits for every launch to finish.
     fn synchronize(&self) -> Result<()>;

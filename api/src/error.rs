@@ -27,6 +27,11 @@ pub enum ErrorKind {
     Backend,
     /// Reading or writing a file failed.
     Io,
+    /// A launch was cancelled (a `CancelToken`, or an interrupt such as Ctrl-C) before it
+    /// finished.
+    Cancelled,
+    /// A launch passed its deadline (`LaunchOptions::deadline`) before it finished.
+    TimedOut,
 }
 
 /// A located message about a user's WGSL source: `file:line:column: message`.

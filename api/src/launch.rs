@@ -6,6 +6,13 @@
 
 use crate::handle::{Buffer, Texture};
 
+mod cancel;
+
+pub use cancel::{
+    CancelToken, LaunchOptions, LaunchWatch, clear_interrupt, interrupt_launches,
+    launches_interrupted,
+};
+
 /// Texel formats of textures.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum TextureFormat {

@@ -21,11 +21,11 @@ use optik_api::sbt::SbtHeader;
 use optik_api::{
     Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BuildFlags,
     BuildInput, BuildOperation, Device, DeviceId, DeviceProperties, Error, ErrorKind,
-    ExceptionFlags, FeatureSet, Handle, HandleTable, LaunchSize, MicromapArray, Module,
-    ModuleCompileOptions, OpacityMicromapArrayDesc, Pipeline, PipelineCompileOptions,
-    PipelineLinkOptions, ProgramGroup, ProgramGroupDesc, ProgramSource, Resource, Result,
-    SceneFeatures, ShaderBindingTable, Texture, TextureDesc, TransformDesc, TraversableHandle,
-    validate,
+    ExceptionFlags, FeatureSet, Handle, HandleTable, LaunchOptions, LaunchSize, LaunchWatch,
+    MicromapArray, Module, ModuleCompileOptions, OpacityMicromapArrayDesc, Pipeline,
+    PipelineCompileOptions, PipelineLinkOptions, ProgramGroup, ProgramGroupDesc, ProgramSource,
+    Resource, Result, SceneFeatures, ShaderBindingTable, Texture, TextureDesc, TransformDesc,
+    TraversableHandle, validate,
 };
 use std::sync::{Arc, Mutex, MutexGuard};
 
@@ -685,13 +685,14 @@ impl Device for CpuDevice {
         Ok(SbtHeader::pack(group, g.desc.region()))
     }
 
-    fn launch(
+    fn launch_with(
         &self,
         pipeline: Pipeline,
         params: &[u8],
         resources: &[Resource],
         sbt: &ShaderBindingTable,
         size: LaunchSize,
+        options: &LaunchOptions,
     ) -> Result<()> {
         let pool = self.pool.lock().unwrap_or_else(|e| e.into_inner()).clone();
         let mut guard = self.state();
@@ -733,6 +734,7 @@ impl Device for CpuDevice {
         if size.is_empty() {
             return Ok(());
         }
+        let watch = LaunchWatch::new(options)?;
         // Binding 0: the params bytes, copied into aligned memory that lives for the launch.
         let mut params_copy = BufferData::zeroed(params.len() as u64)?;
         params_copy.bytes_mut().copy_from_slice(params);
@@ -810,6 +812,7 @@ impl Device for CpuDevice {
             features,
             link: pipeline.link,
             trace: pipeline.trace,
+            stop: watch.flag(),
         };
         let outcome =
             std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| launch::run(&shared, &pool)));
@@ -820,7 +823,8 @@ impl Device for CpuDevice {
                 "a program panicked during the launch: {}",
                 panic_message(p)
             ))
-        })
+        })?;
+        watch.finish()
     }
 
     fn synchronize(&self) -> Result<()> {

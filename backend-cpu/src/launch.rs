@@ -40,6 +40,8 @@ use optik_api::{
     TraversableHandle,
 };
 
+use std::sync::atomic::{AtomicU32, Ordering};
+
 /// Most payload (and callable argument) registers.
 const MAX_PAYLOAD: usize = 32;
 
@@ -57,6 +59,9 @@ pub(crate) struct LaunchShared<'l> {
     pub features: FeatureSet,
     pub link: PipelineLinkOptions,
     pub trace: TraceFn,
+    /// Non-zero once the launch must stop (`optik_api::LaunchWatch::flag`): checked before
+    /// each launch index and, by compiled programs, at every loop back-edge.
+    pub stop: &'l AtomicU32,
 }
 
 /// Runs every launch index on `pool`. Invocations share nothing mutable but the user's
@@ -81,6 +86,9 @@ pub(crate) fn run(shared: &LaunchShared<'_>, pool: &rayon::ThreadPool) {
                 let f = first as u64;
                 let mut index = [(f % w) as u32, ((f / w) % h) as u32, (f / (w * h)) as u32];
                 for _ in first..(first + INDICES_PER_TASK).min(count) {
+                    if shared.stop.load(Ordering::Relaxed) != 0 {
+                        return;
+                    }
                     let view = View {
                         kind: ProgramKind::Raygen,
                         record: Some(&shared.sbt.raygen),
@@ -1056,6 +1064,10 @@ impl DeviceCalls for Invocation<'_> {
             || (self.view().kind == ProgramKind::Intersection
                 && !self.trace.is_null()
                 && self.tr().intersection_exit)
+    }
+
+    fn stop_flag(&self) -> *const AtomicU32 {
+        self.shared.stop
     }
 
     fn state(&self) -> *const DeviceState {

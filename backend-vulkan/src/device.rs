@@ -262,6 +262,25 @@ impl Inner {
         first_error.map_or(Ok(()), Err)
     }
 
+    /// Waits for the launches in flight until they finish or `watch` stops the launch. A
+    /// GPU launch cannot be preempted: a stopped launch returns its error while the device
+    /// finishes the work; a driver that ends it reports `VK_ERROR_DEVICE_LOST`, which
+    /// becomes `ErrorKind::DeviceLost`.
+    pub fn wait_watched(&mut self, watch: &optik_api::LaunchWatch) -> Result<()> {
+        loop {
+            self.reap_launches()?;
+            if self.in_flight.is_empty() {
+                return Ok(());
+            }
+            if watch.stopped() {
+                return watch.check().map_err(|e| {
+                    e.context("the GPU may still be running the launch (it cannot be preempted); later calls wait for it")
+                });
+            }
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+    }
+
     /// Frees the launches that are done.
     pub fn reap_launches(&mut self) -> Result<()> {
         let mut still = Vec::new();
@@ -499,15 +518,21 @@ impl Device for VulkanDevice {
         self.with(|i| Ok(SbtHeader::pack(group, i.groups.get(group)?.desc.region())))
     }
 
-    fn launch(
+    fn launch_with(
         &self,
         pipeline: Pipeline,
         params: &[u8],
         resources: &[Resource],
         sbt: &ShaderBindingTable,
         size: LaunchSize,
+        options: &optik_api::LaunchOptions,
     ) -> Result<()> {
-        self.with(|i| i.launch(pipeline, params, resources, sbt, size))
+        let watch = optik_api::LaunchWatch::new(options)?;
+        self.with(|i| i.launch(pipeline, params, resources, sbt, size))?;
+        if options.deadline.is_some() || options.cancel.is_some() {
+            self.with(|i| i.wait_watched(&watch))?;
+        }
+        watch.finish()
     }
 
     fn synchronize(&self) -> Result<()> {

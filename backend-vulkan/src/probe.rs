@@ -155,6 +155,18 @@ impl VulkanDeviceInfo {
     pub fn usable(&self) -> bool {
         self.missing.is_empty()
     }
+
+    /// Whether this is a GPU (discrete, integrated or virtual) rather than a software
+    /// implementation such as lavapipe (device type CPU), which runs ray tracing correctly but
+    /// far slower than optik's CPU backend: the facade's automatic choice skips it.
+    pub fn is_gpu(&self) -> bool {
+        matches!(
+            self.device_type,
+            vk::PhysicalDeviceType::DISCRETE_GPU
+                | vk::PhysicalDeviceType::INTEGRATED_GPU
+                | vk::PhysicalDeviceType::VIRTUAL_GPU
+        )
+    }
 }
 
 impl fmt::Display for VulkanDeviceInfo {

@@ -671,14 +671,16 @@ impl optik_api::Device for WgpuDevice {
         Ok(SbtHeader::pack(group, g.desc.region()))
     }
 
-    fn launch(
+    fn launch_with(
         &self,
         pipeline: Pipeline,
         params: &[u8],
         resources: &[Resource],
         sbt: &ShaderBindingTable,
         size: LaunchSize,
+        options: &optik_api::LaunchOptions,
     ) -> Result<()> {
+        let watch = optik_api::LaunchWatch::new(options)?;
         crate::launch::launch(
             self,
             pipeline,
@@ -687,8 +689,11 @@ impl optik_api::Device for WgpuDevice {
             sbt,
             size,
             crate::launch::Observe::default(),
-        )
-        .map(drop)
+        )?;
+        if options.deadline.is_some() || options.cancel.is_some() {
+            crate::launch::wait_watched(&self.gpu, &watch)?;
+        }
+        watch.finish()
     }
 
     fn synchronize(&self) -> Result<()> {

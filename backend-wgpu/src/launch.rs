@@ -321,6 +321,31 @@ pub(crate) fn launch(
     }
 }
 
+/// Waits for the submitted work until it finishes or `watch` stops the launch. A GPU
+/// dispatch cannot be preempted: a stopped launch returns its error at once while the
+/// device finishes the work (or its driver's watchdog ends it and the device is lost,
+/// which later calls report as `ErrorKind::DeviceLost`).
+pub(crate) fn wait_watched(gpu: &crate::gpu::Gpu, watch: &optik_api::LaunchWatch) -> Result<()> {
+    /// How often a wait looks at the stop flag.
+    const SLICE: std::time::Duration = std::time::Duration::from_millis(5);
+    loop {
+        gpu.check()?;
+        if watch.stopped() {
+            return watch.check().map_err(|e| {
+                e.context("the GPU may still be running the launch's dispatch (it cannot be preempted); later calls wait for it")
+            });
+        }
+        match gpu.device.poll(wgpu::PollType::Wait {
+            submission_index: None,
+            timeout: Some(SLICE),
+        }) {
+            Ok(_) => return gpu.check(),
+            Err(wgpu::PollError::Timeout) => {}
+            Err(e) => return Err(Error::backend(format!("waiting for the GPU failed: {e}"))),
+        }
+    }
+}
+
 fn make_sampler(gpu: &crate::gpu::Gpu, d: SamplerDesc) -> wgpu::Sampler {
     let filter = match d.filter {
         FilterMode::Nearest => wgpu::FilterMode::Nearest,

@@ -11,6 +11,10 @@ pub struct AdapterReport {
     pub backend: String,
     /// Integrated, discrete, CPU, ...
     pub device_type: String,
+    /// Whether the adapter is a GPU (discrete, integrated or virtual) rather than a software
+    /// rasteriser such as llvmpipe (`DeviceType::Cpu`) or an adapter of unknown type: the
+    /// facade's automatic choice only takes GPUs.
+    pub gpu: bool,
     /// Driver name and version.
     pub driver: String,
     /// Largest storage buffer binding in bytes (sizes BVH buffers).
@@ -97,6 +101,12 @@ pub fn probe() -> Vec<AdapterReport> {
                 name: info.name.clone(),
                 backend: format!("{:?}", info.backend),
                 device_type: format!("{:?}", info.device_type),
+                gpu: matches!(
+                    info.device_type,
+                    wgpu::DeviceType::DiscreteGpu
+                        | wgpu::DeviceType::IntegratedGpu
+                        | wgpu::DeviceType::VirtualGpu
+                ),
                 driver: format!("{} {}", info.driver, info.driver_info)
                     .trim()
                     .to_string(),

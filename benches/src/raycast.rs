@@ -15,6 +15,11 @@ use std::time::Instant;
 pub const RAY_FLOATS: usize = 8;
 /// Words per hit in the output: t, prim, inst, u, v.
 const HIT_WORDS: usize = 5;
+/// Rays per launch: 2^20 rays bind 32 MiB of rays and 20 MiB of hits, under the smallest
+/// storage binding limit WebGPU and Vulkan guarantee (128 MiB; lavapipe's), so any number
+/// of rays the host holds can be traced (a launch per batch).
+pub const BATCH_RAYS: usize = 1 << 20;
+
 /// Launch width; the height covers the rest of the rays.
 const LAUNCH_WIDTH: u32 = 4096;
 
@@ -88,6 +93,7 @@ pub struct RayCaster<'d> {
     pipeline: Pipeline,
     sbt: ShaderBindingTable,
     owned: Vec<Buffer>,
+    batch_rays: usize,
     /// Seconds the acceleration structure build took (including upload of the mesh).
     pub build_seconds: f64,
 }
@@ -175,6 +181,7 @@ impl<'d> RayCaster<'d> {
             pipeline,
             sbt,
             owned,
+            batch_rays: BATCH_RAYS,
             build_seconds,
         })
     }
@@ -184,69 +191,88 @@ impl<'d> RayCaster<'d> {
         self.device.pipeline_features(self.pipeline)
     }
 
-    /// Uploads `rays` (`RAY_FLOATS` floats each) and a hit buffer for them: a launch to run
-    /// as often as wanted (its buffers are freed when it drops).
+    /// Rays per launch from now on (at least 1; the default is [`BATCH_RAYS`]).
+    pub fn set_batch_rays(&mut self, rays: usize) {
+        self.batch_rays = rays.max(1);
+    }
+
+    /// Uploads `rays` (`RAY_FLOATS` floats each) and hit buffers for them: a launch to run
+    /// as often as wanted (its buffers are freed when it drops). Rays go in batches of at
+    /// most [`RayCaster::set_batch_rays`], each with its own buffers and launch, so no
+    /// binding exceeds a device's storage binding limit however many rays there are.
     pub fn upload(&self, rays: &[f32]) -> Result<Launch<'d>> {
         let n = rays.len() / RAY_FLOATS;
         let d = self.device;
-        let ray_buffer = d.create_buffer((rays.len() * 4).max(4) as u64)?;
-        let hit_buffer = match d.create_buffer((n * HIT_WORDS * 4).max(4) as u64) {
-            Ok(b) => b,
-            Err(e) => {
-                let _ = d.destroy_buffer(ray_buffer);
-                return Err(e);
-            }
-        };
-        let mut params = Vec::with_capacity(16);
-        for w in [self.handle[0], self.handle[1], n as u32, LAUNCH_WIDTH] {
-            params.extend_from_slice(&w.to_le_bytes());
-        }
-        let launch = Launch {
+        let mut launch = Launch {
             device: d,
             rays: n,
-            params,
-            resources: [
-                Resource::buffer(1, ray_buffer),
-                Resource::buffer(2, hit_buffer),
-            ],
-            ray_buffer,
-            hit_buffer,
-            size: LaunchSize::new(
-                LAUNCH_WIDTH.min(n as u32),
-                (n as u32).div_ceil(LAUNCH_WIDTH),
-                1,
-            ),
+            batches: Vec::new(),
         };
-        // On an error the launch drops here and frees both buffers.
-        d.write_buffer(ray_buffer, 0, bytemuck::cast_slice(rays))?;
+        for (k, chunk) in rays[..n * RAY_FLOATS]
+            .chunks(self.batch_rays * RAY_FLOATS)
+            .enumerate()
+        {
+            let m = chunk.len() / RAY_FLOATS;
+            // Pushed before the writes: on an error the launch drops and frees them.
+            let ray_buffer = d.create_buffer((chunk.len() * 4).max(4) as u64)?;
+            let hit_buffer = match d.create_buffer((m * HIT_WORDS * 4).max(4) as u64) {
+                Ok(b) => b,
+                Err(e) => {
+                    let _ = d.destroy_buffer(ray_buffer);
+                    return Err(e);
+                }
+            };
+            let mut params = Vec::with_capacity(16);
+            for w in [self.handle[0], self.handle[1], m as u32, LAUNCH_WIDTH] {
+                params.extend_from_slice(&w.to_le_bytes());
+            }
+            launch.batches.push(Batch {
+                first: k * self.batch_rays,
+                rays: m,
+                params,
+                resources: [
+                    Resource::buffer(1, ray_buffer),
+                    Resource::buffer(2, hit_buffer),
+                ],
+                ray_buffer,
+                hit_buffer,
+                size: LaunchSize::new(
+                    LAUNCH_WIDTH.min(m as u32),
+                    (m as u32).div_ceil(LAUNCH_WIDTH),
+                    1,
+                ),
+            });
+            d.write_buffer(ray_buffer, 0, bytemuck::cast_slice(chunk))?;
+        }
         Ok(launch)
     }
 
-    /// Runs `launch` once and waits for it.
+    /// Runs `launch` once (a launch per batch) and waits for it.
     pub fn run(&self, launch: &Launch) -> Result<()> {
         let d = self.device;
-        d.launch(
-            self.pipeline,
-            &launch.params,
-            &launch.resources,
-            &self.sbt,
-            launch.size,
-        )?;
+        for b in &launch.batches {
+            d.launch(self.pipeline, &b.params, &b.resources, &self.sbt, b.size)
+                .map_err(|e| {
+                    e.context(format!("tracing rays {}..{}", b.first, b.first + b.rays))
+                })?;
+        }
         d.synchronize()
     }
 
     /// The hits `launch` wrote.
     pub fn hits(&self, launch: &Launch) -> Result<Hits> {
-        let mut raw = vec![0u8; launch.rays * HIT_WORDS * 4];
-        self.device.read_buffer(launch.hit_buffer, 0, &mut raw)?;
-        let words: &[u32] = bytemuck::cast_slice(&raw);
         let mut hits = Hits::default();
-        for h in words.chunks_exact(HIT_WORDS) {
-            hits.t.push(f32::from_bits(h[0]));
-            hits.prim.push(h[1]);
-            hits.inst.push(h[2]);
-            hits.u.push(f32::from_bits(h[3]));
-            hits.v.push(f32::from_bits(h[4]));
+        for b in &launch.batches {
+            let mut raw = vec![0u8; b.rays * HIT_WORDS * 4];
+            self.device.read_buffer(b.hit_buffer, 0, &mut raw)?;
+            let words: &[u32] = bytemuck::cast_slice(&raw);
+            for h in words.chunks_exact(HIT_WORDS) {
+                hits.t.push(f32::from_bits(h[0]));
+                hits.prim.push(h[1]);
+                hits.inst.push(h[2]);
+                hits.u.push(f32::from_bits(h[3]));
+                hits.v.push(f32::from_bits(h[4]));
+            }
         }
         Ok(hits)
     }
@@ -266,10 +292,17 @@ impl<'d> RayCaster<'d> {
     }
 }
 
-/// Rays uploaded for a [`RayCaster`]: what one launch over them needs. Its buffers are freed
-/// when it drops.
+/// Rays uploaded for a [`RayCaster`]: what the launches over them need. Its buffers are
+/// freed when it drops.
 pub struct Launch<'d> {
     device: &'d dyn Device,
+    rays: usize,
+    batches: Vec<Batch>,
+}
+
+/// One launch's share of the rays, with its own buffers.
+struct Batch {
+    first: usize,
     rays: usize,
     params: Vec<u8>,
     resources: [Resource; 2],
@@ -283,13 +316,20 @@ impl Launch<'_> {
     pub fn rays(&self) -> usize {
         self.rays
     }
+
+    /// The number of launches a run makes.
+    pub fn batches(&self) -> usize {
+        self.batches.len()
+    }
 }
 
 impl Drop for Launch<'_> {
     fn drop(&mut self) {
         // Destroy errors only mean the device is gone, which frees everything anyway.
-        let _ = self.device.destroy_buffer(self.ray_buffer);
-        let _ = self.device.destroy_buffer(self.hit_buffer);
+        for b in &self.batches {
+            let _ = self.device.destroy_buffer(b.ray_buffer);
+            let _ = self.device.destroy_buffer(b.hit_buffer);
+        }
     }
 }
 

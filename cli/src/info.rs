@@ -1,4 +1,4 @@
-//! `optik info`: which backends run here, on what.
+//! `optik info`: which backends run here, on what, and which one `--backend auto` picks.
 
 /// Runs the command; returns the exit status.
 pub fn run() -> u8 {
@@ -9,6 +9,8 @@ pub fn run() -> u8 {
             Err(why) => outln!("  {:<7} not available: {why}", s.kind.name()),
         }
     }
+    let auto = optik::auto_choice();
+    outln!("  auto    picks {}: {}", auto.kind(), auto.reason);
     outln!();
     match optik::backends::vulkan::probe() {
         Ok(devices) => {

@@ -7,26 +7,28 @@ use std::path::PathBuf;
 /// Arguments of `optik bench-report`.
 #[derive(clap::Args)]
 pub struct ReportArgs {
-    /// Folder with the test scenes (stanford-bunny/, breakfast-room/); default $OPTIK_SCENES or ../shared/scenes.
-    #[arg(long)]
+    /// Folder with the test scenes (stanford-bunny/, breakfast-room/); default $OPTIK_SCENES or
+    /// ../shared/scenes. Without them a generated sphere is measured.
+    #[arg(long, value_name = "DIR")]
     scenes: Option<PathBuf>,
-    /// Backends to measure: cpu, wgpu, vulkan (default: all).
+    /// Backends to measure, comma-separated: cpu, wgpu, vulkan (default: all).
     #[arg(long, value_delimiter = ',')]
     backend: Vec<String>,
     /// 1920x1080 camera rays and 2M incoherent rays (default: 640x360 and 230 400).
     #[arg(long)]
     full: bool,
-    /// Launches per measurement (the best is kept).
-    #[arg(long, default_value_t = 3)]
+    /// Launches per measurement, at least 1 (the best is kept).
+    #[arg(long, default_value_t = 3, value_parser = crate::args::repeat)]
     repeat: usize,
-    /// CPU threads; Embree gets the same (default: all cores).
-    #[arg(long)]
+    /// CPU backend threads, 1 to 1024; Embree gets the same (default: all cores). Only the
+    /// CPU backend and Embree use it.
+    #[arg(long, value_parser = crate::args::threads)]
     threads: Option<usize>,
     /// Leave Embree out.
     #[arg(long)]
     no_embree: bool,
     /// Also write the figures as JSON here.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
 }
 
@@ -45,6 +47,18 @@ pub fn run(args: &ReportArgs) -> u8 {
     if backends.is_empty() {
         backends = BackendKind::ALL.to_vec();
     }
+    if let Some(dir) = args.scenes.as_ref().filter(|d| !d.is_dir()) {
+        eprintln!("--scenes {}: not a folder", dir.display());
+        return 2;
+    }
+    if let Some(n) = args.threads
+        && args.no_embree
+        && !backends.contains(&BackendKind::Cpu)
+    {
+        eprintln!(
+            "warning: --threads {n} is ignored: only the CPU backend and Embree use threads, and neither is measured"
+        );
+    }
     let scenes = args
         .scenes
         .clone()
@@ -61,7 +75,7 @@ pub fn run(args: &ReportArgs) -> u8 {
         width,
         height,
         incoherent,
-        repeat: args.repeat.max(1),
+        repeat: args.repeat,
         threads: args.threads,
         embree: !args.no_embree,
         peer_script: report::default_peer_script(),

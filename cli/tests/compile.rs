@@ -96,3 +96,87 @@ fn unreadable_file_is_a_clear_error() {
     assert_eq!(code, 2);
     assert!(err.contains("/nonexistent/x.wgsl: cannot read"), "{err}");
 }
+
+#[test]
+fn a_program_name_longer_than_65535_characters_is_listed() {
+    let long = format!("raygen__{}", "a".repeat(70_000));
+    let path = write_temp("long_name.wgsl", &format!("fn {long}() {{ }}\n"));
+    let (code, out, err) = optik(&["compile", path.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains(&long), "the name is listed in full");
+    assert!(
+        out.contains(": 1 programs"),
+        "{}",
+        &out[..200.min(out.len())]
+    );
+}
+
+#[test]
+fn an_empty_module_says_it_found_no_programs() {
+    let path = write_temp(
+        "empty.wgsl",
+        "// nothing here\nfn helper() -> f32 { return 1.0; }\n",
+    );
+    let (code, out, err) = optik(&["compile", path.to_str().unwrap()]);
+    assert_eq!(code, 1, "{out}");
+    assert!(
+        err.contains("empty.wgsl: no programs found") && err.contains("`raygen__`"),
+        "{err}"
+    );
+}
+
+#[test]
+fn byte_order_mark_and_invalid_utf8() {
+    let bom = write_temp("bom.wgsl", "\u{FEFF}fn raygen__a() { }\n");
+    let (code, out, err) = optik(&["compile", bom.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("raygen__a"), "{out}");
+
+    let dir = bom.parent().unwrap();
+    let latin1 = dir.join("latin1.wgsl");
+    std::fs::write(&latin1, b"fn raygen__a() { }\n// caf\xE9\n").unwrap();
+    let (code, _, err) = optik(&["compile", latin1.to_str().unwrap()]);
+    assert_eq!(code, 1);
+    assert!(
+        err.starts_with(&format!(
+            "{}:2:7: the file is not UTF-8: byte offset 25",
+            latin1.display()
+        )),
+        "{err}"
+    );
+}
+
+#[test]
+fn errors_never_point_into_the_prelude() {
+    for (name, text, line_col) in [
+        (
+            "unclosed.wgsl",
+            "fn raygen__a() {\n    let x = 1.0;\n",
+            ":1:16: this `{` is never closed",
+        ),
+        (
+            "f32.wgsl",
+            "fn f32() { }\nfn raygen__a() { }\n",
+            ":1:4: a function named `f32`",
+        ),
+        (
+            "trace.wgsl",
+            "fn raygen__a() { }\nfn rt_trace() { }\n",
+            ":2:4: `rt_trace` is a name of optik's device API",
+        ),
+    ] {
+        let path = write_temp(name, text);
+        let (code, _, err) = optik(&["compile", path.to_str().unwrap()]);
+        assert_eq!(code, 1, "{err}");
+        assert!(!err.contains("prelude>"), "{err}");
+        assert!(
+            err.starts_with(&format!("{}{line_col}", path.display())),
+            "{err}"
+        );
+        assert_eq!(
+            err.lines().filter(|l| l.contains(".wgsl:")).count(),
+            1,
+            "one error: {err}"
+        );
+    }
+}

@@ -70,3 +70,94 @@ fn unknown_backend_is_a_clear_error() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("unknown backend `metal`"), "{err}");
 }
+
+fn temp_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("optik-cli-conf-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("create a temporary folder");
+    dir
+}
+
+/// The one case's JSON result for `args` (run on the CPU backend).
+fn one_case(extra: &[&str]) -> (Option<i32>, serde_json::Value) {
+    let mut args = vec![
+        "conformance",
+        "--backend",
+        "cpu",
+        "--filter",
+        "flags.facing_hitkind",
+        "--json",
+    ];
+    args.extend_from_slice(extra);
+    let out = optik(&args);
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    (out.status.code(), doc["cases"][0].clone())
+}
+
+#[test]
+fn a_missing_reference_fails_the_case() {
+    let empty = temp_dir("empty");
+    let (code, case) = one_case(&["--references", empty.to_str().unwrap()]);
+    assert_eq!(case["status"], "fail", "{case}");
+    let detail = case["detail"].as_str().unwrap_or_default();
+    assert!(
+        detail.contains("no reference flags.facing_hitkind.exr in"),
+        "{detail}"
+    );
+    assert_eq!(code, Some(1));
+    std::fs::remove_dir_all(&empty).ok();
+}
+
+#[test]
+fn a_corrupt_reference_fails_the_case() {
+    let dir = temp_dir("corrupt");
+    std::fs::write(dir.join("flags.facing_hitkind.exr"), b"not an EXR file").unwrap();
+    let (code, case) = one_case(&["--references", dir.to_str().unwrap()]);
+    assert_eq!(case["status"], "fail", "{case}");
+    let detail = case["detail"].as_str().unwrap_or_default();
+    assert!(
+        detail.contains("unreadable reference: cannot read"),
+        "{detail}"
+    );
+    assert_eq!(code, Some(1));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_copied_binary_keeps_its_references() {
+    let dir = temp_dir("moved");
+    let moved = dir.join("optik");
+    std::fs::copy(env!("CARGO_BIN_EXE_optik"), &moved).expect("copy the binary");
+    let out = Command::new(&moved)
+        .args([
+            "conformance",
+            "--backend",
+            "cpu",
+            "--filter",
+            "flags.facing_hitkind",
+            "--json",
+        ])
+        .current_dir(&dir)
+        .output()
+        .expect("run the copied optik");
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    assert_eq!(doc["cases"][0]["status"], "pass", "{doc}");
+    assert!(
+        doc["cases"][0]["detail"]
+            .as_str()
+            .is_some_and(|d| d.ends_with("match the oracle and the references")),
+        "{doc}"
+    );
+    assert!(out.status.success());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn references_that_are_not_a_folder_are_a_usage_error() {
+    let out = optik(&["conformance", "--references", "/nonexistent/refs"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--references /nonexistent/refs: not a folder"),
+        "{err}"
+    );
+}

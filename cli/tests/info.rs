@@ -19,3 +19,21 @@ fn lists_every_backend() {
     }
     assert!(text.contains("wgpu adapters ("), "{text}");
 }
+
+#[test]
+fn says_what_auto_picks_and_why() {
+    let out = Command::new(env!("CARGO_BIN_EXE_optik"))
+        .arg("info")
+        .output()
+        .expect("run optik");
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("auto"))
+        .unwrap_or_else(|| panic!("no line for auto:\n{text}"));
+    let pick = optik::auto_choice();
+    assert!(
+        line.contains(&format!("picks {}: {}", pick.kind(), pick.reason)),
+        "{line}"
+    );
+}

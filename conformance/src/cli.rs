@@ -8,7 +8,7 @@ use crate::compare;
 use crate::exrio;
 use crate::judge;
 use crate::report;
-use crate::runner::{self, Devices, Status};
+use crate::runner::{self, Devices, References, Status};
 use optik::BackendKind;
 use std::path::PathBuf;
 
@@ -20,7 +20,7 @@ pub struct ConformanceArgs {
     pub backend: String,
     /// Only cases whose name matches this glob (`*`, `?`; a bare group name means `group.*`;
     /// several patterns separated by commas).
-    #[arg(long)]
+    #[arg(long, value_name = "GLOB")]
     pub filter: Option<String>,
     /// Print one JSON document instead of the table.
     #[arg(long)]
@@ -36,10 +36,11 @@ pub struct ConformanceArgs {
     #[arg(long)]
     pub explain: bool,
     /// Write outputs, references, differences and index.html here.
-    #[arg(long)]
+    #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
-    /// The references folder (default: the source tree's conformance/references).
-    #[arg(long)]
+    /// Read references from this folder instead of the ones built into the binary; with
+    /// `bless`, write them here (default there: the source tree's conformance/references).
+    #[arg(long, value_name = "DIR")]
     pub references: Option<PathBuf>,
     /// `bless`: write references where the oracle and every available backend agree.
     #[command(subcommand)]
@@ -129,10 +130,17 @@ pub fn run(args: &ConformanceArgs) -> i32 {
         eprintln!("optik conformance: no case matches the filter");
         return 2;
     }
-    let references = args
-        .references
-        .clone()
-        .unwrap_or_else(runner::default_references_dir);
+    let references = match &args.references {
+        Some(dir) if !dir.is_dir() => {
+            eprintln!(
+                "optik conformance: --references {}: not a folder",
+                dir.display()
+            );
+            return 2;
+        }
+        Some(dir) => References::Dir(dir.clone()),
+        None => References::Embedded,
+    };
     let devices = Devices::open(&backends);
     let quiet = args.json;
     // Progress on stderr, one line per case and backend (stdout holds the table or JSON).
@@ -189,10 +197,19 @@ pub fn bless(args: &ConformanceArgs) -> i32 {
             return 2;
         }
     };
-    let dir = args
-        .references
-        .clone()
-        .unwrap_or_else(runner::default_references_dir);
+    let dir = match &args.references {
+        Some(dir) => dir.clone(),
+        // The embedded references cannot be rewritten; the source tree they came from can,
+        // when this binary runs where it was built.
+        None if runner::default_references_dir().is_dir() => runner::default_references_dir(),
+        None => {
+            eprintln!(
+                "optik conformance bless: the source tree this binary was built from ({}) is not here; give --references DIR to say where to write",
+                runner::default_references_dir().display()
+            );
+            return 2;
+        }
+    };
     let devices = Devices::open(&backends);
     let available = devices.available();
     if available.is_empty() {

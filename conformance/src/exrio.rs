@@ -54,12 +54,46 @@ pub fn write(path: &Path, image: &RecordImage) -> std::result::Result<(), String
 /// Reads an image written by [`write`] (or any single-part EXR): `UINT` channels as
 /// integers, `FLOAT` and `HALF` channels as floats; channels in the file's (sorted) order.
 pub fn read(path: &Path) -> std::result::Result<RecordImage, String> {
-    let image = read_all_flat_layers_from_file(path)
-        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    read_bytes(&bytes, &path.display().to_string())
+}
+
+/// Most samples (pixels × channels) [`read_bytes`] reads: 2^26, 256 MiB of 32-bit samples,
+/// far above any record or image of the suite.
+const MAX_SAMPLES: u128 = 1 << 26;
+
+/// Reads an EXR file held in memory (an embedded reference); `name` names it in errors.
+pub fn read_bytes(bytes: &[u8], name: &str) -> std::result::Result<RecordImage, String> {
+    // The header is read first: a few damaged bytes can declare an image of billions of
+    // pixels, and the full read would allocate for it before finding the data missing
+    // (an abort, found by fuzzing: fuzz/regressions/exr/).
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+        .map_err(|e| format!("cannot read {name}: {e}"))?;
+    for header in &meta.headers {
+        let samples = (header.layer_size.width() as u128)
+            * (header.layer_size.height() as u128)
+            * (header.channels.list.len() as u128);
+        if samples > MAX_SAMPLES {
+            return Err(format!(
+                "cannot read {name}: it declares {} x {} pixels of {} channels, more than the {MAX_SAMPLES} samples optik reads",
+                header.layer_size.width(),
+                header.layer_size.height(),
+                header.channels.list.len()
+            ));
+        }
+    }
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(|e| format!("cannot read {name}: {e}"))?;
     let layer = image
         .layer_data
         .first()
-        .ok_or_else(|| format!("{}: the file has no image part", path.display()))?;
+        .ok_or_else(|| format!("{name}: the file has no image part"))?;
     let size = layer.size;
     let channels = layer
         .channel_data
@@ -126,6 +160,12 @@ mod tests {
         assert_eq!(back.channel("prim"), image.channel("prim"));
         assert_eq!(back.channel("t"), image.channel("t"));
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn truncated_bytes_are_an_error_naming_the_file() {
+        let e = read_bytes(b"v/1\x01\x02\x00\x00", "refs/x.exr").unwrap_err();
+        assert!(e.starts_with("cannot read refs/x.exr: "), "{e}");
     }
 
     #[test]

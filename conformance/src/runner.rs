@@ -66,22 +66,94 @@ pub struct CaseResult {
     pub launches: Vec<LaunchImages>,
 }
 
-/// The folder of blessed references in the source tree.
+/// The source tree's folder of blessed references: where `bless` writes by default, and what
+/// was embedded in this build ([`References::Embedded`]).
 pub fn default_references_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("references")
 }
 
-/// The reference of launch `k` for `backend`: the backend's own file where the case allows
-/// one and it exists, else the common one.
-pub fn reference_path(dir: &Path, case: &Case, k: usize, backend: Option<BackendKind>) -> PathBuf {
-    let stem = case.launch_stem(k);
-    if let Some(b) = backend.filter(|b| case.backend_specific.iter().any(|(kind, _)| kind == b)) {
-        let own = dir.join(format!("{stem}.{}.exr", b.name()));
-        if own.exists() {
-            return own;
+/// The references embedded at build time: (file name, EXR bytes), sorted by name.
+static EMBEDDED: &[(&str, &[u8])] = include!(concat!(env!("OUT_DIR"), "/references.rs"));
+
+/// Where a run reads its references from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum References {
+    /// The references compiled into this build, so a copied binary keeps them.
+    Embedded,
+    /// A folder of `<case>[.launchK][.backend].exr` files (`--references DIR`).
+    Dir(PathBuf),
+}
+
+impl References {
+    /// Where references come from, for messages.
+    pub fn describe(&self) -> String {
+        match self {
+            References::Embedded => {
+                format!("the {} references built into this binary", EMBEDDED.len())
+            }
+            References::Dir(dir) => dir.display().to_string(),
         }
     }
-    dir.join(format!("{stem}.exr"))
+
+    /// The names of the references there, sorted.
+    pub fn names(&self) -> Result<Vec<String>, String> {
+        match self {
+            References::Embedded => Ok(EMBEDDED.iter().map(|(n, _)| n.to_string()).collect()),
+            References::Dir(dir) => {
+                let entries = std::fs::read_dir(dir)
+                    .map_err(|e| format!("cannot list {}: {e}", dir.display()))?;
+                let mut names: Vec<String> = entries
+                    .flatten()
+                    .filter_map(|e| e.file_name().into_string().ok())
+                    .filter(|n| n.ends_with(".exr"))
+                    .collect();
+                names.sort();
+                Ok(names)
+            }
+        }
+    }
+
+    /// Whether a reference named `name` exists.
+    fn has(&self, name: &str) -> bool {
+        match self {
+            References::Embedded => EMBEDDED.iter().any(|(n, _)| *n == name),
+            References::Dir(dir) => dir.join(name).exists(),
+        }
+    }
+
+    /// Reads the reference `name`: `Ok(None)` when there is none, `Err` when it exists but
+    /// cannot be read or decoded.
+    pub fn read(&self, name: &str) -> Result<Option<RecordImage>, String> {
+        match self {
+            References::Embedded => EMBEDDED
+                .iter()
+                .find(|(n, _)| *n == name)
+                .map(|(n, bytes)| exrio::read_bytes(bytes, &format!("the embedded reference {n}")))
+                .transpose(),
+            References::Dir(dir) => {
+                let path = dir.join(name);
+                if path.exists() {
+                    exrio::read(&path).map(Some)
+                } else {
+                    Ok(None)
+                }
+            }
+        }
+    }
+
+    /// The file name of launch `k`'s reference for `backend`: the backend's own file where the
+    /// case allows one and it exists, else the common one.
+    pub fn name_for(&self, case: &Case, k: usize, backend: Option<BackendKind>) -> String {
+        let stem = case.launch_stem(k);
+        if let Some(b) = backend.filter(|b| case.backend_specific.iter().any(|(kind, _)| kind == b))
+        {
+            let own = format!("{stem}.{}.exr", b.name());
+            if self.has(&own) {
+                return own;
+            }
+        }
+        format!("{stem}.exr")
+    }
 }
 
 /// A device, or why its backend cannot run here.
@@ -130,7 +202,8 @@ pub fn expectations(case: &Case) -> Result<Vec<Expectation>, String> {
         .unwrap_or_else(|_| Err("the oracle panicked on this case".into()))
 }
 
-/// Runs one case on one device and judges it (against references in `references`, if given).
+/// Runs one case on one device and judges it: against the oracle, and against `references`
+/// unless it is `None` (blessing), where a missing or unreadable reference fails the case.
 /// A driver diagnostic (a Vulkan validation message) during the case fails it, whatever its
 /// records say.
 pub fn run_on(
@@ -138,7 +211,7 @@ pub fn run_on(
     expected: &Result<Vec<Expectation>, String>,
     backend: BackendKind,
     device: &dyn Device,
-    references: Option<&Path>,
+    references: Option<&References>,
 ) -> CaseResult {
     // Anything reported before the case belongs to whoever used the device before it.
     let earlier = device.take_diagnostics();
@@ -187,7 +260,7 @@ fn judged_run(
     expected: &Result<Vec<Expectation>, String>,
     backend: BackendKind,
     device: &dyn Device,
-    references: Option<&Path>,
+    references: Option<&References>,
 ) -> CaseResult {
     let mut result = CaseResult {
         name: case.name.clone(),
@@ -229,19 +302,41 @@ fn judged_run(
     let mut max_error: f64 = 0.0;
     for (k, (e, words)) in expected.iter().zip(&outputs).enumerate() {
         let output = judge::image_from_words(case, e.width, e.height, words);
-        let reference = references.and_then(|dir| {
-            let p = reference_path(dir, case, k, Some(backend));
-            p.exists().then(|| exrio::read(&p)).and_then(|r| r.ok())
-        });
+        // Judged against the oracle always; against the reference unless blessing, where a
+        // missing or unreadable reference is itself a failure.
+        let (reference, reference_problem) = match references {
+            None => (None, None),
+            Some(refs) => {
+                let name = refs.name_for(case, k, Some(backend));
+                match refs.read(&name) {
+                    Ok(Some(image)) => (Some(image), None),
+                    Ok(None) => (
+                        None,
+                        Some(format!(
+                            "no reference {name} in {} (`optik conformance bless` writes it)",
+                            refs.describe()
+                        )),
+                    ),
+                    Err(e) => (None, Some(format!("unreadable reference: {e}"))),
+                }
+            }
+        };
         let v = judge::judge(case, e, &output, reference.as_ref());
         max_error = max_error.max(v.max_error);
+        let launch = |text: &str| {
+            if expected.len() > 1 {
+                format!("launch {k}: {text}")
+            } else {
+                text.to_string()
+            }
+        };
         if !v.pass {
             pass = false;
-            details.push(if expected.len() > 1 {
-                format!("launch {k}: {}", v.detail)
-            } else {
-                v.detail.clone()
-            });
+            details.push(launch(&v.detail));
+        }
+        if let Some(problem) = reference_problem {
+            pass = false;
+            details.push(launch(&problem));
         }
         result.launches.push(LaunchImages {
             stem: case.launch_stem(k),
@@ -266,18 +361,13 @@ fn judged_run(
     result.status = if pass { Status::Pass } else { Status::Fail };
     result.max_error = Some(max_error);
     result.detail = if pass {
-        let refs = result
-            .launches
-            .iter()
-            .filter(|l| l.reference.is_some())
-            .count();
         format!(
             "{} launch(es) match the oracle{}",
             outputs.len(),
-            if refs == outputs.len() {
+            if references.is_some() {
                 " and the references"
             } else {
-                "; no reference yet (bless)"
+                ""
             }
         )
     } else {
@@ -290,7 +380,7 @@ fn judged_run(
 pub fn run_all(
     cases: &[Case],
     devices: &Devices,
-    references: Option<&Path>,
+    references: Option<&References>,
     mut progress: impl FnMut(&CaseResult),
 ) -> Vec<CaseResult> {
     let mut results = Vec::new();
@@ -315,8 +405,8 @@ pub fn run_all(
                                     stem: case.launch_stem(k),
                                     expected: judge::canonical_image(case, e),
                                     output: None,
-                                    reference: references.and_then(|dir| {
-                                        exrio::read(&reference_path(dir, case, k, None)).ok()
+                                    reference: references.and_then(|refs| {
+                                        refs.read(&refs.name_for(case, k, None)).ok().flatten()
                                     }),
                                     diff: None,
                                 })

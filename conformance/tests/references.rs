@@ -141,3 +141,27 @@ fn references_are_finite_and_belong_to_cases() {
     assert!(checked > 0, "{}: no reference EXR", dir.display());
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
+
+#[test]
+fn every_launch_of_every_case_has_a_reference_and_the_binary_carries_them() {
+    let embedded = runner::References::Embedded;
+    let source = runner::References::Dir(runner::default_references_dir());
+    // The build embeds exactly the committed files.
+    assert_eq!(embedded.names(), source.names());
+    let mut missing = Vec::new();
+    for case in catalog::all() {
+        for k in 0..case.launches.len() {
+            let name = embedded.name_for(&case, k, None);
+            match embedded.read(&name) {
+                Ok(Some(_)) => {}
+                Ok(None) => missing.push(format!("{name}: missing")),
+                Err(e) => missing.push(e),
+            }
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "cases without a readable reference (a run fails them; `optik conformance bless` writes them):\n{}",
+        missing.join("\n")
+    );
+}

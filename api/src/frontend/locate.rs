@@ -18,10 +18,11 @@ impl<'a> Locator<'a> {
         }
     }
 
-    /// A diagnostic at `span`. Spans inside the prelude (which only a user's redefinition of
-    /// a device-API name can produce) are reported against the prelude's own lines.
+    /// A diagnostic at `span`. A span inside the prelude (which the front end's own checks
+    /// keep user code from reaching) is reported at the end of the user's source, where the
+    /// prelude begins, naming the prelude line: every diagnostic points at the user's file.
     pub(crate) fn diagnostic(&self, span: naga::Span, message: impl Into<String>) -> Diagnostic {
-        let message = message.into();
+        let mut message = message.into();
         let Some(range) = span.to_range().filter(|r| r.start <= self.full.len()) else {
             return Diagnostic {
                 file: self.file.to_string(),
@@ -31,26 +32,27 @@ impl<'a> Locator<'a> {
                 source_line: String::new(),
             };
         };
-        let (text, offset, file) = if range.start >= self.user_len {
-            (
-                &self.full[self.user_len..],
-                range.start - self.user_len,
-                "<optik prelude>".to_string(),
-            )
+        let user = &self.full[..self.user_len];
+        let offset = if range.start >= self.user_len {
+            let prelude = &self.full[self.user_len..];
+            let at = range.start - self.user_len;
+            let line_start = prelude[..at].rfind('\n').map_or(0, |p| p + 1);
+            let text = prelude[line_start..].lines().next().unwrap_or("").trim();
+            message.push_str(&format!(
+                " (found in optik's device-API prelude, which follows your source: `{text}`)"
+            ));
+            // The newline that ends the user's text: just past its last character.
+            self.user_len.saturating_sub(1)
         } else {
-            (
-                &self.full[..self.user_len],
-                range.start,
-                self.file.to_string(),
-            )
+            range.start
         };
-        let prefix = &text[..offset];
+        let prefix = &user[..offset];
         let line = prefix.matches('\n').count() as u32 + 1;
         let line_start = prefix.rfind('\n').map(|p| p + 1).unwrap_or(0);
         let column = (offset - line_start) as u32 + 1;
-        let source_line = text[line_start..].lines().next().unwrap_or("").to_string();
+        let source_line = user[line_start..].lines().next().unwrap_or("").to_string();
         Diagnostic {
-            file,
+            file: self.file.to_string(),
             line,
             column,
             message,

@@ -336,3 +336,101 @@ fn prelude_does_not_shift_user_lines() {
     let d = diag(src);
     assert_eq!((d.line, d.column), (2, 3), "{d}");
 }
+
+#[test]
+fn recursion_limit_is_named_at_the_deepest_nesting() {
+    let depth = 198;
+    let src = format!(
+        "fn raygen__a() {{\n    let x = {}1.0{};\n}}\n",
+        "(".repeat(depth),
+        ")".repeat(depth)
+    );
+    let d = diag(&src);
+    assert_eq!(d.file, "user.wgsl", "{d}");
+    assert!(d.message.contains("recursion limit exceeded"), "{d}");
+    assert!(!d.message.contains("internal WGSL front end error"), "{d}");
+    assert_eq!(d.line, 2, "{d}");
+    assert!(d.column > 13, "{d}");
+}
+
+#[test]
+fn type_too_large_points_at_the_array_and_keeps_naga_notes() {
+    let src = "struct Small { a: f32 }\n\
+               var<private> big: array<vec4<f32>, 0x10000000>;\n\
+               fn raygen__a() { big[0] = vec4<f32>(); }\n";
+    let d = diag(src);
+    assert!(d.message.contains("type is too large"), "{d}");
+    assert!(d.message.contains("note: the maximum size is"), "{d}");
+    assert_eq!((d.file.as_str(), d.line), ("user.wgsl", 2), "{d}");
+}
+
+#[test]
+fn a_missing_closing_brace_is_reported_at_its_opening() {
+    let src = "fn raygen__a() {\n    let x = 1.0;\n";
+    let e = compile_src(src).expect_err("unclosed");
+    assert_eq!(e.diagnostics().len(), 1, "{e}");
+    assert_diag(src, 1, 16, "this `{` is never closed");
+    assert!(
+        diag("/* open\nfn raygen__a() {}\n")
+            .message
+            .contains("`/*` comment is never closed")
+    );
+}
+
+#[test]
+fn names_the_prelude_relies_on_give_one_clear_error() {
+    let src = "fn f32() -> u32 { return 1u; }\nfn raygen__a() { }\n";
+    let e = compile_src(src).expect_err("f32 is taken");
+    assert_eq!(e.diagnostics().len(), 1, "{e}");
+    assert_diag(
+        src,
+        1,
+        4,
+        "a function named `f32` would hide WGSL's own `f32`, which optik's device-API prelude uses",
+    );
+    let src = "fn raygen__a() { }\nfn rt_trace() { }\n";
+    let e = compile_src(src).expect_err("rt_trace is taken");
+    assert_eq!(e.diagnostics().len(), 1, "{e}");
+    assert_diag(src, 2, 4, "`rt_trace` is a name of optik's device API");
+    assert_diag(
+        "struct RtPayload { a: u32 }\nfn raygen__a() { }\n",
+        1,
+        8,
+        "`RtPayload` is a name of optik's device API",
+    );
+    // Local names and names the prelude does not use stay free.
+    let ok = "fn p() -> f32 { return 1.0; }\nfn normalize2() {}\nfn raygen__a() { let n = p(); }\n";
+    compile_src(ok).unwrap();
+}
+
+#[test]
+fn a_spill_into_the_prelude_is_reported_in_the_user_file() {
+    let full = format!("fn raygen__a() {{}}\n{}", prelude(8));
+    let user_len = "fn raygen__a() {}\n".len();
+    let loc = Locator::new("user.wgsl", &full, user_len);
+    let at = full.find("fn rt_trace").unwrap() as u32;
+    let d = loc.diagnostic(naga::Span::new(at, at + 2), "something");
+    assert_eq!((d.file.as_str(), d.line), ("user.wgsl", 1), "{d}");
+    assert!(d.message.contains("optik's device-API prelude"), "{d}");
+}
+
+#[test]
+fn a_byte_order_mark_is_accepted() {
+    let m = compile_src("\u{FEFF}fn raygen__a() { }\n").unwrap();
+    assert_eq!(m.programs[0].name, "raygen__a");
+    assert_eq!((m.programs[0].line, m.programs[0].column), (1, 4));
+    let s = source_from_bytes("bom.wgsl", b"\xEF\xBB\xBFfn raygen__a() { }\n").unwrap();
+    assert!(s.wgsl.starts_with("fn raygen__a"));
+}
+
+#[test]
+fn invalid_utf8_names_its_byte_offset() {
+    let e = source_from_bytes("latin1.wgsl", b"fn raygen__a() { }\n// caf\xE9\n").unwrap_err();
+    let d = &e.diagnostics()[0];
+    assert_eq!(
+        (d.file.as_str(), d.line, d.column),
+        ("latin1.wgsl", 2, 7),
+        "{d}"
+    );
+    assert!(d.message.contains("byte offset 25 holds 0xe9"), "{d}");
+}

@@ -125,6 +125,14 @@ pub trait DeviceCalls {
         false
     }
 
+    /// Optional: the launch's stop flag. Compiled programs read it at every loop back-edge
+    /// and return when it is non-zero, so a program that never ends (an infinite loop) can
+    /// be cancelled. The default (null) is a flag that is never set. The word must stay
+    /// valid until the program returns.
+    fn stop_flag(&self) -> *const std::sync::atomic::AtomicU32 {
+        std::ptr::null()
+    }
+
     /// Optional: the values of this invocation as plain memory (see [`DeviceState`]).
     /// Programs read a field whose `present` bit is set with a load instead of calling
     /// its method, which saves a few nanoseconds per call. The default (null) means every

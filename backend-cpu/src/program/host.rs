@@ -18,6 +18,7 @@ use cranelift_codegen::ir::types::{F32, I32, I64};
 use cranelift_codegen::ir::{AbiParam, Signature, Type};
 use cranelift_codegen::isa::CallConv;
 use std::any::Any;
+use std::sync::atomic::AtomicU32;
 
 /// A buffer as compiled code sees it: first byte and length. The table of these is the
 /// first field of [`CallContext`].
@@ -42,7 +43,7 @@ pub(crate) const ZERO_PAGE_BYTES: u32 = 1 << 16;
 /// Out-of-bounds buffer loads read here instead (and so return zeros) without a branch.
 pub(crate) static ZERO_PAGE: [u8; ZERO_PAGE_BYTES as usize] = [0; ZERO_PAGE_BYTES as usize];
 
-/// What a program invocation receives. Compiled code reads the first three fields (at the
+/// What a program invocation receives. Compiled code reads the first four fields (at the
 /// byte offsets below) and passes the context's address to every host function.
 #[repr(C)]
 pub(crate) struct CallContext<'a> {
@@ -50,6 +51,8 @@ pub(crate) struct CallContext<'a> {
     pub zero_page: *const u8,
     /// The runtime's [`DeviceState`](super::abi::DeviceState), or an empty one; never null.
     pub state: *const super::abi::DeviceState,
+    /// The launch's stop flag ([`DeviceCalls::stop_flag`]), or [`NEVER_STOP`]; never null.
+    pub stop: *const AtomicU32,
     pub calls: *mut (dyn DeviceCalls + 'a),
     pub bindings: *const Bindings<'a>,
     pub panic: Option<Box<dyn Any + Send>>,
@@ -62,11 +65,17 @@ impl CallContext<'_> {
     pub const ZERO_PAGE_OFFSET: i32 = 8;
     /// Byte offset of `state`.
     pub const STATE_OFFSET: i32 = 16;
+    /// Byte offset of `stop`.
+    pub const STOP_OFFSET: i32 = 24;
 }
+
+/// The stop flag of calls whose runtime offers none.
+pub(crate) static NEVER_STOP: AtomicU32 = AtomicU32::new(0);
 
 const _: () = assert!(std::mem::offset_of!(CallContext<'static>, buffers) == 0);
 const _: () = assert!(std::mem::offset_of!(CallContext<'static>, zero_page) == 8);
 const _: () = assert!(std::mem::offset_of!(CallContext<'static>, state) == 16);
+const _: () = assert!(std::mem::offset_of!(CallContext<'static>, stop) == 24);
 
 /// Runs `f` on the context's `DeviceCalls`. On Linux compiled code has unwind tables
 /// (`unwind.rs`), so a panic in `f` unwinds through it to the caller of `ProgramFn::call`.

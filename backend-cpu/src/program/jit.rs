@@ -2,7 +2,7 @@
 
 use super::abi::{Bindings, BoundResource, DeviceCalls, DeviceState};
 use super::cache::{self, DiskStore, ModuleKey};
-use super::host::{BufferSlot, CallContext, HostFn, ZERO_PAGE};
+use super::host::{BufferSlot, CallContext, HostFn, NEVER_STOP, ZERO_PAGE};
 use super::lower::{self, LowerError, ModuleEnv};
 use cranelift_codegen::control::ControlPlane;
 use cranelift_codegen::settings::{self, Configurable};
@@ -57,7 +57,7 @@ type EntryFn = unsafe extern "C-unwind" fn(*mut CallContext<'_>);
 /// The compiled programs of one module and the memory holding their code.
 pub(crate) struct Inner {
     /// Entry points, the `DeviceState` bits each reads, and whether it does nothing.
-    programs: HashMap<String, (EntryFn, u32, bool)>,
+    programs: HashMap<String, (EntryFn, u32, bool, bool)>,
     /// The binding number of each buffer-table slot (`None`: a buffer without a binding).
     slot_bindings: Vec<Option<u32>>,
     stats: CompileStats,
@@ -112,6 +112,9 @@ pub struct ProgramFn<'m> {
     /// The program's body has no statement with an effect (see
     /// [`ProgramFn::does_nothing`]).
     empty: bool,
+    /// The program (or a helper) has a loop, so its code may read the stop flag
+    /// (`DeviceCalls::stop_flag`); only then is the flag asked for.
+    loops: bool,
     slot_bindings: &'m [Option<u32>],
 }
 
@@ -250,6 +253,14 @@ impl ProgramFn<'_> {
             } else {
                 state
             },
+            stop: {
+                let stop = if self.loops {
+                    calls.stop_flag()
+                } else {
+                    std::ptr::null()
+                };
+                if stop.is_null() { &NEVER_STOP } else { stop }
+            },
             calls: calls as *mut dyn DeviceCalls,
             bindings: bindings as *const Bindings<'_>,
             panic: None,
@@ -285,11 +296,12 @@ impl JitModule {
 
     /// The program named `name` (with its prefix, e.g. `closesthit__radiance`).
     pub fn program(&self, name: &str) -> Option<ProgramFn<'_>> {
-        let (entry, state_bits, empty) = *self.inner.programs.get(name)?;
+        let (entry, state_bits, empty, loops) = *self.inner.programs.get(name)?;
         Some(ProgramFn {
             entry,
             state_bits,
             empty,
+            loops,
             slot_bindings: &self.inner.slot_bindings,
         })
     }
@@ -312,6 +324,40 @@ impl JitModule {
     pub fn same_code(a: &JitModule, b: &JitModule) -> bool {
         Arc::ptr_eq(&a.inner, &b.inner)
     }
+}
+
+/// Whether `function` or a function it calls has a `loop` statement (the only construct
+/// that can run forever: WGSL has no recursion).
+fn has_loops(module: &naga::Module, function: naga::Handle<naga::Function>) -> bool {
+    fn block(
+        module: &naga::Module,
+        b: &naga::Block,
+        seen: &mut Vec<naga::Handle<naga::Function>>,
+    ) -> bool {
+        b.iter().any(|s| match s {
+            naga::Statement::Loop { .. } => true,
+            naga::Statement::Block(inner) => block(module, inner, seen),
+            naga::Statement::If { accept, reject, .. } => {
+                block(module, accept, seen) || block(module, reject, seen)
+            }
+            naga::Statement::Switch { cases, .. } => {
+                cases.iter().any(|c| block(module, &c.body, seen))
+            }
+            naga::Statement::Call { function, .. } => {
+                if seen.contains(function) {
+                    return false;
+                }
+                seen.push(*function);
+                block(module, &module.functions[*function].body, seen)
+            }
+            _ => false,
+        })
+    }
+    block(
+        module,
+        &module.functions[function].body,
+        &mut vec![function],
+    )
 }
 
 fn build_isa(opt_level: OptLevel) -> Result<OwnedTargetIsa> {
@@ -434,16 +480,24 @@ fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner
                     naga::Statement::Emit(_) | naga::Statement::Return { value: None }
                 )
             });
-        ids.push((program.name.clone(), id, unwind_info, state_bits, empty));
+        let loops = has_loops(&module.module, program.function);
+        ids.push((
+            program.name.clone(),
+            id,
+            unwind_info,
+            state_bits,
+            empty,
+            loops,
+        ));
     }
     jit.finalize_definitions().map_err(module_err)?;
     let mut programs = HashMap::new();
     let mut frames = Vec::new();
-    for (name, id, unwind_info, state_bits, empty) in ids {
+    for (name, id, unwind_info, state_bits, empty, loops) in ids {
         let ptr = jit.get_finalized_function(id);
         // SAFETY: the function was compiled with exactly this signature.
         let entry: EntryFn = unsafe { std::mem::transmute::<*const u8, EntryFn>(ptr) };
-        programs.insert(name, (entry, state_bits, empty));
+        programs.insert(name, (entry, state_bits, empty, loops));
         frames.extend(unwind_info.map(|info| (ptr as usize, info)));
     }
     #[cfg(target_os = "linux")]

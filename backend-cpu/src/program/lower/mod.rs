@@ -164,6 +164,8 @@ pub(crate) struct Lowerer<'m, 'b> {
     imported: HashMap<HostFn, FuncRef>,
     ctx: Value,
     zero_page: Value,
+    /// The address of the launch's stop flag (`CallContext::stop`), read at back-edges.
+    stop: Value,
     buffers: HashMap<Handle<GlobalVariable>, (Value, Value)>,
     privates: HashMap<Handle<GlobalVariable>, Place>,
     exit: Block,
@@ -210,6 +212,9 @@ pub(crate) fn lower_program<'m>(
     let zero_page = b
         .ins()
         .load(I64, table_flags, ctx, CallContext::ZERO_PAGE_OFFSET);
+    let stop = b
+        .ins()
+        .load(I64, table_flags, ctx, CallContext::STOP_OFFSET);
     let mut buffers = HashMap::new();
     // In slot order: the function's text must not depend on hash order, or the disk
     // cache (keyed by it) would miss.
@@ -238,6 +243,7 @@ pub(crate) fn lower_program<'m>(
         imported: HashMap::new(),
         ctx,
         zero_page,
+        stop,
         buffers,
         privates: HashMap::new(),
         exit,

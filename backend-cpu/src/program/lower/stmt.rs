@@ -15,6 +15,9 @@
 //! - `switch`: Cranelift's `Switch` dispatch to one block per case; a case that falls
 //!   through jumps to the next case's block (naga writes `case 1, 2:` as an empty case
 //!   falling through).
+//! - Every back-edge of a real loop reads the launch's stop flag and returns from the program
+//!   when it is set (`DeviceCalls::stop_flag`), so a program that never ends can be
+//!   cancelled; unrolled copies need no check (they are finite).
 //! - `break` leaves the innermost loop or switch, `continue` the innermost loop.
 //! - After `return`, `break`, `continue` or a terminator, lowering goes on in a block
 //!   nothing jumps to, so the rest of a naga block needs no special case.
@@ -23,7 +26,8 @@
 
 use super::expr::leaf_of;
 use super::{LResult, LowerError, Lowered, Lowerer, Target};
-use cranelift_codegen::ir::{BlockArg, InstBuilder, Value};
+use cranelift_codegen::ir::types::I32;
+use cranelift_codegen::ir::{BlockArg, InstBuilder, MemFlagsData, Value};
 use cranelift_frontend::Switch;
 use naga::{Expression, Handle, Statement};
 
@@ -294,6 +298,7 @@ impl<'m> Lowerer<'m, '_> {
             self.runtime_depth -= 1;
             self.targets.pop();
             lowered?;
+            self.stop_check();
             self.goto(header, &[]);
             self.b.seal_block(header);
         } else {
@@ -303,6 +308,25 @@ impl<'m> Lowerer<'m, '_> {
         self.b.seal_block(exit);
         self.enter(exit);
         Ok(())
+    }
+
+    /// Returns from the program when the launch's stop flag is set: at each back-edge, so
+    /// a loop that never ends can be cancelled (a deadline, a token, Ctrl-C). The load is
+    /// not marked read-only, so it stays in the loop; it hits L1 and the branch predicts,
+    /// which keeps the check to about a cycle an iteration.
+    fn stop_check(&mut self) {
+        if !self.live || !stop_checks() {
+            return;
+        }
+        let flag = self
+            .b
+            .ins()
+            .load(I32, MemFlagsData::trusted(), self.stop, 0);
+        let go_on = self.b.create_block();
+        let exit = self.exit;
+        self.branch(flag, exit, go_on);
+        self.b.seal_block(go_on);
+        self.enter(go_on);
     }
 
     /// One iteration: body, `continuing`, `break if`. Ends in the block that goes on to the
@@ -369,6 +393,14 @@ impl<'m> Lowerer<'m, '_> {
             self.b.ins().iconst(t, 0)
         }
     }
+}
+
+/// Whether back-edges check the stop flag: always, unless `OPTIK_JIT_STOP_CHECKS=0` turns
+/// them off to measure what they cost (launches then cannot stop a program that loops
+/// forever). Read once per process.
+fn stop_checks() -> bool {
+    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *ON.get_or_init(|| std::env::var_os("OPTIK_JIT_STOP_CHECKS").is_none_or(|v| v != "0"))
 }
 
 /// Copies of one loop's iteration at most.
