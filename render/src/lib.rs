@@ -4,3 +4,4 @@
 //! the features a scene calls for and builds its pipeline from them.
 
 pub mod scene;
+pub mod validate;
