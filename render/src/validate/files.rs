@@ -174,6 +174,38 @@ mod tests {
     }
 
     #[test]
+    fn every_validation_scene_has_a_sound_reference() {
+        let validation = Path::new(env!("CARGO_MANIFEST_DIR")).join("validation");
+        let mut scenes: Vec<String> = std::fs::read_dir(validation.join("scenes"))
+            .unwrap()
+            .filter_map(|e| {
+                e.ok()?
+                    .file_name()
+                    .to_str()?
+                    .strip_suffix(".xml")
+                    .map(String::from)
+            })
+            .collect();
+        scenes.sort();
+        assert!(scenes.len() >= 11, "{scenes:?}");
+        for scene in &scenes {
+            let e = read_reference(&validation.join("references"), scene)
+                .unwrap_or_else(|err| panic!("{scene}: {err}"));
+            assert!(e.samples >= 1024, "{scene}: only {} spp", e.samples);
+            assert!(
+                e.mean.iter().all(|m| m.is_finite() && *m >= 0.0),
+                "{scene}: bad mean"
+            );
+            assert!(
+                e.variance.iter().all(|v| v.is_finite() && *v >= 0.0),
+                "{scene}: bad variance"
+            );
+            // A reference with no light at all would make every comparison trivially pass.
+            assert!(e.mean.iter().any(|m| *m > 0.01), "{scene}: black reference");
+        }
+    }
+
+    #[test]
     fn failure_artefacts_hold_the_mask_and_p_values() {
         let dir = temp_dir("fail");
         let a = Estimate::new(2, 1, vec![1.0; 6], vec![0.01; 6], 100).unwrap();
