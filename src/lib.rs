@@ -8,6 +8,8 @@
 
 pub use optik_api::*;
 
+pub mod raycast;
+
 /// Which backend [`open`] should use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum BackendChoice {
