@@ -437,6 +437,44 @@ fn mesh_shapes_read_files_transform_and_flags() {
 }
 
 #[test]
+fn ply_meshes_are_read_through_optik_io() {
+    let d = Dir::new("ply");
+    d.write(
+        "tri.ply",
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+         element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+    );
+    let p = d.write(
+        "scene.xml",
+        &scene_text(
+            r#"<shape type="ply"><string name="filename" value="tri.ply"/>
+  <transform name="to_world"><scale value="2"/></transform></shape>"#,
+        ),
+    );
+    let s = scene::load(&p, &[]).unwrap();
+    assert_eq!(s.meshes[0].indices, vec![[0, 1, 2]]);
+    assert_eq!(s.meshes[0].positions[2], Vec3::new(0.0, 2.0, 0.0));
+    let e =
+        load_err("<shape type=\"ply\">\n<string name=\"filename\" value=\"none.ply\"/></shape>");
+    assert_eq!(e.at.line, 4);
+}
+
+#[test]
+fn output_formats_are_accepted_quietly() {
+    let d = Dir::new("formats");
+    let p = d.write(
+        "scene.xml",
+        r#"<scene version="3.0.0"><sensor type="perspective"><film type="hdrfilm">
+<string name="pixel_format" value="rgb"/><string name="component_format" value="float32"/>
+<string name="file_format" value="png"/>
+</film></sensor></scene>"#,
+    );
+    let s = scene::load(&p, &[]).unwrap();
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert_eq!(s.warnings[0].at.line, 3);
+}
+
+#[test]
 fn missing_mesh_file_is_an_error_at_its_line() {
     let e =
         load_err("<shape type=\"obj\">\n<string name=\"filename\" value=\"nowhere.obj\"/></shape>");

@@ -483,6 +483,21 @@ impl<'d> Builder<'d> {
                 ),
             );
         }
+        // Output encodings do not change the image; only unusual ones are worth a warning.
+        for (name, fine) in [
+            ("pixel_format", &["rgb", "rgba"][..]),
+            ("component_format", &["float16", "float32"][..]),
+            ("file_format", &["openexr", "exr"][..]),
+        ] {
+            if let Some((v, at)) = self.string(obj, name)?
+                && !fine.contains(&v.to_ascii_lowercase().as_str())
+            {
+                self.warn(
+                    &at,
+                    format!("{name} \"{v}\" is ignored; optik writes RGB float images"),
+                );
+            }
+        }
         let mut film = Film {
             width: self.count(obj, "width", 768)?,
             height: self.count(obj, "height", 576)?,
