@@ -14,6 +14,7 @@ macro_rules! outln {
 mod compile;
 mod conformance;
 mod info;
+mod render;
 mod report;
 mod trace;
 
@@ -36,6 +37,8 @@ enum Command {
     Info,
     /// Casts rays (a float32 .npy of shape (N, 8)) against a mesh and writes hits to a .npz.
     Trace(trace::TraceArgs),
+    /// Renders a Mitsuba 3 XML scene or an OBJ model with optik's path tracer to an EXR or PNG.
+    Render(render::RenderArgs),
     /// Runs the conformance suite on the chosen backends and prints the case × backend table;
     /// `--list` shows the catalog, `--out DIR` writes EXRs and an HTML report, `bless` writes
     /// references where the oracle and every available backend agree.
@@ -50,6 +53,7 @@ fn main() -> ExitCode {
         Command::Compile(args) => compile::run(&args),
         Command::Info => info::run(),
         Command::Trace(args) => trace::run(&args),
+        Command::Render(args) => render::run(&args),
         Command::Conformance(args) => conformance::run(&args),
         Command::BenchReport(args) => report::run(&args),
     };
