@@ -16,6 +16,7 @@ pub mod output;
 pub mod probe;
 mod programs;
 mod render;
+pub mod denoise;
 pub mod scene;
 pub mod validate;
 
