@@ -10,6 +10,7 @@ pub use optik_api::*;
 
 mod auto;
 pub use auto::{AutoChoice, FoundDevice, auto_choice, decide_auto};
+pub mod raycast;
 
 /// Which backend [`open`] should use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

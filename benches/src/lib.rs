@@ -1,9 +1,7 @@
-//! optik-benches: criterion benches, the one-process benchmark report, and the data tools they
-//! share with the `optik` command (meshes, NumPy arrays, ray casting through the public API).
+//! optik-benches: criterion benches and the one-process benchmark report. Meshes and arrays are
+//! read and written with `optik-io`, rays cast with `optik::raycast`, as `optik trace` does.
 
 pub mod mesh;
-pub mod npy;
-pub mod raycast;
 pub mod rays;
 pub mod report;
 pub mod scenes;

@@ -137,6 +137,7 @@ mod tests {
         let m = Mesh {
             positions: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 1.0]],
             triangles: vec![[0, 1, 2]],
+            ..Mesh::default()
         };
         assert_eq!(incoherent(&m, 10, 7), incoherent(&m, 10, 7));
         assert_ne!(incoherent(&m, 10, 7), incoherent(&m, 10, 8));

@@ -11,13 +11,14 @@
 //!
 //! Absolute times are only meaningful on the machine that made them; the ratios are the result.
 
-use crate::mesh::{self, Mesh};
-use crate::raycast::{Hits, RayCaster};
-use crate::{npy, rays};
+use crate::mesh::{self, BenchMesh, Mesh};
+use crate::rays;
+use optik::raycast::{Hits, RayCaster};
 use optik::{
     Accuracy, BackendKind, Device, ExceptionFlags, PipelineCompileOptions, PrimitiveTypeFlags,
     Result, Setting, TraversableGraph,
 };
+use optik_io::array;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
@@ -126,16 +127,13 @@ fn embree(
 ) -> std::result::Result<(f64, f64, f64, Hits), String> {
     let dir = std::env::temp_dir().join(format!("optik-report-{}", std::process::id()));
     std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
-    let write = |name: &str, bytes: Vec<u8>| -> std::result::Result<PathBuf, String> {
-        let p = dir.join(name);
-        std::fs::write(&p, bytes).map_err(|e| e.to_string())?;
-        Ok(p)
-    };
     let flat_v: Vec<f32> = mesh.positions.iter().flatten().copied().collect();
     let flat_t: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
-    let v = write("v.npy", npy::encode(&[mesh.positions.len(), 3], &flat_v))?;
-    let t = write("t.npy", npy::encode(&[mesh.triangles.len(), 3], &flat_t))?;
-    let r = write("r.npy", npy::encode(&[rays.len() / 8, 8], rays))?;
+    let (v, t, r) = (dir.join("v.npy"), dir.join("t.npy"), dir.join("r.npy"));
+    array::write_npy(&v, &[mesh.positions.len(), 3], &flat_v)
+        .and_then(|()| array::write_npy(&t, &[mesh.triangles.len(), 3], &flat_t))
+        .and_then(|()| array::write_npy(&r, &[rays.len() / 8, 8], rays))
+        .map_err(|e| e.to_string())?;
     let out = dir.join("hits.npz");
     let output = std::process::Command::new("python3")
         .arg(&opts.peer_script)
@@ -166,42 +164,15 @@ fn embree(
     Ok((f("build_s"), f("trace_s_1"), f("trace_s_n"), hits))
 }
 
-/// Reads `t` and `prim` back from the peer's `.npz` (numpy writes stored zip members).
+/// Reads `t` and `prim` back from the peer's `.npz` (through optik-io, which reads the zip64
+/// entries numpy writes).
 fn read_npz_hits(path: &Path) -> std::result::Result<Hits, String> {
-    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
-    let mut hits = Hits::default();
-    let mut pos = 0;
-    while pos + 30 <= bytes.len() && bytes[pos..pos + 4] == [0x50, 0x4b, 0x03, 0x04] {
-        let u16_at = |i: usize| u16::from_le_bytes([bytes[i], bytes[i + 1]]) as usize;
-        let u32_at = |i: usize| {
-            u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]) as usize
-        };
-        let (method, size, name_len, extra_len) = (
-            u16_at(pos + 8),
-            u32_at(pos + 18),
-            u16_at(pos + 26),
-            u16_at(pos + 28),
-        );
-        let name = String::from_utf8_lossy(&bytes[pos + 30..pos + 30 + name_len]).to_string();
-        let start = pos + 30 + name_len + extra_len;
-        if method != 0 {
-            return Err(format!("{}: compressed member {name}", path.display()));
-        }
-        let data = bytes.get(start..start + size).ok_or("truncated npz")?;
-        let header_len = u16::from_le_bytes([data[8], data[9]]) as usize;
-        let body = &data[10 + header_len..];
-        let words: Vec<u32> = body
-            .chunks_exact(4)
-            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect();
-        match name.as_str() {
-            "t.npy" => hits.t = words.iter().map(|w| f32::from_bits(*w)).collect(),
-            "prim.npy" => hits.prim = words,
-            _ => {}
-        }
-        pos = start + size;
-    }
-    Ok(hits)
+    let mut npz = array::read_npz(path).map_err(|e| e.to_string())?;
+    Ok(Hits {
+        t: npz.array::<f32>("t").map_err(|e| e.to_string())?.data,
+        prim: npz.array::<u32>("prim").map_err(|e| e.to_string())?.data,
+        ..Hits::default()
+    })
 }
 
 fn disagreements(a: &Hits, b: &Hits) -> usize {
@@ -257,7 +228,11 @@ fn throughput(opts: &ReportOptions, scenes: &[Scene], report: &mut Vec<Value>) {
                     continue;
                 }
                 let result = (|| -> Result<(f64, f64, f64, Hits)> {
-                    let mut caster = RayCaster::new(device.as_ref(), &scene.mesh)?;
+                    let mut caster = RayCaster::new(
+                        device.as_ref(),
+                        &scene.mesh.positions,
+                        &scene.mesh.triangles,
+                    )?;
                     let (camera_hits, cam_s) = caster.cast(&scene.camera, opts.repeat)?;
                     let (_, inc_s) = caster.cast(&scene.incoherent, opts.repeat)?;
                     Ok((caster.build_seconds, cam_s, inc_s, camera_hits))
@@ -366,7 +341,7 @@ fn leak_rate(device: &dyn Device, scale: f64, offset: [f64; 3]) -> Result<f64> {
     let inside: [f32; 3] =
         std::array::from_fn(|k| (offset[k] + scale * [0.0123, -0.0311, 0.0217][k]) as f32);
     let aimed = rays::aimed_at_vertices_and_edges(&mesh, inside);
-    let mut caster = RayCaster::new(device, &mesh)?;
+    let mut caster = RayCaster::new(device, &mesh.positions, &mesh.triangles)?;
     let (hits, _) = caster.cast(&aimed, 1)?;
     Ok(hits.prim.iter().filter(|&&p| p == u32::MAX).count() as f64 / hits.prim.len().max(1) as f64)
 }
@@ -416,7 +391,11 @@ fn accuracy(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) {
                 continue;
             }
             let measured = (|| -> Result<(f64, Hits, f64, f64)> {
-                let mut caster = RayCaster::new(device.as_ref(), &scene.mesh)?;
+                let mut caster = RayCaster::new(
+                    device.as_ref(),
+                    &scene.mesh.positions,
+                    &scene.mesh.triangles,
+                )?;
                 let (hits, _) = caster.cast(&scene.camera, 1)?;
                 let (_, inc) = caster.cast(&scene.incoherent, opts.repeat)?;
                 drop(caster);
@@ -532,7 +511,12 @@ fn specialisation(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) 
         let mut base = None;
         for (name, options) in forced.iter().chain([("everything on", everything)].iter()) {
             let measured = (|| -> Result<(f64, String)> {
-                let mut caster = RayCaster::with_options(device.as_ref(), &scene.mesh, options)?;
+                let mut caster = RayCaster::with_options(
+                    device.as_ref(),
+                    &scene.mesh.positions,
+                    &scene.mesh.triangles,
+                    options,
+                )?;
                 let features = caster.features()?.names().join(" ");
                 let (_, s) = caster.cast(&scene.incoherent, opts.repeat)?;
                 Ok((s, features))
@@ -583,7 +567,7 @@ fn scaling(opts: &ReportOptions, report: &mut Vec<Value>) {
                 continue;
             };
             let measured = (|| -> Result<(f64, f64)> {
-                let mut caster = RayCaster::new(device.as_ref(), &mesh)?;
+                let mut caster = RayCaster::new(device.as_ref(), &mesh.positions, &mesh.triangles)?;
                 let (_, s) = caster.cast(&incoherent, opts.repeat)?;
                 Ok((caster.build_seconds, s))
             })();

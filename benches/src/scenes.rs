@@ -147,6 +147,7 @@ mod tests {
         let m = Mesh {
             positions: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 1.0]],
             triangles: vec![[0, 1, 2]],
+            ..Mesh::default()
         };
         for scene in ALL {
             for set in ray_sets(&scene, &m) {

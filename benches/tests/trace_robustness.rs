@@ -2,9 +2,9 @@
 //! mesh never escape, even aimed exactly at its vertices and shared edges, at the origin, far
 //! from it and at tiny scale; and a -0.0 direction component gives the same answer as +0.0.
 
+use optik::raycast::RayCaster;
 use optik::{BackendKind, Device};
-use optik_benches::mesh::Mesh;
-use optik_benches::raycast::RayCaster;
+use optik_benches::mesh::{BenchMesh, Mesh};
 use optik_benches::rays;
 
 fn devices() -> Vec<Box<dyn Device>> {
@@ -37,7 +37,8 @@ fn closed_mesh_never_leaks() {
             let inside: [f32; 3] =
                 std::array::from_fn(|k| (offset[k] + scale * [0.0123, -0.0311, 0.0217][k]) as f32);
             let aimed = rays::aimed_at_vertices_and_edges(&mesh, inside);
-            let mut caster = RayCaster::new(device.as_ref(), &mesh).expect("build");
+            let mut caster =
+                RayCaster::new(device.as_ref(), &mesh.positions, &mesh.triangles).expect("build");
             let (hits, _) = caster.cast(&aimed, 1).expect("cast");
             let escaped = hits.prim.iter().filter(|&&p| p == u32::MAX).count();
             assert_eq!(
@@ -92,7 +93,8 @@ fn signed_zero_directions_agree() {
                 r
             })
             .collect();
-        let mut caster = RayCaster::new(device.as_ref(), &mesh).expect("build");
+        let mut caster =
+            RayCaster::new(device.as_ref(), &mesh.positions, &mesh.triangles).expect("build");
         let (a, _) = caster.cast(&plus, 1).expect("cast +0");
         let (b, _) = caster.cast(&minus, 1).expect("cast -0");
         assert_eq!(

@@ -16,6 +16,7 @@ mod cancel;
 mod compile;
 mod conformance;
 mod info;
+mod render;
 mod report;
 mod trace;
 
@@ -44,6 +45,8 @@ enum Command {
     Info,
     /// Casts rays (a float32 .npy of shape (N, 8)) against a mesh and writes hits to a .npz.
     Trace(trace::TraceArgs),
+    /// Renders a Mitsuba 3 XML scene or an OBJ model with optik's path tracer to an EXR or PNG.
+    Render(render::RenderArgs),
     /// Runs the conformance suite on the chosen backends and prints the case × backend table;
     /// each case is judged against the f64 oracle and its reference (built into this binary; a
     /// missing or unreadable one fails the case). `--list` shows the catalog, `--out DIR`
@@ -62,6 +65,7 @@ fn main() -> ExitCode {
         Command::Compile(args) => compile::run(&args),
         Command::Info => info::run(),
         Command::Trace(args) => trace::run(&args),
+        Command::Render(args) => render::run(&args),
         Command::Conformance(args) => conformance::run(&args),
         Command::BenchReport(args) => report::run(&args),
     };

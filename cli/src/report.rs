@@ -34,6 +34,13 @@ pub struct ReportArgs {
 
 /// Runs the command; returns the exit status.
 pub fn run(args: &ReportArgs) -> u8 {
+    // Before the measurements: a bad --json path must not cost a whole report.
+    if let Some(path) = &args.json
+        && let Err(e) = optik_io::output::check_writable(path)
+    {
+        eprintln!("optik bench-report: --json {e}");
+        return 2;
+    }
     let mut backends = Vec::new();
     for name in &args.backend {
         match BackendKind::from_name(name) {
@@ -82,12 +89,14 @@ pub fn run(args: &ReportArgs) -> u8 {
     };
     let figures = report::run(&opts);
     if let Some(path) = &args.json
-        && let Err(e) = std::fs::write(
+        && let Err(e) = optik_io::output::write_bytes(
             path,
-            serde_json::to_string_pretty(&figures).unwrap_or_default(),
+            serde_json::to_string_pretty(&figures)
+                .unwrap_or_default()
+                .as_bytes(),
         )
     {
-        eprintln!("{}: {e}", path.display());
+        eprintln!("optik bench-report: {e}");
         return 1;
     }
     0

@@ -130,6 +130,12 @@ pub fn run(args: &ConformanceArgs) -> i32 {
         eprintln!("optik conformance: no case matches the filter");
         return 2;
     }
+    if let Some(dir) = &args.out
+        && let Err(e) = report::prepare_out_dir(dir)
+    {
+        eprintln!("optik conformance: --out {e}");
+        return 2;
+    }
     let references = match &args.references {
         Some(dir) if !dir.is_dir() => {
             eprintln!(

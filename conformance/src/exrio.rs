@@ -6,7 +6,7 @@ use crate::image::{Channel, ChannelKind, RecordImage};
 use exr::prelude::*;
 use std::path::Path;
 
-/// Writes `image` to `path`, creating parent folders.
+/// Writes `image` to `path` atomically (optik_io::output), creating parent folders.
 pub fn write(path: &Path, image: &RecordImage) -> std::result::Result<(), String> {
     if image.width == 0 || image.height == 0 {
         return Err(format!(
@@ -45,10 +45,14 @@ pub fn write(path: &Path, image: &RecordImage) -> std::result::Result<(), String
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(channels),
     );
+    // Encoded in memory, then written beside `path` and renamed over it: a failed write
+    // leaves the previous file (a blessed reference) intact.
+    let mut bytes = std::io::Cursor::new(Vec::new());
     Image::from_layer(layer)
         .write()
-        .to_file(path)
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))
+        .to_buffered(&mut bytes)
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    optik_io::output::write_bytes(path, &bytes.into_inner()).map_err(|e| e.to_string())
 }
 
 /// Reads an image written by [`write`] (or any single-part EXR): `UINT` channels as

@@ -271,7 +271,7 @@ fn preview_rgb(img: &RecordImage) -> Vec<[u8; 3]> {
         .collect()
 }
 
-/// Writes a PNG thumbnail of `img`: upscaled (nearest, whole factors) towards 160 pixels, at most 256.
+/// Writes a PNG thumbnail of `img` atomically (optik_io::output): upscaled (nearest, whole factors) towards 160 pixels, at most 256.
 pub fn write_png(path: &Path, img: &RecordImage) -> Result<(), String> {
     let rgb = preview_rgb(img);
     let (w, h) = (img.width.max(1), img.height.max(1));
@@ -288,17 +288,17 @@ pub fn write_png(path: &Path, img: &RecordImage) -> Result<(), String> {
             data.extend_from_slice(&rgb[sy * w + sx]);
         }
     }
-    let file = std::fs::File::create(path)
-        .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), tw as u32, th as u32);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    let mut writer = enc
-        .write_header()
-        .map_err(|e| format!("{}: {e}", path.display()))?;
-    writer
-        .write_image_data(&data)
-        .map_err(|e| format!("{}: {e}", path.display()))
+    optik_io::output::write_atomically(path, |w| {
+        let mut enc = png::Encoder::new(w, tw as u32, th as u32);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut writer = enc.write_header().map_err(std::io::Error::other)?;
+        writer
+            .write_image_data(&data)
+            .map_err(std::io::Error::other)?;
+        writer.finish().map_err(std::io::Error::other)
+    })
+    .map_err(|e| e.to_string())
 }
 
 fn escape(s: &str) -> String {
@@ -306,6 +306,13 @@ fn escape(s: &str) -> String {
         .replace('<', "&lt;")
         .replace('>', "&gt;")
         .replace('"', "&quot;")
+}
+
+/// Creates `dir` if needed and checks that files can be written in it: run before any case,
+/// so an unwritable `--out` fails at once rather than after the whole suite.
+pub fn prepare_out_dir(dir: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    optik_io::output::check_folder_writable(dir).map_err(|e| e.to_string())
 }
 
 /// Writes `DIR/<case>/<backend>.exr`, `reference.exr`, `expected.exr`, `diff-<backend>.exr`
@@ -316,7 +323,7 @@ pub fn write_out_dir(
     results: &[CaseResult],
     backends: &[BackendKind],
 ) -> Result<(), String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    prepare_out_dir(dir)?;
     let mut names: Vec<&str> = Vec::new();
     for r in results {
         if !names.contains(&r.name.as_str()) {
@@ -419,6 +426,6 @@ pub fn write_out_dir(
         html.push_str("</tr>\n");
     }
     html.push_str("</table></body></html>\n");
-    std::fs::write(dir.join("index.html"), html)
-        .map_err(|e| format!("cannot write {}: {e}", dir.join("index.html").display()))
+    optik_io::output::write_bytes(&dir.join("index.html"), html.as_bytes())
+        .map_err(|e| e.to_string())
 }

@@ -21,11 +21,11 @@
 //! root); a missing scene is skipped with a message. Without embreex (or with `--no-embree`)
 //! only optik's figures are printed.
 
+use optik::raycast::{RAY_FLOATS, RayCaster};
 use optik::{BackendChoice, BackendKind, Device, OpenOptions};
-use optik_benches::mesh::Mesh;
-use optik_benches::raycast::{RAY_FLOATS, RayCaster};
+use optik_benches::mesh::{self, Mesh};
 use optik_benches::scenes::{self, RaySet, Scene};
-use optik_benches::{mesh, npy};
+use optik_io::array;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
@@ -198,10 +198,7 @@ fn run_scene(
         let count = set.rays.len() / RAY_FLOATS;
         if let Some(dir) = &options.save_rays {
             let name = format!("{}-{}.npy", scene.name.replace(' ', "-"), set.name);
-            write(
-                &dir.join(name),
-                &npy::encode(&[count, RAY_FLOATS], &set.rays),
-            )?;
+            write(&dir.join(name), &[count, RAY_FLOATS], &set.rays)?;
         }
         // optik: all threads first, then one; each on its own device.
         let mut times = Vec::new();
@@ -270,7 +267,7 @@ fn trace_optik(
     set: &RaySet,
     repeat: usize,
 ) -> optik::Result<OptikRun> {
-    let mut caster = RayCaster::new(device, mesh)?;
+    let mut caster = RayCaster::new(device, &mesh.positions, &mesh.triangles)?;
     let (hits, seconds) = caster.cast(&set.rays, repeat)?;
     Ok((seconds, caster.build_seconds, (hits.prim, hits.t)))
 }
@@ -287,11 +284,8 @@ impl MeshFiles {
         let triangles = work.join("triangles.npy");
         let flat_v: Vec<f32> = mesh.positions.iter().flatten().copied().collect();
         let flat_t: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
-        write(&vertices, &npy::encode(&[mesh.positions.len(), 3], &flat_v))?;
-        write(
-            &triangles,
-            &npy::encode(&[mesh.triangles.len(), 3], &flat_t),
-        )?;
+        write(&vertices, &[mesh.positions.len(), 3], &flat_v)?;
+        write(&triangles, &[mesh.triangles.len(), 3], &flat_t)?;
         Ok(MeshFiles {
             vertices,
             triangles,
@@ -299,8 +293,8 @@ impl MeshFiles {
     }
 }
 
-fn write(path: &Path, bytes: &[u8]) -> optik::Result<()> {
-    std::fs::write(path, bytes).map_err(|e| optik::Error::from(e).context(path.display()))
+fn write<T: array::Element>(path: &Path, shape: &[usize], data: &[T]) -> optik::Result<()> {
+    array::write_npy(path, shape, data).map_err(|e| optik::Error::invalid(e.to_string()))
 }
 
 /// Runs `peer.py` on the rays with one and `options.threads` threads.
@@ -315,7 +309,7 @@ fn run_peer(
     let prim = work.join("embree_prim.npy");
     let t = work.join("embree_t.npy");
     let count = set.rays.len() / RAY_FLOATS;
-    write(&rays, &npy::encode(&[count, RAY_FLOATS], &set.rays)).map_err(|e| e.to_string())?;
+    write(&rays, &[count, RAY_FLOATS], &set.rays).map_err(|e| e.to_string())?;
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("embree/peer.py");
     let output = Command::new(&options.python)
         .arg(&script)
@@ -346,12 +340,10 @@ fn run_peer(
             .and_then(|v| v.as_f64())
             .ok_or_else(|| format!("peer.py's JSON lacks {key}: {line}"))
     };
-    let read = |path: &Path| std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()));
-    let what = |path: &Path| path.display().to_string();
-    let (_, prim_data) = npy::read_u32(&read(&prim)?, &what(&prim)).map_err(|e| e.to_string())?;
-    let t_data = npy::read_f32(&read(&t)?, &what(&t))
+    let prim_data = array::read_npy::<u32>(&prim)
         .map_err(|e| e.to_string())?
         .data;
+    let t_data = array::read_npy::<f32>(&t).map_err(|e| e.to_string())?.data;
     Ok(Peer {
         build_s: number("build_s")?,
         trace_s_1: number("trace_s_1")?,

@@ -7,9 +7,39 @@
 
 use glam::{Mat3, Mat4, Vec2, Vec3};
 
+pub mod images;
 pub mod mitsuba;
 pub mod obj;
 pub mod shapes;
+
+/// Loads a scene file, choosing the loader by its extension: `.xml` is a Mitsuba 3 scene
+/// (`defines` set its `$name` parameters, as Mitsuba's `-D name=value`), `.obj` an OBJ+MTL
+/// model (which has no parameters; `defines` must be empty).
+pub fn load(path: &std::path::Path, defines: &[(String, String)]) -> Result<Scene, SceneError> {
+    let at = Location {
+        file: path.to_path_buf(),
+        line: 0,
+    };
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    match ext.as_str() {
+        "xml" => mitsuba::load(path, defines),
+        "obj" if defines.is_empty() => obj::load(path),
+        "obj" => Err(SceneError {
+            at,
+            message: "defines (-D) apply to Mitsuba XML scenes; an OBJ model has no parameters"
+                .into(),
+        }),
+        _ => Err(SceneError {
+            at,
+            message: format!(
+                "unknown scene format \".{ext}\"; expected a Mitsuba 3 scene (.xml) or an OBJ model (.obj)"
+            ),
+        }),
+    }
+}
 
 /// Linear RGB.
 pub type Rgb = Vec3;
@@ -146,7 +176,11 @@ pub struct Film {
 
 impl Default for Film {
     fn default() -> Self {
-        Film { width: 768, height: 576, filter: Filter::default() }
+        Film {
+            width: 768,
+            height: 576,
+            filter: Filter::default(),
+        }
     }
 }
 
@@ -184,7 +218,10 @@ pub struct Sampler {
 
 impl Default for Sampler {
     fn default() -> Self {
-        Sampler { sample_count: 4, seed: 0 }
+        Sampler {
+            sample_count: 4,
+            seed: 0,
+        }
     }
 }
 
@@ -219,7 +256,11 @@ pub struct PathSettings {
 
 impl Default for PathSettings {
     fn default() -> Self {
-        PathSettings { max_depth: None, rr_depth: 5, hide_emitters: false }
+        PathSettings {
+            max_depth: None,
+            rr_depth: 5,
+            hide_emitters: false,
+        }
     }
 }
 
@@ -236,7 +277,11 @@ pub struct DirectSettings {
 
 impl Default for DirectSettings {
     fn default() -> Self {
-        DirectSettings { emitter_samples: 1, bsdf_samples: 1, hide_emitters: false }
+        DirectSettings {
+            emitter_samples: 1,
+            bsdf_samples: 1,
+            hide_emitters: false,
+        }
     }
 }
 
@@ -543,14 +588,23 @@ impl Scene {
             .meshes
             .iter()
             .map(|m| (Mat4::IDENTITY, ShapeRef::Mesh(m)))
-            .chain(self.spheres.iter().map(|s| (Mat4::IDENTITY, ShapeRef::Sphere(s))));
+            .chain(
+                self.spheres
+                    .iter()
+                    .map(|s| (Mat4::IDENTITY, ShapeRef::Sphere(s))),
+            );
         let instanced = self.instances.iter().flat_map(move |inst| {
             let group = &self.groups[inst.group as usize];
             group
                 .meshes
                 .iter()
                 .map(move |m| (inst.to_world, ShapeRef::Mesh(m)))
-                .chain(group.spheres.iter().map(move |s| (inst.to_world, ShapeRef::Sphere(s))))
+                .chain(
+                    group
+                        .spheres
+                        .iter()
+                        .map(move |s| (inst.to_world, ShapeRef::Sphere(s))),
+                )
         });
         top.chain(instanced)
     }

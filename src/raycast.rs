@@ -1,13 +1,21 @@
-//! Ray casting through the public API: a raygen program reads rays from a buffer, traces them
-//! against a triangle mesh, and the closest-hit program writes the hit record. This is what
-//! `optik trace` runs and what the throughput benchmarks time — no side path around the API.
+//! A batch ray caster on the public [`Device`] API: rays in, closest hits out.
+//!
+//! A raygen program reads rays from a buffer and traces them against one triangle mesh; the
+//! closest-hit program writes the hit record. This is what `optik trace` runs and what the
+//! throughput benchmarks time, with no side path around the API.
+//!
+//! Rays are [`RAY_FLOATS`] `f32` each: origin x, y, z, tmin, direction x, y, z, tmax. Each ray
+//! gives a hit record ([`Hits`]): `t`, the triangle index `prim` (in the order the triangles
+//! were given), the instance id `inst` (0: the mesh is the only instance), and the barycentric
+//! weights `u` and `v` of the triangle's second and third vertices. A ray that hits nothing
+//! gives t = +inf, prim = inst = 0xFFFFFFFF, u = v = 0; so does an invalid ray (DESIGN.md §4:
+//! NaN or infinite origin or direction, tmin < 0 or NaN, tmax NaN, tmin > tmax).
 
-use crate::mesh::Mesh;
-use optik::{
-    Accel, AccelBuildOptions, Buffer, BufferView, BuildFlags, BuildInput, Device, GeometryFlags,
-    LaunchSize, ModuleCompileOptions, Pipeline, PipelineCompileOptions, PipelineLinkOptions,
-    ProgramGroupDesc, ProgramRef, ProgramSource, Resource, Result, SbtRecord, SbtRegion,
-    ShaderBindingTable, TriangleArray,
+use crate::{
+    Accel, AccelBuildOptions, Buffer, BufferView, BuildFlags, BuildInput, Device, Error,
+    GeometryFlags, LaunchSize, ModuleCompileOptions, Pipeline, PipelineCompileOptions,
+    PipelineLinkOptions, ProgramGroupDesc, ProgramRef, ProgramSource, Resource, Result, SbtRecord,
+    SbtRegion, ShaderBindingTable, TriangleArray,
 };
 use std::time::Instant;
 
@@ -22,6 +30,8 @@ pub const BATCH_RAYS: usize = 1 << 20;
 
 /// Launch width; the height covers the rest of the rays.
 const LAUNCH_WIDTH: u32 = 4096;
+/// `prim` and `inst` of a miss.
+pub const NO_HIT: u32 = u32::MAX;
 
 /// The programs: the ray layout above in, the hit record out.
 pub const PROGRAMS: &str = r#"
@@ -70,19 +80,41 @@ fn miss__none() {
 }
 "#;
 
-/// Per-ray results, as `optik trace` writes them.
+/// Per-ray results, one entry per ray in input order.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Hits {
-    /// Hit distance, +inf on a miss.
+    /// Hit distance along the direction (in units of its length), +inf on a miss.
     pub t: Vec<f32>,
-    /// Triangle index in file order, 0xFFFFFFFF on a miss.
+    /// Triangle index in the order given, [`NO_HIT`] on a miss.
     pub prim: Vec<u32>,
-    /// Instance id (0 for the single mesh), 0xFFFFFFFF on a miss.
+    /// Instance id (0 for the single mesh), [`NO_HIT`] on a miss.
     pub inst: Vec<u32>,
-    /// Barycentric weight of the triangle's second vertex.
+    /// Barycentric weight of the triangle's second vertex, 0 on a miss.
     pub u: Vec<f32>,
-    /// Barycentric weight of the triangle's third vertex.
+    /// Barycentric weight of the triangle's third vertex, 0 on a miss.
     pub v: Vec<f32>,
+}
+
+impl Hits {
+    /// The number of rays that hit a triangle.
+    pub fn hit_count(&self) -> usize {
+        self.prim.iter().filter(|&&p| p != NO_HIT).count()
+    }
+}
+
+/// The number of rays in `rays` (`RAY_FLOATS` floats each) that the invalid-ray policy
+/// (DESIGN.md §4) makes misses without tracing.
+pub fn invalid_ray_count(rays: &[f32]) -> usize {
+    rays.chunks_exact(RAY_FLOATS)
+        .filter(|r| {
+            crate::semantics::ray::check([r[0], r[1], r[2]], [r[4], r[5], r[6]], r[3], r[7])
+                .is_err()
+        })
+        .count()
+}
+
+fn le_bytes<T: Copy, const N: usize>(items: &[T], bytes: impl Fn(T) -> [u8; N]) -> Vec<u8> {
+    items.iter().flat_map(|&x| bytes(x)).collect()
 }
 
 /// A mesh built on a device with the ray-casting pipeline ready to launch.
@@ -93,24 +125,41 @@ pub struct RayCaster<'d> {
     pipeline: Pipeline,
     sbt: ShaderBindingTable,
     owned: Vec<Buffer>,
-    batch_rays: usize,
     /// Seconds the acceleration structure build took (including upload of the mesh).
     pub build_seconds: f64,
+    batch_rays: usize,
 }
 
 impl<'d> RayCaster<'d> {
-    /// Uploads and builds `mesh`, compiles the programs and fills the SBT.
-    pub fn new(device: &'d dyn Device, mesh: &Mesh) -> Result<RayCaster<'d>> {
-        Self::with_options(device, mesh, &PipelineCompileOptions::default())
+    /// Uploads and builds the mesh (`triangles` index `positions`), compiles the programs and
+    /// fills the SBT.
+    pub fn new(
+        device: &'d dyn Device,
+        positions: &[[f32; 3]],
+        triangles: &[[u32; 3]],
+    ) -> Result<RayCaster<'d>> {
+        Self::with_options(
+            device,
+            positions,
+            triangles,
+            &PipelineCompileOptions::default(),
+        )
     }
 
     /// Like [`RayCaster::new`], with explicit pipeline options (the benchmark report forces
     /// features on to measure what specialisation saves).
     pub fn with_options(
         device: &'d dyn Device,
-        mesh: &Mesh,
+        positions: &[[f32; 3]],
+        triangles: &[[u32; 3]],
         pipeline_options: &PipelineCompileOptions,
     ) -> Result<RayCaster<'d>> {
+        let count = |n: usize, what: &str| {
+            u32::try_from(n)
+                .map_err(|_| Error::invalid(format!("{n} {what}: at most 2^32 - 1 are supported")))
+        };
+        let vertex_count = count(positions.len(), "vertices")?;
+        let triangle_count = count(triangles.len(), "triangles")?;
         let mut owned = Vec::new();
         let mut upload = |bytes: &[u8]| -> Result<Buffer> {
             let b = device.create_buffer(bytes.len().max(4) as u64)?;
@@ -119,14 +168,26 @@ impl<'d> RayCaster<'d> {
             Ok(b)
         };
         let start = Instant::now();
-        let vertices = upload(bytemuck::cast_slice(&mesh.positions))?;
-        let indices = upload(bytemuck::cast_slice(&mesh.triangles))?;
+        let vertices = upload(&le_bytes(positions, |p| {
+            let mut b = [0u8; 12];
+            for (k, c) in p.iter().enumerate() {
+                b[4 * k..4 * k + 4].copy_from_slice(&c.to_le_bytes());
+            }
+            b
+        }))?;
+        let indices = upload(&le_bytes(triangles, |t| {
+            let mut b = [0u8; 12];
+            for (k, i) in t.iter().enumerate() {
+                b[4 * k..4 * k + 4].copy_from_slice(&i.to_le_bytes());
+            }
+            b
+        }))?;
         let input = TriangleArray::new(
             BufferView::new(vertices),
-            mesh.positions.len() as u32,
+            vertex_count,
             GeometryFlags::DISABLE_ANYHIT,
         )
-        .with_indices(BufferView::new(indices), mesh.triangles.len() as u32);
+        .with_indices(BufferView::new(indices), triangle_count);
         let options = AccelBuildOptions {
             flags: BuildFlags::PREFER_FAST_TRACE,
             ..Default::default()
@@ -181,13 +242,13 @@ impl<'d> RayCaster<'d> {
             pipeline,
             sbt,
             owned,
-            batch_rays: BATCH_RAYS,
             build_seconds,
+            batch_rays: BATCH_RAYS,
         })
     }
 
     /// The features the pipeline was compiled with.
-    pub fn features(&self) -> Result<optik::FeatureSet> {
+    pub fn features(&self) -> Result<crate::FeatureSet> {
         self.device.pipeline_features(self.pipeline)
     }
 
@@ -201,6 +262,12 @@ impl<'d> RayCaster<'d> {
     /// most [`RayCaster::set_batch_rays`], each with its own buffers and launch, so no
     /// binding exceeds a device's storage binding limit however many rays there are.
     pub fn upload(&self, rays: &[f32]) -> Result<Launch<'d>> {
+        if !rays.len().is_multiple_of(RAY_FLOATS) {
+            return Err(Error::invalid(format!(
+                "{} floats do not make whole rays; expected {RAY_FLOATS} per ray",
+                rays.len()
+            )));
+        }
         let n = rays.len() / RAY_FLOATS;
         let d = self.device;
         let mut launch = Launch {
@@ -208,11 +275,14 @@ impl<'d> RayCaster<'d> {
             rays: n,
             batches: Vec::new(),
         };
-        for (k, chunk) in rays[..n * RAY_FLOATS]
-            .chunks(self.batch_rays * RAY_FLOATS)
+        for (k, chunk) in rays
+            .chunks(self.batch_rays.saturating_mul(RAY_FLOATS))
             .enumerate()
         {
             let m = chunk.len() / RAY_FLOATS;
+            let m32 = u32::try_from(m).map_err(|_| {
+                Error::invalid(format!("{m} rays: at most 2^32 - 1 rays per launch"))
+            })?;
             // Pushed before the writes: on an error the launch drops and frees them.
             let ray_buffer = d.create_buffer((chunk.len() * 4).max(4) as u64)?;
             let hit_buffer = match d.create_buffer((m * HIT_WORDS * 4).max(4) as u64) {
@@ -223,7 +293,7 @@ impl<'d> RayCaster<'d> {
                 }
             };
             let mut params = Vec::with_capacity(16);
-            for w in [self.handle[0], self.handle[1], m as u32, LAUNCH_WIDTH] {
+            for w in [self.handle[0], self.handle[1], m32, LAUNCH_WIDTH] {
                 params.extend_from_slice(&w.to_le_bytes());
             }
             launch.batches.push(Batch {
@@ -236,19 +306,19 @@ impl<'d> RayCaster<'d> {
                 ],
                 ray_buffer,
                 hit_buffer,
-                size: LaunchSize::new(
-                    LAUNCH_WIDTH.min(m as u32),
-                    (m as u32).div_ceil(LAUNCH_WIDTH),
-                    1,
-                ),
+                size: LaunchSize::new(LAUNCH_WIDTH.min(m32), m32.div_ceil(LAUNCH_WIDTH), 1),
             });
-            d.write_buffer(ray_buffer, 0, bytemuck::cast_slice(chunk))?;
+            d.write_buffer(ray_buffer, 0, &le_bytes(chunk, f32::to_le_bytes))?;
         }
         Ok(launch)
     }
 
-    /// Runs `launch` once (a launch per batch) and waits for it.
+    /// Runs `launch` once (a launch per batch) and waits for it (no launch at all for no
+    /// rays).
     pub fn run(&self, launch: &Launch) -> Result<()> {
+        if launch.rays == 0 {
+            return Ok(());
+        }
         let d = self.device;
         for b in &launch.batches {
             d.launch(self.pipeline, &b.params, &b.resources, &self.sbt, b.size)
@@ -265,22 +335,29 @@ impl<'d> RayCaster<'d> {
         for b in &launch.batches {
             let mut raw = vec![0u8; b.rays * HIT_WORDS * 4];
             self.device.read_buffer(b.hit_buffer, 0, &mut raw)?;
-            let words: &[u32] = bytemuck::cast_slice(&raw);
-            for h in words.chunks_exact(HIT_WORDS) {
-                hits.t.push(f32::from_bits(h[0]));
-                hits.prim.push(h[1]);
-                hits.inst.push(h[2]);
-                hits.u.push(f32::from_bits(h[3]));
-                hits.v.push(f32::from_bits(h[4]));
+            // Decoded word by word: a byte buffer's alignment is the allocator's choice, so it
+            // is never reinterpreted as u32s in place.
+            for h in raw.chunks_exact(HIT_WORDS * 4) {
+                let word = |k: usize| {
+                    u32::from_le_bytes([h[4 * k], h[4 * k + 1], h[4 * k + 2], h[4 * k + 3]])
+                };
+                hits.t.push(f32::from_bits(word(0)));
+                hits.prim.push(word(1));
+                hits.inst.push(word(2));
+                hits.u.push(f32::from_bits(word(3)));
+                hits.v.push(f32::from_bits(word(4)));
             }
         }
         Ok(hits)
     }
 
     /// Traces `rays` (`RAY_FLOATS` floats each) `repeat` times; returns the hits and the best
-    /// launch time in seconds.
+    /// launch time in seconds (0 for no rays).
     pub fn cast(&mut self, rays: &[f32], repeat: usize) -> Result<(Hits, f64)> {
         let launch = self.upload(rays)?;
+        if launch.rays == 0 {
+            return Ok((Hits::default(), 0.0));
+        }
         let mut best = f64::INFINITY;
         for _ in 0..repeat.max(1) {
             self.device.synchronize()?;
@@ -341,5 +418,53 @@ impl Drop for RayCaster<'_> {
         for b in self.owned.drain(..) {
             let _ = self.device.destroy_buffer(b);
         }
+    }
+}
+
+#[cfg(all(test, feature = "cpu"))]
+mod tests {
+    use super::*;
+
+    fn triangle() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+        (
+            vec![[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]],
+            vec![[0, 1, 2]],
+        )
+    }
+
+    #[test]
+    fn no_rays_give_no_hits() {
+        let device = crate::open_backend(crate::BackendKind::Cpu).unwrap();
+        let (p, t) = triangle();
+        let mut caster = RayCaster::new(device.as_ref(), &p, &t).unwrap();
+        let (hits, seconds) = caster.cast(&[], 1).unwrap();
+        assert_eq!((hits, seconds), (Hits::default(), 0.0));
+        assert!(caster.cast(&[0.0; 7], 1).is_err());
+    }
+
+    #[test]
+    fn hits_misses_and_invalid_rays() {
+        let device = crate::open_backend(crate::BackendKind::Cpu).unwrap();
+        let (p, t) = triangle();
+        let mut caster = RayCaster::new(device.as_ref(), &p, &t).unwrap();
+        let inf = f32::INFINITY;
+        let rays = [
+            [0.25, 0.25, 0.0, 0.0, 0.0, 0.0, 1.0, inf],  // hit
+            [2.0, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0, inf],    // miss
+            [0.25, 0.25, 0.0, -1.0, 0.0, 0.0, 1.0, inf], // invalid: tmin < 0
+        ];
+        let flat: Vec<f32> = rays.iter().flatten().copied().collect();
+        let (hits, _) = caster.cast(&flat, 1).unwrap();
+        assert_eq!(hits.prim, vec![0, NO_HIT, NO_HIT]);
+        assert_eq!(hits.inst, vec![0, NO_HIT, NO_HIT]);
+        assert_eq!(hits.t[0], 1.0);
+        assert_eq!((hits.u[0], hits.v[0]), (0.25, 0.25));
+        assert_eq!(&hits.t[1..], &[inf, inf]);
+        assert_eq!(
+            (&hits.u[1..], &hits.v[1..]),
+            (&[0.0, 0.0][..], &[0.0, 0.0][..])
+        );
+        assert_eq!(hits.hit_count(), 1);
+        assert_eq!(invalid_ray_count(&flat), 1);
     }
 }

@@ -1,0 +1,161 @@
+//! The effects a scene calls for, derived after loading: the pipeline is built from them
+//! (one closest-hit program per BSDF kind, a shadow ray type only where next-event estimation
+//! applies, payload registers sized by the integrator).
+
+use crate::material::{self, BsdfKind};
+use crate::scene::{Emitter, Integrator, Scene, ShapeRef};
+use std::collections::BTreeSet;
+
+/// Payload registers of a path-traced radiance ray without and with the denoiser's AOVs
+/// (scene.wgsl's P_* layout).
+pub const PATH_PAYLOAD: u32 = 26;
+/// With albedo and normal of the first hit.
+pub const PATH_PAYLOAD_AOVS: u32 = 32;
+
+/// What a scene needs simulated.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RenderFeatures {
+    /// BSDF kinds on some shape, each compiled as one closest-hit program.
+    pub bsdf_kinds: BTreeSet<BsdfKind>,
+    /// Some material uses a checkerboard texture.
+    pub checkerboard: bool,
+    /// Some material uses a bitmap texture.
+    pub bitmap: bool,
+    /// Some material is an opacity mask (an any-hit program).
+    pub masks: bool,
+    /// Emitter kinds present (`area`, `point`, `spot`, `directional`, `constant`, `envmap`).
+    pub emitters: BTreeSet<&'static str>,
+    /// The scene has an environment (constant or envmap).
+    pub environment: bool,
+    /// The scene places shape groups through instances.
+    pub instancing: bool,
+    /// The scene has spheres.
+    pub spheres: bool,
+    /// The integrator's longest path (`None`: unbounded).
+    pub max_depth: Option<u32>,
+    /// Next-event estimation applies (some emitter can be sampled, a BSDF has a smooth lobe,
+    /// and paths have a second vertex): the shadow ray type exists.
+    pub shadow_rays: bool,
+    /// Payload registers of the radiance ray.
+    pub payload_values: u32,
+    /// The integrator's name.
+    pub integrator: &'static str,
+}
+
+impl RenderFeatures {
+    /// The features of `scene` rendered with its integrator; `aovs` adds the first hit's
+    /// albedo and normal to the payload.
+    pub fn of(scene: &Scene, aovs: bool) -> RenderFeatures {
+        let mut f = RenderFeatures::default();
+        let mut area = false;
+        for (_, shape) in scene.placed_shapes() {
+            let (material, emission) = match shape {
+                ShapeRef::Mesh(m) => (m.material, m.emission.is_some()),
+                ShapeRef::Sphere(s) => {
+                    f.spheres = true;
+                    (s.material, s.emission.is_some())
+                }
+            };
+            area |= emission;
+            if let Some(b) = scene.materials.get(material as usize) {
+                if let Ok(e) = material::encode(b, "") {
+                    f.bsdf_kinds.insert(e.kind);
+                }
+                let t = material::texture_use(b);
+                f.checkerboard |= t.checkerboard;
+                f.bitmap |= t.bitmap;
+                f.masks |= matches!(b, crate::scene::Bsdf::Mask { .. });
+            }
+        }
+        if area {
+            f.emitters.insert("area");
+        }
+        for e in &scene.emitters {
+            let name = match e {
+                Emitter::Point { .. } => "point",
+                Emitter::Spot { .. } => "spot",
+                Emitter::Directional { .. } => "directional",
+                Emitter::Constant { .. } => "constant",
+                Emitter::EnvMap { .. } => "envmap",
+            };
+            f.emitters.insert(name);
+            f.environment |= matches!(e, Emitter::Constant { .. } | Emitter::EnvMap { .. });
+        }
+        f.instancing = !scene.instances.is_empty();
+        let (name, max_depth) = match &scene.integrator {
+            Integrator::Path(p) => ("path", p.max_depth),
+            Integrator::Direct(_) => ("direct", Some(2)),
+            Integrator::Aov(_) => ("aov", Some(1)),
+        };
+        f.integrator = name;
+        f.max_depth = max_depth;
+        let smooth = f.bsdf_kinds.iter().any(|k| k.smooth());
+        f.shadow_rays = !f.emitters.is_empty() && smooth && max_depth.is_none_or(|d| d > 1);
+        f.payload_values = if aovs {
+            PATH_PAYLOAD_AOVS
+        } else {
+            PATH_PAYLOAD
+        };
+        f
+    }
+
+    /// The programs a pipeline for these features holds, in program group order: the path
+    /// raygen, the radiance miss, the shadow miss (only with shadow rays), then one
+    /// closest-hit program per BSDF kind.
+    pub fn programs(&self) -> Vec<String> {
+        let mut v = vec!["raygen__path".to_string(), "miss__radiance".to_string()];
+        if self.shadow_rays {
+            v.push("miss__shadow".into());
+        }
+        v.extend(
+            self.bsdf_kinds
+                .iter()
+                .map(|k| crate::programs::closest_hit_name(*k)),
+        );
+        v
+    }
+
+    /// One line per feature, for `optik render --features`.
+    pub fn describe(&self) -> String {
+        let list = |v: Vec<&str>| {
+            if v.is_empty() {
+                "none".to_string()
+            } else {
+                v.join(", ")
+            }
+        };
+        let mut s = String::new();
+        s += &format!("integrator: {}\n", self.integrator);
+        s += &format!(
+            "max depth: {}\n",
+            self.max_depth
+                .map_or("unbounded".to_string(), |d| d.to_string())
+        );
+        s += &format!(
+            "bsdfs: {}\n",
+            list(self.bsdf_kinds.iter().map(|k| k.name()).collect())
+        );
+        let mut tex = Vec::new();
+        if self.checkerboard {
+            tex.push("checkerboard");
+        }
+        if self.bitmap {
+            tex.push("bitmap");
+        }
+        s += &format!("textures: {}\n", list(tex));
+        s += &format!("masks: {}\n", self.masks);
+        s += &format!(
+            "emitters: {}\n",
+            list(self.emitters.iter().copied().collect())
+        );
+        s += &format!("environment: {}\n", self.environment);
+        s += &format!("instancing: {}\n", self.instancing);
+        s += &format!("spheres: {}\n", self.spheres);
+        s += &format!(
+            "shadow rays (next-event estimation): {}\n",
+            self.shadow_rays
+        );
+        s += &format!("payload registers: {}\n", self.payload_values);
+        s
+    }
+}

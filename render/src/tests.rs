@@ -1,0 +1,477 @@
+//! Engine tests on small hand-built scenes: analytic furnaces for the integrator's semantics,
+//! determinism across thread counts and backends, far-from-origin invariance, the probe,
+//! features and outputs.
+
+use crate::probe::{self, BsdfQuery};
+use crate::scene::{
+    Bsdf, Camera, Film, Filter, Integrator, Mesh, PathSettings, Sampler, Scene, Texture,
+};
+use crate::{Frame, RenderOptions, render};
+use glam::{Mat4, Vec3};
+use optik::{BackendChoice, BackendKind, Device, OpenOptions};
+
+fn cpu(threads: usize) -> Box<dyn Device> {
+    optik::open_with(
+        BackendChoice::Named(BackendKind::Cpu),
+        &OpenOptions {
+            threads: Some(threads),
+        },
+    )
+    .expect("the CPU backend opens")
+}
+
+/// A square of half-size `s` at `c` facing `n` (counter-clockwise seen from the front).
+fn quad(name: &str, c: Vec3, n: Vec3, s: f32, material: u32, emission: Option<Vec3>) -> Mesh {
+    let u = n.any_orthonormal_vector() * s;
+    let v = n.cross(u);
+    Mesh {
+        name: name.into(),
+        positions: vec![c - u - v, c + u - v, c + u + v, c - u + v],
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        material,
+        emission: emission.map(Texture::Constant),
+        ..Mesh::default()
+    }
+}
+
+fn diffuse(r: Vec3) -> Bsdf {
+    Bsdf::Diffuse {
+        reflectance: Texture::Constant(r),
+    }
+}
+
+fn path(max_depth: Option<u32>, hide_emitters: bool) -> Integrator {
+    Integrator::Path(PathSettings {
+        max_depth,
+        rr_depth: 5,
+        hide_emitters,
+    })
+}
+
+/// A closed cube of half-size `s` around `c`, every inner face a diffuse emitter: the radiance
+/// everywhere is `le · Σ_{k<max_depth} albedo^k`, whatever the geometry.
+fn furnace(c: Vec3, s: f32, albedo: f32, le: f32, integrator: Integrator) -> Scene {
+    let axes = [Vec3::X, Vec3::Y, Vec3::Z];
+    let mut meshes = Vec::new();
+    for a in axes {
+        for sign in [-1.0, 1.0] {
+            let n = -a * sign;
+            meshes.push(quad(
+                "wall",
+                c + a * sign * s,
+                n,
+                s,
+                0,
+                Some(Vec3::splat(le)),
+            ));
+        }
+    }
+    Scene {
+        camera: Camera {
+            to_world: Mat4::from_translation(c),
+            ..Camera::default()
+        },
+        film: Film {
+            width: 8,
+            height: 8,
+            filter: Filter::Box,
+        },
+        sampler: Sampler {
+            sample_count: 16,
+            seed: 1,
+        },
+        integrator,
+        meshes,
+        materials: vec![diffuse(Vec3::splat(albedo))],
+        ..Scene::default()
+    }
+}
+
+/// A Cornell box of half-size `s` (open towards the camera) with a light under the ceiling,
+/// shifted by `o`.
+fn cornell_at(o: Vec3, s: f32) -> Scene {
+    let w = Vec3::splat(0.7);
+    let meshes = vec![
+        quad("floor", o + Vec3::new(0.0, -s, 0.0), Vec3::Y, s, 0, None),
+        quad("ceiling", o + Vec3::new(0.0, s, 0.0), -Vec3::Y, s, 0, None),
+        quad("back", o + Vec3::new(0.0, 0.0, s), -Vec3::Z, s, 0, None),
+        quad("left", o + Vec3::new(s, 0.0, 0.0), -Vec3::X, s, 1, None),
+        quad("right", o + Vec3::new(-s, 0.0, 0.0), Vec3::X, s, 2, None),
+        quad(
+            "light",
+            o + Vec3::new(0.0, 0.99 * s, 0.0),
+            -Vec3::Y,
+            0.3 * s,
+            0,
+            Some(Vec3::splat(8.0)),
+        ),
+    ];
+    Scene {
+        camera: Camera {
+            to_world: Mat4::from_translation(o + Vec3::new(0.0, 0.0, -3.4 * s)),
+            fov_degrees: 40.0,
+            ..Camera::default()
+        },
+        film: Film {
+            width: 16,
+            height: 16,
+            filter: Filter::Box,
+        },
+        sampler: Sampler {
+            sample_count: 8,
+            seed: 7,
+        },
+        integrator: path(Some(4), false),
+        meshes,
+        materials: vec![
+            diffuse(w),
+            diffuse(Vec3::new(0.7, 0.1, 0.1)),
+            diffuse(Vec3::new(0.1, 0.7, 0.1)),
+        ],
+        ..Scene::default()
+    }
+}
+
+fn cornell(o: Vec3) -> Scene {
+    cornell_at(o, 1.0)
+}
+
+fn image_mean(f: &Frame) -> Vec3 {
+    f.mean.iter().map(|p| Vec3::from_array(*p)).sum::<Vec3>() / f.mean.len() as f32
+}
+
+#[test]
+fn furnace_matches_the_path_integrators_series() {
+    let d = cpu(2);
+    // max_depth 1: only the emitters seen directly, exactly.
+    let f = render(
+        d.as_ref(),
+        &furnace(Vec3::ZERO, 1.0, 0.5, 1.0, path(Some(1), false)),
+        &RenderOptions::default(),
+    )
+    .unwrap();
+    assert!(
+        f.mean.iter().flatten().all(|v| *v == 1.0),
+        "{:?}",
+        &f.mean[..4]
+    );
+    // max_depth 3: 1 + 0.5 + 0.25 through emission, NEE and MIS together.
+    let opts = RenderOptions {
+        spp: Some(64),
+        want_variance: true,
+        ..RenderOptions::default()
+    };
+    let f = render(
+        d.as_ref(),
+        &furnace(Vec3::ZERO, 1.0, 0.5, 1.0, path(Some(3), false)),
+        &opts,
+    )
+    .unwrap();
+    let m = image_mean(&f);
+    assert!(
+        (m - Vec3::splat(1.75)).abs().max_element() < 0.03,
+        "mean {m}"
+    );
+    assert!(
+        f.variance
+            .as_ref()
+            .unwrap()
+            .iter()
+            .flatten()
+            .any(|v| *v > 0.0)
+    );
+    // Hidden emitters drop the first term only.
+    let f = render(
+        d.as_ref(),
+        &furnace(Vec3::ZERO, 1.0, 0.5, 1.0, path(Some(3), true)),
+        &opts,
+    )
+    .unwrap();
+    let m = image_mean(&f);
+    assert!(
+        (m - Vec3::splat(0.75)).abs().max_element() < 0.03,
+        "hidden: mean {m}"
+    );
+    // Past rr_depth, Russian roulette keeps the expectation: Σ 0.5^k for k < 8.
+    let f = render(
+        d.as_ref(),
+        &furnace(Vec3::ZERO, 1.0, 0.5, 1.0, path(Some(8), false)),
+        &opts,
+    )
+    .unwrap();
+    let expect = (0..8).map(|k| 0.5f32.powi(k)).sum::<f32>();
+    let m = image_mean(&f);
+    assert!(
+        (m - Vec3::splat(expect)).abs().max_element() < 0.05,
+        "rr: mean {m}, expected {expect}"
+    );
+}
+
+#[test]
+fn same_seed_is_bit_identical_across_thread_counts() {
+    let scene = cornell(Vec3::ZERO);
+    let opts = RenderOptions::default();
+    let a = render(cpu(1).as_ref(), &scene, &opts).unwrap();
+    let b = render(cpu(2).as_ref(), &scene, &opts).unwrap();
+    assert_eq!(a.mean, b.mean);
+    // Launch batching does not change the image either.
+    let c = render(
+        cpu(2).as_ref(),
+        &scene,
+        &RenderOptions {
+            samples_per_launch: Some(256),
+            ..opts.clone()
+        },
+    )
+    .unwrap();
+    assert_eq!(a.mean, c.mean);
+    let other = render(
+        cpu(2).as_ref(),
+        &scene,
+        &RenderOptions {
+            seed: Some(8),
+            ..opts
+        },
+    )
+    .unwrap();
+    assert_ne!(a.mean, other.mean);
+    assert!(image_mean(&a).max_element() > 0.01, "the box is lit");
+}
+
+/// Robust offsets (`rt_offset_ray`) scale with the position's magnitude, as float precision
+/// does: a scene of a few hundred units moved 1e5 away renders the same.
+#[test]
+fn far_from_origin_renders_the_same() {
+    let opts = RenderOptions {
+        spp: Some(32),
+        ..RenderOptions::default()
+    };
+    let d = cpu(2);
+    let near = image_mean(&render(d.as_ref(), &cornell_at(Vec3::ZERO, 300.0), &opts).unwrap());
+    let far_scene = cornell_at(Vec3::new(1e5, -1e5, 1e5), 300.0);
+    let far = image_mean(&render(d.as_ref(), &far_scene, &opts).unwrap());
+    assert!(
+        ((near - far).abs() / near).max_element() < 0.05,
+        "near {near}, far {far}"
+    );
+    // A furnace far away loses no energy to self-intersection.
+    let opts = RenderOptions {
+        spp: Some(64),
+        ..RenderOptions::default()
+    };
+    let f = render(
+        d.as_ref(),
+        &furnace(Vec3::splat(1e5), 300.0, 0.5, 1.0, path(Some(3), false)),
+        &opts,
+    )
+    .unwrap();
+    let m = image_mean(&f);
+    assert!(
+        (m - Vec3::splat(1.75)).abs().max_element() < 0.03,
+        "far furnace: mean {m}"
+    );
+}
+
+#[test]
+fn wgpu_agrees_with_cpu() {
+    let Ok(g) = optik::open(BackendChoice::Named(BackendKind::Wgpu)) else {
+        eprintln!("wgpu backend unavailable here; skipped");
+        return;
+    };
+    let scene = cornell(Vec3::ZERO);
+    let opts = RenderOptions::default();
+    let a = image_mean(&render(cpu(2).as_ref(), &scene, &opts).unwrap());
+    let b = image_mean(&render(g.as_ref(), &scene, &opts).unwrap());
+    assert!(
+        ((a - b).abs() / a).max_element() < 0.02,
+        "cpu {a}, wgpu {b}"
+    );
+}
+
+#[test]
+fn diffuse_probe_is_lambert() {
+    let d = cpu(1);
+    let b = diffuse(Vec3::new(0.2, 0.4, 0.6));
+    let s = 0.6f32.sqrt();
+    let queries = [
+        BsdfQuery {
+            wi: [0.0, 0.0, 1.0],
+            wo: [0.0, 0.8, 0.6],
+            uv: [0.0, 0.0],
+        },
+        BsdfQuery {
+            wi: [0.0, s, -(0.4f32.sqrt())],
+            wo: [0.0, 0.0, 1.0],
+            uv: [0.0, 0.0],
+        },
+        BsdfQuery {
+            wi: [0.0, 0.0, 1.0],
+            wo: [0.0, 0.8, -0.6],
+            uv: [0.0, 0.0],
+        },
+    ];
+    let v = probe::bsdf(d.as_ref(), &b, &queries).unwrap();
+    let pi = std::f32::consts::PI;
+    for (c, r) in [0.2f32, 0.4, 0.6].iter().enumerate() {
+        assert!((v[0].value[c] - r / pi * 0.6).abs() < 1e-6);
+    }
+    assert!((v[0].pdf - 0.6 / pi).abs() < 1e-6);
+    assert_eq!(
+        v[1].value, [0.0; 3],
+        "back side is black (one-sided diffuse)"
+    );
+    assert_eq!(v[2].pdf, 0.0);
+    let samples = [[0.5, 0.1, 0.2], [0.1, 0.9, 0.7], [0.3, 0.5, 0.5]];
+    let out = probe::bsdf_sample(d.as_ref(), &b, [0.0, 0.0, 1.0], [0.0, 0.0], &samples).unwrap();
+    for o in &out {
+        let wo = Vec3::from_array(o.wo);
+        assert!((wo.length() - 1.0).abs() < 1e-5 && wo.z > 0.0);
+        assert!((o.pdf - wo.z / pi).abs() < 1e-5);
+        assert!(
+            (Vec3::from_array(o.weight) - Vec3::new(0.2, 0.4, 0.6))
+                .abs()
+                .max_element()
+                < 1e-6
+        );
+        assert!(!o.delta);
+    }
+    assert!(
+        probe::bsdf_sample(
+            d.as_ref(),
+            &b,
+            [0.0, 0.0, 1.0],
+            [0.0; 2],
+            &[[1.0, 0.0, 0.0]]
+        )
+        .is_err()
+    );
+}
+
+#[test]
+fn features_follow_the_scene() {
+    let d = cpu(1);
+    let scene = cornell(Vec3::ZERO);
+    let f = render(
+        d.as_ref(),
+        &scene,
+        &RenderOptions {
+            spp: Some(1),
+            ..RenderOptions::default()
+        },
+    )
+    .unwrap();
+    let feat = &f.stats.features;
+    assert_eq!(
+        feat.bsdf_kinds.iter().map(|k| k.name()).collect::<Vec<_>>(),
+        ["diffuse"]
+    );
+    assert!(feat.shadow_rays && feat.emitters.contains("area"));
+    assert!(f.stats.programs.contains(&"miss__shadow".to_string()));
+    assert!(
+        f.stats
+            .programs
+            .contains(&"closesthit__diffuse".to_string())
+    );
+    // Paths of one segment need no next-event estimation: no shadow ray type is compiled.
+    let mut direct_only = scene.clone();
+    direct_only.integrator = path(Some(1), false);
+    let f = render(
+        d.as_ref(),
+        &direct_only,
+        &RenderOptions {
+            spp: Some(1),
+            ..RenderOptions::default()
+        },
+    )
+    .unwrap();
+    assert!(!f.stats.features.shadow_rays);
+    assert!(!f.stats.programs.contains(&"miss__shadow".to_string()));
+    assert!(f.stats.features.describe().contains("bsdfs: diffuse"));
+}
+
+#[test]
+fn aovs_hold_albedo_and_normal_of_the_first_hit() {
+    let d = cpu(2);
+    let scene = cornell(Vec3::ZERO);
+    let f = render(
+        d.as_ref(),
+        &scene,
+        &RenderOptions {
+            spp: Some(2),
+            want_aovs: true,
+            ..RenderOptions::default()
+        },
+    )
+    .unwrap();
+    let albedo = &f.aovs[0];
+    let normal = &f.aovs[1];
+    // The centre pixel sees the white back wall, facing the camera (-z).
+    let centre = (8 * 16 + 8) * 3;
+    assert!(
+        (albedo.data[centre] - 0.7).abs() < 1e-5,
+        "{:?}",
+        &albedo.data[centre..centre + 3]
+    );
+    assert!((normal.data[centre + 2] + 1.0).abs() < 1e-4);
+}
+
+#[test]
+fn bad_inputs_are_errors() {
+    let d = cpu(1);
+    let mut s = cornell(Vec3::ZERO);
+    s.meshes[0].indices.push([0, 1, 9]);
+    let e = render(d.as_ref(), &s, &RenderOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("vertex index 9"), "{e}");
+    let mut s = cornell(Vec3::ZERO);
+    s.meshes[0].material = 42;
+    assert!(render(d.as_ref(), &s, &RenderOptions::default()).is_err());
+    let s = cornell(Vec3::ZERO);
+    assert!(
+        render(
+            d.as_ref(),
+            &s,
+            &RenderOptions {
+                spp: Some(0),
+                ..RenderOptions::default()
+            }
+        )
+        .is_err()
+    );
+}
+
+#[test]
+fn outputs_encode() {
+    let d = cpu(2);
+    let f = render(
+        d.as_ref(),
+        &cornell(Vec3::ZERO),
+        &RenderOptions {
+            spp: Some(1),
+            want_aovs: true,
+            ..RenderOptions::default()
+        },
+    )
+    .unwrap();
+    let exr = crate::output::exr_bytes(&f).unwrap();
+    let path = std::env::temp_dir().join(format!("optik-render-test-{}.exr", std::process::id()));
+    std::fs::write(&path, exr).unwrap();
+    let img = exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
+    let _ = std::fs::remove_file(&path);
+    let names: Vec<String> = img.layer_data[0]
+        .channel_data
+        .list
+        .iter()
+        .map(|c| c.name.to_string())
+        .collect();
+    assert!(
+        names.contains(&"R".to_string()) && names.contains(&"albedo.R".to_string()),
+        "{names:?}"
+    );
+    let png = crate::output::png_bytes(&f).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    assert_eq!(crate::output::srgb8(1.0), 255);
+    assert_eq!(crate::output::srgb8(0.0), 0);
+    assert_eq!(crate::output::srgb8(0.5), 188);
+}

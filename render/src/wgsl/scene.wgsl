@@ -1,0 +1,235 @@
+// The scene's buffers: accumulation, mesh data and the light table (rust side: upload.rs).
+
+@group(0) @binding(1) var<storage, read_write> accum: array<f32>;
+@group(0) @binding(2) var<storage, read> positions: array<f32>;
+@group(0) @binding(3) var<storage, read> normals: array<f32>;
+@group(0) @binding(4) var<storage, read> uvs: array<f32>;
+@group(0) @binding(5) var<storage, read> indices: array<u32>;
+@group(0) @binding(6) var<storage, read> lights: array<f32>;
+
+// Payload registers of a radiance ray (in: rng, flags; out: the rest).
+const P_RNG: u32 = 0u;
+const P_FLAGS: u32 = 1u;
+const P_LE: u32 = 2u;
+const P_EMPDF: u32 = 5u;
+const P_NEE: u32 = 6u;
+const P_WO: u32 = 9u;
+const P_WEIGHT: u32 = 12u;
+const P_PDF: u32 = 15u;
+const P_ETA: u32 = 16u;
+const P_ORIGIN: u32 = 17u;
+const P_SORIGIN: u32 = 20u;
+const P_SVEC: u32 = 23u;
+const P_ALBEDO: u32 = 26u;
+const P_NORMAL: u32 = 29u;
+
+// P_FLAGS in: the hit point should scatter (sample lights and the BSDF).
+const IN_SCATTER: u32 = 1u;
+// P_FLAGS out.
+const OUT_HIT: u32 = 1u;
+const OUT_CONTINUE: u32 = 2u;
+const OUT_DELTA: u32 = 4u;
+const OUT_NEE: u32 = 8u;
+
+fn set_f(i: u32, v: f32) {
+    rt_set_payload(i, bitcast<u32>(v));
+}
+
+fn set_v3(i: u32, v: vec3<f32>) {
+    set_f(i, v.x);
+    set_f(i + 1u, v.y);
+    set_f(i + 2u, v.z);
+}
+
+fn get_f(p: ptr<function, RtPayload>, i: u32) -> f32 {
+    return bitcast<f32>((*p)[i]);
+}
+
+fn get_v3(p: ptr<function, RtPayload>, i: u32) -> vec3<f32> {
+    return vec3<f32>(get_f(p, i), get_f(p, i + 1u), get_f(p, i + 2u));
+}
+
+// The side of a surface with geometric normal ng that direction d leaves from.
+fn side(ng: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
+    return select(-ng, ng, dot(ng, d) >= 0.0);
+}
+
+// ---- Lights ----
+// Entries of LIGHT_WORDS floats: kind, cdf (inclusive upper end), radiance or intensity rgb,
+// pdf (area pdf for triangles, selection probability otherwise), then kind-specific data.
+const LIGHT_TRIANGLE: u32 = 0u;
+const LIGHT_POINT: u32 = 1u;
+const LIGHT_DIRECTIONAL: u32 = 2u;
+const LIGHT_CONSTANT: u32 = 3u;
+
+struct LightSample {
+    dir: vec3<f32>,
+    // Emitted radiance / pdf (solid angle, selection included).
+    weight: vec3<f32>,
+    pdf: f32,
+    target_p: vec3<f32>,
+    delta: bool,
+}
+
+fn light_none() -> LightSample {
+    return LightSample(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, vec3<f32>(0.0), false);
+}
+
+fn lv3(base: u32) -> vec3<f32> {
+    return vec3<f32>(lights[base], lights[base + 1u], lights[base + 2u]);
+}
+
+fn sample_light(x: vec3<f32>, u_sel: f32, u: vec2<f32>) -> LightSample {
+    var lo = 0u;
+    var hi = params.light_count - 1u;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if lights[mid * LIGHT_WORDS + 1u] <= u_sel {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    let b = lo * LIGHT_WORDS;
+    let kind = u32(lights[b]);
+    let le = lv3(b + 2u);
+    let pdf0 = lights[b + 5u];
+    if kind == LIGHT_TRIANGLE {
+        let p0 = lv3(b + 6u);
+        let e1 = lv3(b + 9u);
+        let e2 = lv3(b + 12u);
+        let st = sqrt(1.0 - u.x);
+        let y = p0 + e1 * (1.0 - st) + e2 * (st * u.y);
+        let n = normalize(cross(e1, e2)) * lights[b + 15u];
+        let v = y - x;
+        let dist2 = dot(v, v);
+        let dir = v * inverseSqrt(dist2);
+        let cos_l = dot(n, -dir);
+        if cos_l <= 0.0 || dist2 <= 0.0 {
+            return light_none();
+        }
+        let pdf = pdf0 * dist2 / cos_l;
+        return LightSample(dir, le / pdf, pdf, rt_offset_ray(y, n), false);
+    }
+    if kind == LIGHT_POINT {
+        let p = lv3(b + 6u);
+        let v = p - x;
+        let dist2 = dot(v, v);
+        if dist2 <= 0.0 {
+            return light_none();
+        }
+        return LightSample(v * inverseSqrt(dist2), le / (dist2 * pdf0), pdf0, p, true);
+    }
+    if kind == LIGHT_DIRECTIONAL {
+        // Towards the light; the target lies beyond the scene's bounding sphere.
+        let dir = -lv3(b + 6u);
+        let far = lights[b + 9u];
+        return LightSample(dir, le / pdf0, pdf0, x + dir * far, true);
+    }
+    // Constant: uniform directions over the sphere (Mitsuba's constant emitter).
+    let z = 1.0 - 2.0 * u.x;
+    let r = sqrt(max(0.0, 1.0 - z * z));
+    let phi = 2.0 * PI * u.y;
+    let dir = vec3<f32>(r * cos(phi), r * sin(phi), z);
+    let pdf = pdf0 / (4.0 * PI);
+    let far = lights[b + 9u];
+    return LightSample(dir, le / pdf, pdf, x + dir * far, false);
+}
+
+// ---- Mesh hits ----
+// SBT record data words: vertex base, triangle base, normal base, uv base (NONE: absent),
+// flip, emitter area pdf, emitted radiance rgb, pad, then 24 material parameters.
+const SBT_MATERIAL: u32 = 10u;
+
+struct Hit {
+    p: vec3<f32>,
+    ng: vec3<f32>,
+    ns: vec3<f32>,
+    uv: vec2<f32>,
+    t: f32,
+}
+
+fn vtx3(buf_base: u32, i: u32) -> vec3<f32> {
+    let b = (buf_base + i) * 3u;
+    return vec3<f32>(positions[b], positions[b + 1u], positions[b + 2u]);
+}
+
+fn nrm3(buf_base: u32, i: u32) -> vec3<f32> {
+    let b = (buf_base + i) * 3u;
+    return vec3<f32>(normals[b], normals[b + 1u], normals[b + 2u]);
+}
+
+fn uv2(buf_base: u32, i: u32) -> vec2<f32> {
+    let b = (buf_base + i) * 2u;
+    return vec2<f32>(uvs[b], uvs[b + 1u]);
+}
+
+fn mesh_hit() -> Hit {
+    let prim = rt_primitive_index();
+    let vbase = rt_sbt_data_u32(0u);
+    let tbase = rt_sbt_data_u32(1u);
+    let nbase = rt_sbt_data_u32(2u);
+    let uvbase = rt_sbt_data_u32(3u);
+    let flip = rt_sbt_data_u32(4u);
+    let ti = (tbase + prim) * 3u;
+    let i0 = indices[ti];
+    let i1 = indices[ti + 1u];
+    let i2 = indices[ti + 2u];
+    let p0 = vtx3(vbase, i0);
+    let p1 = vtx3(vbase, i1);
+    let p2 = vtx3(vbase, i2);
+    let b = rt_triangle_barycentrics();
+    let w0 = 1.0 - b.x - b.y;
+    let p = p0 * w0 + p1 * b.x + p2 * b.y;
+    var ng = normalize(cross(p1 - p0, p2 - p0));
+    var ns = ng;
+    if nbase != NONE {
+        ns = normalize(nrm3(nbase, i0) * w0 + nrm3(nbase, i1) * b.x + nrm3(nbase, i2) * b.y);
+    }
+    if flip != 0u {
+        ng = -ng;
+        ns = -ns;
+    }
+    // Without texture coordinates Mitsuba uses the barycentrics.
+    var uv = b;
+    if uvbase != NONE {
+        uv = uv2(uvbase, i0) * w0 + uv2(uvbase, i1) * b.x + uv2(uvbase, i2) * b.y;
+    }
+    return Hit(p, ng, ns, uv, rt_ray_tmax());
+}
+
+fn sbt_material() -> MatParams {
+    var m: MatParams;
+    for (var i = 0u; i < 24u; i++) {
+        m[i] = rt_sbt_data_f32(SBT_MATERIAL + i);
+    }
+    return m;
+}
+
+// Emission seen along d at the hit (Mitsuba's area emitter: front side only) and the
+// solid-angle pdf with which next-event estimation would have chosen this point.
+fn surface_emission(h: Hit, d: vec3<f32>) {
+    let le = vec3<f32>(rt_sbt_data_f32(6u), rt_sbt_data_f32(7u), rt_sbt_data_f32(8u));
+    let pdf_area = rt_sbt_data_f32(5u);
+    var out_le = vec3<f32>(0.0);
+    if dot(h.ns, d) < 0.0 {
+        out_le = le;
+    }
+    let cos_l = abs(dot(h.ng, d));
+    var pdf = 0.0;
+    if cos_l > 0.0 {
+        pdf = pdf_area * h.t * h.t / cos_l;
+    }
+    set_v3(P_LE, out_le);
+    set_f(P_EMPDF, pdf);
+}
+
+fn miss__radiance() {
+    rt_set_payload(P_FLAGS, 0u);
+    set_v3(P_LE, params.env_radiance);
+    set_f(P_EMPDF, params.env_pdf);
+}
+
+fn miss__shadow() {
+    rt_set_payload(0u, 1u);
+}
