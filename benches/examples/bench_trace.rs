@@ -19,58 +19,14 @@
 
 use optik::backends::wgpu::bench::BenchConfig;
 use optik_api::{Accuracy, BoxTest, TriangleTest};
-use std::io::Read;
 
 /// Vertices and triangles.
 type Mesh = (Vec<[f32; 3]>, Vec<[u32; 3]>);
 
-/// The text of `path`, gunzipped when it ends in `.gz`.
-fn read_text(path: &str) -> Result<String, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("{path}: {e}"))?;
-    if !path.ends_with(".gz") {
-        return String::from_utf8(bytes).map_err(|e| format!("{path}: not UTF-8 text: {e}"));
-    }
-    let mut text = String::new();
-    flate2::read::GzDecoder::new(&bytes[..])
-        .read_to_string(&mut text)
-        .map_err(|e| format!("{path}: not a gzipped text file: {e}"))?;
-    Ok(text)
-}
-
+/// A mesh file (OBJ, gzipped OBJ or PLY) through optik-io.
 fn load_obj(path: &str) -> Result<Mesh, String> {
-    let text = read_text(path)?;
-    let mut vertices = Vec::new();
-    let mut indices = Vec::new();
-    for (n, line) in text.lines().enumerate() {
-        let mut words = line.split_whitespace();
-        match words.next() {
-            Some("v") => {
-                let v: Vec<f32> = words.take(3).filter_map(|w| w.parse().ok()).collect();
-                if v.len() != 3 {
-                    return Err(format!("{path}:{}: a vertex needs three numbers", n + 1));
-                }
-                vertices.push([v[0], v[1], v[2]]);
-            }
-            Some("f") => {
-                let face: Vec<u32> = words
-                    .filter_map(|w| w.split('/').next()?.parse::<i64>().ok())
-                    .map(|i| if i < 0 { vertices.len() as i64 + i } else { i - 1 } as u32)
-                    .collect();
-                for k in 1..face.len().saturating_sub(1) {
-                    indices.push([face[0], face[k], face[k + 1]]);
-                }
-            }
-            _ => {}
-        }
-    }
-    if indices
-        .iter()
-        .flatten()
-        .any(|&i| i as usize >= vertices.len())
-    {
-        return Err(format!("{path}: a face names a vertex that does not exist"));
-    }
-    Ok((vertices, indices))
+    let mesh = optik_io::mesh::read_mesh(std::path::Path::new(path)).map_err(|e| e.to_string())?;
+    Ok((mesh.positions, mesh.triangles))
 }
 
 fn fail(message: String) -> ! {

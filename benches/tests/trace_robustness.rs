@@ -137,11 +137,12 @@ fn rays_beyond_a_binding_limit_trace_in_batches() {
     let aimed = rays::aimed_at_vertices_and_edges(&mesh, [0.0123, -0.0311, 0.0217]);
     let rays: Vec<f32> = aimed.iter().copied().cycle().take(4000 * 8).collect();
     let cpu = optik::open_backend(BackendKind::Cpu).expect("cpu");
-    let (expected, _) = RayCaster::new(cpu.as_ref(), &mesh)
+    let (expected, _) = RayCaster::new(cpu.as_ref(), &mesh.positions, &mesh.triangles)
         .expect("build")
         .cast(&rays, 1)
         .expect("one launch");
-    let mut batched = RayCaster::new(cpu.as_ref(), &mesh).expect("build");
+    let mut batched =
+        RayCaster::new(cpu.as_ref(), &mesh.positions, &mesh.triangles).expect("build");
     batched.set_batch_rays(300);
     assert_eq!(batched.upload(&rays).expect("upload").batches(), 14);
     assert_eq!(batched.cast(&rays, 1).expect("batches").0, expected);
@@ -156,7 +157,7 @@ fn rays_beyond_a_binding_limit_trace_in_batches() {
             return;
         }
     };
-    let mut caster = RayCaster::new(&gpu, &mesh).expect("build");
+    let mut caster = RayCaster::new(&gpu, &mesh.positions, &mesh.triangles).expect("build");
     let e = caster.cast(&rays, 1).expect_err("one launch binds 128 KB");
     assert_eq!(e.kind(), optik::ErrorKind::LimitExceeded, "{e}");
     assert!(e.message().contains("at most 16384 bytes"), "{e}");

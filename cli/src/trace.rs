@@ -52,13 +52,13 @@ pub struct TraceArgs {
     #[arg(long, default_value = "auto")]
     backend: String,
     /// CPU worker threads (default: all cores); results do not depend on it.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::args::threads)]
     threads: Option<usize>,
     /// robust (default), fast, or TRIANGLE+BOX: TRIANGLE watertight, mt or driver (Vulkan only); BOX conservative or plain.
     #[arg(long, default_value = "robust")]
     accuracy: String,
-    /// Launches to time; the best is reported.
-    #[arg(long, default_value_t = 1)]
+    /// Launches to time (at least 1); the best is reported.
+    #[arg(long, default_value_t = 1, value_parser = crate::args::repeat)]
     repeat: usize,
 }
 
@@ -121,11 +121,6 @@ fn trace(args: &TraceArgs) -> Result<serde_json::Value, Failure> {
             args.accuracy
         ))
     })?;
-    if args.threads == Some(0) {
-        return Err(Failure::Usage(
-            "--threads 0: give at least one thread".into(),
-        ));
-    }
     for (flag, input) in [("--mesh", &args.mesh), ("--rays", &args.rays)] {
         if same_file(&args.out, input) {
             return Err(Failure::Usage(format!(
@@ -147,12 +142,13 @@ fn trace(args: &TraceArgs) -> Result<serde_json::Value, Failure> {
             rays.shape
         )));
     }
-    let device = optik::open_with(
-        choice,
-        &optik::OpenOptions {
-            threads: args.threads,
-        },
-    )?;
+    let options = optik::OpenOptions {
+        threads: args.threads,
+    };
+    let device = optik::open_with(choice, &options)?;
+    for warning in options.ignored_by(device.backend()) {
+        eprintln!("optik trace: warning: {warning}");
+    }
     if accuracy != device.accuracy() {
         device.set_accuracy(accuracy)?;
     }

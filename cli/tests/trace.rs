@@ -253,3 +253,61 @@ fn trace_help_documents_formats_misses_and_exit_codes() {
         );
     }
 }
+
+#[test]
+fn zero_or_unbounded_counts_are_usage_errors() {
+    let f = Files::new();
+    let (mesh, rays) = (f.triangle(), f.rays("r.npy", &[[0.0; 8]]));
+    let out = f.path("hits.npz");
+    for (flag, value, message) in [
+        ("--repeat", "0", "at least 1"),
+        ("--threads", "0", "thread count from 1"),
+        ("--threads", "100000000", "thread count from 1"),
+    ] {
+        let o = optik(&[
+            "trace",
+            "--backend",
+            "cpu",
+            flag,
+            value,
+            "--mesh",
+            &mesh.to_string_lossy(),
+            "--rays",
+            &rays.to_string_lossy(),
+            "--out",
+            &out.to_string_lossy(),
+        ]);
+        assert_fails(&o, 2, message);
+        assert!(!out.exists(), "{flag} {value}: no work is done");
+    }
+}
+
+#[test]
+fn threads_on_a_gpu_backend_are_a_warning() {
+    let f = Files::new();
+    let (mesh, rays) = (f.triangle(), f.rays("r.npy", &[[0.0; 8]]));
+    let out = f.path("hits.npz");
+    let o = optik(&[
+        "trace",
+        "--backend",
+        "wgpu",
+        "--threads",
+        "2",
+        "--mesh",
+        &mesh.to_string_lossy(),
+        "--rays",
+        &rays.to_string_lossy(),
+        "--out",
+        &out.to_string_lossy(),
+    ]);
+    if o.status.code() == Some(1) && stderr(&o).contains("wgpu") && !out.exists() {
+        eprintln!("SKIPPED: wgpu cannot run here: {}", stderr(&o));
+        return;
+    }
+    json_line(&o);
+    assert!(
+        stderr(&o).contains("warning: the thread count (2) is ignored"),
+        "{}",
+        stderr(&o)
+    );
+}
