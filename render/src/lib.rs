@@ -8,6 +8,7 @@
 //! [`probe`] runs the renderer's own BSDF code on given directions.
 
 mod camera;
+pub mod denoise;
 mod error;
 pub mod features;
 mod gpu;
@@ -16,7 +17,6 @@ pub mod output;
 pub mod probe;
 mod programs;
 mod render;
-pub mod denoise;
 pub mod scene;
 pub mod validate;
 
