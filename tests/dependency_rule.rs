@@ -6,7 +6,8 @@
 //!   and `optik-core`, never on one another;
 //! - the facade (`optik`) on the backends and below;
 //! - `optik-conformance`, `optik-benches`, `optik-render` and `optik-io` on the facade or below;
-//! - `optik-cli` on top.
+//! - `optik-cli`, and the course examples (`optik-examples`) and fuzz targets (`optik-fuzz`)
+//!   beside it, on top.
 //!
 //! Every kind of dependency counts (normal, build and dev): a test or example that pulls a
 //! backend into another backend's build ties them together as much as code does. A new
@@ -59,7 +60,7 @@ fn allowed(package: &str) -> Option<&'static [&'static str]> {
         "optik-cpu" | "optik-wgpu" | "optik-vulkan" => BACKEND,
         "optik" => FACADE,
         "optik-conformance" | "optik-benches" | "optik-render" | "optik-io" => ON_FACADE,
-        "optik-cli" => TOP,
+        "optik-cli" | "optik-examples" | "optik-fuzz" => TOP,
         _ => return None,
     })
 }

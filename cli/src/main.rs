@@ -76,6 +76,15 @@ fn main() -> ExitCode {
 /// commands added later; a usage error exits with status 2.
 fn parse() -> Cli {
     use clap::{CommandFactory, FromArgMatches};
-    let command = Cli::command().mut_subcommands(|c| c.after_help(EXIT_STATUS));
+    // A command with help text of its own below the options keeps it: where that text already
+    // details the exit status, as it is; otherwise with the scheme after it.
+    let command = Cli::command().mut_subcommands(|c| {
+        let text = match c.get_after_help().map(|own| own.to_string()) {
+            Some(own) if own.contains("Exit status:") => own,
+            Some(own) => format!("{own}\n\n{EXIT_STATUS}"),
+            None => EXIT_STATUS.to_string(),
+        };
+        c.after_help(text)
+    });
     Cli::from_arg_matches(&command.get_matches()).unwrap_or_else(|e| e.exit())
 }

@@ -19,7 +19,7 @@ Output: .exr is linear float32 R, G, B (with --aovs, also albedo.R/G/B and norma
 --features prints what the scene calls for (BSDF kinds, textures, emitters, instancing, max
   depth, shadow rays, payload registers) and the programs compiled for it.
 
-Exit status: 0 success; 1 the render failed (an invalid scene, a device error, a failed
+Exit status: 0 success; 1 the work failed (an invalid scene, a device error, a failed
   write); 2 a usage error.";
 
 /// Arguments of `optik render`.
