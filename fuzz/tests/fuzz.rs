@@ -48,6 +48,26 @@ fn accel_build_inputs_short_run() {
 }
 
 #[test]
+fn obj_reader_short_run() {
+    short_run("obj");
+}
+
+#[test]
+fn ply_reader_short_run() {
+    short_run("ply");
+}
+
+#[test]
+fn npy_reader_short_run() {
+    short_run("npy");
+}
+
+#[test]
+fn mitsuba_reader_short_run() {
+    short_run("mitsuba");
+}
+
+#[test]
 fn regressions_replay_without_crashing() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("regressions");
     let mut replayed = 0;

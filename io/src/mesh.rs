@@ -5,7 +5,7 @@
 //! file order); polygons are fan-triangulated as (v0, vi, vi+1). Materials are not read here.
 
 use crate::IoError;
-use std::io::{BufRead, BufReader, Read};
+use std::io::{BufRead, BufReader};
 use std::path::Path;
 
 /// A triangle mesh: positions, optional per-position normals and texture coordinates, and
@@ -92,6 +92,11 @@ pub fn read_obj(path: &Path) -> Result<MeshData, IoError> {
 
 /// Parses OBJ text into a mesh (errors without the file name).
 fn parse_obj(reader: &mut dyn BufRead) -> Result<MeshData, String> {
+    let mut text = Vec::new();
+    reader
+        .read_to_end(&mut text)
+        .map_err(|e| format!("cannot read the OBJ text: {e}"))?;
+    check_face_indices(&text)?;
     let options = tobj::LoadOptions {
         single_index: true,
         triangulate: true,
@@ -99,7 +104,7 @@ fn parse_obj(reader: &mut dyn BufRead) -> Result<MeshData, String> {
         ignore_lines: true,
     };
     // Materials are the renderer's business (it reads the .mtl itself); here none is loaded.
-    let (models, _materials) = tobj::load_obj_buf(&mut BufReaderAdapter(reader), &options, |_| {
+    let (models, _materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(text), &options, |_| {
         Ok((Vec::new(), Default::default()))
     })
     .map_err(|e| format!("not a valid OBJ file: {e}; expected `v x y z` lines and `f i j k ...` faces with 1-based or negative indices of existing vertices"))?;
@@ -140,22 +145,50 @@ fn parse_obj(reader: &mut dyn BufRead) -> Result<MeshData, String> {
     Ok(mesh)
 }
 
-/// `tobj` wants a sized `BufRead`; this forwards to the boxed reader.
-struct BufReaderAdapter<'a>(&'a mut dyn BufRead);
-
-impl Read for BufReaderAdapter<'_> {
-    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        self.0.read(buf)
+/// Refuses face indices past the file's own vertices, texture coordinates and normals before
+/// tobj sees them: tobj checks vertex indices but multiplies texture-coordinate and normal
+/// indices unchecked (overflow, then an out-of-bounds panic, on `f 1/99999999999999999999 ...`).
+fn check_face_indices(text: &[u8]) -> Result<(), String> {
+    let lines = || text.split(|&b| b == b'\n').map(|l| l.trim_ascii());
+    let count = |tag: &[u8]| {
+        lines()
+            .filter(|l| l.starts_with(tag) && l.get(tag.len()).is_some_and(u8::is_ascii_whitespace))
+            .count() as u64
+    };
+    let counts = [count(b"v"), count(b"vt"), count(b"vn")];
+    const KINDS: [&str; 3] = ["vertices", "texture coordinates", "normals"];
+    for (n, line) in lines().enumerate() {
+        let Some(rest) = line.strip_prefix(b"f") else {
+            continue;
+        };
+        if !rest.first().is_some_and(u8::is_ascii_whitespace) {
+            continue;
+        }
+        for corner in rest
+            .split(u8::is_ascii_whitespace)
+            .filter(|c| !c.is_empty())
+        {
+            for (k, index) in corner.split(|&b| b == b'/').enumerate().take(3) {
+                let Some(i) = std::str::from_utf8(index)
+                    .ok()
+                    .and_then(|s| s.parse::<i128>().ok())
+                else {
+                    continue; // empty (`1//3`) or not a number: tobj reports those.
+                };
+                if i == 0 || i.unsigned_abs() > u128::from(counts[k]) {
+                    return Err(format!(
+                        "not a valid OBJ file: line {}: face index {i} names one of {} {}; expected 1 to {} or -1 to -{}",
+                        n + 1,
+                        counts[k],
+                        KINDS[k],
+                        counts[k],
+                        counts[k]
+                    ));
+                }
+            }
+        }
     }
-}
-
-impl BufRead for BufReaderAdapter<'_> {
-    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
-        self.0.fill_buf()
-    }
-    fn consume(&mut self, amt: usize) {
-        self.0.consume(amt)
-    }
+    Ok(())
 }
 
 mod ply;

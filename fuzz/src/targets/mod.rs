@@ -3,9 +3,21 @@
 
 pub mod accel;
 pub mod exr;
+mod file;
+pub mod mesh;
+pub mod mitsuba;
+pub mod npy;
 pub mod wgsl;
 
 use crate::Target;
 
 /// Every target, in the order `scripts/fuzz` runs them.
-pub const ALL: &[Target] = &[wgsl::TARGET, exr::TARGET, accel::TARGET];
+pub const ALL: &[Target] = &[
+    wgsl::TARGET,
+    exr::TARGET,
+    accel::TARGET,
+    mesh::OBJ,
+    mesh::PLY,
+    npy::TARGET,
+    mitsuba::TARGET,
+];

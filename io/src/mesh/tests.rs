@@ -79,6 +79,22 @@ fn obj_face_index_of_no_vertex_is_an_error() {
     }
 }
 
+/// Found by the `obj` fuzz target: tobj multiplied huge texture-coordinate and normal indices
+/// unchecked (an overflow, then an out-of-bounds index: a panic in any build).
+#[test]
+fn obj_face_index_past_texture_coordinates_or_normals_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    for (face, what) in [
+        ("f 1/99999999999999999999 2/1 3/1", "texture coordinates"),
+        ("f 1/1/9223372036854775807 2/1/1 3/1/1", "normals"),
+        ("f 1/2/1 2/1/1 3/1/1", "texture coordinates"),
+    ] {
+        let text = format!("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n{face}\n");
+        let e = err(read_obj(&file(&dir, "big.obj", text.as_bytes())));
+        assert!(e.contains("line 6") && e.contains(what), "{face}: {e}");
+    }
+}
+
 #[test]
 fn mesh_without_triangles_is_an_error() {
     let dir = tempfile::tempdir().unwrap();
