@@ -10,7 +10,7 @@ use std::time::Duration;
 #[derive(Parser)]
 #[command(name = "optik-fuzz")]
 struct Args {
-    /// The target: wgsl, exr or accel (`--list` shows them).
+    /// The target: wgsl, exr, accel, obj, ply, npy or mitsuba (`--list` shows them).
     target: Option<String>,
     /// Lists the targets.
     #[arg(long)]
