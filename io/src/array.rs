@@ -111,6 +111,19 @@ pub fn parse_npy<T: Element>(bytes: &[u8]) -> Result<Array<T>, String> {
     let (header, data_start) = split_header(bytes)?;
     let (shape, count) = checked_shape(header)?;
     let file = NpyFile::new(bytes).map_err(|e| format!("not a valid .npy file: {e}"))?;
+    // npyz reads the header on its own; a header that names a key twice (a dict literal keeps
+    // the last) must not give it another shape than the one checked above.
+    if file
+        .shape()
+        .iter()
+        .map(|&d| d as usize)
+        .ne(shape.iter().copied())
+    {
+        return Err(format!(
+            "the .npy header gives two shapes ({shape:?} and {:?}); expected one 'shape' key",
+            file.shape()
+        ));
+    }
     let dtype = file.dtype();
     if file.order() != npyz::Order::C {
         return Err(
@@ -139,6 +152,12 @@ pub fn parse_npy<T: Element>(bytes: &[u8]) -> Result<Array<T>, String> {
     let data = reader
         .collect::<std::io::Result<Vec<T>>>()
         .map_err(|e| format!("cannot read the array data: {e}"))?;
+    if data.len() != count {
+        return Err(format!(
+            "shape {shape:?} needs {count} values but {} were read",
+            data.len()
+        ));
+    }
     Ok(Array { shape, data })
 }
 

@@ -115,3 +115,19 @@ fn npy_shape_needing_more_data_than_held_is_refused() {
     let e = parse_npy::<f32>(b"PK\x03\x04 not numpy at all").unwrap_err();
     assert!(e.contains("magic"), "{e}");
 }
+
+/// Found by the `npy` fuzz target: a header naming 'shape' twice gave the checked shape and
+/// npyz's shape apart (the array came back as shape (2, 8) with no values, or (0, 8) with 16).
+#[test]
+fn npy_header_with_two_shapes_is_refused() {
+    for (first, second, data) in [("(2, 8)", "(0, 8)", 0), ("(0, 8)", "(2, 8)", 64)] {
+        let header = format!(
+            "{{'descr': '<f4', 'fortran_order': False, 'shape': {first}, 'shape': {second}, }}"
+        );
+        let e = parse_npy::<f32>(&npy_with_header(&header, &vec![0; data])).unwrap_err();
+        assert!(
+            e.contains("two shapes") || e.contains("needs"),
+            "{first} {second}: {e}"
+        );
+    }
+}
