@@ -308,6 +308,9 @@ pub trait Device: Send + Sync {
     /// `options.cancel`, or by [`interrupt_launches`](crate::interrupt_launches) (Ctrl-C in
     /// the `optik` command). A stopped launch returns an `ErrorKind::TimedOut` or
     /// `ErrorKind::Cancelled` error and what it wrote is incomplete; the device stays usable.
+    /// GPU backends return at once but cannot stop a running shader: later calls wait for
+    /// it to end, and a driver watchdog that ends it loses the device
+    /// (`ErrorKind::DeviceLost` from then on; open a new device).
     /// A launch with a deadline or a token waits for its work to finish (or stop) before it
     /// returns.
     fn launch_with(

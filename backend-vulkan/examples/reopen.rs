@@ -22,6 +22,7 @@ fn main() {
             force_staging: false,
             pipeline_cache: false,
             cache_dir: None,
+            max_dispatch_invocations: None,
         };
         match VulkanDevice::open(&options) {
             Ok(dev) => drop(dev),

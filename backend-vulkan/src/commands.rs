@@ -117,6 +117,22 @@ impl Commands {
         unsafe { ctx.device.wait_for_fences(&[s.fence], true, u64::MAX) }.or_vk("vkWaitForFences")
     }
 
+    /// Waits up to `timeout` for a submission; whether it is done.
+    pub fn wait_for(
+        &self,
+        ctx: &Context,
+        s: &Submission,
+        timeout: std::time::Duration,
+    ) -> Result<bool> {
+        let nanos = u64::try_from(timeout.as_nanos()).unwrap_or(u64::MAX);
+        // SAFETY: a fence of this device.
+        match unsafe { ctx.device.wait_for_fences(&[s.fence], true, nanos) } {
+            Ok(()) => Ok(true),
+            Err(vk::Result::TIMEOUT) => Ok(false),
+            Err(e) => Err(crate::error::vk_error("vkWaitForFences", e)),
+        }
+    }
+
     /// Whether a submission is done.
     pub fn is_done(&self, ctx: &Context, s: &Submission) -> Result<bool> {
         // SAFETY: a fence of this device.

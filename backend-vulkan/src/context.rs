@@ -27,6 +27,10 @@ pub struct VulkanOptions {
     pub pipeline_cache: bool,
     /// The pipeline cache's directory, instead of the one the environment names.
     pub cache_dir: Option<std::path::PathBuf>,
+    /// Caps the invocations of one `vkCmdTraceRaysKHR` below the device's limits, so that
+    /// splitting a launch into several dispatches is tested with small launches. `None`: the
+    /// device's limits alone.
+    pub max_dispatch_invocations: Option<u64>,
 }
 
 impl VulkanOptions {
@@ -43,6 +47,7 @@ impl VulkanOptions {
             force_staging: flag("OPTIK_VULKAN_STAGING"),
             pipeline_cache: !flag("OPTIK_CACHE_DISABLE"),
             cache_dir: None,
+            max_dispatch_invocations: None,
         }
     }
 }
@@ -80,6 +85,9 @@ pub struct Context {
     pub memory: vk::PhysicalDeviceMemoryProperties,
     /// User buffers live in device-local memory and move through staging buffers.
     pub staging: bool,
+    /// The most invocations one `vkCmdTraceRaysKHR` of a launch runs
+    /// (`maxRayDispatchInvocationCount`, or [`VulkanOptions::max_dispatch_invocations`]).
+    pub dispatch_invocations: u64,
 }
 
 // SAFETY: ash's handles are plain values; optik serialises every use of the device's
@@ -119,6 +127,11 @@ impl Context {
                 // SAFETY: `physical` belongs to the instance.
                 let memory = unsafe { instance.get_physical_device_memory_properties(physical) };
                 let staging = info.separate_device_memory || options.force_staging;
+                let dispatch_invocations = options
+                    .max_dispatch_invocations
+                    .unwrap_or(u64::MAX)
+                    .min(info.max_ray_dispatch_invocation_count as u64)
+                    .max(1);
                 Ok(Context {
                     entry,
                     instance,
@@ -133,6 +146,7 @@ impl Context {
                     info,
                     memory,
                     staging,
+                    dispatch_invocations,
                 })
             }
             Err(e) => {

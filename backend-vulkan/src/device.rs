@@ -202,12 +202,17 @@ fn properties(info: &VulkanDeviceInfo) -> DeviceProperties {
         max_sbt_record_stride: clamp(max_stride),
         max_payload_values: 32,
         max_attribute_values: 8,
-        max_launch_size: info.max_ray_dispatch_invocation_count as u64,
+        // Larger launches than one vkCmdTraceRaysKHR allows run as several (launch.rs); the
+        // bound keeps linear launch indices in a u32, as on the wgpu backend.
+        max_launch_size: 1 << 31,
         max_buffer_size: info.device_local_heap.max(1 << 30),
         backend: BackendKind::Vulkan,
         device_name: format!("{} (Vulkan, {})", info.name, info.driver_name),
     }
 }
+
+/// What a launch stopped by its options adds to the error: the GPU goes on, what to do.
+pub const STOPPED_ON_GPU: &str = "the Vulkan device goes on running the launch until its programs end (a running shader cannot be stopped): the device stays usable, and later calls on it (reads, writes, launches, synchronize, dropping it) wait for that end. A program that never ends is stopped only by the driver's watchdog, where there is one (not on lavapipe), and that loses the device: later calls then fail with ErrorKind::DeviceLost; open a new device. To stop runaway programs at the deadline, run them on the CPU backend";
 
 impl Inner {
     /// Chooses the triangle test (DESIGN.md §5). Box tests are the driver's, over boxes
@@ -262,22 +267,27 @@ impl Inner {
         first_error.map_or(Ok(()), Err)
     }
 
-    /// Waits for the launches in flight until they finish or `watch` stops the launch. A
-    /// GPU launch cannot be preempted: a stopped launch returns its error while the device
-    /// finishes the work; a driver that ends it reports `VK_ERROR_DEVICE_LOST`, which
-    /// becomes `ErrorKind::DeviceLost`.
+    /// Waits for the launches in flight until they finish or `watch` stops the launch,
+    /// looking at the stop flag between fence waits of a few milliseconds. A GPU cannot stop
+    /// a running shader: a stopped launch returns its error while the device finishes the
+    /// work, and later calls wait for it. A driver whose watchdog ends the work reports
+    /// `VK_ERROR_DEVICE_LOST`, which becomes `ErrorKind::DeviceLost` for this and every later
+    /// call ([`VulkanDevice`] keeps it).
     pub fn wait_watched(&mut self, watch: &optik_api::LaunchWatch) -> Result<()> {
+        /// How long one fence wait lasts before the stop flag is looked at again.
+        const SLICE: std::time::Duration = std::time::Duration::from_millis(5);
         loop {
             self.reap_launches()?;
-            if self.in_flight.is_empty() {
+            let Some(last) = self.in_flight.last() else {
                 return Ok(());
-            }
+            };
             if watch.stopped() {
                 return watch.check().map_err(|e| {
-                    e.context("the GPU may still be running the launch (it cannot be preempted); later calls wait for it")
+                    Error::new(e.kind(), format!("{}; {STOPPED_ON_GPU}", e.message()))
                 });
             }
-            std::thread::sleep(std::time::Duration::from_millis(1));
+            // Submissions finish in order: the last one ends the wait.
+            self.commands.wait_for(&self.ctx, &last.submission, SLICE)?;
         }
     }
 

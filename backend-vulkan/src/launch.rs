@@ -1,6 +1,13 @@
 //! Launches (OptiX `optixLaunch`): checks, descriptor sets, the translated SBT, the per-launch
 //! state buffer, and `vkCmdTraceRaysKHR`. Launches are asynchronous: the host goes on, and
 //! reads, writes, builds and `synchronize` wait for them.
+//!
+//! A launch larger than one `vkCmdTraceRaysKHR` may be (per dimension `maxComputeWorkGroupCount
+//! × maxComputeWorkGroupSize`, in all `maxRayDispatchInvocationCount`, and with per-index state
+//! no more indices than `maxStorageBufferRange / 16`) is split into tiles ([`plan_dispatches`]),
+//! recorded in one command buffer. Each tile's constants carry its origin and the user's launch
+//! size, so `rt_launch_index` and `rt_launch_dimensions` are the user's; the state buffer is
+//! sized for one tile and reused, with a barrier between tiles.
 
 use crate::commands::Submission;
 use crate::device::Inner;
@@ -24,6 +31,68 @@ pub struct InFlight {
 
 /// Bytes of per-launch-index state (prelude.rs: one `vec4<u32>`).
 const STATE_BYTES: u64 = 16;
+
+/// Bytes of one dispatch's constants (prelude.rs `_OptikLaunch`).
+const CONSTANT_BYTES: u64 = 48;
+
+/// One `vkCmdTraceRaysKHR` of a launch: where its tile starts in the user's launch and its
+/// size.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Dispatch {
+    /// The launch index of the tile's first invocation.
+    pub origin: [u32; 3],
+    /// The tile's width, height and depth.
+    pub extent: [u32; 3],
+}
+
+/// The most dispatches one launch is split into (each has its own descriptor set); real
+/// devices' limits need a few hundred at most for the largest launch optik allows.
+pub const MAX_DISPATCHES: u64 = 1 << 16;
+
+/// The tile a launch of `size` is split into: at most `max_dims` per dimension and
+/// `max_invocations` in all (each at least 1), as wide as allowed first, so that a launch
+/// that fits is one tile.
+pub fn tile(size: [u32; 3], max_dims: [u64; 3], max_invocations: u64) -> [u32; 3] {
+    let size = size.map(|s| s.max(1) as u64);
+    let max_invocations = max_invocations.max(1);
+    let tw = size[0].min(max_dims[0].max(1)).min(max_invocations);
+    let th = size[1]
+        .min(max_dims[1].max(1))
+        .min((max_invocations / tw).max(1));
+    let td = size[2]
+        .min(max_dims[2].max(1))
+        .min((max_invocations / (tw * th)).max(1));
+    [tw as u32, th as u32, td as u32]
+}
+
+/// How many tiles of [`tile`]'s size cover a launch of `size`.
+pub fn tile_count(size: [u32; 3], tile: [u32; 3]) -> u64 {
+    (0..3)
+        .map(|k| (size[k] as u64).div_ceil(tile[k].max(1) as u64))
+        .product()
+}
+
+/// Splits a launch of `size` into tiles of `tile`'s size (clipped at the edges), covering
+/// every launch index once, in order of depth, then height, then width.
+pub fn plan_dispatches(size: [u32; 3], tile: [u32; 3]) -> Vec<Dispatch> {
+    if size.contains(&0) {
+        return Vec::new();
+    }
+    let tile = tile.map(|t| t.max(1));
+    let mut out = Vec::new();
+    for z in (0..size[2]).step_by(tile[2] as usize) {
+        for y in (0..size[1]).step_by(tile[1] as usize) {
+            for x in (0..size[0]).step_by(tile[0] as usize) {
+                let origin = [x, y, z];
+                out.push(Dispatch {
+                    origin,
+                    extent: std::array::from_fn(|k| tile[k].min(size[k] - origin[k])),
+                });
+            }
+        }
+    }
+    out
+}
 
 impl Inner {
     /// Frees a finished launch's resources.
@@ -83,15 +152,6 @@ impl Inner {
         size: LaunchSize,
     ) -> Result<()> {
         validate::launch_size(size, &self.props)?;
-        let dims = [size.width, size.height, size.depth];
-        for (k, name) in ["width", "height", "depth"].iter().enumerate() {
-            if dims[k] as u64 > self.ctx.info.max_launch_dimensions[k] {
-                return Err(Error::limit(format!(
-                    "launch {name} {} exceeds this device's {} (maxComputeWorkGroupCount x maxComputeWorkGroupSize)",
-                    dims[k], self.ctx.info.max_launch_dimensions[k]
-                )));
-            }
-        }
         let sizes = |b: Buffer| self.buffers.get(b).map(|x| x.gpu.size);
         validate::sbt(table, &self.props, &sizes)?;
         let p = self.pipelines.get(pipeline)?;
@@ -143,13 +203,32 @@ impl Inner {
             return Ok(());
         }
         self.reap_launches()?;
-        let state_bytes = size.count() * STATE_BYTES;
-        if uses_state && state_bytes > self.ctx.info.max_storage_buffer_range as u64 {
+        let mut max_invocations = self.ctx.dispatch_invocations;
+        if uses_state {
+            // The state of every index of a tile is bound at once.
+            max_invocations =
+                max_invocations.min(self.ctx.info.max_storage_buffer_range as u64 / STATE_BYTES);
+        }
+        let dims = [size.width, size.height, size.depth];
+        let tile = tile(dims, self.ctx.info.max_launch_dimensions, max_invocations);
+        let count = tile_count(dims, tile);
+        if count > MAX_DISPATCHES {
             return Err(Error::limit(format!(
-                "this pipeline keeps {STATE_BYTES} bytes of state per launch index (exceptions, depth, ray time or flags): a {}x{}x{} launch needs {state_bytes} bytes, more than this device's maxStorageBufferRange {}; launch in smaller tiles",
-                size.width, size.height, size.depth, self.ctx.info.max_storage_buffer_range
+                "a {}x{}x{} launch needs {count} dispatches of at most {}x{}x{} on this device (maxComputeWorkGroupCount x maxComputeWorkGroupSize, maxRayDispatchInvocationCount{}); optik splits a launch into at most {MAX_DISPATCHES}: launch in parts",
+                size.width,
+                size.height,
+                size.depth,
+                tile[0],
+                tile[1],
+                tile[2],
+                if uses_state {
+                    ", and maxStorageBufferRange / 16 for this pipeline's per-index state"
+                } else {
+                    ""
+                }
             )));
         }
+        let dispatches = plan_dispatches(dims, tile);
         let sbt = self.translate_sbt(pipeline, table)?;
         let max_range = self.ctx.info.max_storage_buffer_range as u64;
         if let Some(bytes) = self.tables.sizes().into_iter().find(|b| *b > max_range) {
@@ -161,7 +240,16 @@ impl Inner {
 
         let mut held: Vec<GpuBuffer> = Vec::new();
         let result = self.record_launch(
-            pipeline, params, resources, &bindings, &sbt, tables, size, uses_state, &mut held,
+            pipeline,
+            params,
+            resources,
+            &bindings,
+            &sbt,
+            tables,
+            size,
+            &dispatches,
+            uses_state,
+            &mut held,
         );
         match result {
             Ok((submission, pool)) => {
@@ -252,6 +340,7 @@ impl Inner {
         sbt: &TranslatedSbt,
         tables: [vk::Buffer; 3],
         size: LaunchSize,
+        dispatches: &[Dispatch],
         uses_state: bool,
         held: &mut Vec<GpuBuffer>,
     ) -> Result<(Submission, vk::DescriptorPool)> {
@@ -263,21 +352,39 @@ impl Inner {
             .as_ref()
             .map(|t| t.structure.address)
             .unwrap_or(0);
-        let constants: Vec<u8> = [
-            empty as u32,
-            (empty >> 32) as u32,
-            sbt.miss_count,
-            sbt.callable_count,
-        ]
-        .iter()
-        .flat_map(|w| w.to_le_bytes())
-        .collect();
+        // One block of constants per dispatch, at offsets the device binds uniforms at.
+        let stride = CONSTANT_BYTES
+            .next_multiple_of(self.ctx.info.min_uniform_buffer_offset_alignment.max(16));
+        let mut constants: Vec<u8> = Vec::with_capacity(dispatches.len() * stride as usize);
+        for d in dispatches {
+            let words = [
+                empty as u32,
+                (empty >> 32) as u32,
+                sbt.miss_count,
+                sbt.callable_count,
+                d.origin[0],
+                d.origin[1],
+                d.origin[2],
+                0,
+                size.width,
+                size.height,
+                size.depth,
+                0,
+            ];
+            constants.extend(words.iter().flat_map(|w| w.to_le_bytes()));
+            constants.resize(constants.len() + (stride - CONSTANT_BYTES) as usize, 0);
+        }
         let constants_buffer =
             self.host_buffer(&constants, vk::BufferUsageFlags::UNIFORM_BUFFER)?;
         let constants_vk = constants_buffer.buffer;
         held.push(constants_buffer);
+        let largest_tile = dispatches
+            .iter()
+            .map(|d| d.extent.iter().map(|&e| e as u64).product::<u64>())
+            .max()
+            .unwrap_or(1);
         let state_size = if uses_state {
-            size.count() * STATE_BYTES
+            largest_tile * STATE_BYTES
         } else {
             STATE_BYTES
         };
@@ -382,14 +489,16 @@ impl Inner {
             .iter()
             .filter(|b| b.kind == BindingKind::Sampler)
             .count() as u32;
+        // Set 0 once, set 1 (the backend's) per dispatch; launch() bounds their number.
+        let n = dispatches.len() as u32;
         let mut pool_sizes = vec![
             vk::DescriptorPoolSize {
                 ty: vk::DescriptorType::UNIFORM_BUFFER,
-                descriptor_count: count(vk::DescriptorType::UNIFORM_BUFFER) + 1,
+                descriptor_count: count(vk::DescriptorType::UNIFORM_BUFFER) + n,
             },
             vk::DescriptorPoolSize {
                 ty: vk::DescriptorType::STORAGE_BUFFER,
-                descriptor_count: count(vk::DescriptorType::STORAGE_BUFFER) + 5,
+                descriptor_count: count(vk::DescriptorType::STORAGE_BUFFER) + 5 * n,
             },
         ];
         if textures > 0 {
@@ -407,7 +516,7 @@ impl Inner {
         let ctx = self.ctx.clone();
         let device = &ctx.device;
         let pool_info = vk::DescriptorPoolCreateInfo::default()
-            .max_sets(2)
+            .max_sets(1 + n)
             .pool_sizes(&pool_sizes);
         // SAFETY: valid create info; destroyed when the launch retires (or below).
         let pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
@@ -416,10 +525,12 @@ impl Inner {
             let p = self.pipelines.get(pipeline)?;
             let (vk_pipeline, layout, set_layouts, stack) =
                 (p.pipeline, p.layout, p.set_layouts, p.stack_size);
+            let mut layouts = vec![set_layouts[0]];
+            layouts.extend(std::iter::repeat_n(set_layouts[1], n as usize));
             let alloc_info = vk::DescriptorSetAllocateInfo::default()
                 .descriptor_pool(pool)
-                .set_layouts(&set_layouts);
-            // SAFETY: a pool sized for both sets.
+                .set_layouts(&layouts);
+            // SAFETY: a pool sized for the user's set and one backend set per dispatch.
             let sets = unsafe { device.allocate_descriptor_sets(&alloc_info) }
                 .or_vk("vkAllocateDescriptorSets")?;
             let backend_buffers: Vec<(u32, vk::DescriptorType, vk::DescriptorBufferInfo)> = vec![
@@ -429,7 +540,7 @@ impl Inner {
                     vk::DescriptorBufferInfo {
                         buffer: constants_vk,
                         offset: 0,
-                        range: vk::WHOLE_SIZE,
+                        range: CONSTANT_BYTES,
                     },
                 ),
                 (
@@ -502,14 +613,30 @@ impl Inner {
                         .image_info(std::slice::from_ref(info)),
                 );
             }
-            for (b, ty, info) in &backend_buffers {
-                writes.push(
-                    vk::WriteDescriptorSet::default()
-                        .dst_set(sets[1])
-                        .dst_binding(*b)
-                        .descriptor_type(*ty)
-                        .buffer_info(std::slice::from_ref(info)),
-                );
+            let per_dispatch: Vec<Vec<vk::DescriptorBufferInfo>> = (0..n as u64)
+                .map(|i| {
+                    backend_buffers
+                        .iter()
+                        .map(|(b, _, info)| {
+                            let mut info = *info;
+                            if *b == 0 {
+                                info.offset = i * stride;
+                            }
+                            info
+                        })
+                        .collect()
+                })
+                .collect();
+            for (set, infos) in sets[1..].iter().zip(&per_dispatch) {
+                for ((b, ty, _), info) in backend_buffers.iter().zip(infos) {
+                    writes.push(
+                        vk::WriteDescriptorSet::default()
+                            .dst_set(*set)
+                            .dst_binding(*b)
+                            .descriptor_type(*ty)
+                            .buffer_info(std::slice::from_ref(info)),
+                    );
+                }
             }
             // SAFETY: every write names a binding of its set's layout with live resources.
             unsafe { device.update_descriptor_sets(&writes, &[]) };
@@ -526,20 +653,49 @@ impl Inner {
                         vk::PipelineBindPoint::RAY_TRACING_KHR,
                         layout,
                         0,
-                        &sets,
+                        &sets[..1],
                         &[],
                     );
                     ctx.rt.cmd_set_ray_tracing_pipeline_stack_size(cmd, stack);
-                    ctx.rt.cmd_trace_rays(
-                        cmd,
-                        &sbt.raygen,
-                        &sbt.miss,
-                        &sbt.hit,
-                        &sbt.callable,
-                        size.width,
-                        size.height,
-                        size.depth,
-                    );
+                    for (i, d) in dispatches.iter().enumerate() {
+                        if i > 0 && uses_state {
+                            // The next tile reuses the state slots this one wrote.
+                            let barrier = vk::MemoryBarrier::default()
+                                .src_access_mask(
+                                    vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
+                                )
+                                .dst_access_mask(
+                                    vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
+                                );
+                            device.cmd_pipeline_barrier(
+                                cmd,
+                                vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
+                                vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
+                                vk::DependencyFlags::empty(),
+                                &[barrier],
+                                &[],
+                                &[],
+                            );
+                        }
+                        device.cmd_bind_descriptor_sets(
+                            cmd,
+                            vk::PipelineBindPoint::RAY_TRACING_KHR,
+                            layout,
+                            1,
+                            &sets[1 + i..2 + i],
+                            &[],
+                        );
+                        ctx.rt.cmd_trace_rays(
+                            cmd,
+                            &sbt.raygen,
+                            &sbt.miss,
+                            &sbt.hit,
+                            &sbt.callable,
+                            d.extent[0],
+                            d.extent[1],
+                            d.extent[2],
+                        );
+                    }
                 }
                 Ok(())
             })
@@ -552,5 +708,55 @@ impl Inner {
                 Err(e)
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every launch index is in exactly one tile, tiles respect the limits, and a launch
+    /// that fits is one dispatch.
+    #[test]
+    fn tiles_cover_a_launch_once_within_the_limits() {
+        let cases: [([u32; 3], [u64; 3], u64); 6] = [
+            ([7, 5, 3], [100, 100, 100], 1000),
+            ([7, 5, 3], [3, 2, 2], 1000),
+            ([7, 5, 3], [100, 100, 100], 4),
+            ([7, 5, 3], [100, 100, 100], 1),
+            ([1, 1, 40], [1, 1, 7], 1000),
+            ([13, 1, 1], [100, 100, 100], 6),
+        ];
+        for (size, dims, inv) in cases {
+            let t = tile(size, dims, inv);
+            let plan = plan_dispatches(size, t);
+            assert_eq!(plan.len() as u64, tile_count(size, t), "{size:?} {t:?}");
+            let mut seen = vec![0u32; (size[0] * size[1] * size[2]) as usize];
+            for d in &plan {
+                let n: u64 = d.extent.iter().map(|&e| e as u64).product();
+                assert!(n >= 1 && n <= inv, "{d:?} over {inv} invocations");
+                for k in 0..3 {
+                    assert!(d.extent[k] as u64 <= dims[k], "{d:?} over {dims:?}");
+                }
+                for z in 0..d.extent[2] {
+                    for y in 0..d.extent[1] {
+                        for x in 0..d.extent[0] {
+                            let (x, y, z) = (x + d.origin[0], y + d.origin[1], z + d.origin[2]);
+                            assert!(x < size[0] && y < size[1] && z < size[2], "{d:?}");
+                            seen[(x + size[0] * (y + size[1] * z)) as usize] += 1;
+                        }
+                    }
+                }
+            }
+            assert!(
+                seen.iter().all(|&c| c == 1),
+                "{size:?} {dims:?} {inv}: {seen:?}"
+            );
+        }
+        assert_eq!(
+            plan_dispatches([640, 480, 1], tile([640, 480, 1], [1 << 20; 3], 1 << 26)).len(),
+            1
+        );
+        assert!(plan_dispatches([0, 4, 4], [1, 1, 1]).is_empty());
     }
 }

@@ -131,6 +131,9 @@ pub struct VulkanDeviceInfo {
     pub min_storage_buffer_offset_alignment: u64,
     /// `maxUniformBufferRange` (the largest launch parameter block).
     pub max_uniform_buffer_range: u32,
+    /// `minUniformBufferOffsetAlignment` (the per-dispatch constants of a split launch share
+    /// one buffer at multiples of it).
+    pub min_uniform_buffer_offset_alignment: u64,
     /// The `rayTraversalPrimitiveCulling` feature: pipelines can skip triangles or AABBs.
     pub primitive_culling: bool,
     /// The `shaderFloat64` feature: optik's watertight triangle test keeps its exact f64
@@ -446,6 +449,7 @@ pub(crate) fn device_info(
         max_storage_buffer_range: limits.max_storage_buffer_range,
         min_storage_buffer_offset_alignment: limits.min_storage_buffer_offset_alignment,
         max_uniform_buffer_range: limits.max_uniform_buffer_range,
+        min_uniform_buffer_offset_alignment: limits.min_uniform_buffer_offset_alignment,
         primitive_culling,
         shader_float64,
         max_launch_dimensions,

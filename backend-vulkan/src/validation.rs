@@ -89,6 +89,7 @@ mod tests {
             force_staging: false,
             pipeline_cache: false,
             cache_dir: None,
+            max_dispatch_invocations: None,
         };
         let ctx = Context::new(&options).expect("a Vulkan ray tracing device for the tests");
         assert!(ctx.log.take().is_empty());

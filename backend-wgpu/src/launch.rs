@@ -321,19 +321,23 @@ pub(crate) fn launch(
     }
 }
 
-/// Waits for the submitted work until it finishes or `watch` stops the launch. A GPU
-/// dispatch cannot be preempted: a stopped launch returns its error at once while the
-/// device finishes the work (or its driver's watchdog ends it and the device is lost,
-/// which later calls report as `ErrorKind::DeviceLost`).
+/// What a launch stopped by its options adds to the error: the GPU goes on, what to do.
+pub(crate) const STOPPED_ON_GPU: &str = "the wgpu device goes on running the launch's dispatch until its programs end (a running shader cannot be stopped): the device stays usable, and later calls on it (reads, writes, launches, synchronize, dropping it) wait for that end. A program that never ends is stopped only by the driver's watchdog, where there is one (not on lavapipe), and that loses the device: later calls then fail with ErrorKind::DeviceLost; open a new device. To stop runaway programs at the deadline, run them on the CPU backend";
+
+/// Waits for the submitted work until it finishes or `watch` stops the launch, looking at
+/// the stop flag between waits of a few milliseconds. A GPU dispatch cannot be preempted:
+/// a stopped launch returns its error at once while the device finishes the work (or its
+/// driver's watchdog ends it and the device is lost, which this and later calls report as
+/// `ErrorKind::DeviceLost`).
 pub(crate) fn wait_watched(gpu: &crate::gpu::Gpu, watch: &optik_api::LaunchWatch) -> Result<()> {
     /// How often a wait looks at the stop flag.
     const SLICE: std::time::Duration = std::time::Duration::from_millis(5);
     loop {
         gpu.check()?;
         if watch.stopped() {
-            return watch.check().map_err(|e| {
-                e.context("the GPU may still be running the launch's dispatch (it cannot be preempted); later calls wait for it")
-            });
+            return watch
+                .check()
+                .map_err(|e| Error::new(e.kind(), format!("{}; {STOPPED_ON_GPU}", e.message())));
         }
         match gpu.device.poll(wgpu::PollType::Wait {
             submission_index: None,
@@ -341,7 +345,10 @@ pub(crate) fn wait_watched(gpu: &crate::gpu::Gpu, watch: &optik_api::LaunchWatch
         }) {
             Ok(_) => return gpu.check(),
             Err(wgpu::PollError::Timeout) => {}
-            Err(e) => return Err(Error::backend(format!("waiting for the GPU failed: {e}"))),
+            Err(e) => {
+                gpu.check()?;
+                return Err(Error::backend(format!("waiting for the GPU failed: {e}")));
+            }
         }
     }
 }

@@ -300,6 +300,27 @@ fn launches_are_split_over_the_workgroup_grid_or_refused_naming_the_limit() {
 }
 
 #[test]
+fn a_launch_past_one_row_of_workgroups_runs_with_the_adapters_limits() {
+    // More invocations than one row of workgroups holds: the grid takes a second row.
+    let dev = optik_wgpu::WgpuDevice::new().unwrap();
+    let d: &dyn Device = &dev;
+    let per_dim = dev.limits().max_compute_workgroups_per_dimension;
+    let n = per_dim * 64 + 4099;
+    let (p, table) = index_writer(d);
+    let words = run(
+        d,
+        p,
+        &table,
+        &params(TraversableHandle::NULL, &[]),
+        n,
+        1,
+        n as usize,
+    );
+    let wrong = words.iter().enumerate().find(|&(i, &w)| w != i as u32 + 1);
+    assert_eq!(wrong, None, "launch of {n}: (index, word) wrong");
+}
+
+#[test]
 fn storage_bindings_over_the_adapter_limit_are_refused() {
     let dev = optik_wgpu::WgpuDevice::with_options(optik_wgpu::WgpuOptions {
         max_storage_binding: Some(64 << 10),

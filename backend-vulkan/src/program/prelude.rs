@@ -164,11 +164,16 @@ struct _OptikLaunch {
     empty_tlas: vec2<u32>,
     miss_count: u32,
     callable_count: u32,
+    origin: vec4<u32>,
+    size: vec4<u32>,
 }
-// Per-launch constants: the empty acceleration structure (null handles and continuation
-// calls trace against it) and the user's miss and callable record counts.
+// Per-dispatch constants: the empty acceleration structure (null handles and continuation
+// calls trace against it), the user's miss and callable record counts, and where this
+// dispatch lies in the user's launch: a launch larger than one vkCmdTraceRaysKHR allows runs
+// as several (launch.rs), each seeing its own LaunchIdKHR and LaunchSizeKHR.
 @group(1) @binding(0) var<uniform> _optik_launch: _OptikLaunch;
-// Per launch index state (see the module documentation of prelude.rs).
+// Per launch index state of the dispatch running (see the module documentation of
+// prelude.rs), indexed by the dispatch's own launch id: dispatches reuse it in turn.
 @group(1) @binding(1) var<storage, read_write> _optik_state: array<vec4<u32>>;
 // Two vec4 per Vulkan instance (its custom index): [OptiX instance id, instance index, first
 // record of its geometry acceleration structure, instance flags of the path], [motion chain
@@ -421,8 +426,8 @@ fn device_functions(c: &LoweringConfig) -> String {
     let mut s = String::new();
     for f in F::ALL {
         let body: String = match f {
-            F::LaunchIndex => "return _optik_launch_id();".into(),
-            F::LaunchDimensions => "return _optik_launch_size();".into(),
+            F::LaunchIndex => "return _optik_launch_id() + _optik_launch.origin.xyz;".into(),
+            F::LaunchDimensions => "return _optik_launch.size.xyz;".into(),
             F::Trace => trace_body(c),
             F::GetPayload if c.inline_calls => format!(
                 "if _optik_inline_depth > 0u {{\n        return _optik_args[min(i, {last_payload}u)];\n    }}\n    return _optik_payload_get(min(i, {last_payload}u));"

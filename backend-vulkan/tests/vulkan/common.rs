@@ -41,6 +41,7 @@ pub fn device_with(force_staging: bool) -> TestDevice {
         force_staging,
         pipeline_cache: false,
         cache_dir: None,
+        max_dispatch_invocations: None,
     };
     let dev = VulkanDevice::open(&options)
         .unwrap_or_else(|e| panic!("no Vulkan ray tracing device for the tests: {e}"));

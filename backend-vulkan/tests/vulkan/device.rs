@@ -33,7 +33,8 @@ fn probe_lists_devices_with_their_properties() {
     assert_eq!(p.max_trace_depth, d.max_ray_recursion_depth.min(31));
     assert_eq!(
         p.max_launch_size,
-        d.max_ray_dispatch_invocation_count as u64
+        1 << 31,
+        "launches are split into dispatches"
     );
     assert_eq!(
         p.max_sbt_record_stride,
@@ -78,6 +79,7 @@ fn the_pipeline_cache_is_kept_on_disk() {
         force_staging: false,
         pipeline_cache: true,
         cache_dir: Some(dir.clone()),
+        max_dispatch_invocations: None,
     };
     let path = {
         let dev = device_with_options(options.clone());
@@ -106,6 +108,7 @@ fn the_pipeline_cache_is_kept_on_disk() {
         force_staging: false,
         pipeline_cache: false,
         cache_dir: Some(std::env::temp_dir()),
+        max_dispatch_invocations: None,
     };
     assert!(
         device_with_options(off).pipeline_cache_path().is_none(),
@@ -178,6 +181,7 @@ fn naming_a_device_that_does_not_exist_lists_the_devices() {
         force_staging: false,
         pipeline_cache: false,
         cache_dir: None,
+        max_dispatch_invocations: None,
     };
     let e = optik_vulkan::VulkanDevice::open(&options)
         .err()
@@ -201,6 +205,7 @@ fn devices_open_and_drop_any_number_of_times() {
             force_staging: false,
             pipeline_cache: false,
             cache_dir: None,
+            max_dispatch_invocations: None,
         };
         if let Err(e) = optik_vulkan::VulkanDevice::open(&options) {
             panic!(
