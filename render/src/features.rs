@@ -2,6 +2,7 @@
 //! (one closest-hit program per BSDF kind, a shadow ray type only where next-event estimation
 //! applies, payload registers sized by the integrator).
 
+use crate::geometry::{HitGroupKey, Primitive};
 use crate::material::{self, BsdfKind};
 use crate::scene::{Emitter, Integrator, Scene, ShapeRef};
 use std::collections::BTreeSet;
@@ -15,8 +16,10 @@ pub const PATH_PAYLOAD_AOVS: u32 = 32;
 /// What a scene needs simulated.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct RenderFeatures {
-    /// BSDF kinds on some shape, each compiled as one closest-hit program.
+    /// BSDF kinds on some shape, each compiled as one closest-hit program per primitive type.
     pub bsdf_kinds: BTreeSet<BsdfKind>,
+    /// The hit groups: (BSDF kind, primitive type, masked) present on some shape.
+    pub hit_groups: BTreeSet<HitGroupKey>,
     /// Some material uses a checkerboard texture.
     pub checkerboard: bool,
     /// Some material uses a bitmap texture.
@@ -49,22 +52,28 @@ impl RenderFeatures {
         let mut f = RenderFeatures::default();
         let mut area = false;
         for (_, shape) in scene.placed_shapes() {
-            let (material, emission) = match shape {
-                ShapeRef::Mesh(m) => (m.material, m.emission.is_some()),
+            let (material, emission, primitive) = match shape {
+                ShapeRef::Mesh(m) => (m.material, m.emission.is_some(), Primitive::Triangles),
                 ShapeRef::Sphere(s) => {
                     f.spheres = true;
-                    (s.material, s.emission.is_some())
+                    (s.material, s.emission.is_some(), Primitive::Spheres)
                 }
             };
             area |= emission;
             if let Some(b) = scene.materials.get(material as usize) {
+                let masked = matches!(b, crate::scene::Bsdf::Mask { .. });
                 if let Ok(e) = material::encode(b, "") {
                     f.bsdf_kinds.insert(e.kind);
+                    f.hit_groups.insert(HitGroupKey {
+                        kind: e.kind,
+                        primitive,
+                        masked,
+                    });
                 }
                 let t = material::texture_use(b);
                 f.checkerboard |= t.checkerboard;
                 f.bitmap |= t.bitmap;
-                f.masks |= matches!(b, crate::scene::Bsdf::Mask { .. });
+                f.masks |= masked;
             }
         }
         if area {
@@ -82,6 +91,10 @@ impl RenderFeatures {
             f.environment |= matches!(e, Emitter::Constant { .. } | Emitter::EnvMap { .. });
         }
         f.instancing = !scene.instances.is_empty();
+        f.bitmap |= scene
+            .emitters
+            .iter()
+            .any(|e| matches!(e, Emitter::EnvMap { .. }));
         let (name, max_depth) = match &scene.integrator {
             Integrator::Path(p) => ("path", p.max_depth),
             Integrator::Direct(_) => ("direct", Some(2)),
@@ -99,19 +112,34 @@ impl RenderFeatures {
         f
     }
 
+    /// Rays trace an instance acceleration structure: the scene has instances, or spheres
+    /// (one GAS holds one primitive type).
+    pub fn uses_ias(&self) -> bool {
+        self.instancing || self.spheres
+    }
+
     /// The programs a pipeline for these features holds, in program group order: the path
-    /// raygen, the radiance miss, the shadow miss (only with shadow rays), then one
-    /// closest-hit program per BSDF kind.
+    /// raygen, the radiance miss, the shadow miss (only with shadow rays), then each hit
+    /// group's closest-hit program and, for masked materials, its any-hit program (each
+    /// program once).
     pub fn programs(&self) -> Vec<String> {
         let mut v = vec!["raygen__path".to_string(), "miss__radiance".to_string()];
         if self.shadow_rays {
             v.push("miss__shadow".into());
         }
-        v.extend(
-            self.bsdf_kinds
-                .iter()
-                .map(|k| crate::programs::closest_hit_name(*k)),
-        );
+        for g in &self.hit_groups {
+            for name in [
+                Some(crate::programs::closest_hit_name(g.kind, g.primitive)),
+                g.masked.then(|| crate::programs::any_hit_name(g.primitive)),
+            ]
+            .into_iter()
+            .flatten()
+            {
+                if !v.contains(&name) {
+                    v.push(name);
+                }
+            }
+        }
         v
     }
 
@@ -151,6 +179,14 @@ impl RenderFeatures {
         s += &format!("environment: {}\n", self.environment);
         s += &format!("instancing: {}\n", self.instancing);
         s += &format!("spheres: {}\n", self.spheres);
+        s += &format!(
+            "traversal: {}\n",
+            if self.uses_ias() {
+                "instance acceleration structure"
+            } else {
+                "single GAS"
+            }
+        );
         s += &format!(
             "shadow rays (next-event estimation): {}\n",
             self.shadow_rays

@@ -11,6 +11,7 @@ mod camera;
 pub mod denoise;
 mod error;
 pub mod features;
+pub mod geometry;
 mod gpu;
 pub mod material;
 pub mod output;

@@ -64,6 +64,9 @@ pub fn encode(bsdf: &Bsdf, what: &str) -> Result<Encoded, RenderError> {
             encode_texture(reflectance, &mut params[0..13], what)?;
             BsdfKind::Diffuse
         }
+        // The mask's opacity is the any-hit program's (see `opacity`); hits are shaded by the
+        // inner BSDF.
+        Bsdf::Mask { inner, .. } => return encode(inner, what),
         other => {
             return Err(RenderError::Unsupported(format!(
                 "{what}: BSDF {} (supported: diffuse)",
@@ -72,6 +75,22 @@ pub fn encode(bsdf: &Bsdf, what: &str) -> Result<Encoded, RenderError> {
         }
     };
     Ok(Encoded { kind, params })
+}
+
+/// The opacity texture of a masked material (13 floats, as `tex_rgb` reads them), or `None`
+/// for an opaque one; `what` names it in errors.
+pub fn opacity(bsdf: &Bsdf, what: &str) -> Result<Option<[f32; 13]>, RenderError> {
+    let Bsdf::Mask { opacity, inner } = bsdf else {
+        return Ok(None);
+    };
+    if matches!(**inner, Bsdf::Mask { .. }) {
+        return Err(RenderError::Unsupported(format!(
+            "{what}: a mask inside a mask (supported: one mask around another BSDF)"
+        )));
+    }
+    let mut out = [0.0; 13];
+    encode_texture(opacity, &mut out, what)?;
+    Ok(Some(out))
 }
 
 /// Mitsuba's plugin name of a BSDF.
@@ -156,8 +175,10 @@ pub fn texture_use(bsdf: &Bsdf) -> TextureUse {
     u
 }
 
-/// Writes a texture's 13 floats (tex_rgb in common.wgsl).
-fn encode_texture(t: &Texture, out: &mut [f32], what: &str) -> Result<(), RenderError> {
+/// Writes a texture's 13 floats (tex_rgb in common.wgsl): kind (0 constant, 1 checkerboard,
+/// 2 bilinear bitmap, 3 nearest bitmap), then colour 0 and colour 1 (a bitmap: its image id),
+/// then `to_uv` as two rows of a 3x3 affine matrix.
+pub fn encode_texture(t: &Texture, out: &mut [f32], what: &str) -> Result<(), RenderError> {
     match t {
         Texture::Constant(c) => {
             out[0] = 0.0;
@@ -173,10 +194,20 @@ fn encode_texture(t: &Texture, out: &mut [f32], what: &str) -> Result<(), Render
             out[4..7].copy_from_slice(&color1.to_array());
             out[7..13].copy_from_slice(&affine_rows(to_uv));
         }
-        Texture::Bitmap { .. } => {
-            return Err(RenderError::Unsupported(format!(
-                "{what}: bitmap textures (supported: constant and checkerboard)"
-            )));
+        Texture::Bitmap {
+            image,
+            to_uv,
+            bilinear,
+        } => {
+            // Image ids index the texel table's directory (exact as f32 below 2^24).
+            if *image >= 1 << 24 {
+                return Err(RenderError::Invalid(format!(
+                    "{what}: image {image}; expected fewer than 2^24 images"
+                )));
+            }
+            out[0] = if *bilinear { 2.0 } else { 3.0 };
+            out[1] = *image as f32;
+            out[7..13].copy_from_slice(&affine_rows(to_uv));
         }
     }
     Ok(())

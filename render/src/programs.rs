@@ -1,17 +1,36 @@
 //! WGSL programs assembled from pieces: only the code a scene's features call for.
 
 use crate::features::RenderFeatures;
+use crate::geometry::Primitive;
 use crate::material::BsdfKind;
+use std::collections::BTreeSet;
 
 const COMMON: &str = include_str!("wgsl/common.wgsl");
 const SCENE: &str = include_str!("wgsl/scene.wgsl");
 const HIT: &str = include_str!("wgsl/hit.wgsl");
 const PATH: &str = include_str!("wgsl/path.wgsl");
 const PROBE: &str = include_str!("wgsl/probe.wgsl");
+const TEXTURE: &str = include_str!("wgsl/texture.wgsl");
+const MASK: &str = include_str!("wgsl/mask.wgsl");
+/// Stands in for texture.wgsl where no bitmap exists: never called (no texture has kind 2 or 3).
+const NO_TEXTURE: &str = "fn tex_bitmap(image: u32, uv: vec2<f32>, bilinear: bool, wrap: u32) -> vec4<f32> {\n    return vec4<f32>(0.0);\n}\n";
 
-/// The closest-hit program's name for `kind`.
-pub fn closest_hit_name(kind: BsdfKind) -> String {
-    format!("closesthit__{}", kind.name())
+/// The name suffix of a primitive type's hit programs.
+fn suffix(primitive: Primitive) -> &'static str {
+    match primitive {
+        Primitive::Triangles => "",
+        Primitive::Spheres => "_sphere",
+    }
+}
+
+/// The closest-hit program's name for `kind` on `primitive`.
+pub fn closest_hit_name(kind: BsdfKind, primitive: Primitive) -> String {
+    format!("closesthit__{}{}", kind.name(), suffix(primitive))
+}
+
+/// The mask's any-hit program's name on `primitive`.
+pub fn any_hit_name(primitive: Primitive) -> String {
+    format!("anyhit__mask{}", suffix(primitive))
 }
 
 /// The path tracer's module: common code, the scene's buffers, each BSDF kind present with
@@ -20,25 +39,55 @@ pub fn path_module(features: &RenderFeatures) -> String {
     let mut s = String::new();
     s += COMMON;
     s += &format!("const NEE: bool = {};\n", features.shadow_rays);
+    s += &format!("const INSTANCED: bool = {};\n", features.uses_ias());
+    s += &format!("const MASKS: bool = {};\n", features.masks);
+    s += if features.bitmap { TEXTURE } else { NO_TEXTURE };
     s += SCENE;
     for kind in &features.bsdf_kinds {
         s += kind.wgsl();
-        s += &instantiate_hit(*kind);
+    }
+    let mut masked = BTreeSet::new();
+    let mut shaded = BTreeSet::new();
+    for g in &features.hit_groups {
+        // A masked and an opaque material of one kind share the closest-hit program.
+        if shaded.insert((g.kind, g.primitive)) {
+            s += &instantiate_hit(g.kind, g.primitive);
+        }
+        if g.masked {
+            masked.insert(g.primitive);
+        }
+    }
+    for p in masked {
+        s += &instantiate_prim(MASK, p);
     }
     s += PATH;
     s
 }
 
-/// hit.wgsl for one kind.
-fn instantiate_hit(kind: BsdfKind) -> String {
+/// A hit program template for one primitive type.
+fn instantiate_prim(template: &str, primitive: Primitive) -> String {
+    let prim = match primitive {
+        Primitive::Triangles => "mesh",
+        Primitive::Spheres => "sphere",
+    };
+    template
+        .replace("SUFFIX", suffix(primitive))
+        .replace("PRIM", prim)
+}
+
+/// hit.wgsl for one kind on one primitive type.
+fn instantiate_hit(kind: BsdfKind, primitive: Primitive) -> String {
     let smooth = if kind.smooth() { "NEE" } else { "false" };
-    HIT.replace("KIND", kind.name()).replace("SMOOTH", smooth)
+    instantiate_prim(HIT, primitive)
+        .replace("KIND", kind.name())
+        .replace("SMOOTH", smooth)
 }
 
 /// The probe module of one BSDF kind: its functions and the probe's ray generation programs.
 pub fn probe_module(kind: BsdfKind) -> String {
     let mut s = String::new();
     s += COMMON;
+    s += NO_TEXTURE;
     s += kind.wgsl();
     s += &PROBE.replace("KIND", kind.name());
     s

@@ -4,16 +4,16 @@
 use crate::camera::half_fov_tangents;
 use crate::error::{Context, RenderError};
 use crate::features::RenderFeatures;
+use crate::geometry::{Geometry, HitGroupKey, Primitive, RECORD_DATA_WORDS, SPHERE_WORDS, Tables};
 use crate::gpu::{Owned, Std140};
-use crate::material::{self, BsdfKind, MAT_PARAMS};
 use crate::programs;
-use crate::scene::{Emitter, Filter, Integrator, Scene, ShapeRef, Texture};
-use glam::{Mat3, Vec3};
+use crate::scene::{Filter, Integrator, Scene};
+use glam::Vec3;
 use optik::{
-    AccelBuildOptions, BufferView, BuildFlags, BuildInput, Device, GeometryFlags, LaunchSize,
-    ModuleCompileOptions, PipelineCompileOptions, PipelineLinkOptions, ProgramGroupDesc,
-    ProgramRef, ProgramSource, Resource, SbtRecord, SbtRegion, Setting, ShaderBindingTable,
-    TraversableHandle, TriangleArray,
+    AccelBuildOptions, BufferView, BuildFlags, BuildInput, BuiltinIntersector, Device,
+    GeometryFlags, InstanceArray, LaunchSize, ModuleCompileOptions, PipelineCompileOptions,
+    PipelineLinkOptions, ProgramGroupDesc, ProgramRef, ProgramSource, Resource, SbtRecord,
+    SbtRegion, Setting, ShaderBindingTable, SphereArray, TraversableHandle, TriangleArray,
 };
 use std::time::Instant;
 
@@ -99,10 +99,7 @@ pub fn render(
 /// Floats per pixel of the accumulation buffer (path.wgsl's ACC_* layout).
 const ACCUM_WORDS: u32 = 7;
 const ACCUM_WORDS_AOVS: u32 = 13;
-/// Words of SBT record data (scene.wgsl: SBT_MATERIAL + MatParams).
-const RECORD_DATA_WORDS: usize = 10 + MAT_PARAMS;
 const RECORD_STRIDE: u32 = (32 + RECORD_DATA_WORDS as u32 * 4).div_ceil(16) * 16;
-const LIGHT_WORDS: usize = 16;
 
 /// Renders `scene`, calling `progress` after every launch.
 pub fn render_with_progress(
@@ -134,46 +131,110 @@ pub fn render_with_progress(
         Integrator::Aov(_) => return Err(RenderError::Unsupported("the `aov` integrator".into())),
     };
     let features = RenderFeatures::of(scene, options.want_aovs);
-    let built = GeometryTables::build(scene)?;
+    let built = Tables::build(scene)?;
     let mut owned = Owned::new(device);
 
-    // Geometry: one GAS, one build input (and SBT record) per mesh.
+    // Geometry: one GAS per primitive type and shape group, one build input (and SBT record)
+    // per shape; an IAS over them when there are spheres or instances.
     let positions = owned.upload(bytemuck::cast_slice(&built.positions), "vertex positions")?;
     let normals = owned.upload(bytemuck::cast_slice(&built.normals), "vertex normals")?;
     let uvs = owned.upload(bytemuck::cast_slice(&built.uvs), "texture coordinates")?;
     let indices = owned.upload(bytemuck::cast_slice(&built.indices), "triangle indices")?;
     let lights = owned.upload(bytemuck::cast_slice(&built.lights), "the light table")?;
-    let inputs: Vec<BuildInput> = built
-        .meshes
-        .iter()
-        .map(|m| {
-            BuildInput::Triangles(
-                TriangleArray::new(
-                    BufferView::at(positions, m.vertex_base as u64 * 12),
-                    m.vertex_count,
-                    GeometryFlags::DISABLE_ANYHIT,
-                )
-                .with_indices(
-                    BufferView::at(indices, m.triangle_base as u64 * 12),
-                    m.triangle_count,
-                ),
-            )
-        })
-        .collect();
-    let handle = if inputs.is_empty() {
-        TraversableHandle::NULL
-    } else {
-        let options = AccelBuildOptions {
-            flags: BuildFlags::PREFER_FAST_TRACE,
-            ..Default::default()
-        };
+    let spheres = owned.upload(bytemuck::cast_slice(&built.spheres), "the sphere table")?;
+    let texels = owned.upload(bytemuck::cast_slice(&built.texels), "the texel table")?;
+    let build_options = AccelBuildOptions {
+        flags: BuildFlags::PREFER_FAST_TRACE,
+        ..Default::default()
+    };
+    let mut gas_handles = Vec::with_capacity(built.gases.len());
+    for gas in &built.gases {
+        let records = &built.records[gas.first as usize..(gas.first + gas.count) as usize];
+        let inputs: Vec<BuildInput> = records
+            .iter()
+            .map(|r| {
+                let flags = if r.group.masked {
+                    GeometryFlags::NONE
+                } else {
+                    GeometryFlags::DISABLE_ANYHIT
+                };
+                match r.geometry {
+                    Geometry::Triangles {
+                        vertex_base,
+                        vertex_count,
+                        triangle_base,
+                        triangle_count,
+                    } => BuildInput::Triangles(
+                        TriangleArray::new(
+                            BufferView::at(positions, vertex_base as u64 * 12),
+                            vertex_count,
+                            flags,
+                        )
+                        .with_indices(
+                            BufferView::at(indices, triangle_base as u64 * 12),
+                            triangle_count,
+                        ),
+                    ),
+                    Geometry::Sphere(i) => {
+                        let at = i as u64 * SPHERE_WORDS as u64 * 4;
+                        BuildInput::Spheres(SphereArray {
+                            vertex_buffers: vec![BufferView::at(spheres, at)],
+                            vertex_stride: 0,
+                            num_vertices: 1,
+                            radius_buffers: vec![BufferView::at(spheres, at + 12)],
+                            radius_stride: 0,
+                            single_radius: true,
+                            flags: vec![flags],
+                            sbt_index_offsets: None,
+                            primitive_index_offset: 0,
+                        })
+                    }
+                }
+            })
+            .collect();
         let accel = device
-            .accel_build(&options, &inputs)
-            .during("building the scene's GAS")?;
+            .accel_build(&build_options, &inputs)
+            .during("building a GAS")?;
+        owned.accel(accel);
+        gas_handles.push(
+            device
+                .traversable_handle(accel)
+                .during("getting a GAS handle")?,
+        );
+    }
+    let handle = if built.gases.is_empty() {
+        TraversableHandle::NULL
+    } else if !built.uses_ias() {
+        gas_handles[0]
+    } else {
+        let records: Vec<optik::Instance> = built
+            .instances
+            .iter()
+            .enumerate()
+            .map(|(i, (gas, m))| {
+                let mut inst = optik::Instance::new(gas_handles[*gas as usize]);
+                for r in 0..3 {
+                    inst.transform[4 * r..4 * r + 4].copy_from_slice(&m.row(r).to_array());
+                }
+                inst.instance_id = i as u32;
+                inst.sbt_offset = built.gases[*gas as usize].first;
+                inst
+            })
+            .collect();
+        let buffer = owned.upload(bytemuck::cast_slice(&records), "the instances")?;
+        let accel = device
+            .accel_build(
+                &build_options,
+                &[BuildInput::Instances(InstanceArray {
+                    instances: BufferView::at(buffer, 0),
+                    num_instances: records.len() as u32,
+                })],
+            )
+            .during("building the scene's IAS")?;
         owned.accel(accel);
         device
             .traversable_handle(accel)
-            .during("getting the GAS handle")?
+            .during("getting the IAS handle")?
     };
 
     // Programs: the pieces the features call for.
@@ -190,19 +251,39 @@ pub fn render_with_progress(
         )
         .during("compiling the path tracer's programs")?;
     let module = owned.module(module);
-    let kinds: Vec<BsdfKind> = features.bsdf_kinds.iter().copied().collect();
     let names = features.programs();
-    let descs: Vec<ProgramGroupDesc> = names
-        .iter()
-        .map(|n| {
-            let r = ProgramRef::new(module, n.as_str());
-            match n.split("__").next() {
-                Some("raygen") => ProgramGroupDesc::Raygen(r),
-                Some("miss") => ProgramGroupDesc::Miss(Some(r)),
-                _ => ProgramGroupDesc::closest_hit(r),
-            }
-        })
-        .collect();
+    let hit_groups: Vec<HitGroupKey> = features.hit_groups.iter().copied().collect();
+    let miss_count = if features.shadow_rays { 2 } else { 1 };
+    let mut descs = vec![ProgramGroupDesc::Raygen(ProgramRef::new(
+        module,
+        "raygen__path",
+    ))];
+    descs.push(ProgramGroupDesc::Miss(Some(ProgramRef::new(
+        module,
+        "miss__radiance",
+    ))));
+    if features.shadow_rays {
+        descs.push(ProgramGroupDesc::Miss(Some(ProgramRef::new(
+            module,
+            "miss__shadow",
+        ))));
+    }
+    for g in &hit_groups {
+        descs.push(ProgramGroupDesc::HitGroup {
+            closest_hit: Some(ProgramRef::new(
+                module,
+                programs::closest_hit_name(g.kind, g.primitive),
+            )),
+            any_hit: g
+                .masked
+                .then(|| ProgramRef::new(module, programs::any_hit_name(g.primitive))),
+            intersection: None,
+            builtin: match g.primitive {
+                Primitive::Triangles => BuiltinIntersector::Triangle,
+                Primitive::Spheres => BuiltinIntersector::Sphere,
+            },
+        });
+    }
     let groups = device
         .create_program_groups(&descs)
         .during("creating program groups")?;
@@ -212,8 +293,7 @@ pub fn render_with_progress(
         .during("linking the pipeline")?;
     let pipeline = owned.pipeline(pipeline);
 
-    // SBT: raygen, misses, then one hit record per mesh.
-    let miss_count = if features.shadow_rays { 2 } else { 1 };
+    // SBT: raygen, misses, then one hit record per shape, in GAS order.
     let mut table = Vec::new();
     table.extend_from_slice(
         &device
@@ -228,13 +308,16 @@ pub fn render_with_progress(
         );
     }
     let hit_offset = table.len() as u64;
-    for m in &built.meshes {
-        let slot = kinds.iter().position(|k| *k == m.kind).unwrap_or(0);
+    for r in &built.records {
+        let slot = hit_groups
+            .iter()
+            .position(|k| *k == r.group)
+            .ok_or_else(|| RenderError::Invalid(format!("no hit group for {:?}", r.group)))?;
         let mut rec = device
             .sbt_record_pack_header(groups[1 + miss_count + slot])
             .during("packing a hit record")?
             .to_vec();
-        for w in m.record {
+        for w in r.data {
             rec.extend_from_slice(&w.to_le_bytes());
         }
         rec.resize(RECORD_STRIDE as usize, 0);
@@ -253,11 +336,11 @@ pub fn render_with_progress(
             stride: 32,
             count: miss_count as u32,
         }),
-        hitgroup: (!built.meshes.is_empty()).then_some(SbtRegion {
+        hitgroup: (!built.records.is_empty()).then_some(SbtRegion {
             buffer: sbt_buffer,
             offset: hit_offset,
             stride: RECORD_STRIDE,
-            count: built.meshes.len() as u32,
+            count: built.records.len() as u32,
         }),
         callables: None,
     };
@@ -275,6 +358,8 @@ pub fn render_with_progress(
         Resource::buffer(4, uvs),
         Resource::buffer(5, indices),
         Resource::buffer(6, lights),
+        Resource::buffer(7, spheres),
+        Resource::buffer(8, texels),
     ];
     let (tan_x, tan_y) = half_fov_tangents(&scene.camera, width, height);
     let (filter_kind, filter_param) = match scene.film.filter {
@@ -396,236 +481,4 @@ pub fn render_with_progress(
             programs: names,
         },
     })
-}
-
-/// One mesh as uploaded.
-struct MeshEntry {
-    kind: BsdfKind,
-    vertex_base: u32,
-    vertex_count: u32,
-    triangle_base: u32,
-    triangle_count: u32,
-    record: [u32; RECORD_DATA_WORDS],
-}
-
-/// The scene flattened into the buffers the programs read.
-#[derive(Default)]
-struct GeometryTables {
-    positions: Vec<f32>,
-    normals: Vec<f32>,
-    uvs: Vec<f32>,
-    indices: Vec<u32>,
-    lights: Vec<f32>,
-    light_count: u32,
-    meshes: Vec<MeshEntry>,
-    env_radiance: Vec3,
-    env_pdf: f32,
-}
-
-impl GeometryTables {
-    fn build(scene: &Scene) -> Result<GeometryTables, RenderError> {
-        let mut t = GeometryTables::default();
-        let mut emissive: Vec<(usize, Vec3)> = Vec::new();
-        let mut bounds_min = Vec3::splat(f32::INFINITY);
-        let mut bounds_max = Vec3::splat(f32::NEG_INFINITY);
-        for (to_world, shape) in scene.placed_shapes() {
-            let mesh = match shape {
-                ShapeRef::Mesh(m) => m,
-                ShapeRef::Sphere(s) => {
-                    return Err(RenderError::Unsupported(format!(
-                        "sphere `{}`: spheres",
-                        s.name
-                    )));
-                }
-            };
-            if mesh.indices.is_empty() {
-                continue;
-            }
-            let what = format!("mesh `{}`", mesh.name);
-            let nv = mesh.positions.len();
-            if let Some(bad) = mesh.indices.iter().flatten().find(|&&i| i as usize >= nv) {
-                return Err(RenderError::Invalid(format!(
-                    "{what}: vertex index {bad} with {nv} vertices"
-                )));
-            }
-            if !mesh.normals.is_empty() && mesh.normals.len() != nv {
-                return Err(RenderError::Invalid(format!(
-                    "{what}: {} normals for {nv} vertices (expected one per vertex or none)",
-                    mesh.normals.len()
-                )));
-            }
-            if !mesh.uvs.is_empty() && mesh.uvs.len() != nv {
-                return Err(RenderError::Invalid(format!(
-                    "{what}: {} texture coordinates for {nv} vertices (expected one per vertex or none)",
-                    mesh.uvs.len()
-                )));
-            }
-            let bsdf = scene.materials.get(mesh.material as usize).ok_or_else(|| {
-                RenderError::Invalid(format!(
-                    "{what}: material {} of {}",
-                    mesh.material,
-                    scene.materials.len()
-                ))
-            })?;
-            let enc = material::encode(bsdf, &what)?;
-            let vertex_base = (t.positions.len() / 3) as u32;
-            let triangle_base = (t.indices.len() / 3) as u32;
-            for p in &mesh.positions {
-                let w = to_world.transform_point3(*p);
-                bounds_min = bounds_min.min(w);
-                bounds_max = bounds_max.max(w);
-                t.positions.extend_from_slice(&w.to_array());
-            }
-            let normal_base = if mesh.normals.is_empty() {
-                u32::MAX
-            } else {
-                let nm = Mat3::from_mat4(to_world).inverse().transpose();
-                let base = (t.normals.len() / 3) as u32;
-                for n in &mesh.normals {
-                    t.normals
-                        .extend_from_slice(&(nm * *n).normalize_or_zero().to_array());
-                }
-                base
-            };
-            let uv_base = if mesh.uvs.is_empty() {
-                u32::MAX
-            } else {
-                let base = (t.uvs.len() / 2) as u32;
-                for uv in &mesh.uvs {
-                    t.uvs.extend_from_slice(&uv.to_array());
-                }
-                base
-            };
-            t.indices.extend(mesh.indices.iter().flatten());
-            let emission = match &mesh.emission {
-                None => Vec3::ZERO,
-                Some(Texture::Constant(c)) => *c,
-                Some(_) => {
-                    return Err(RenderError::Unsupported(format!(
-                        "{what}: textured emission (supported: constant radiance)"
-                    )));
-                }
-            };
-            let mut record = [0u32; RECORD_DATA_WORDS];
-            record[0] = vertex_base;
-            record[1] = triangle_base;
-            record[2] = normal_base;
-            record[3] = uv_base;
-            // Face normals come from the world-space winding, as Mitsuba computes them.
-            record[4] = u32::from(mesh.flip_normals);
-            for (i, c) in emission.to_array().iter().enumerate() {
-                record[6 + i] = c.to_bits();
-            }
-            for (i, v) in enc.params.iter().enumerate() {
-                record[10 + i] = v.to_bits();
-            }
-            if emission.max_element() > 0.0 {
-                emissive.push((t.meshes.len(), emission));
-            }
-            t.meshes.push(MeshEntry {
-                kind: enc.kind,
-                vertex_base,
-                vertex_count: nv as u32,
-                triangle_base,
-                triangle_count: mesh.indices.len() as u32,
-                record,
-            });
-        }
-        let radius = if bounds_min.x <= bounds_max.x {
-            (bounds_max - bounds_min).length() * 0.5
-        } else {
-            1.0
-        };
-        // Beyond the scene from any point inside it (Mitsuba: twice the bounding sphere).
-        let far = 2.0 * radius * 1.01 + 1.0;
-
-        let emitter_count = emissive.len() + scene.emitters.len();
-        if emitter_count == 0 {
-            return Ok(t);
-        }
-        let select = 1.0 / emitter_count as f32;
-        let mut cdf = 0.0f64;
-        let mut push = |t: &mut GeometryTables, e: [f32; LIGHT_WORDS], weight: f64| {
-            cdf += weight;
-            let mut e = e;
-            e[1] = cdf as f32;
-            t.lights.extend_from_slice(&e);
-            t.light_count += 1;
-        };
-        for (mi, le) in emissive {
-            let m = &t.meshes[mi];
-            let triangles: Vec<[Vec3; 3]> = (0..m.triangle_count)
-                .map(|k| {
-                    let ti = ((m.triangle_base + k) * 3) as usize;
-                    std::array::from_fn(|c| {
-                        let v = (m.vertex_base + t.indices[ti + c]) as usize * 3;
-                        Vec3::from_slice(&t.positions[v..v + 3])
-                    })
-                })
-                .collect();
-            let areas: Vec<f64> = triangles
-                .iter()
-                .map(|p| 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length() as f64)
-                .collect();
-            let total: f64 = areas.iter().sum();
-            if total <= 0.0 {
-                continue;
-            }
-            let flip_sign = if m.record[4] != 0 { -1.0 } else { 1.0 };
-            // Hits on this mesh weigh emission against next-event estimation with this pdf.
-            t.meshes[mi].record[5] = ((select as f64 / total) as f32).to_bits();
-            for (p, a) in triangles.iter().zip(&areas) {
-                if *a <= 0.0 {
-                    continue;
-                }
-                let mut e = [0.0f32; LIGHT_WORDS];
-                e[0] = 0.0;
-                e[2..5].copy_from_slice(&le.to_array());
-                e[5] = (select as f64 / total) as f32;
-                e[6..9].copy_from_slice(&p[0].to_array());
-                e[9..12].copy_from_slice(&(p[1] - p[0]).to_array());
-                e[12..15].copy_from_slice(&(p[2] - p[0]).to_array());
-                e[15] = flip_sign;
-                push(&mut t, e, select as f64 * a / total);
-            }
-        }
-        for em in &scene.emitters {
-            let mut e = [0.0f32; LIGHT_WORDS];
-            e[5] = select;
-            match em {
-                Emitter::Point {
-                    position,
-                    intensity,
-                } => {
-                    e[0] = 1.0;
-                    e[2..5].copy_from_slice(&intensity.to_array());
-                    e[6..9].copy_from_slice(&position.to_array());
-                }
-                Emitter::Directional {
-                    direction,
-                    irradiance,
-                } => {
-                    e[0] = 2.0;
-                    e[2..5].copy_from_slice(&irradiance.to_array());
-                    e[6..9].copy_from_slice(&direction.normalize_or_zero().to_array());
-                    e[9] = far;
-                }
-                Emitter::Constant { radiance } => {
-                    e[0] = 3.0;
-                    e[2..5].copy_from_slice(&radiance.to_array());
-                    e[9] = far;
-                    t.env_radiance = *radiance;
-                    t.env_pdf = select / (4.0 * std::f32::consts::PI);
-                }
-                Emitter::Spot { .. } => {
-                    return Err(RenderError::Unsupported("spot emitters".into()));
-                }
-                Emitter::EnvMap { .. } => {
-                    return Err(RenderError::Unsupported("envmap emitters".into()));
-                }
-            }
-            push(&mut t, e, select as f64);
-        }
-        Ok(t)
-    }
 }

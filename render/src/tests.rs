@@ -475,3 +475,6 @@ fn outputs_encode() {
     assert_eq!(crate::output::srgb8(0.0), 0);
     assert_eq!(crate::output::srgb8(0.5), 188);
 }
+
+#[path = "tests_shapes.rs"]
+mod shapes;

@@ -142,11 +142,7 @@ scene!(
     64,
     "needs envmap, twosided, built-in spheres and the grid's BSDFs in the engine"
 );
-scene!(
-    textured_diffuse,
-    128,
-    "needs built-in spheres and bitmap textures in the engine"
-);
+scene!(textured_diffuse, 128);
 scene!(
     rough_dielectric,
     128,
@@ -157,21 +153,13 @@ scene!(
     128,
     "needs built-in spheres, roughplastic and envmap in the engine"
 );
-scene!(
-    instancing,
-    128,
-    "needs built-in spheres and instances in the engine"
-);
+scene!(instancing, 128);
 scene!(
     infinite_mirrors,
     128,
     "needs built-in spheres, conductor and envmap in the engine"
 );
-scene!(
-    various_shapes,
-    64,
-    "needs built-in spheres and checkerboard textures in the engine"
-);
+scene!(various_shapes, 64);
 
 /// The teeth test: `scene` rendered with the diffuse albedo `albedo` scaled by 1.05 must fail
 /// the z-test that the unchanged render passes at the same sample count.

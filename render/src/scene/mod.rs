@@ -335,6 +335,9 @@ pub struct Sphere {
     pub center: Vec3,
     /// Radius.
     pub radius: f32,
+    /// The sphere's own frame in world (or group) space, a rotation: texture coordinates are
+    /// Mitsuba's (φ / 2π, θ / π) of the hit point in this frame.
+    pub rotation: Mat3,
     /// The material.
     pub material: MaterialId,
     /// Radiance emitted when this sphere is an area light.

@@ -130,8 +130,10 @@ fn luminance(c: vec3<f32>) -> f32 {
 }
 
 // ---- Textures ----
-// A texture is 13 floats of material parameters: kind (0 constant, 1 checkerboard), colour 0,
-// colour 1, then Mitsuba's to_uv as two rows of a 3x3 affine matrix.
+// A texture is 13 floats of material parameters: kind (0 constant, 1 checkerboard, 2 bilinear
+// bitmap, 3 nearest bitmap), colour 0 (a bitmap: image id, wrap mode), colour 1, then
+// Mitsuba's to_uv as two rows of a 3x3 affine matrix. Bitmaps are read by tex_bitmap
+// (texture.wgsl, compiled in only when a scene has one).
 alias MatParams = array<f32, 24>;
 
 fn tex_rgb(m: MatParams, at: u32, uv: vec2<f32>) -> vec3<f32> {
@@ -140,9 +142,12 @@ fn tex_rgb(m: MatParams, at: u32, uv: vec2<f32>) -> vec3<f32> {
     if kind == 0u {
         return c0;
     }
-    let c1 = vec3<f32>(m[at + 4u], m[at + 5u], m[at + 6u]);
     let tu = m[at + 7u] * uv.x + m[at + 8u] * uv.y + m[at + 9u];
     let tv = m[at + 10u] * uv.x + m[at + 11u] * uv.y + m[at + 12u];
+    if kind >= 2u {
+        return tex_bitmap(u32(c0.x), vec2<f32>(tu, tv), kind == 2u, u32(c0.y)).xyz;
+    }
+    let c1 = vec3<f32>(m[at + 4u], m[at + 5u], m[at + 6u]);
     // Mitsuba's checkerboard: colour 0 where the two halves agree.
     let even = (u32(floor(2.0 * fract(tu))) + u32(floor(2.0 * fract(tv)))) % 2u == 0u;
     return select(c1, c0, even);

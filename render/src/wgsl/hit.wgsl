@@ -1,10 +1,11 @@
-// The closest-hit program of one BSDF kind (KIND), instantiated once per kind present.
-// SMOOTH says whether the BSDF has a non-delta lobe, i.e. whether next-event estimation applies.
+// The closest-hit program of one BSDF kind (KIND) on one primitive type (PRIM: mesh or
+// sphere), instantiated once per pair present. SMOOTH says whether the BSDF has a non-delta
+// lobe, i.e. whether next-event estimation applies.
 
-fn closesthit__KIND() {
-    let h = mesh_hit();
+fn closesthit__KINDSUFFIX() {
+    let h = PRIM_hit();
     let d = rt_world_ray_direction();
-    surface_emission(h, d);
+    PRIM_emission(h, d);
     var rng = rt_get_payload(P_RNG);
     let inflags = rt_get_payload(P_FLAGS);
     var out = OUT_HIT;

@@ -8,12 +8,20 @@ const ACC_RAYS: u32 = 6u;
 const ACC_ALBEDO: u32 = 7u;
 const ACC_NORMAL: u32 = 10u;
 
+// Any-hit programs run only where masks exist (shadow rays respect masks too).
+fn anyhit_off() -> u32 {
+    if MASKS {
+        return 0u;
+    }
+    return RT_RAY_FLAG_DISABLE_ANYHIT;
+}
+
 fn visible(origin: vec3<f32>, v: vec3<f32>) -> bool {
     var p: RtPayload;
     p[0] = 0u;
     // The segment ends just short of the light point (both ends offset robustly): t in [0, 1].
     rt_trace(params.scene, origin, v, 0.0, 1.0, 0.0, 0xFFu,
-             RT_RAY_FLAG_TERMINATE_ON_FIRST_HIT | RT_RAY_FLAG_DISABLE_CLOSESTHIT | RT_RAY_FLAG_DISABLE_ANYHIT,
+             RT_RAY_FLAG_TERMINATE_ON_FIRST_HIT | RT_RAY_FLAG_DISABLE_CLOSESTHIT | anyhit_off(),
              0u, 1u, 1u, &p);
     return p[0] == 1u;
 }
@@ -45,7 +53,7 @@ fn trace_path(origin0: vec3<f32>, dir0: vec3<f32>, tmin0: f32, tmax0: f32, rng_i
         p[P_RNG] = rng;
         let scatter = depth + 1u < params.max_depth;
         p[P_FLAGS] = select(0u, IN_SCATTER, scatter);
-        rt_trace(params.scene, origin, dir, tmin, tmax, 0.0, 0xFFu, RT_RAY_FLAG_DISABLE_ANYHIT,
+        rt_trace(params.scene, origin, dir, tmin, tmax, 0.0, 0xFFu, anyhit_off(),
                  0u, 1u, 0u, &p);
         res.rays += 1.0;
         let flags = p[P_FLAGS];

@@ -6,6 +6,10 @@
 @group(0) @binding(4) var<storage, read> uvs: array<f32>;
 @group(0) @binding(5) var<storage, read> indices: array<u32>;
 @group(0) @binding(6) var<storage, read> lights: array<f32>;
+// Spheres, SPHERE_WORDS floats each: centre, radius (object space of their GAS), then the
+// rows of the rotation from world (or group) space to the sphere's own frame.
+@group(0) @binding(7) var<storage, read> spheres: array<f32>;
+const SPHERE_WORDS: u32 = 16u;
 
 // Payload registers of a radiance ray (in: rng, flags; out: the rest).
 const P_RNG: u32 = 0u;
@@ -61,6 +65,7 @@ const LIGHT_TRIANGLE: u32 = 0u;
 const LIGHT_POINT: u32 = 1u;
 const LIGHT_DIRECTIONAL: u32 = 2u;
 const LIGHT_CONSTANT: u32 = 3u;
+const LIGHT_SPHERE: u32 = 4u;
 
 struct LightSample {
     dir: vec3<f32>,
@@ -126,6 +131,9 @@ fn sample_light(x: vec3<f32>, u_sel: f32, u: vec2<f32>) -> LightSample {
         let far = lights[b + 9u];
         return LightSample(dir, le / pdf0, pdf0, x + dir * far, true);
     }
+    if kind == LIGHT_SPHERE {
+        return sample_sphere_light(b, x, le, pdf0, u);
+    }
     // Constant: uniform directions over the sphere (Mitsuba's constant emitter).
     let z = 1.0 - 2.0 * u.x;
     let r = sqrt(max(0.0, 1.0 - z * z));
@@ -136,10 +144,73 @@ fn sample_light(x: vec3<f32>, u_sel: f32, u: vec2<f32>) -> LightSample {
     return LightSample(dir, le / pdf, pdf, x + dir * far, false);
 }
 
+// Mitsuba's sphere sample_direction: from outside, a direction uniform in the cone of the
+// visible cap (Taylor expansion for tiny cones, as Mitsuba); from inside, a point uniform
+// over the surface. Emission leaves the outward (or, flipped, inward) side only.
+fn sample_sphere_light(b: u32, x: vec3<f32>, le: vec3<f32>, sel: f32, u: vec2<f32>) -> LightSample {
+    let c = lv3(b + 6u);
+    let r = lights[b + 9u];
+    let flip = lights[b + 10u];
+    let dc_v = c - x;
+    let dc2 = dot(dc_v, dc_v);
+    var y: vec3<f32>;
+    var n: vec3<f32>;
+    var pdf: f32;
+    if dc2 > r * r {
+        let inv_dc = inverseSqrt(dc2);
+        let sin_max = r * inv_dc;
+        let sin_max2 = sin_max * sin_max;
+        let inv_sin_max = 1.0 / sin_max;
+        let cos_max = sqrt(max(0.0, 1.0 - sin_max2));
+        var sin2 = sin_max2 * u.x;
+        if sin_max2 > 0.00068523 {
+            let t = (cos_max - 1.0) * u.x + 1.0;
+            sin2 = 1.0 - t * t;
+        }
+        let cos_t = sqrt(max(0.0, 1.0 - sin2));
+        let cos_a = sin2 * inv_sin_max + cos_t * sqrt(max(0.0, 1.0 - sin2 * inv_sin_max * inv_sin_max));
+        let sin_a = sqrt(max(0.0, 1.0 - cos_a * cos_a));
+        let phi = u.y * 2.0 * PI;
+        let f = frame_new(-dc_v * inv_dc);
+        let d = to_world(f, vec3<f32>(cos(phi) * sin_a, sin(phi) * sin_a, cos_a));
+        y = c + d * r;
+        n = d;
+        pdf = sel / (2.0 * PI * (1.0 - cos_max));
+    } else {
+        let z = 1.0 - 2.0 * u.x;
+        let rr = sqrt(max(0.0, 1.0 - z * z));
+        let phi = 2.0 * PI * u.y;
+        let d = vec3<f32>(rr * cos(phi), rr * sin(phi), z);
+        y = c + d * r;
+        n = d;
+        let v = y - x;
+        let dist2 = dot(v, v);
+        let cos_l = abs(dot(normalize(v), d));
+        if cos_l <= 0.0 || dist2 <= 0.0 {
+            return light_none();
+        }
+        pdf = sel * dist2 / (cos_l * 4.0 * PI * r * r);
+    }
+    n = n * flip;
+    let v = y - x;
+    let dist2 = dot(v, v);
+    if dist2 <= 0.0 || !(pdf > 0.0) {
+        return light_none();
+    }
+    let dir = v * inverseSqrt(dist2);
+    if dot(n, -dir) <= 0.0 {
+        return light_none();
+    }
+    return LightSample(dir, le / pdf, pdf, rt_offset_ray(y, n), false);
+}
+
 // ---- Mesh hits ----
-// SBT record data words: vertex base, triangle base, normal base, uv base (NONE: absent),
-// flip, emitter area pdf, emitted radiance rgb, pad, then 24 material parameters.
-const SBT_MATERIAL: u32 = 10u;
+// SBT record data words: vertex base (a sphere: its index), triangle base, normal base, uv
+// base (NONE: absent), flip, emitter pdf (meshes: selection / area; spheres: selection),
+// emitted radiance rgb, pad, a mask's opacity texture (13 floats), then the material
+// parameters (geometry.rs's layout).
+const SBT_OPACITY: u32 = 10u;
+const SBT_MATERIAL: u32 = 23u;
 
 struct Hit {
     p: vec3<f32>,
@@ -164,6 +235,12 @@ fn uv2(buf_base: u32, i: u32) -> vec2<f32> {
     return vec2<f32>(uvs[b], uvs[b + 1u]);
 }
 
+// A normal from object to world space (the transpose of world-to-object's linear part).
+fn normal_to_world(n: vec3<f32>) -> vec3<f32> {
+    let w = rt_world_to_object();
+    return normalize(vec3<f32>(dot(w[0], n), dot(w[1], n), dot(w[2], n)));
+}
+
 fn mesh_hit() -> Hit {
     let prim = rt_primitive_index();
     let vbase = rt_sbt_data_u32(0u);
@@ -180,11 +257,17 @@ fn mesh_hit() -> Hit {
     let p2 = vtx3(vbase, i2);
     let b = rt_triangle_barycentrics();
     let w0 = 1.0 - b.x - b.y;
-    let p = p0 * w0 + p1 * b.x + p2 * b.y;
+    var p = p0 * w0 + p1 * b.x + p2 * b.y;
     var ng = normalize(cross(p1 - p0, p2 - p0));
     var ns = ng;
     if nbase != NONE {
         ns = normalize(nrm3(nbase, i0) * w0 + nrm3(nbase, i1) * b.x + nrm3(nbase, i2) * b.y);
+    }
+    if INSTANCED {
+        // Object to world; normals by the inverse transpose, as Mitsuba's instance.
+        p = rt_object_to_world() * vec4<f32>(p, 1.0);
+        ng = normal_to_world(ng);
+        ns = normal_to_world(ns);
     }
     if flip != 0u {
         ng = -ng;
@@ -198,6 +281,70 @@ fn mesh_hit() -> Hit {
     return Hit(p, ng, ns, uv, rt_ray_tmax());
 }
 
+// Mitsuba's sphere: the hit point projected back onto the surface, the normal from the
+// centre, uv = (φ / 2π, θ / π) in the sphere's own frame.
+fn sphere_hit() -> Hit {
+    let sb = rt_sbt_data_u32(0u) * SPHERE_WORDS;
+    let flip = rt_sbt_data_u32(4u);
+    let c = vec3<f32>(spheres[sb], spheres[sb + 1u], spheres[sb + 2u]);
+    let r = spheres[sb + 3u];
+    let t = rt_ray_tmax();
+    var p = rt_world_ray_origin() + rt_world_ray_direction() * t;
+    var local = p - c;
+    if INSTANCED {
+        local = rt_world_to_object() * vec4<f32>(p, 1.0) - c;
+    }
+    local = normalize(local);
+    p = c + local * r;
+    var n = local;
+    if INSTANCED {
+        p = rt_object_to_world() * vec4<f32>(p, 1.0);
+        n = normal_to_world(local);
+    }
+    let q = vec3<f32>(
+        dot(vec3<f32>(spheres[sb + 4u], spheres[sb + 5u], spheres[sb + 6u]), local),
+        dot(vec3<f32>(spheres[sb + 7u], spheres[sb + 8u], spheres[sb + 9u]), local),
+        dot(vec3<f32>(spheres[sb + 10u], spheres[sb + 11u], spheres[sb + 12u]), local));
+    var phi = atan2(q.y, q.x);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    let theta = acos(clamp(q.z, -1.0, 1.0));
+    let uv = vec2<f32>(phi * (0.5 * INV_PI), theta * INV_PI);
+    if flip != 0u {
+        n = -n;
+    }
+    return Hit(p, n, n, uv, t);
+}
+
+// Emission of a sphere hit and the pdf with which next-event estimation would have chosen it
+// from the ray's origin: Mitsuba's sphere pdf_direction (the visible cap's cone from outside).
+// Emitting spheres are never instanced, so their table entry is in world space.
+fn sphere_emission(h: Hit, d: vec3<f32>) {
+    let le = vec3<f32>(rt_sbt_data_f32(6u), rt_sbt_data_f32(7u), rt_sbt_data_f32(8u));
+    let sel = rt_sbt_data_f32(5u);
+    var out_le = vec3<f32>(0.0);
+    if dot(h.ns, d) < 0.0 {
+        out_le = le;
+    }
+    let sb = rt_sbt_data_u32(0u) * SPHERE_WORDS;
+    let c = vec3<f32>(spheres[sb], spheres[sb + 1u], spheres[sb + 2u]);
+    let r = spheres[sb + 3u];
+    let sin_a = r / length(c - rt_world_ray_origin());
+    var pdf = 0.0;
+    if sin_a < 0.99999994 {
+        let cos_a = sqrt(max(0.0, 1.0 - sin_a * sin_a));
+        pdf = sel / (2.0 * PI * (1.0 - cos_a));
+    } else {
+        let cos_l = abs(dot(h.ng, d));
+        if cos_l > 0.0 {
+            pdf = sel * h.t * h.t / (cos_l * 4.0 * PI * r * r);
+        }
+    }
+    set_v3(P_LE, out_le);
+    set_f(P_EMPDF, pdf);
+}
+
 fn sbt_material() -> MatParams {
     var m: MatParams;
     for (var i = 0u; i < 24u; i++) {
@@ -208,7 +355,7 @@ fn sbt_material() -> MatParams {
 
 // Emission seen along d at the hit (Mitsuba's area emitter: front side only) and the
 // solid-angle pdf with which next-event estimation would have chosen this point.
-fn surface_emission(h: Hit, d: vec3<f32>) {
+fn mesh_emission(h: Hit, d: vec3<f32>) {
     let le = vec3<f32>(rt_sbt_data_f32(6u), rt_sbt_data_f32(7u), rt_sbt_data_f32(8u));
     let pdf_area = rt_sbt_data_f32(5u);
     var out_le = vec3<f32>(0.0);

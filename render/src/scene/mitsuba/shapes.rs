@@ -91,6 +91,7 @@ impl Builder<'_> {
                         name,
                         center: m.transform_point3(DVec3::ZERO).as_vec3(),
                         radius: scale as f32,
+                        rotation: (glam::DMat3::from_mat4(m) * (1.0 / scale)).as_mat3(),
                         material,
                         emission,
                         flip_normals,
@@ -178,6 +179,26 @@ impl Builder<'_> {
                 ));
             }
             self.shape(&s, &mut out)?;
+        }
+        // Mitsuba's shapegroup refuses emitters ("Instancing of emitters is not supported").
+        let emitter = out
+            .meshes
+            .iter()
+            .filter(|m| m.emission.is_some())
+            .map(|m| &m.name);
+        let mut emitter = emitter.chain(
+            out.spheres
+                .iter()
+                .filter(|s| s.emission.is_some())
+                .map(|s| &s.name),
+        );
+        if let Some(name) = emitter.next() {
+            return Err(err(
+                &obj.at,
+                format!(
+                    "the shape `{name}` in this shapegroup is an area emitter; Mitsuba does not instance emitters (place it outside the group)"
+                ),
+            ));
         }
         let id = self.scene.groups.len() as u32;
         let name = obj
