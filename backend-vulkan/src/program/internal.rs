@@ -161,7 +161,7 @@ fn triangle_stage(c: &LoweringConfig) -> String {
         s.push_str(MICROMAP_LOOKUP);
         r#"
     if g1.y != 0xFFFFFFFFu && (iflags & 32u) == 0u {
-        state = _optik_micromap_state(g1.y, p, h.u, h.v);
+        state = _optik_micromap(g1.y, p, h.u, h.v);
     }"#
     } else {
         ""
@@ -246,7 +246,7 @@ fn optk_fetch(i: u32) -> vec4<u32> {
 
 // The micromap state (0..3) at barycentrics (u, v) of primitive `p` of the geometry whose
 // micromap block starts at `block`.
-fn _optik_micromap_state(block: u32, p: u32, u: f32, v: f32) -> u32 {
+fn _optik_micromap(block: u32, p: u32, u: f32, v: f32) -> u32 {
     let w1 = _optik_data[block + 4u + 2u * p + 1u];
     let special = w1 >> 16u;
     if special != 0u {
