@@ -1,43 +1,57 @@
-//! The catalog: every case, by group (research/conformance.md §6 and the numerics group),
-//! and the checks every case must pass before it can judge a backend.
+//! The catalog: every case, one module per group (the groups of [`crate::case::Group`], in
+//! that order), and the checks every case must pass before it can judge a backend.
 
+pub mod aabb;
 pub mod ah;
-pub mod calls;
-pub mod exc_img;
+pub mod r#as;
+pub mod builtin;
+pub mod call;
+pub mod exc;
 pub mod flags;
+pub mod img;
 pub mod inst;
 pub mod launch;
+pub mod motion;
 pub mod numerics;
-pub mod prims;
+pub mod payload;
+pub mod prim;
 pub mod sbt;
+pub mod trace;
 pub mod tri;
 pub mod util;
 
-use crate::case::Case;
+use crate::case::{Case, Group};
 use crate::oracle;
 use optik::{ProgramKind, ProgramSource};
 
+/// A group module's `cases`: every case of the group, in catalog order.
+pub type GroupCases = fn() -> Vec<Case>;
+
+/// Each group with its module's `cases`, in [`Group::ALL`]'s order: the module of a group is
+/// named after it (`catalog::tri` holds the `tri` group).
+pub const GROUPS: [(Group, GroupCases); 17] = [
+    (Group::Launch, launch::cases),
+    (Group::Builtin, builtin::cases),
+    (Group::Tri, tri::cases),
+    (Group::Flags, flags::cases),
+    (Group::Ah, ah::cases),
+    (Group::Aabb, aabb::cases),
+    (Group::Sbt, sbt::cases),
+    (Group::Payload, payload::cases),
+    (Group::Call, call::cases),
+    (Group::Trace, trace::cases),
+    (Group::Inst, inst::cases),
+    (Group::Motion, motion::cases),
+    (Group::Prim, prim::cases),
+    (Group::As, r#as::cases),
+    (Group::Exc, exc::cases),
+    (Group::Img, img::cases),
+    (Group::Numerics, numerics::cases),
+];
+
 /// Every case, in catalog order.
 pub fn all() -> Vec<Case> {
-    let mut v = Vec::new();
-    v.extend(launch::launch_cases());
-    v.extend(launch::builtin_cases());
-    v.extend(tri::cases());
-    v.extend(flags::cases());
-    v.extend(ah::ah_cases());
-    v.extend(ah::aabb_cases());
-    v.extend(sbt::cases());
-    v.extend(calls::payload_cases());
-    v.extend(calls::call_cases());
-    v.extend(calls::trace_cases());
-    v.extend(inst::inst_cases());
-    v.extend(inst::motion_cases());
-    v.extend(prims::prim_cases());
-    v.extend(prims::as_cases());
-    v.extend(exc_img::exc_cases());
-    v.extend(exc_img::img_cases());
-    v.extend(numerics::cases());
-    v
+    GROUPS.iter().flat_map(|(_, cases)| cases()).collect()
 }
 
 /// What [`check`] found out about a case.
@@ -194,6 +208,39 @@ mod tests {
             .filter(|c| c.group == crate::case::Group::Numerics)
             .count();
         assert!(numerics >= 25, "{numerics} numerics cases");
+    }
+
+    /// One module per group, named after it, holding that group's cases and no other; no
+    /// other files but this one and the shared `util`.
+    #[test]
+    fn each_group_has_its_own_file() {
+        assert_eq!(GROUPS.map(|(g, _)| g), Group::ALL);
+        for (group, cases) in GROUPS {
+            let cases = cases();
+            assert!(!cases.is_empty(), "{}: no cases", group.name());
+            for c in &cases {
+                assert_eq!(
+                    c.group,
+                    group,
+                    "{} is in the file of `{}`",
+                    c.name,
+                    group.name()
+                );
+            }
+        }
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/catalog");
+        let mut files: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        files.sort();
+        let mut expected: Vec<String> = Group::ALL
+            .iter()
+            .map(|g| format!("{}.rs", g.name()))
+            .chain(["mod.rs".to_string(), "util.rs".to_string()])
+            .collect();
+        expected.sort();
+        assert_eq!(files, expected);
     }
 
     /// Every rule of DESIGN.md §4 and §5 is guarded by at least one case.

@@ -4,7 +4,11 @@
 
 use optik::{GeometryFlags, Matrix3x4};
 
-use crate::scene::{Gas, GeomInput, Triangles};
+use crate::case::*;
+use crate::kit::Ray;
+use crate::oracle::exec::Ctx;
+use crate::oracle::model::Models;
+use crate::scene::{Gas, GeomInput, Node, Scene, Triangles};
 
 /// A small seeded generator (PCG-XSH-RR 32): cases are the same on every machine.
 pub struct Rng(u64);
@@ -426,4 +430,127 @@ pub fn ray_to(from: [f64; 3], to: [f64; 3]) -> crate::kit::Ray {
             to[2] - o[2] as f64,
         ]),
     )
+}
+
+/// A scene of one non-opaque quad over [0, 1]² at z = -1 (hit from above at (x, y) ∈ [0, 1]²).
+pub fn one_quad() -> (Scene, usize) {
+    Scene::single(Gas::new(vec![GeomInput::Triangles(Triangles::soup(
+        quad(0.0, 0.0, 1.0, 1.0, -1.0),
+        GeometryFlags::NONE,
+    ))]))
+}
+
+/// The shared header of the cases with their own raygen: parameters and buffers as in the
+/// standard kit, a record of `stride` words per ray.
+pub fn header(stride: u32) -> String {
+    format!(
+        r#"struct Params {{ handle: vec2<u32>, num_rays: u32, pad: u32 }}
+@group(0) @binding(0) var<uniform> params: Params;
+struct Ray {{
+    origin: vec3<f32>, tmin: f32, dir: vec3<f32>, tmax: f32,
+    time: f32, mask: u32, flags: u32, sbt_offset: u32, sbt_stride: u32, miss_index: u32, aux: u32, pad: u32,
+}}
+@group(0) @binding(1) var<storage, read> rays: array<Ray>;
+@group(0) @binding(2) var<storage, read_write> out: array<u32>;
+
+fn ray_id() -> u32 {{
+    let i = rt_launch_index();
+    let d = rt_launch_dimensions();
+    return i.x + d.x * (i.y + d.y * i.z);
+}}
+
+fn slot(k: u32) -> u32 {{
+    return ray_id() * {stride}u + k;
+}}
+"#
+    )
+}
+
+/// A case with its own module (the header of [`header`] plus `body`), one launch of `rays`
+/// against `root`, records of `stride` words.
+#[allow(clippy::too_many_arguments)]
+pub fn own_case(
+    group: Group,
+    name: &str,
+    summary: &str,
+    guards: &[Rule],
+    scene: Scene,
+    root: Option<usize>,
+    pipeline: PipelineDesc,
+    models: Models,
+    sbt: SbtLayout,
+    rays: Vec<Ray>,
+    stride: usize,
+    channels: Vec<ChannelSpec>,
+) -> Case {
+    let n = rays.len() as u32;
+    let width = n.min(32);
+    let height = n.div_ceil(width);
+    let mut rays = rays;
+    while (rays.len() as u32) < width * height {
+        rays.push(Ray::new([3e38; 3], [0.0, 0.0, 1.0]).interval(0.0, 0.0));
+    }
+    let count = rays.len();
+    Case {
+        name: format!("{}.{name}", group.name()),
+        group,
+        summary: summary.into(),
+        guards: guards.to_vec(),
+        scene,
+        pipeline,
+        models,
+        sbt,
+        launches: vec![Launch {
+            dims: [width, height, 1],
+            params: {
+                let mut p = ParamWord::handle(root).to_vec();
+                p.push(ParamWord::U32(count as u32));
+                p.push(ParamWord::U32(0));
+                p
+            },
+            buffers: vec![
+                BufferInit {
+                    binding: 1,
+                    words: rays.iter().flat_map(|r| r.words()).collect(),
+                },
+                BufferInit {
+                    binding: 2,
+                    words: vec![0; count * stride],
+                },
+            ],
+        }],
+        record: RecordSpec {
+            binding: 2,
+            layout: RecordLayout::PerIndex { stride },
+            channels,
+            judgement: Judgement::PerRecord,
+        },
+        rounding: crate::oracle::geometry::Rounding::F32,
+        backend_specific: vec![],
+    }
+}
+
+/// Reads ray `id` of the rays buffer as the standard layout's words.
+pub fn ray_words(ctx: &mut Ctx<'_, '_>, id: u32) -> Vec<u32> {
+    (0..16).map(|k| ctx.read(1, id as usize * 16 + k)).collect()
+}
+
+/// One miss and one hit record without data, and `callables`.
+pub fn plain_sbt(callables: Vec<SbtEntry>) -> SbtLayout {
+    SbtLayout {
+        miss: vec![SbtEntry::new(0, vec![])],
+        hit: vec![SbtEntry::new(0, vec![])],
+        callables,
+        ..Default::default()
+    }
+}
+
+/// Adds a GAS of one opaque quad over [-0.5, 0.5]² at z = 0 to `scene`; returns its node.
+pub fn small_quad_gas(scene: &mut Scene) -> usize {
+    scene.add(Node::Gas(Gas::new(vec![GeomInput::Triangles(
+        Triangles::soup(
+            quad(-0.5, -0.5, 0.5, 0.5, 0.0),
+            GeometryFlags::DISABLE_ANYHIT,
+        ),
+    )])))
 }
