@@ -544,7 +544,7 @@ pub fn bench_trace(
     let stack_entries = wgpu_device
         .kernel_source(p.pipeline)?
         .lines()
-        .find_map(|l| l.strip_prefix("const OPTK_STACK: u32 = "))
+        .find_map(|l| l.strip_prefix("const _OPTIK_STACK: u32 = "))
         .and_then(|v| v.trim_end_matches("u;").parse().ok());
     let bandwidth = if config.bandwidth_bytes > 0 {
         Some(bandwidth::measure(
