@@ -41,7 +41,7 @@ fn _optik_ray_is_valid(origin: vec3<f32>, direction: vec3<f32>, tmin: f32, tmax:
 }
 
 // -0.0 components become +0.0, so that every later sign test treats them as zero
-// (research/numerics.md F0: obvhs's traversal misses everything for -0.0 directions).
+// (docs/numerics.md F0: obvhs's traversal misses everything for -0.0 directions).
 fn _optik_canonical_direction(d: vec3<f32>) -> vec3<f32> {
     let b = bitcast<vec3<u32>>(d);
     return bitcast<vec3<f32>>(select(b, vec3<u32>(0u), b == vec3<u32>(0x80000000u)));
