@@ -9,7 +9,7 @@
 //! the hits are counted on the host as a check. The same programs run on any backend
 //! through the public API ([`bench_device`], wall-clock timed), so one run compares the
 //! wgpu backend with the Vulkan one. `cargo run --release -p optik-benches --example
-//! bench_trace -- [mesh.obj[.gz]]` prints a report (see docs/wgpu-backend.md §11).
+//! bench_trace -- [mesh.obj[.gz]]` prints a report (see docs/wgpu-backend.md §12).
 
 pub mod bandwidth;
 
