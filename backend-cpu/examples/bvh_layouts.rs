@@ -4,8 +4,8 @@
 //! `cargo run --release -p optik-cpu --no-default-features --example bvh_layouts [scene.obj]`
 //!
 //! Scenes: a generated bumpy sphere (always), and the OBJ given on the command line (the
-//! project's test scenes live in /work/shared/scenes; without the argument only the
-//! generated scene runs). Timings are single-threaded; jobs run interleaved, best of 7.
+//! project's test scenes, DESIGN.md §9, are kept outside the repository; without the argument
+//! only the generated scene runs). Timings are single-threaded; jobs run interleaved, best of 7.
 
 use optik_api::decode::BufferBytes;
 use optik_api::semantics::opacity::CandidateFate;
@@ -217,7 +217,7 @@ type WatertightPlain = Specialised<false, false, false, true, false>;
 type MtConservative = Specialised<false, false, false, false, true>;
 
 /// optik's robust traversal of an obvhs CWBVH: children decoded from their quantised planes,
-/// widened by a few ulps to stay conservative (numerics.md F8), tested as 8 slabs, nearest
+/// widened by a few ulps to stay conservative (docs/numerics.md F8), tested as 8 slabs, nearest
 /// first.
 fn cwbvh_trace(bvh: &obvhs::cwbvh::CwBvh, tris: &[[[f32; 3]; 3]], o: [f32; 3], d: [f32; 3]) -> u32 {
     let ray = PreparedRay::new(o, d, true);

@@ -1103,7 +1103,7 @@ fn plan_stages(
 /// exists when the pipeline's primitives are all AABBs for Vulkan (emulated triangles,
 /// custom primitives, spheres, curves), or all native triangles under debug exceptions
 /// (without them, the null record is the same); a pipeline with both keeps null records
-/// (docs/vulkan-backend.md §10).
+/// (docs/vulkan-backend.md §11).
 fn past_table_group(
     plan: &mut StagePlan,
     config: &LoweringConfig,

@@ -357,7 +357,7 @@ fn compile(
                 label: Some("optik megakernel"),
                 layout: Some(&layout),
                 module: &module,
-                entry_point: Some("optk_main"),
+                entry_point: Some("_optik_main"),
                 compilation_options: Default::default(),
                 cache: None,
             });

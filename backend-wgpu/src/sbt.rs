@@ -14,7 +14,7 @@ use optik_api::{Buffer, Error, GroupRegion, Result, SBT_RECORD_HEADER_SIZE, Shad
 /// so their data runs to the end of the buffer, capped as a record of the largest stride
 /// (`properties().max_sbt_record_stride`, as the CPU backend does).
 const SINGLE_RECORD_DATA_BYTES: u64 = (1 << 16) - 32;
-/// Marks "no record" (as `OPTK_NONE` in the kernel).
+/// Marks "no record" (as `_OPTIK_NONE` in the kernel).
 pub(crate) const NONE: u32 = u32::MAX;
 
 /// A packed table and where its regions are, in words.

@@ -114,7 +114,10 @@ fn scenes_larger_than_one_storage_binding_are_split() {
     let g = ray_list_groups(d, m, 1, &[]);
     let p = pipeline(d, &g, 1);
     let src = dev.kernel_source(p).unwrap();
-    assert!(src.contains("optk_scene4"), "the kernel binds every chunk");
+    assert!(
+        src.contains("_optik_scene4"),
+        "the kernel binds every chunk"
+    );
     let table = numbered_sbt(d, &g);
     let rays: Vec<Ray> = (0..n * n)
         .step_by(37)

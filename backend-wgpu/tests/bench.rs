@@ -137,7 +137,7 @@ fn count_one_ray(dev: &WgpuDevice, accel: Accel, ray: Ray) -> (TrafficCounts, Re
     // The normal kernel never carries the counters, even after a counted launch.
     let source = dev.kernel_source(p).unwrap();
     assert!(
-        !source.contains("optk_count"),
+        !source.contains("_optik_count"),
         "counters in a normal kernel"
     );
     (counts, rec)
@@ -154,7 +154,7 @@ fn counts_match_the_layout() {
     assert_eq!(miss.handle_reads, 1);
     assert_eq!(miss.nodes, 1, "{miss:?}");
     assert_eq!(miss.primitives, 0, "{miss:?}");
-    // Two header words (optk_enter) and the node's eight.
+    // Two header words (_optik_enter) and the node's eight.
     assert_eq!(miss.arena_fetches, 2 + 8, "{miss:?}");
     assert_eq!(miss.memory_bytes(), 16 * (10 + 1));
     // A hit: every fetch is a header word, a node word or a triangle record's (three).
@@ -240,10 +240,10 @@ fn normal_pipelines_contain_no_counters() {
     assert!(recs[0].hit());
     let source = dev.kernel_source(p).unwrap();
     assert!(
-        source.contains("fn optk_traverse"),
+        source.contains("fn _optik_traverse"),
         "not the traversal kernel"
     );
-    for word in ["optk_count", "optk_counters", "atomic"] {
+    for word in ["_optik_count", "_optik_counters", "atomic"] {
         assert!(!source.contains(word), "`{word}` in a normal kernel");
     }
 }

@@ -363,7 +363,7 @@ fn scenes_that_grow_after_linking_get_bigger_kernels() {
     let after = dev.kernel_source(p).unwrap();
     let levels = |s: &str| {
         s.lines()
-            .find(|l| l.starts_with("const OPTK_LEVELS"))
+            .find(|l| l.starts_with("const _OPTIK_LEVELS"))
             .map(str::to_string)
     };
     assert_ne!(

@@ -4,15 +4,15 @@ use common::*;
 use optik_api::*;
 
 /// Names that only the code of one feature defines.
-const SPHERES: &str = "optik_sphere_roots(";
-const CURVES: &str = "optik_curve_intersect(";
-const MOTION: &str = "optk_motion_key(";
-const INSTANCES: &str = "OptkXform";
-const TRANSFORMS: &str = "optk_through_transforms(";
-const ANY_HIT: &str = "fn optk_ah(";
-const INTERSECTION: &str = "fn optk_is(";
-const EXCEPTIONS: &str = "optk_raise(";
-const MICROMAPS: &str = "optk_micromap_state(";
+const SPHERES: &str = "_optik_sphere_roots(";
+const CURVES: &str = "_optik_curve_intersect(";
+const MOTION: &str = "_optik_motion_key(";
+const INSTANCES: &str = "_OptikXform";
+const TRANSFORMS: &str = "_optik_through_transforms(";
+const ANY_HIT: &str = "fn _optik_ah(";
+const INTERSECTION: &str = "fn _optik_is(";
+const EXCEPTIONS: &str = "_optik_raise(";
+const MICROMAPS: &str = "_optik_micromap_state(";
 
 #[test]
 fn a_triangle_only_single_gas_pipeline_has_nothing_else() {
@@ -44,7 +44,7 @@ fn a_triangle_only_single_gas_pipeline_has_nothing_else() {
             "`{absent}` in a triangle-only single-GAS kernel"
         );
     }
-    assert!(src.contains("optk_tri_watertight("));
+    assert!(src.contains("_optik_tri_watertight("));
     // And it still traces.
     let table = numbered_sbt(d, &g);
     let h = d.traversable_handle(gas).unwrap();
@@ -93,7 +93,23 @@ fn forcing_every_feature_compiles_every_part() {
         .unwrap_or_else(|e| panic!("{e}"));
     let f = d.pipeline_features(p).unwrap();
     assert!(f.motion && f.any_hit && f.intersection && f.opacity_micromaps && f.instancing());
-    let src = dev.kernel_source(p).unwrap();
+    let kernel = dev.kernel_source(p).unwrap();
+    // Every name the kernel adds has the internal prefix the front end refuses in user names;
+    // the user's own names come back with their module's prefix `m<i>_` (or `m<i>q<k>_`).
+    let module_prefixed = |n: &str| {
+        n.strip_prefix('m').is_some_and(|rest| {
+            let (head, _) = rest.split_once('_').unwrap_or((rest, ""));
+            let mut parts = head.splitn(2, 'q');
+            let digits = |p: &str| !p.is_empty() && p.chars().all(|c| c.is_ascii_digit());
+            parts.next().is_some_and(digits) && parts.next().is_none_or(digits)
+        })
+    };
+    let unprefixed: Vec<String> = optik_api::wgsl::unprefixed_internal_names(&kernel, &src)
+        .into_iter()
+        .filter(|n| !module_prefixed(n))
+        .collect();
+    assert_eq!(unprefixed, Vec::<String>::new());
+    let src = kernel;
     for present in [
         SPHERES,
         CURVES,
@@ -122,15 +138,15 @@ fn accuracy_selects_the_tests_compiled() {
     let g = ray_list_groups(d, m, 1, &[]);
     let p = pipeline(d, &g, 1);
     let src = dev.kernel_source(p).unwrap();
-    assert!(src.contains("optk_tri_moller_trumbore(") && !src.contains("optk_tri_watertight("));
+    assert!(src.contains("_optik_tri_moller_trumbore(") && !src.contains("_optik_tri_watertight("));
     assert!(
-        !src.contains("OPTK_SLAB_WIDEN;"),
+        !src.contains("_OPTIK_SLAB_WIDEN;"),
         "plain slabs are not widened"
     );
     d.set_accuracy(Accuracy::ROBUST).unwrap();
     let p = pipeline(d, &g, 1);
     let src = dev.kernel_source(p).unwrap();
-    assert!(src.contains("optk_tri_watertight(") && src.contains("far_x * OPTK_SLAB_WIDEN"));
+    assert!(src.contains("_optik_tri_watertight(") && src.contains("far_x * _OPTIK_SLAB_WIDEN"));
     // The driver's triangle test is the Vulkan backend's.
     let driver = Accuracy {
         triangle: TriangleTest::Driver,

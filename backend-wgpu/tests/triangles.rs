@@ -197,7 +197,7 @@ fn invalid_rays_run_no_program() {
 }
 
 /// A closed UV sphere of radius about 1 with radially jittered vertices (the leak test of
-/// research/numerics.md §1.5), as triangles, and its shared edges.
+/// docs/numerics.md), as triangles, and its shared edges.
 /// An edge: its two end points.
 type Edge = ([f32; 3], [f32; 3]);
 

@@ -1,4 +1,4 @@
-//! `optik conformance`: the conformance suite of CONFORMANCE.md (the catalog, the runner and
+//! `optik conformance`: the conformance suite of conformance/README.md (the catalog, the runner and
 //! `bless`), embedded from `optik_conformance::cli`, which owns the options and the output.
 
 pub use optik_conformance::cli::ConformanceArgs;

@@ -9,7 +9,7 @@ use crate::scene::{NodeId, Scene};
 use crate::tolerance::Tolerance;
 use optik::{BackendKind, BuiltinIntersector, PipelineCompileOptions, PipelineLinkOptions};
 
-/// The groups of CONFORMANCE.md.
+/// The case groups (README.md, "Rules"); `catalog/<group>.rs` holds each group's cases.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Group {
     /// Launch dimensions and indices.
@@ -49,7 +49,7 @@ pub enum Group {
 }
 
 impl Group {
-    /// Every group, in CONFORMANCE.md's order.
+    /// Every group, in catalog order.
     pub const ALL: [Group; 17] = [
         Group::Launch,
         Group::Builtin,

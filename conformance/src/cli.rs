@@ -1,4 +1,4 @@
-//! The command line of CONFORMANCE.md, as a library for the `optik` CLI:
+//! The command line of the conformance suite (README.md, "Rules"), as a library for the `optik` CLI:
 //! `optik conformance [--backend cpu|wgpu|vulkan|all] [--filter GLOB] [--json] [--list]
 //! [--out DIR]` and `optik conformance bless`.
 

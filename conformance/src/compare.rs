@@ -1,6 +1,6 @@
 //! The image comparator: OpenImageIO `idiff`'s semantics plus the NaN/Inf gate idiff lacks.
 //!
-//! idiff's rules, as the installed `idiff` 2.4 applies them (research/conformance.md §5.2):
+//! idiff's rules, as the installed `idiff` 2.4 applies them (checked against it by `tests/idiff_agreement.rs`):
 //! per pixel, a channel whose absolute difference `f` is above `fail` **and** whose relative
 //! difference `f / mean(|a|, |b|)` is above `fail_relative` makes the pixel fail (once, however
 //! many channels do); likewise for `warn`. Then:

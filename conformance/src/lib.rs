@@ -1,4 +1,4 @@
-//! optik-conformance: the conformance suite of CONFORMANCE.md.
+//! optik-conformance: the conformance suite (DESIGN.md §7; its rules in README.md).
 //!
 //! - [`catalog`]: the cases, each a scene, WGSL programs, pipeline options, launches, what is
 //!   recorded, a tolerance class and a Rust model of its programs;

@@ -1,4 +1,4 @@
-//! Reports of a run: the text table, the JSON documents of CONFORMANCE.md, and the HTML page
+//! Reports of a run: the text table, the JSON documents of README.md ("Rules"), and the HTML page
 //! with PNG thumbnails of outputs, references and differences.
 
 use crate::case::{Case, Rule};

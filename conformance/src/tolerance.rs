@@ -1,4 +1,4 @@
-//! The tolerance classes of CONFORMANCE.md for one channel of a hit record.
+//! The tolerance classes (README.md, "Rules") for one channel of a hit record.
 //!
 //! `U16` compares as idiff's `-fail 16ε·s -failrelative 16ε` does (|Δ| above both the absolute
 //! and the relative bound fails, relative to the mean of the two values), so the same check

@@ -137,7 +137,7 @@ def main():
     </shape>""")
     xml = f"""<scene version="3.0.0">
     <!-- The Breakfast Room ("The Breakfast Room" by Wig42, Blend Swap; Mitsuba version by
-         Benedikt Bitterli; CC BY 3.0, see /work/shared/scenes/breakfast-room/SOURCE.md), one
+         Benedikt Bitterli; CC BY 3.0, see render/validation/SOURCE.md), one
          OBJ per material, written by make_breakfast_room.py: run it to create the meshes.
          The original sunsky emitter is replaced by a directional sun and a constant sky. -->
     <default name="spp" value="64"/>

@@ -9,7 +9,7 @@
 mod device_api;
 mod locate;
 mod reflect;
-mod scan;
+pub(crate) mod scan;
 
 pub use device_api::{
     DeviceFunction, OFFSET_RAY_BODY, PRELUDE_CONSTANTS, PRELUDE_EXCEPTION_CODES, PRELUDE_MARKER,
@@ -211,8 +211,9 @@ fn fallback_span(message: &str, user: &str) -> naga::Span {
 }
 
 /// What naga cannot report in the user's text because it only notices it in the prelude
-/// that follows: a bracket or comment left open, and module-scope names that would hide a
-/// name the prelude declares or relies on.
+/// that follows: a bracket or comment left open, module-scope names that would hide a name
+/// the prelude declares or relies on, and names with the prefix of the WGSL the backends add
+/// (`crate::wgsl::INTERNAL_PREFIX`), which would clash there.
 fn check_user_text(loc: &Locator, user: &str, prelude_text: &str) -> Result<()> {
     let one = |start: usize, end: usize, message: String| {
         Err(Error::compile(vec![loc.diagnostic(
@@ -240,9 +241,6 @@ fn check_user_text(loc: &Locator, user: &str, prelude_text: &str) -> Result<()> 
     let reserved = scan::prelude_names(prelude_text);
     let mut diagnostics = Vec::new();
     for d in scan::module_scope_names(user) {
-        let Some((_, declared_by_prelude)) = reserved.iter().find(|(n, _)| *n == d.name) else {
-            continue;
-        };
         let what = match d.keyword {
             "fn" => "a function",
             "struct" => "a struct",
@@ -250,6 +248,20 @@ fn check_user_text(loc: &Locator, user: &str, prelude_text: &str) -> Result<()> 
             "const" => "a constant",
             "override" => "an override",
             _ => "a variable",
+        };
+        if crate::wgsl::is_internal_name(&d.name) {
+            diagnostics.push(loc.diagnostic(
+                naga::Span::new(d.start as u32, d.end as u32),
+                format!(
+                    "{what} named `{}`: names starting with `{}` (in any letter case) are reserved for the WGSL optik adds to your programs; rename it",
+                    d.name,
+                    crate::wgsl::INTERNAL_PREFIX
+                ),
+            ));
+            continue;
+        }
+        let Some((_, declared_by_prelude)) = reserved.iter().find(|(n, _)| *n == d.name) else {
+            continue;
         };
         let message = if *declared_by_prelude {
             format!(

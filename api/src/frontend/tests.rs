@@ -398,8 +398,18 @@ fn names_the_prelude_relies_on_give_one_clear_error() {
         8,
         "`RtPayload` is a name of optik's device API",
     );
-    // Local names and names the prelude does not use stay free.
-    let ok = "fn p() -> f32 { return 1.0; }\nfn normalize2() {}\nfn raygen__a() { let n = p(); }\n";
+    // The backends' internal prefix, in any letter case, on any kind of declaration.
+    for (src, line, column) in [
+        ("fn _optik_state() {}\nfn raygen__a() { }\n", 1, 4),
+        ("const _OPTIK_NONE: u32 = 1u;\nfn raygen__a() { }\n", 1, 7),
+        ("fn raygen__a() { }\nstruct _OptikHit { t: f32 }\n", 2, 8),
+        ("var<private> _Optik_x: u32;\nfn raygen__a() { }\n", 1, 14),
+    ] {
+        assert_diag(src, line, column, "are reserved for the WGSL optik adds");
+    }
+    // Local names and names the prelude does not use stay free (the old internal prefixes
+    // too).
+    let ok = "fn p() -> f32 { return 1.0; }\nfn normalize2() {}\nfn optk_a() {}\nfn optik_b() {}\nfn raygen__a() { let n = p(); let _optik_local = 1u; }\n";
     compile_src(ok).unwrap();
 }
 

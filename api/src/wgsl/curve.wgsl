@@ -2,11 +2,11 @@
 //
 // Written once in the project: the wgpu megakernel includes this file, and the Vulkan backend
 // compiles it into the intersection stage it uses for curve build inputs. Pure functions
-// only: no bindings and no device-API calls, every name prefixed `optik_`. It uses
-// OPTIK_HIT_KIND_FRONT_FACE from sphere.wgsl; include that file too.
+// only: no bindings and no device-API calls, every name prefixed `_optik`. It uses
+// _OPTIK_HIT_KIND_FRONT_FACE from sphere.wgsl; include that file too.
 //
 // A round curve segment is the surface swept by a sphere whose centre and radius follow the
-// segment's basis. The test approximates the segment by `optik_curve_pieces(basis)` round
+// segment's basis. The test approximates the segment by `_optik_curve_pieces(basis)` round
 // cones (a cone frustum tangent to two end spheres) joined at parameters k / n, and
 // intersects those exactly.
 //
@@ -22,16 +22,16 @@
 //
 // Culling: as OptiX's curves, only rays entering the tube hit it; a ray starting inside a
 // tube does not hit that tube (so secondary rays leaving a curve's surface do not re-hit it).
-// Every reported hit is a front-face hit (OPTIK_HIT_KIND_FRONT_FACE).
+// Every reported hit is a front-face hit (_OPTIK_HIT_KIND_FRONT_FACE).
 
 // Curve bases, in the order of optik's `CurveType`.
-const OPTIK_CURVE_ROUND_LINEAR: u32 = 0u;
-const OPTIK_CURVE_ROUND_QUADRATIC_BSPLINE: u32 = 1u;
-const OPTIK_CURVE_ROUND_CUBIC_BSPLINE: u32 = 2u;
-const OPTIK_CURVE_ROUND_CATMULLROM: u32 = 3u;
+const _OPTIK_CURVE_ROUND_LINEAR: u32 = 0u;
+const _OPTIK_CURVE_ROUND_QUADRATIC_BSPLINE: u32 = 1u;
+const _OPTIK_CURVE_ROUND_CUBIC_BSPLINE: u32 = 2u;
+const _OPTIK_CURVE_ROUND_CATMULLROM: u32 = 3u;
 
 // Round cones per segment.
-fn optik_curve_pieces(basis: u32) -> u32 {
+fn _optik_curve_pieces(basis: u32) -> u32 {
     switch basis {
         case 0u: { return 1u; }
         case 1u: { return 8u; }
@@ -41,7 +41,7 @@ fn optik_curve_pieces(basis: u32) -> u32 {
 
 // The centre (xyz) and radius (w) at parameter u in [0, 1] of a segment with control points
 // p0..p3 (xyz, radius w; bases with fewer points ignore the last ones).
-fn optik_curve_eval(basis: u32, p0: vec4<f32>, p1: vec4<f32>, p2: vec4<f32>, p3: vec4<f32>, u: f32) -> vec4<f32> {
+fn _optik_curve_eval(basis: u32, p0: vec4<f32>, p1: vec4<f32>, p2: vec4<f32>, p3: vec4<f32>, u: f32) -> vec4<f32> {
     let v = 1.0 - u;
     switch basis {
         case 0u: {
@@ -82,7 +82,7 @@ fn optik_curve_eval(basis: u32, p0: vec4<f32>, p1: vec4<f32>, p2: vec4<f32>, p3:
 // negative inside, and on the part between the tangent circles when Y - a.w rr is in [0, d2];
 // then s = (Y - a.w rr) / d2. Substituting x = o + t d gives k2 t^2 + 2 k1 t + k0 = 0; the ray
 // enters where the implicit function decreases, the root (-k1 - sqrt(k1^2 - k0 k2)) / k2.
-fn optik_round_cone(origin: vec3<f32>, direction: vec3<f32>, a: vec4<f32>, b: vec4<f32>, cap_a: bool, cap_b: bool, clip0: vec4<f32>, clip1: vec4<f32>, tmin: f32, tmax: f32) -> vec3<f32> {
+fn _optik_round_cone(origin: vec3<f32>, direction: vec3<f32>, a: vec4<f32>, b: vec4<f32>, cap_a: bool, cap_b: bool, clip0: vec4<f32>, clip1: vec4<f32>, tmin: f32, tmax: f32) -> vec3<f32> {
     var best = vec3<f32>(0.0);
     var best_t = tmax;
     let ba = b.xyz - a.xyz;
@@ -103,22 +103,22 @@ fn optik_round_cone(origin: vec3<f32>, direction: vec3<f32>, a: vec4<f32>, b: ve
         if k2 != 0.0 && h >= 0.0 {
             let t = (-k1 - sqrt(h)) / k2;
             let y = m1 + t * m2 - a.w * rr;
-            if y >= 0.0 && y <= d2 && t >= tmin && t <= best_t && optik_curve_kept(origin + t * direction, clip0, clip1) {
+            if y >= 0.0 && y <= d2 && t >= tmin && t <= best_t && _optik_curve_kept(origin + t * direction, clip0, clip1) {
                 best_t = t;
                 best = vec3<f32>(t, y / d2, 1.0);
             }
         }
     }
     if cap_a {
-        let r = optik_sphere_roots(a.xyz, a.w, origin, direction);
-        if r.z != 0.0 && r.x >= tmin && r.x <= best_t && optik_curve_kept(origin + r.x * direction, clip0, clip1) {
+        let r = _optik_sphere_roots(a.xyz, a.w, origin, direction);
+        if r.z != 0.0 && r.x >= tmin && r.x <= best_t && _optik_curve_kept(origin + r.x * direction, clip0, clip1) {
             best_t = r.x;
             best = vec3<f32>(r.x, 0.0, 1.0);
         }
     }
     if cap_b {
-        let r = optik_sphere_roots(b.xyz, b.w, origin, direction);
-        if r.z != 0.0 && r.x >= tmin && r.x <= best_t && optik_curve_kept(origin + r.x * direction, clip0, clip1) {
+        let r = _optik_sphere_roots(b.xyz, b.w, origin, direction);
+        if r.z != 0.0 && r.x >= tmin && r.x <= best_t && _optik_curve_kept(origin + r.x * direction, clip0, clip1) {
             best_t = r.x;
             best = vec3<f32>(r.x, 1.0, 1.0);
         }
@@ -127,7 +127,7 @@ fn optik_round_cone(origin: vec3<f32>, direction: vec3<f32>, a: vec4<f32>, b: ve
 }
 
 // Whether a point lies on the kept side of both clip planes.
-fn optik_curve_kept(p: vec3<f32>, clip0: vec4<f32>, clip1: vec4<f32>) -> bool {
+fn _optik_curve_kept(p: vec3<f32>, clip0: vec4<f32>, clip1: vec4<f32>) -> bool {
     return dot(clip0.xyz, p) + clip0.w >= 0.0 && dot(clip1.xyz, p) + clip1.w >= 0.0;
 }
 
@@ -137,39 +137,39 @@ fn optik_curve_kept(p: vec3<f32>, clip0: vec4<f32>, clip1: vec4<f32>) -> bool {
 // the segments of a strand); joints between the pieces of a segment are always round. An end
 // without a cap is open: the tube is cut flat by the plane through the end, perpendicular
 // to the end piece's axis (the joint spheres inside the segment do not poke out of it).
-fn optik_curve_intersect(basis: u32, p0: vec4<f32>, p1: vec4<f32>, p2: vec4<f32>, p3: vec4<f32>, cap_start: bool, cap_end: bool, origin: vec3<f32>, direction: vec3<f32>, tmin: f32, tmax: f32) -> vec3<f32> {
+fn _optik_curve_intersect(basis: u32, p0: vec4<f32>, p1: vec4<f32>, p2: vec4<f32>, p3: vec4<f32>, cap_start: bool, cap_end: bool, origin: vec3<f32>, direction: vec3<f32>, tmin: f32, tmax: f32) -> vec3<f32> {
     let dd = dot(direction, direction);
     if !(dd > 0.0) {
         return vec3<f32>(0.0);
     }
     // Move the origin along the ray next to the segment before solving: the quadratics then
     // work with small numbers, not with the squared distance to a far camera.
-    let mid = optik_curve_eval(basis, p0, p1, p2, p3, 0.5).xyz;
+    let mid = _optik_curve_eval(basis, p0, p1, p2, p3, 0.5).xyz;
     let shift = dot(mid - origin, direction) / dd;
     let o = origin + shift * direction;
-    let n = optik_curve_pieces(basis);
+    let n = _optik_curve_pieces(basis);
     var best = vec3<f32>(0.0);
     var best_t = tmax - shift;
     var clip0 = vec4<f32>(0.0, 0.0, 0.0, 1.0);
     var clip1 = vec4<f32>(0.0, 0.0, 0.0, 1.0);
-    let first = optik_curve_eval(basis, p0, p1, p2, p3, 0.0).xyz;
-    let last = optik_curve_eval(basis, p0, p1, p2, p3, 1.0).xyz;
+    let first = _optik_curve_eval(basis, p0, p1, p2, p3, 0.0).xyz;
+    let last = _optik_curve_eval(basis, p0, p1, p2, p3, 1.0).xyz;
     if !cap_start {
-        let axis = optik_curve_eval(basis, p0, p1, p2, p3, 1.0 / f32(n)).xyz - first;
+        let axis = _optik_curve_eval(basis, p0, p1, p2, p3, 1.0 / f32(n)).xyz - first;
         clip0 = vec4<f32>(axis, -dot(axis, first));
     }
     if !cap_end {
-        let axis = last - optik_curve_eval(basis, p0, p1, p2, p3, 1.0 - 1.0 / f32(n)).xyz;
+        let axis = last - _optik_curve_eval(basis, p0, p1, p2, p3, 1.0 - 1.0 / f32(n)).xyz;
         clip1 = vec4<f32>(-axis, dot(axis, last));
     }
     // The planes in the shifted frame.
     clip0.w += dot(clip0.xyz, shift * direction);
     clip1.w += dot(clip1.xyz, shift * direction);
-    var a = optik_curve_eval(basis, p0, p1, p2, p3, 0.0);
+    var a = _optik_curve_eval(basis, p0, p1, p2, p3, 0.0);
     for (var i = 0u; i < n; i++) {
         let u1 = f32(i + 1u) / f32(n);
-        let b = optik_curve_eval(basis, p0, p1, p2, p3, u1);
-        let hit = optik_round_cone(o, direction, a, b, i > 0u || cap_start, i + 1u < n || cap_end, clip0, clip1, tmin - shift, best_t);
+        let b = _optik_curve_eval(basis, p0, p1, p2, p3, u1);
+        let hit = _optik_round_cone(o, direction, a, b, i > 0u || cap_start, i + 1u < n || cap_end, clip0, clip1, tmin - shift, best_t);
         if hit.z != 0.0 {
             best_t = hit.x;
             best = vec3<f32>(hit.x + shift, (f32(i) + hit.y) / f32(n), 1.0);

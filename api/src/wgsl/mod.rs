@@ -4,24 +4,59 @@
 //! intersection programs for what its driver lacks (motion).
 //!
 //! Two families of snippets, each plain WGSL of pure functions:
-//! - the built-in intersectors [`SPHERE`] and [`CURVE`] (names prefixed `optik_`);
-//! - the software traversal pieces (names prefixed `optk_` / `Optk`): [`RAY`], [`SLAB`],
-//!   [`TRIANGLE`], [`MOTION`], [`BVH4`], [`MICROMAP`].
+//! - the built-in intersectors [`SPHERE`] and [`CURVE`];
+//! - the software traversal pieces: [`RAY`], [`SLAB`], [`TRIANGLE`], [`MOTION`], [`BVH4`],
+//!   [`MICROMAP`].
+//!
+//! Every module-scope name in them, and in the WGSL the backends generate around the user's
+//! programs, starts with [`INTERNAL_PREFIX`] (`_optik_name` for functions and variables,
+//! `_OPTIK_NAME` for constants, `_OptikName` for types); the front end refuses user names
+//! that do ([`crate::frontend::compile`]), so the two never clash.
 //!
 //! Dependencies: [`CURVE`] needs [`SPHERE`]; [`SLAB`], [`TRIANGLE`] and [`MOTION`] need [`RAY`];
 //! [`BVH4`] needs [`RAY`] and [`SLAB`]; [`BVH4`] and [`MICROMAP`] call
-//! `fn optk_fetch(i: u32) -> vec4<u32>`, which the including shader defines over its scene
+//! `fn _optik_fetch(i: u32) -> vec4<u32>`, which the including shader defines over its scene
 //! data. Lines tagged `// @conservative` or `// @f64` are optional: [`specialise`] keeps or
 //! drops them (the plain slab test; no f64 fallback where the device has no f64).
 
-/// The sphere intersector: `optik_sphere_roots` (Ray Tracing Gems ch. 7) and the hit kinds
+/// The prefix, compared without regard to ASCII case, of every internal WGSL name: the shared
+/// snippets here and what the backends generate. User names may not start with it.
+pub const INTERNAL_PREFIX: &str = "_optik";
+
+/// Whether `name` starts with [`INTERNAL_PREFIX`] in any letter case.
+pub fn is_internal_name(name: &str) -> bool {
+    name.get(..INTERNAL_PREFIX.len())
+        .is_some_and(|p| p.eq_ignore_ascii_case(INTERNAL_PREFIX))
+}
+
+/// The module-scope names `generated` declares (functions, structs, aliases, constants,
+/// overrides, variables) that are neither declared by `user` nor device-API names of the
+/// front end's prelude, and do not start with [`INTERNAL_PREFIX`]: what a backend's
+/// generated WGSL must not have. Backends test their generated sources with it.
+pub fn unprefixed_internal_names(generated: &str, user: &str) -> Vec<String> {
+    let user: Vec<String> = crate::frontend::scan::module_scope_names(user)
+        .into_iter()
+        .map(|d| d.name)
+        .collect();
+    let api: Vec<String> = crate::frontend::scan::module_scope_names(&crate::frontend::prelude(32))
+        .into_iter()
+        .map(|d| d.name)
+        .collect();
+    crate::frontend::scan::module_scope_names(generated)
+        .into_iter()
+        .map(|d| d.name)
+        .filter(|n| !is_internal_name(n) && !user.contains(n) && !api.contains(n))
+        .collect()
+}
+
+/// The sphere intersector: `_optik_sphere_roots` (Ray Tracing Gems ch. 7) and the hit kinds
 /// built-in primitives report.
 pub const SPHERE: &str = include_str!("sphere.wgsl");
 
-/// The round-curve intersector (`optik_curve_intersect`); needs [`SPHERE`] in the same source.
+/// The round-curve intersector (`_optik_curve_intersect`); needs [`SPHERE`] in the same source.
 pub const CURVE: &str = include_str!("curve.wgsl");
 
-/// The basis number `optik_curve_intersect` takes for a curve type.
+/// The basis number `_optik_curve_intersect` takes for a curve type.
 pub fn curve_basis(curve_type: crate::accel::CurveType) -> u32 {
     match curve_type {
         crate::accel::CurveType::RoundLinear => 0,
@@ -89,10 +124,10 @@ mod tests {
         .validate(&module)
         .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)));
         for name in [
-            "optik_sphere_roots",
-            "optik_sphere_normal",
-            "optik_curve_intersect",
-            "optik_round_cone",
+            "_optik_sphere_roots",
+            "_optik_sphere_normal",
+            "_optik_curve_intersect",
+            "_optik_round_cone",
         ] {
             assert!(
                 module
@@ -102,6 +137,23 @@ mod tests {
                 "{name} missing"
             );
         }
+    }
+
+    #[test]
+    fn every_shared_name_has_the_internal_prefix() {
+        let all = [RAY, SLAB, TRIANGLE, SPHERE, CURVE, MOTION, BVH4, MICROMAP].concat();
+        assert_eq!(unprefixed_internal_names(&all, ""), Vec::<String>::new());
+        // The check sees every kind of declaration, leaves the user's and the device API's
+        // names alone, and ignores letter case in the prefix.
+        let generated = "fn helper() {}\nconst LIMIT: u32 = 1u;\nstruct Hit { t: f32 }\n\
+                         fn _optik_a() {}\nconst _OPTIK_B: u32 = 2u;\nstruct _OptikC { t: f32 }\n\
+                         fn raygen__a() {}\nfn rt_trace() {}\nalias RtPayload = u32;";
+        assert_eq!(
+            unprefixed_internal_names(generated, "fn raygen__a() {}"),
+            ["helper", "LIMIT", "Hit"]
+        );
+        assert!(is_internal_name("_OptikX") && is_internal_name("_optik_x"));
+        assert!(!is_internal_name("optik_x") && !is_internal_name("_opti"));
     }
 
     fn validate(src: &str, f64: bool) {
@@ -123,13 +175,13 @@ mod tests {
                     f64_fallback,
                 };
                 let mut src = String::from(
-                    "@group(0) @binding(0) var<storage, read> data: array<vec4<u32>>;\nfn optk_fetch(i: u32) -> vec4<u32> { return data[i]; }\n",
+                    "@group(0) @binding(0) var<storage, read> data: array<vec4<u32>>;\nfn _optik_fetch(i: u32) -> vec4<u32> { return data[i]; }\n",
                 );
                 for s in [RAY, SLAB, TRIANGLE, SPHERE, CURVE, MOTION, BVH4, MICROMAP] {
                     src.push_str(&specialise(s, options));
                 }
                 validate(&src, f64_fallback);
-                assert_eq!(src.contains("OPTK_SLAB_WIDEN;"), conservative_boxes);
+                assert_eq!(src.contains("_OPTIK_SLAB_WIDEN;"), conservative_boxes);
                 assert_eq!(src.contains("f64("), f64_fallback);
                 assert!(!src.contains("// @"));
             }

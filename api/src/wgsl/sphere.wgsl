@@ -2,14 +2,14 @@
 //
 // Written once in the project: the wgpu megakernel includes this file, and the Vulkan backend
 // compiles it into the intersection stage it uses for sphere build inputs. Pure functions
-// only: no bindings and no device-API calls, every name prefixed `optik_`.
+// only: no bindings and no device-API calls, every name prefixed `_optik`.
 
 // Hit kinds the built-in primitives (spheres and curves) report: the triangle face kinds,
 // so `rt_is_front_face_hit` means the same for every built-in primitive. A hit where the ray
 // enters the surface is a front-face hit; a hit where it leaves (a ray starting inside a
 // sphere) is a back-face hit.
-const OPTIK_HIT_KIND_FRONT_FACE: u32 = 0xFEu;
-const OPTIK_HIT_KIND_BACK_FACE: u32 = 0xFFu;
+const _OPTIK_HIT_KIND_FRONT_FACE: u32 = 0xFEu;
+const _OPTIK_HIT_KIND_BACK_FACE: u32 = 0xFFu;
 
 // The two roots of |origin + t direction - center|^2 = radius^2, as (t_near, t_far, 1.0), or
 // (0, 0, 0) when the ray misses the sphere or the direction is zero. `direction` need not be
@@ -22,7 +22,7 @@ const OPTIK_HIT_KIND_BACK_FACE: u32 = 0xFFu;
 //   cancellation of b^2 - 4ac;
 // - the roots in the Press form q = -(b' + sign(b') sqrt(disc)), t0 = c / q, t1 = q / a,
 //   which does not cancel for the near root of a large sphere seen from close by.
-fn optik_sphere_roots(center: vec3<f32>, radius: f32, origin: vec3<f32>, direction: vec3<f32>) -> vec3<f32> {
+fn _optik_sphere_roots(center: vec3<f32>, radius: f32, origin: vec3<f32>, direction: vec3<f32>) -> vec3<f32> {
     let a = dot(direction, direction);
     if !(a > 0.0) {
         return vec3<f32>(0.0);
@@ -47,6 +47,6 @@ fn optik_sphere_roots(center: vec3<f32>, radius: f32, origin: vec3<f32>, directi
 }
 
 // The outward unit normal of a sphere at a point on (or near) its surface.
-fn optik_sphere_normal(center: vec3<f32>, radius: f32, p: vec3<f32>) -> vec3<f32> {
+fn _optik_sphere_normal(center: vec3<f32>, radius: f32, p: vec3<f32>) -> vec3<f32> {
     return (p - center) / radius;
 }

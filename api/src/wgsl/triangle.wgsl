@@ -2,7 +2,7 @@
 // OptiX's barycentrics: the hit point is (1 - u - v)·v0 + u·v1 + v·v2. `front` is true when
 // the vertices run counter-clockwise seen from the ray origin (optik_api::semantics::facing).
 
-struct OptkTriHit {
+struct _OptikTriHit {
     hit: bool,
     t: f32,
     u: f32,
@@ -10,14 +10,14 @@ struct OptkTriHit {
     front: bool,
 }
 
-fn optk_tri_miss() -> OptkTriHit {
-    return OptkTriHit(false, 0.0, 0.0, 0.0, false);
+fn _optik_tri_miss() -> _OptikTriHit {
+    return _OptikTriHit(false, 0.0, 0.0, 0.0, false);
 }
 
 // Per-ray constants of the watertight test (Woop, Benthin, Wald 2013): the axis of largest
 // direction component becomes z, x and y are swapped when that component is negative (to
 // keep the winding), and the shear maps the ray to the +z axis.
-struct OptkWoop {
+struct _OptikWoop {
     kx: u32,
     ky: u32,
     kz: u32,
@@ -25,7 +25,7 @@ struct OptkWoop {
     usable: bool,
 }
 
-fn optk_woop_ray(d: vec3<f32>) -> OptkWoop {
+fn _optik_woop_ray(d: vec3<f32>) -> _OptikWoop {
     let a = abs(d);
     var kz = 0u;
     if a.y > a.x {
@@ -43,16 +43,16 @@ fn optk_woop_ray(d: vec3<f32>) -> OptkWoop {
         ky = swap;
     }
     // A zero (or subnormal) direction has no largest axis; it hits no triangle.
-    let usable = a[kz] >= OPTK_MIN_NORMAL;
+    let usable = a[kz] >= _OPTIK_MIN_NORMAL;
     let dz_safe = select(1.0, dz, usable);
-    return OptkWoop(kx, ky, kz, vec3<f32>(d[kx] / dz_safe, d[ky] / dz_safe, 1.0 / dz_safe), usable);
+    return _OptikWoop(kx, ky, kz, vec3<f32>(d[kx] / dz_safe, d[ky] / dz_safe, 1.0 / dz_safe), usable);
 }
 
 // The 2D edge function p.x·q.y − p.y·q.x, always evaluated with its operands in one
 // canonical order and negated when swapped. Two triangles sharing an edge then compute
 // bit-identical magnitudes with opposite signs even where the shader compiler fuses the
 // multiply and subtract into an FMA, which would otherwise break watertightness.
-fn optk_edge(p: vec2<f32>, q: vec2<f32>) -> f32 {
+fn _optik_edge(p: vec2<f32>, q: vec2<f32>) -> f32 {
     let swap = p.x > q.x || (p.x == q.x && p.y > q.y);
     let a = select(p, q, swap);
     let b = select(q, p, swap);
@@ -63,11 +63,11 @@ fn optk_edge(p: vec2<f32>, q: vec2<f32>) -> f32 {
 // The f64 fallback for edge functions that are exactly zero in f32 (DESIGN.md §5): the
 // products of two f32 values are exact in f64, so the sign of their difference is exact.
 // A nonzero result too small for f32 keeps its sign as ±the smallest normal.
-fn optk_edge64(p: vec2<f32>, q: vec2<f32>) -> f32 { // @f64
+fn _optik_edge64(p: vec2<f32>, q: vec2<f32>) -> f32 { // @f64
     let e = f64(p.x) * f64(q.y) - f64(p.y) * f64(q.x); // @f64
     let r = f32(e); // @f64
     if r == 0.0 && e != 0.0lf { // @f64
-        return select(-OPTK_MIN_NORMAL, OPTK_MIN_NORMAL, e > 0.0lf); // @f64
+        return select(-_OPTIK_MIN_NORMAL, _OPTIK_MIN_NORMAL, e > 0.0lf); // @f64
     } // @f64
     return r; // @f64
 } // @f64
@@ -78,7 +78,7 @@ fn optk_edge64(p: vec2<f32>, q: vec2<f32>) -> f32 { // @f64
 // other order and gets exactly the opposite sign (subtraction is antisymmetric), so a ray
 // through a shared edge or vertex of a closed mesh lands in exactly one triangle (the
 // rasterisers' top-left rule in symbolic form; the CPU backend's `pushed_sign`).
-fn optk_edge_pushed(e: f32, p: vec2<f32>, q: vec2<f32>) -> f32 {
+fn _optik_edge_pushed(e: f32, p: vec2<f32>, q: vec2<f32>) -> f32 {
     if e != 0.0 {
         return e;
     }
@@ -87,9 +87,9 @@ fn optk_edge_pushed(e: f32, p: vec2<f32>, q: vec2<f32>) -> f32 {
 }
 
 // Woop, Benthin and Wald's watertight test, with exact-zero edge functions tie-broken.
-fn optk_tri_watertight(w: OptkWoop, o: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, tmin: f32, tmax: f32) -> OptkTriHit {
+fn _optik_tri_watertight(w: _OptikWoop, o: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, tmin: f32, tmax: f32) -> _OptikTriHit {
     if !w.usable {
-        return optk_tri_miss();
+        return _optik_tri_miss();
     }
     let a = v0 - o;
     let b = v1 - o;
@@ -97,57 +97,57 @@ fn optk_tri_watertight(w: OptkWoop, o: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, 
     let pa = vec2<f32>(a[w.kx] - w.shear.x * a[w.kz], a[w.ky] - w.shear.y * a[w.kz]);
     let pb = vec2<f32>(b[w.kx] - w.shear.x * b[w.kz], b[w.ky] - w.shear.y * b[w.kz]);
     let pc = vec2<f32>(c[w.kx] - w.shear.x * c[w.kz], c[w.ky] - w.shear.y * c[w.kz]);
-    var eu = optk_edge(pc, pb);
-    var ev = optk_edge(pa, pc);
-    var ew = optk_edge(pb, pa);
+    var eu = _optik_edge(pc, pb);
+    var ev = _optik_edge(pa, pc);
+    var ew = _optik_edge(pb, pa);
     if eu == 0.0 || ev == 0.0 || ew == 0.0 { // @f64
-        eu = optk_edge64(pc, pb); // @f64
-        ev = optk_edge64(pa, pc); // @f64
-        ew = optk_edge64(pb, pa); // @f64
+        eu = _optik_edge64(pc, pb); // @f64
+        ev = _optik_edge64(pa, pc); // @f64
+        ew = _optik_edge64(pb, pa); // @f64
     } // @f64
-    let su = optk_edge_pushed(eu, pc, pb);
-    let sv = optk_edge_pushed(ev, pa, pc);
-    let sw = optk_edge_pushed(ew, pb, pa);
+    let su = _optik_edge_pushed(eu, pc, pb);
+    let sv = _optik_edge_pushed(ev, pa, pc);
+    let sw = _optik_edge_pushed(ew, pb, pa);
     if (su < 0.0 || sv < 0.0 || sw < 0.0) && (su > 0.0 || sv > 0.0 || sw > 0.0) {
-        return optk_tri_miss();
+        return _optik_tri_miss();
     }
     let det = eu + ev + ew;
     if det == 0.0 {
-        return optk_tri_miss();
+        return _optik_tri_miss();
     }
     let az = w.shear.z * a[w.kz];
     let bz = w.shear.z * b[w.kz];
     let cz = w.shear.z * c[w.kz];
     let t = (eu * az + ev * bz + ew * cz) / det;
     if !(t > tmin && t < tmax) {
-        return optk_tri_miss();
+        return _optik_tri_miss();
     }
-    return OptkTriHit(true, t, ev / det, ew / det, det > 0.0);
+    return _OptikTriHit(true, t, ev / det, ew / det, det > 0.0);
 }
 
 // Möller–Trumbore: faster, not watertight (rays through shared edges may leak).
-fn optk_tri_moller_trumbore(o: vec3<f32>, d: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, tmin: f32, tmax: f32) -> OptkTriHit {
+fn _optik_tri_moller_trumbore(o: vec3<f32>, d: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, tmin: f32, tmax: f32) -> _OptikTriHit {
     let e1 = v1 - v0;
     let e2 = v2 - v0;
     let p = cross(d, e2);
     let det = dot(e1, p);
     if det == 0.0 {
-        return optk_tri_miss();
+        return _optik_tri_miss();
     }
     let inv = 1.0 / det;
     let s = o - v0;
     let u = dot(s, p) * inv;
     if u < 0.0 || u > 1.0 {
-        return optk_tri_miss();
+        return _optik_tri_miss();
     }
     let q = cross(s, e1);
     let v = dot(d, q) * inv;
     if v < 0.0 || u + v > 1.0 {
-        return optk_tri_miss();
+        return _optik_tri_miss();
     }
     let t = dot(e2, q) * inv;
     if !(t > tmin && t < tmax) {
-        return optk_tri_miss();
+        return _optik_tri_miss();
     }
-    return OptkTriHit(true, t, u, v, det > 0.0);
+    return _OptikTriHit(true, t, u, v, det > 0.0);
 }

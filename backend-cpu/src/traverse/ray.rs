@@ -3,13 +3,13 @@
 //!
 //! Signed zeros: every test works on the *canonical* direction, `d + 0.0`, which turns
 //! `-0.0` into `+0.0`, so a ray with a `-0.0` component gives bit-for-bit the answers of the
-//! same ray with `+0.0` (obvhs's traversal does not: numerics.md F0). A zero component gets
+//! same ray with `+0.0` (obvhs's traversal does not: docs/numerics.md F0). A zero component gets
 //! the reciprocal `+∞` and its near plane is the box's minimum.
 
 use super::simd::F4;
 
 /// The factor the conservative box test applies to a box's exit distance: `1 + 2γ(3)` with
-/// `γ(n) = nε / (1 − nε)`, `ε = 2⁻²⁴` (pbrt-v4's `Bounds3::IntersectP`, numerics.md §2.2).
+/// `γ(n) = nε / (1 − nε)`, `ε = 2⁻²⁴` (pbrt-v4's `Bounds3::IntersectP`, docs/numerics.md, "Conservative slab test").
 /// Each computed slab distance is within a factor `1 ± γ(3)` of the exact one (a
 /// subtraction, a reciprocal, a product), so widening the exit by `2γ(3)` keeps every box
 /// the exact test hits. `2γ(3)` is a little over 6ε, so this is the next f32 above it,

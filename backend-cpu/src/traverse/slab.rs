@@ -169,7 +169,7 @@ mod tests {
 
     #[test]
     fn origin_on_slab_plane_of_parallel_ray_is_inside() {
-        // The case obvhs misses (numerics.md F4): origin on the y = 1 plane, d.y = ±0.
+        // The case obvhs misses (docs/numerics.md F4): origin on the y = 1 plane, d.y = ±0.
         for d in [[1.0, 0.0, 0.0], [1.0, -0.0, 0.0]] {
             assert_eq!(
                 both([0.0, 1.0, 0.5], d, 0.0, f32::INFINITY),
@@ -193,7 +193,7 @@ mod tests {
 
     #[test]
     fn near_parallel_ray_one_ulp_inside_hits() {
-        // numerics.md F3: d.y = 1e-9 travelling just inside the y = 1 face.
+        // docs/numerics.md F3: d.y = 1e-9 travelling just inside the y = 1 face.
         let o = [0.0, 1.0 - f32::EPSILON / 2.0, 0.5];
         assert!(
             both(o, [1.0, 1e-9, 0.0], 0.0, f32::INFINITY)

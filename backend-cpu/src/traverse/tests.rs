@@ -1,5 +1,5 @@
 //! Traversal tests without a device: structures built from in-memory buffers, a closest-hit
-//! handler, and the hard cases of research/numerics.md.
+//! handler, and the hard cases of docs/numerics.md.
 
 use super::*;
 use crate::accel::{Gas, MicromapArrayData, MicromapLookup, SceneTable, Traversable};
@@ -144,7 +144,7 @@ impl Rng {
     }
 }
 
-/// research/numerics.md §1.5: a closed 16×16 UV sphere, interior vertices pushed out
+/// docs/numerics.md, "Leak test": a closed 16×16 UV sphere, interior vertices pushed out
 /// radially by up to 50 %, centred at `centre` with radius `scale`.
 fn jittered_sphere(centre: [f64; 3], scale: f64, rng: &mut Rng) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
     let (rings, segs) = (16u32, 16u32);
@@ -182,7 +182,7 @@ fn jittered_sphere(centre: [f64; 3], scale: f64, rng: &mut Rng) -> (Vec<[f32; 3]
 }
 
 /// Rays from inside a closed mesh aimed at shared edges and at vertices: the watertight
-/// test with conservative boxes must never miss (numerics.md §1.5).
+/// test with conservative boxes must never miss (docs/numerics.md, "Leak test").
 #[test]
 fn closed_mesh_never_leaks() {
     let mut rng = Rng(0x5eed);
@@ -252,7 +252,7 @@ fn closed_mesh_never_leaks() {
 
 #[test]
 fn signed_zero_rays_give_identical_answers_through_a_bvh() {
-    // numerics.md F0: a quad wall at x = 10 over [0, 1]² and one cell beyond (so rays on the
+    // docs/numerics.md F0: a quad wall at x = 10 over [0, 1]² and one cell beyond (so rays on the
     // unit square's border cross shared edges, not the wall's own border, where the
     // tie-break may go either way), rays with d = (1, ±0, 0).
     let mut v = Vec::new();

@@ -1,5 +1,5 @@
 //! Motion transforms on Vulkan, which has none (DESIGN.md §3 lets a backend emulate them by a
-//! faithful scheme it justifies; docs/vulkan-backend.md §3 has the reasons for this one).
+//! faithful scheme it justifies; docs/vulkan-backend.md §2 has the reasons for this one).
 //!
 //! Every path through a motion transform gets a **proxy** bottom level: one AABB geometry per
 //! SBT record of the geometry at its end, one box per primitive, in the same order as the

@@ -40,10 +40,10 @@ fn _optik_time() -> f32 {
     s.push_str(&MOTION_PRIMITIVES.replace(
         "$KEY",
         if c.motion {
-            "return optk_motion_key(num_keys, begin, end, flags, _optik_time());"
+            "return _optik_motion_key(num_keys, begin, end, flags, _optik_time());"
         } else {
             // Pipelines compiled without motion use key 0 (as the CPU backend's).
-            "return OptkKey(0, 0.0);"
+            "return _OptikKey(0, 0.0);"
         },
     ));
     s
@@ -104,8 +104,8 @@ fn _optik_world_to_obj() -> mat4x3<f32> {
 /// conservative slab test (the CPU backend's): the box guard of custom primitives.
 const BOX_MISS: &str = r#"
 fn _optik_misses_box(lo: vec3<f32>, hi: vec3<f32>) -> bool {
-    let r = optk_slab_ray(_optik_obj_origin(), optk_canonical_direction(_optik_obj_direction()));
-    return !optk_box1(r, lo, hi, _optik_ray_tmin(), _optik_ray_tmax());
+    let r = _optik_slab_ray(_optik_obj_origin(), _optik_canonical_direction(_optik_obj_direction()));
+    return !_optik_box1(r, lo, hi, _optik_ray_tmin(), _optik_ray_tmax());
 }
 "#;
 
@@ -126,14 +126,14 @@ fn _optik_vanished() -> bool {
 
 /// Primitive data and object space of scenes with motion.
 const MOTION_PRIMITIVES: &str = r#"
-fn _optik_key(num_keys: u32, flags: u32, begin: f32, end: f32) -> OptkKey {
+fn _optik_key(num_keys: u32, flags: u32, begin: f32, end: f32) -> _OptikKey {
     $KEY
 }
 
 // The key position of a geometry's primitives (key 0 when the geometry has no motion keys).
-fn _optik_geometry_key(g1: vec4<u32>) -> OptkKey {
+fn _optik_geometry_key(g1: vec4<u32>) -> _OptikKey {
     if g1.x == 0xFFFFFFFFu {
-        return OptkKey(0, 0.0);
+        return _OptikKey(0, 0.0);
     }
     let m = g1.x;
     return _optik_key(_optik_data[m], _optik_data[m + 1u], bitcast<f32>(_optik_data[m + 2u]), bitcast<f32>(_optik_data[m + 3u]));
@@ -205,8 +205,8 @@ fn _optik_segment(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> _OptikSegment {
     return c;
 }
 
-fn _optik_data_xform(a: u32) -> OptkXform {
-    return OptkXform(_optik_data_vec4(a), _optik_data_vec4(a + 4u), _optik_data_vec4(a + 8u));
+fn _optik_data_xform(a: u32) -> _OptikXform {
+    return _OptikXform(_optik_data_vec4(a), _optik_data_vec4(a + 4u), _optik_data_vec4(a + 8u));
 }
 
 fn _optik_data_srt(a: u32) -> array<vec4<f32>, 4> {
@@ -216,8 +216,8 @@ fn _optik_data_srt(a: u32) -> array<vec4<f32>, 4> {
 // A path's transform below its Vulkan instance at the ray's time (object to instance space)
 // and its inverse; `live` false when a motion transform on it vanished.
 struct _OptikPath {
-    to_instance: OptkXform,
-    from_instance: OptkXform,
+    to_instance: _OptikXform,
+    from_instance: _OptikXform,
     moving: bool,
     live: bool,
 }
@@ -226,7 +226,7 @@ struct _OptikPath {
 // [kind (0 static, 1 matrix motion, 2 SRT motion), keys, flags, time begin, time end] and
 // its 3x4 matrix (static), its matrix keys or its SRT keys, outermost first.
 fn _optik_chain(at: u32) -> _OptikPath {
-    var m = optk_xform_identity();
+    var m = _optik_xform_identity();
     let n = _optik_data[at];
     var c = at + 1u;
     for (var i = 0u; i < n; i = i + 1u) {
@@ -236,7 +236,7 @@ fn _optik_chain(at: u32) -> _OptikPath {
         let begin = bitcast<f32>(_optik_data[c + 3u]);
         let end = bitcast<f32>(_optik_data[c + 4u]);
         c = c + 5u;
-        var x = optk_xform_identity();
+        var x = _optik_xform_identity();
         if kind == 0u {
             x = _optik_data_xform(c);
             c = c + 12u;
@@ -249,18 +249,18 @@ fn _optik_chain(at: u32) -> _OptikPath {
                 let a = c + u32(k.key) * 12u;
                 x = _optik_data_xform(a);
                 if k.frac > 0.0 {
-                    x = optk_lerp_xform(x, _optik_data_xform(a + 12u), k.frac);
+                    x = _optik_lerp_xform(x, _optik_data_xform(a + 12u), k.frac);
                 }
                 c = c + keys * 12u;
             } else {
                 let a = c + u32(k.key) * 16u;
-                x = optk_srt_lerp(_optik_data_srt(a), _optik_data_srt(a + select(0u, 16u, k.frac > 0.0)), k.frac);
+                x = _optik_srt_lerp(_optik_data_srt(a), _optik_data_srt(a + select(0u, 16u, k.frac > 0.0)), k.frac);
                 c = c + keys * 16u;
             }
         }
-        m = optk_xform_mul(m, x);
+        m = _optik_xform_mul(m, x);
     }
-    return _OptikPath(m, optk_xform_inverse(m), true, true);
+    return _OptikPath(m, _optik_xform_inverse(m), true, true);
 }
 
 var<private> _optik_path_cache: _OptikPath;
@@ -272,7 +272,7 @@ fn _optik_path() -> _OptikPath {
     if !_optik_path_ready {
         let chain = _optik_instances[_optik_instance_record() + 1u].x;
         if chain == 0xFFFFFFFFu {
-            _optik_path_cache = _OptikPath(optk_xform_identity(), optk_xform_identity(), false, true);
+            _optik_path_cache = _OptikPath(_optik_xform_identity(), _optik_xform_identity(), false, true);
         } else {
             _optik_path_cache = _optik_chain(chain);
         }
@@ -287,7 +287,7 @@ fn _optik_obj_origin() -> vec3<f32> {
     if !path.moving {
         return o;
     }
-    return optk_xform_point(path.from_instance, o);
+    return _optik_xform_point(path.from_instance, o);
 }
 
 fn _optik_obj_direction() -> vec3<f32> {
@@ -296,14 +296,14 @@ fn _optik_obj_direction() -> vec3<f32> {
     if !path.moving {
         return d;
     }
-    return optk_xform_vector(path.from_instance, d);
+    return _optik_xform_vector(path.from_instance, d);
 }
 
-fn _optik_xform_of(m: mat4x3<f32>) -> OptkXform {
-    return OptkXform(vec4<f32>(m[0].x, m[1].x, m[2].x, m[3].x), vec4<f32>(m[0].y, m[1].y, m[2].y, m[3].y), vec4<f32>(m[0].z, m[1].z, m[2].z, m[3].z));
+fn _optik_xform_of(m: mat4x3<f32>) -> _OptikXform {
+    return _OptikXform(vec4<f32>(m[0].x, m[1].x, m[2].x, m[3].x), vec4<f32>(m[0].y, m[1].y, m[2].y, m[3].y), vec4<f32>(m[0].z, m[1].z, m[2].z, m[3].z));
 }
 
-fn _optik_mat_of(x: OptkXform) -> mat4x3<f32> {
+fn _optik_mat_of(x: _OptikXform) -> mat4x3<f32> {
     return mat4x3<f32>(vec3<f32>(x.r0.x, x.r1.x, x.r2.x), vec3<f32>(x.r0.y, x.r1.y, x.r2.y), vec3<f32>(x.r0.z, x.r1.z, x.r2.z), vec3<f32>(x.r0.w, x.r1.w, x.r2.w));
 }
 
@@ -312,7 +312,7 @@ fn _optik_obj_to_world() -> mat4x3<f32> {
     if !path.moving {
         return _optik_object_to_world();
     }
-    return _optik_mat_of(optk_xform_mul(_optik_xform_of(_optik_object_to_world()), path.to_instance));
+    return _optik_mat_of(_optik_xform_mul(_optik_xform_of(_optik_object_to_world()), path.to_instance));
 }
 
 fn _optik_world_to_obj() -> mat4x3<f32> {
@@ -320,7 +320,7 @@ fn _optik_world_to_obj() -> mat4x3<f32> {
     if !path.moving {
         return _optik_world_to_object();
     }
-    return _optik_mat_of(optk_xform_mul(path.from_instance, _optik_xform_of(_optik_world_to_object())));
+    return _optik_mat_of(_optik_xform_mul(path.from_instance, _optik_xform_of(_optik_world_to_object())));
 }
 
 // Whether the hit's primitive does not exist at the ray's time (a vanish flag of its motion

@@ -1,6 +1,6 @@
 //! Golden tests: the SPIR-V each intrinsic lowers to, disassembled with `spirv-dis` and
 //! pinned in `src/program/golden/`. They catch changes in naga's output shape that the
-//! post-pass depends on (research §2.7) and changes of the lowering itself. After an
+//! post-pass depends on (a naga upgrade may change it) and changes of the lowering itself. After an
 //! intended change, bless with `OPTIK_BLESS=1 cargo test -p optik-vulkan --lib golden`.
 
 use super::intrinsic::Intrinsic;

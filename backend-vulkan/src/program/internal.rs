@@ -83,13 +83,13 @@ fn _optik_builtin_sphere() {
     }
 }
 
-// The roots of the ray with sphere `s` (radius < 0: it vanished) as optik_sphere_roots gives
+// The roots of the ray with sphere `s` (radius < 0: it vanished) as _optik_sphere_roots gives
 // them.
 fn _optik_sphere_roots_of(s: vec4<f32>) -> vec3<f32> {
     if s.w < 0.0 {
         return vec3<f32>(0.0);
     }
-    return optik_sphere_roots(s.xyz, s.w, _optik_obj_origin(), _optik_obj_direction());
+    return _optik_sphere_roots(s.xyz, s.w, _optik_obj_origin(), _optik_obj_direction());
 }
 
 // The first root of the hit's sphere in the ray's interval, as a candidate (kind 0 entering,
@@ -127,7 +127,7 @@ fn _optik_curve_candidate(basis: u32) -> _OptikCandidate {
     if !seg.live {
         return c;
     }
-    let hit = optik_curve_intersect(basis, seg.p0, seg.p1, seg.p2, seg.p3,
+    let hit = _optik_curve_intersect(basis, seg.p0, seg.p1, seg.p2, seg.p3,
         (seg.caps & 1u) != 0u, (seg.caps & 2u) != 0u, _optik_obj_origin(), _optik_obj_direction(), _optik_ray_tmin(), _optik_ray_tmax());
     if hit.z != 0.0 {
         c.hit = true;
@@ -150,10 +150,10 @@ fn triangle_stage(c: &LoweringConfig) -> String {
     let mut s = wgsl::specialise(wgsl::TRIANGLE, options);
     let test = match c.triangles {
         TriangleMode::MollerTrumbore => {
-            "optk_tri_moller_trumbore(o, d, tri.v0, tri.v1, tri.v2, _optik_ray_tmin(), _optik_ray_tmax())"
+            "_optik_tri_moller_trumbore(o, d, tri.v0, tri.v1, tri.v2, _optik_ray_tmin(), _optik_ray_tmax())"
         }
         _ => {
-            "optk_tri_watertight(optk_woop_ray(d), o, tri.v0, tri.v1, tri.v2, _optik_ray_tmin(), _optik_ray_tmax())"
+            "_optik_tri_watertight(_optik_woop_ray(d), o, tri.v0, tri.v1, tri.v2, _optik_ray_tmin(), _optik_ray_tmax())"
         }
     };
     let lookup = if c.micromap_states {
@@ -200,7 +200,7 @@ fn _optik_triangle_candidate() -> _OptikCandidate {{
         return c;
     }}
     let o = _optik_obj_origin();
-    let d = optk_canonical_direction(_optik_obj_direction());
+    let d = _optik_canonical_direction(_optik_obj_direction());
     let h = {test};
     if !h.hit {{
         return c;
@@ -237,9 +237,9 @@ fn _optik_builtin_triangle() {{
 }
 
 /// The micromap block of a geometry (tables.rs, accel/geometry.rs) read with the shared
-/// lookup: `optk_fetch` reads the data table as `vec4<u32>` (blocks are 16-byte aligned).
+/// lookup: `_optik_fetch` reads the data table as `vec4<u32>` (blocks are 16-byte aligned).
 const MICROMAP_LOOKUP: &str = r#"
-fn optk_fetch(i: u32) -> vec4<u32> {
+fn _optik_fetch(i: u32) -> vec4<u32> {
     let a = 4u * i;
     return vec4<u32>(_optik_data[a], _optik_data[a + 1u], _optik_data[a + 2u], _optik_data[a + 3u]);
 }
@@ -254,7 +254,7 @@ fn _optik_micromap(block: u32, p: u32, u: f32, v: f32) -> u32 {
     }
     let byte_offset = _optik_data[block + 4u + 2u * p];
     let states = (block + _optik_data[block]) / 4u;
-    return optk_micromap_state(states, byte_offset, w1 & 0xFFu, ((w1 >> 8u) & 1u) != 0u, u, v);
+    return _optik_micromap_state(states, byte_offset, w1 & 0xFFu, ((w1 >> 8u) & 1u) != 0u, u, v);
 }
 "#;
 

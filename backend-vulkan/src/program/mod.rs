@@ -1,5 +1,5 @@
-//! Programs: WGSL lowered to Vulkan ray tracing stages (DESIGN.md §3, research
-//! wgsl-to-vulkan-rt.md option (b)).
+//! Programs: WGSL lowered to Vulkan ray tracing stages (DESIGN.md §3,
+//! docs/vulkan-backend.md §4).
 //!
 //! For each pipeline, each module's source is compiled again with the Vulkan prelude
 //! ([`prelude`]) in place of the API's stand-ins and one compute wrapper per stage the pipeline
@@ -49,7 +49,7 @@ pub enum ModuleText<'a> {
     },
 }
 
-/// naga's SPIR-V settings (research §2.5).
+/// naga's SPIR-V settings (docs/vulkan-backend.md §4, step 3).
 fn spv_options() -> naga::back::spv::Options<'static> {
     naga::back::spv::Options {
         lang_version: (1, 4),

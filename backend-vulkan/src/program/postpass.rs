@@ -1,5 +1,5 @@
 //! The SPIR-V post-pass: turns naga's compute module for one stage wrapper into a ray tracing
-//! stage (research/wgsl-to-vulkan-rt.md §2.1).
+//! stage (docs/vulkan-backend.md §4, step 4).
 //!
 //! 1. The wrapper's `OpEntryPoint` gets the stage's execution model and name; its `LocalSize`
 //!    goes.

@@ -529,7 +529,7 @@ const TRIANGLE_VERTICES: &str = "if _optik_ctx != _OPTIK_CTX_TRIANGLES {
 fn trace_body(c: &LoweringConfig) -> String {
     let state = c.uses_state();
     let mut b = String::new();
-    b.push_str("if !optk_ray_is_valid(origin, direction, tmin, tmax) {\n");
+    b.push_str("if !_optik_ray_is_valid(origin, direction, tmin, tmax) {\n");
     b.push_str(&format!(
         "        {}\n",
         raise_if(c, ExceptionFlags::DEBUG, "RT_EXCEPTION_CODE_INVALID_RAY")

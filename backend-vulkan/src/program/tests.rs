@@ -434,3 +434,35 @@ fn raygen__rg() { }
         );
     }
 }
+
+/// Every module-scope name the backend adds to a module starts with the internal prefix
+/// (`optik_api::wgsl::INTERNAL_PREFIX`, which the front end refuses in user names), except the
+/// copies of the user's own functions inlined into intersection and any-hit stages, named
+/// `<user name>__optik_inline<level>`.
+#[test]
+fn every_generated_name_has_the_internal_prefix() {
+    let is_copy = |n: &str, user: &str| {
+        n.rsplit_once("__optik_inline")
+            .is_some_and(|(base, level)| {
+                level.chars().all(|c| c.is_ascii_digit()) && user.contains(&format!("fn {base}("))
+            })
+    };
+    let roles = user_roles(EVERYTHING);
+    for config in [largest_config(), LoweringConfig::default()] {
+        let text = vulkan_source(ModuleText::User(EVERYTHING), &config, &roles, None);
+        let bad: Vec<String> = optik_api::wgsl::unprefixed_internal_names(&text, EVERYTHING)
+            .into_iter()
+            .filter(|n| !is_copy(n, EVERYTHING))
+            .collect();
+        assert!(bad.is_empty(), "user module: {bad:?}");
+        let roles = [StageRole::SphereIntersection, StageRole::NullCallable];
+        let text = vulkan_source(
+            ModuleText::Internal { curve_basis: 2 },
+            &config,
+            &roles,
+            None,
+        );
+        let bad = optik_api::wgsl::unprefixed_internal_names(&text, "");
+        assert!(bad.is_empty(), "internal module: {bad:?}");
+    }
+}

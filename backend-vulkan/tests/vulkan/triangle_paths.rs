@@ -208,7 +208,7 @@ fn every_triangle_path_agrees_on_facing_culling_intervals_and_attributes() {
                 && ray.flags.contains(RayFlags::CULL_BACK_FACING_TRIANGLES);
             let flags = if both && accuracy.triangle == TriangleTest::Driver {
                 // Vulkan cannot take both face-culling flags: native triangles keep back-face
-                // culling only (docs/vulkan-backend.md §10).
+                // culling only (docs/vulkan-backend.md §11).
                 RayFlags::CULL_BACK_FACING_TRIANGLES
             } else {
                 ray.flags

@@ -3,7 +3,7 @@
 //!
 //! A storage binding may not exceed the adapter's `max_storage_buffer_binding_size` (128 MiB
 //! on lavapipe), so the array is split into chunks of a power-of-two number of vec4s, each
-//! its own buffer and binding; the kernel's `optk_fetch(i)` picks the chunk with a shift.
+//! its own buffer and binding; the kernel's `_optik_fetch(i)` picks the chunk with a shift.
 //! Regions are allocated first-fit and may straddle chunks. Only the last chunk grows in
 //! place (by copying into a bigger buffer); full chunks never move.
 
@@ -53,7 +53,7 @@ impl Arena {
         })
     }
 
-    /// log2 of the vec4s per chunk: `optk_fetch` splits an index with it.
+    /// log2 of the vec4s per chunk: `_optik_fetch` splits an index with it.
     pub fn chunk_shift(&self) -> u32 {
         self.chunk_cap.trailing_zeros()
     }

@@ -3,7 +3,7 @@
 //! layout of [`super::layout`].
 //!
 //! Triangles keep full f32 vertices (48 bytes per triangle and key), so the GPU's
-//! watertight test sees exactly the vertices the user gave (no f16 edges, research/numerics.md
+//! watertight test sees exactly the vertices the user gave (no f16 edges, docs/numerics.md
 //! F7). Motion geometry stores every key.
 
 use super::bvh4::{Bvh4, NODE_VEC4S};

@@ -9,7 +9,7 @@
 //! the hits are counted on the host as a check. The same programs run on any backend
 //! through the public API ([`bench_device`], wall-clock timed), so one run compares the
 //! wgpu backend with the Vulkan one. `cargo run --release -p optik-benches --example
-//! bench_trace -- [mesh.obj[.gz]]` prints a report (see docs/wgpu-backend.md §11).
+//! bench_trace -- [mesh.obj[.gz]]` prints a report (see docs/wgpu-backend.md §12).
 
 pub mod bandwidth;
 
@@ -544,7 +544,7 @@ pub fn bench_trace(
     let stack_entries = wgpu_device
         .kernel_source(p.pipeline)?
         .lines()
-        .find_map(|l| l.strip_prefix("const OPTK_STACK: u32 = "))
+        .find_map(|l| l.strip_prefix("const _OPTIK_STACK: u32 = "))
         .and_then(|v| v.trim_end_matches("u;").parse().ok());
     let bandwidth = if config.bandwidth_bytes > 0 {
         Some(bandwidth::measure(

@@ -9,13 +9,13 @@
 
 use super::KernelConfig;
 
-/// What is counted; the index of each counter in `optk_count` and (times two) in the
+/// What is counted; the index of each counter in `_optik_count` and (times two) in the
 /// counter buffer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Counter {
-    /// Traversals started (`optk_traverse` calls).
+    /// Traversals started (`_optik_traverse` calls).
     Traces = 0,
-    /// 16-byte reads of the scene arena (every `optk_fetch`): nodes, primitive records,
+    /// 16-byte reads of the scene arena (every `_optik_fetch`): nodes, primitive records,
     /// instance records, headers and transforms alike.
     ArenaFetches = 1,
     /// BVH4 nodes tested (128 bytes each).
@@ -41,7 +41,7 @@ pub(crate) const BUFFER_BYTES: u64 = (COUNTERS * 8) as u64;
 /// The statement adding `amount` to `counter`, or nothing in a normal kernel.
 pub(crate) fn count(c: &KernelConfig<'_>, counter: Counter, amount: &str) -> String {
     if c.counters {
-        format!("optk_count[{}] += {amount}; ", counter as u32)
+        format!("_optik_count[{}] += {amount}; ", counter as u32)
     } else {
         String::new()
     }
@@ -53,17 +53,17 @@ pub(crate) fn count(c: &KernelConfig<'_>, counter: Counter, amount: &str) -> Str
 /// anchor stops matching.
 const HOOKS: &[(&str, Counter, &str)] = &[
     (
-        "    var root = optk_resolve_handle(handle);",
+        "    var root = _optik_resolve_handle(handle);",
         Counter::Traces,
         "1u",
     ),
     (
-        "    let e = optk_handles[slot];",
+        "    let e = _optik_handles[slot];",
         Counter::HandleReads,
         "1u",
     ),
     ("        let e = stack[sp];", Counter::StackPops, "1u"),
-    ("            let n = optk_node4(", Counter::Nodes, "1u"),
+    ("            let n = _optik_node4(", Counter::Nodes, "1u"),
     (
         "                    stack[sp] = vec2<u32>(s.refs[k], bitcast<u32>(s.keys[k]));",
         Counter::StackPushes,
@@ -80,7 +80,7 @@ const HOOKS: &[(&str, Counter, &str)] = &[
         "2u",
     ),
     (
-        "            let iw = optk_rows(rec);",
+        "            let iw = _optik_rows(rec);",
         Counter::Instances,
         "1u",
     ),
@@ -97,7 +97,7 @@ pub(crate) fn instrument(traversal: &str) -> String {
             if bare == *anchor || (anchor.ends_with('(') && bare.starts_with(anchor)) {
                 let indent = &bare[..bare.len() - bare.trim_start().len()];
                 out.push_str(&format!(
-                    "{indent}optk_count[{}] += {amount};\n",
+                    "{indent}_optik_count[{}] += {amount};\n",
                     *counter as u32
                 ));
             }
@@ -113,7 +113,7 @@ pub(crate) fn declare(c: &KernelConfig<'_>, out: &mut String) {
         return;
     }
     out.push_str(&format!(
-        "// Traffic counters (instrumented benchmark kernel only).\n@group(1) @binding({}) var<storage, read_write> optk_counters: array<atomic<u32>, {}>;\nvar<private> optk_count: array<u32, {COUNTERS}>;\n\n",
+        "// Traffic counters (instrumented benchmark kernel only).\n@group(1) @binding({}) var<storage, read_write> _optik_counters: array<atomic<u32>, {}>;\nvar<private> _optik_count: array<u32, {COUNTERS}>;\n\n",
         binding(c.sizes.chunks),
         2 * COUNTERS
     ));
@@ -131,11 +131,11 @@ pub(crate) fn flush(c: &KernelConfig<'_>, out: &mut String) {
     }
     out.push_str(&format!(
         r#"    for (var k = 0u; k < {COUNTERS}u; k = k + 1u) {{
-        let v = optk_count[k];
+        let v = _optik_count[k];
         if v != 0u {{
-            let old = atomicAdd(&optk_counters[2u * k], v);
+            let old = atomicAdd(&_optik_counters[2u * k], v);
             if old > 0xFFFFFFFFu - v {{
-                atomicAdd(&optk_counters[2u * k + 1u], 1u);
+                atomicAdd(&_optik_counters[2u * k + 1u], 1u);
             }}
         }}
     }}

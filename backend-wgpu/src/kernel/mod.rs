@@ -2,7 +2,7 @@
 //!
 //! Its parts, in the order [`generate`] writes them:
 //! 1. bindings: launch constants, the packed SBT, the handle table and the scene arena
-//!    chunks in `@group(1)` (the user's bindings stay in `@group(0)`), and `optk_fetch`;
+//!    chunks in `@group(1)` (the user's bindings stay in `@group(0)`), and `_optik_fetch`;
 //! 2. the shared WGSL of `optik_api::wgsl`, only the parts the features need;
 //! 3. the state of the current program (ray, hit, payload registers, SBT record) as
 //!    private globals, which trace and callable calls save and restore around the callee;
@@ -147,7 +147,7 @@ pub(crate) fn generate(c: &KernelConfig<'_>) -> String {
 
 fn bindings(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
-        r#"struct OptkLaunch {
+        r#"struct _OptikLaunch {
     // width, height, depth, width·height·depth
     dims: vec4<u32>,
     // raygen record, exception record (0xFFFFFFFF: none), hit base, hit stride (words)
@@ -158,28 +158,28 @@ fn bindings(c: &KernelConfig<'_>, out: &mut String) {
     sbt2: vec4<u32>,
 }
 
-@group(1) @binding(0) var<uniform> optk_launch: OptkLaunch;
+@group(1) @binding(0) var<uniform> _optik_launch: _OptikLaunch;
 // The shader binding table, records as the user laid them out with each header replaced
 // by (pipeline group index, group flags, 0...).
-@group(1) @binding(1) var<storage, read> optk_sbt: array<u32>;
+@group(1) @binding(1) var<storage, read> _optik_sbt: array<u32>;
 // Per traversable slot: (generation | alive bit, kind word, header index, 0).
-@group(1) @binding(2) var<storage, read> optk_handles: array<vec4<u32>>;
+@group(1) @binding(2) var<storage, read> _optik_handles: array<vec4<u32>>;
 "#,
     );
     for i in 0..c.sizes.chunks {
         out.push_str(&format!(
-            "@group(1) @binding({}) var<storage, read> optk_scene{i}: array<vec4<u32>>;\n",
+            "@group(1) @binding({}) var<storage, read> _optik_scene{i}: array<vec4<u32>>;\n",
             3 + i
         ));
     }
     counters::declare(c, out);
-    out.push_str("\nfn optk_fetch(i: u32) -> vec4<u32> {\n");
+    out.push_str("\nfn _optik_fetch(i: u32) -> vec4<u32> {\n");
     let counted = counters::count(c, counters::Counter::ArenaFetches, "1u");
     if !counted.is_empty() {
         out.push_str(&format!("    {counted}\n"));
     }
     if c.sizes.chunks <= 1 {
-        out.push_str("    return optk_scene0[i];\n}\n\n");
+        out.push_str("    return _optik_scene0[i];\n}\n\n");
     } else {
         out.push_str(&format!(
             "    let j = i & {}u;\n    switch i >> {}u {{\n",
@@ -188,10 +188,10 @@ fn bindings(c: &KernelConfig<'_>, out: &mut String) {
         ));
         for k in 1..c.sizes.chunks {
             out.push_str(&format!(
-                "        case {k}u: {{ return optk_scene{k}[j]; }}\n"
+                "        case {k}u: {{ return _optik_scene{k}[j]; }}\n"
             ));
         }
-        out.push_str("        default: { return optk_scene0[j]; }\n    }\n}\n\n");
+        out.push_str("        default: { return _optik_scene0[j]; }\n    }\n}\n\n");
     }
 }
 
@@ -215,8 +215,8 @@ fn snippets(c: &KernelConfig<'_>, out: &mut String) {
     if c.triangles() {
         // Only the chosen triangle test.
         let unused = match c.accuracy.triangle {
-            TriangleTest::Watertight | TriangleTest::Driver => "optk_tri_moller_trumbore",
-            TriangleTest::MollerTrumbore => "optk_tri_watertight",
+            TriangleTest::Watertight | TriangleTest::Driver => "_optik_tri_moller_trumbore",
+            TriangleTest::MollerTrumbore => "_optik_tri_watertight",
         };
         let text = wgsl::specialise(wgsl::TRIANGLE, options);
         out.push_str(&crate::program::instance::remove_function(&text, unused).unwrap_or(text));

@@ -15,12 +15,12 @@ pub(super) fn write(c: &KernelConfig<'_>, out: &mut String) {
     let t = c.features.max_trace_depth;
     let instancing = c.instancing();
     out.push_str(&format!(
-        "\nconst OPTK_MAX_TRACE_DEPTH: u32 = {t}u;\nconst OPTK_NONE: u32 = 0xFFFFFFFFu;\nalias OptkRegs = array<u32, {n}>;\n"
+        "\nconst _OPTIK_MAX_TRACE_DEPTH: u32 = {t}u;\nconst _OPTIK_NONE: u32 = 0xFFFFFFFFu;\nalias _OptikRegs = array<u32, {n}>;\n"
     ));
     out.push_str(
         r#"
 // The ray of the current trace, in world space. `tmax` follows the closest hit so far.
-struct OptkRay {
+struct _OptikRay {
     origin: vec3<f32>,
     tmin: f32,
     direction: vec3<f32>,
@@ -34,14 +34,14 @@ struct OptkRay {
 }
 
 // A hit or candidate: what hit-related device functions return.
-struct OptkHit {
+struct _OptikHit {
     t: f32,
     hit_kind: u32,
     prim_index: u32,
     gas_index: u32,
     instance_id: u32,
     instance_index: u32,
-    // The hit group record (word index into optk_sbt), or OPTK_NONE.
+    // The hit group record (word index into _optik_sbt), or _OPTIK_NONE.
     record: u32,
     // The geometry structure's header and the primitive's slot (for vertex data).
     gas: u32,
@@ -53,42 +53,42 @@ struct OptkHit {
     );
     if instancing {
         out.push_str(
-            "    obj_origin: vec3<f32>,\n    obj_direction: vec3<f32>,\n    w2o: OptkXform,\n    o2w: OptkXform,\n",
+            "    obj_origin: vec3<f32>,\n    obj_direction: vec3<f32>,\n    w2o: _OptikXform,\n    o2w: _OptikXform,\n",
         );
     }
     out.push_str(
         r#"}
 
-var<private> optk_launch_index: vec3<u32>;
+var<private> _optik_launch_index: vec3<u32>;
 // Trace depth of the current program (0 in raygen).
-var<private> optk_depth: u32;
-var<private> optk_ray: OptkRay;
-var<private> optk_hit: OptkHit;
+var<private> _optik_depth: u32;
+var<private> _optik_ray: _OptikRay;
+var<private> _optik_hit: _OptikHit;
 // The traversal's closest hit so far, and whether there is one.
-var<private> optk_best: OptkHit;
-var<private> optk_found: bool;
+var<private> _optik_best: _OptikHit;
+var<private> _optik_found: bool;
 // The traversal must stop (terminate, exception).
-var<private> optk_done: bool;
-var<private> optk_regs: OptkRegs;
-var<private> optk_record: u32;
+var<private> _optik_done: bool;
+var<private> _optik_regs: _OptikRegs;
+var<private> _optik_record: u32;
 // Why the current program must return at once: 0 no, 1 ignore, 2 terminate, 3 exception.
-var<private> optk_unwind: u32;
-var<private> optk_exception: i32;
+var<private> _optik_unwind: u32;
+var<private> _optik_exception: i32;
 
-fn optk_unwinding_fn() -> bool {
-    return optk_unwind != 0u;
+fn _optik_unwinding_fn() -> bool {
+    return _optik_unwind != 0u;
 }
 
 // Group index and flags of a packed SBT record.
-fn optk_group(record: u32) -> u32 {
-    return optk_sbt[record];
+fn _optik_group(record: u32) -> u32 {
+    return _optik_sbt[record];
 }
 
-fn optk_group_flags(record: u32) -> u32 {
-    if record == OPTK_NONE {
+fn _optik_group_flags(record: u32) -> u32 {
+    if record == _OPTIK_NONE {
         return 0u;
     }
-    return optk_sbt[record + 1u];
+    return _optik_sbt[record + 1u];
 }
 
 "#,
@@ -117,63 +117,63 @@ fn body(c: &KernelConfig<'_>, f: DeviceFunction) -> Option<String> {
     use DeviceFunction as F;
     let n = c.payload_len();
     let s = match f {
-        F::LaunchIndex => "    return optk_launch_index;\n".to_string(),
-        F::LaunchDimensions => "    return optk_launch.dims.xyz;\n".to_string(),
-        F::GetPayload => format!("    if i < {n}u {{\n        return optk_regs[i];\n    }}\n    return 0u;\n"),
-        F::SetPayload => format!("    if i < {n}u {{\n        optk_regs[i] = value;\n    }}\n"),
-        F::GetAttribute => "    if i < 8u {\n        return optk_hit.attrs[i];\n    }\n    return 0u;\n".to_string(),
+        F::LaunchIndex => "    return _optik_launch_index;\n".to_string(),
+        F::LaunchDimensions => "    return _optik_launch.dims.xyz;\n".to_string(),
+        F::GetPayload => format!("    if i < {n}u {{\n        return _optik_regs[i];\n    }}\n    return 0u;\n"),
+        F::SetPayload => format!("    if i < {n}u {{\n        _optik_regs[i] = value;\n    }}\n"),
+        F::GetAttribute => "    if i < 8u {\n        return _optik_hit.attrs[i];\n    }\n    return 0u;\n".to_string(),
         F::ReportIntersection => {
             if c.intersection() && c.traces() {
-                "    return optk_report(t, hit_kind, attributes);\n".to_string()
+                "    return _optik_report(t, hit_kind, attributes);\n".to_string()
             } else {
                 "    return false;\n".to_string()
             }
         }
-        F::IgnoreIntersection => "    if optk_unwind == 0u {\n        optk_unwind = 1u;\n    }\n".to_string(),
-        F::TerminateRay => "    if optk_unwind == 0u {\n        optk_unwind = 2u;\n    }\n".to_string(),
-        F::WorldRayOrigin => "    return optk_ray.origin;\n".to_string(),
-        F::WorldRayDirection => "    return optk_ray.direction;\n".to_string(),
+        F::IgnoreIntersection => "    if _optik_unwind == 0u {\n        _optik_unwind = 1u;\n    }\n".to_string(),
+        F::TerminateRay => "    if _optik_unwind == 0u {\n        _optik_unwind = 2u;\n    }\n".to_string(),
+        F::WorldRayOrigin => "    return _optik_ray.origin;\n".to_string(),
+        F::WorldRayDirection => "    return _optik_ray.direction;\n".to_string(),
         F::ObjectRayOrigin => if c.instancing() {
-            "    return optk_hit.obj_origin;\n"
+            "    return _optik_hit.obj_origin;\n"
         } else {
-            "    return optk_ray.origin;\n"
+            "    return _optik_ray.origin;\n"
         }
         .to_string(),
         F::ObjectRayDirection => if c.instancing() {
-            "    return optk_hit.obj_direction;\n"
+            "    return _optik_hit.obj_direction;\n"
         } else {
-            "    return optk_ray.direction;\n"
+            "    return _optik_ray.direction;\n"
         }
         .to_string(),
-        F::RayTmin => "    return optk_ray.tmin;\n".to_string(),
-        F::RayTmax => "    return optk_ray.tmax;\n".to_string(),
-        F::RayTime => "    return optk_ray.time;\n".to_string(),
-        F::RayFlags => "    return optk_ray.flags;\n".to_string(),
-        F::RayMask => "    return optk_ray.mask;\n".to_string(),
-        F::PrimitiveIndex => "    return optk_hit.prim_index;\n".to_string(),
-        F::SbtGasIndex => "    return optk_hit.gas_index;\n".to_string(),
-        F::InstanceId => "    return optk_hit.instance_id;\n".to_string(),
-        F::InstanceIndex => "    return optk_hit.instance_index;\n".to_string(),
-        F::HitKind => "    return optk_hit.hit_kind;\n".to_string(),
+        F::RayTmin => "    return _optik_ray.tmin;\n".to_string(),
+        F::RayTmax => "    return _optik_ray.tmax;\n".to_string(),
+        F::RayTime => "    return _optik_ray.time;\n".to_string(),
+        F::RayFlags => "    return _optik_ray.flags;\n".to_string(),
+        F::RayMask => "    return _optik_ray.mask;\n".to_string(),
+        F::PrimitiveIndex => "    return _optik_hit.prim_index;\n".to_string(),
+        F::SbtGasIndex => "    return _optik_hit.gas_index;\n".to_string(),
+        F::InstanceId => "    return _optik_hit.instance_id;\n".to_string(),
+        F::InstanceIndex => "    return _optik_hit.instance_index;\n".to_string(),
+        F::HitKind => "    return _optik_hit.hit_kind;\n".to_string(),
         // optik_api::semantics::facing::hit_kind_is_front.
-        F::IsFrontFaceHit => "    let k = optk_hit.hit_kind;\n    if k >= 0x80u {\n        return k == 0xFEu;\n    }\n    return (k & 1u) == 0u;\n".to_string(),
-        F::TriangleBarycentrics => "    return vec2<f32>(bitcast<f32>(optk_hit.attrs[0]), bitcast<f32>(optk_hit.attrs[1]));\n".to_string(),
-        F::CurveParameter => "    return bitcast<f32>(optk_hit.attrs[0]);\n".to_string(),
+        F::IsFrontFaceHit => "    let k = _optik_hit.hit_kind;\n    if k >= 0x80u {\n        return k == 0xFEu;\n    }\n    return (k & 1u) == 0u;\n".to_string(),
+        F::TriangleBarycentrics => "    return vec2<f32>(bitcast<f32>(_optik_hit.attrs[0]), bitcast<f32>(_optik_hit.attrs[1]));\n".to_string(),
+        F::CurveParameter => "    return bitcast<f32>(_optik_hit.attrs[0]);\n".to_string(),
         F::TriangleVertices => triangle_vertices(c),
         F::Sphere => sphere_data(c),
         F::ObjectToWorld => matrix(c, "o2w"),
         F::WorldToObject => matrix(c, "w2o"),
-        F::SbtDataU32 => "    if optk_record == OPTK_NONE {\n        return 0u;\n    }\n    return optk_sbt[optk_record + 8u + i];\n".to_string(),
-        F::SbtDataF32 => "    if optk_record == OPTK_NONE {\n        return 0.0;\n    }\n    return bitcast<f32>(optk_sbt[optk_record + 8u + i]);\n".to_string(),
+        F::SbtDataU32 => "    if _optik_record == _OPTIK_NONE {\n        return 0u;\n    }\n    return _optik_sbt[_optik_record + 8u + i];\n".to_string(),
+        F::SbtDataF32 => "    if _optik_record == _OPTIK_NONE {\n        return 0.0;\n    }\n    return bitcast<f32>(_optik_sbt[_optik_record + 8u + i]);\n".to_string(),
         F::ThrowException => {
             if c.exception(optik_api::ExceptionFlags::USER) {
-                "    optk_raise(i32(code & 0x3FFFFFFFu));\n".to_string()
+                "    _optik_raise(i32(code & 0x3FFFFFFFu));\n".to_string()
             } else {
                 String::new()
             }
         }
-        F::ExceptionCode => "    return optk_exception;\n".to_string(),
-        F::RemainingTraceDepth => "    return OPTK_MAX_TRACE_DEPTH - min(optk_depth, OPTK_MAX_TRACE_DEPTH);\n".to_string(),
+        F::ExceptionCode => "    return _optik_exception;\n".to_string(),
+        F::RemainingTraceDepth => "    return _OPTIK_MAX_TRACE_DEPTH - min(_optik_depth, _OPTIK_MAX_TRACE_DEPTH);\n".to_string(),
         F::Trace | F::DirectCall | F::ContinuationCall | F::OffsetRay => return None,
     };
     Some(s)
@@ -182,7 +182,7 @@ fn body(c: &KernelConfig<'_>, f: DeviceFunction) -> Option<String> {
 fn matrix(c: &KernelConfig<'_>, which: &str) -> String {
     if c.instancing() {
         format!(
-            "    let m = optk_hit.{which};\n    return mat4x3<f32>(vec3<f32>(m.r0.x, m.r1.x, m.r2.x), vec3<f32>(m.r0.y, m.r1.y, m.r2.y), vec3<f32>(m.r0.z, m.r1.z, m.r2.z), vec3<f32>(m.r0.w, m.r1.w, m.r2.w));\n"
+            "    let m = _optik_hit.{which};\n    return mat4x3<f32>(vec3<f32>(m.r0.x, m.r1.x, m.r2.x), vec3<f32>(m.r0.y, m.r1.y, m.r2.y), vec3<f32>(m.r0.z, m.r1.z, m.r2.z), vec3<f32>(m.r0.w, m.r1.w, m.r2.w));\n"
         )
     } else {
         "    return mat4x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0), vec3<f32>(0.0));\n".to_string()
@@ -195,15 +195,15 @@ fn triangle_vertices(c: &KernelConfig<'_>) -> String {
         return "    return array<vec3<f32>, 3>();\n".to_string();
     }
     let mut s = String::from(
-        "    let h = optk_fetch(optk_hit.gas);\n    if ((h.x >> 4u) & 15u) != 0u {\n        return array<vec3<f32>, 3>();\n    }\n    let keys = h.y;\n    let base = optk_hit.gas + h.w + optk_hit.slot * 3u * keys;\n",
+        "    let h = _optik_fetch(_optik_hit.gas);\n    if ((h.x >> 4u) & 15u) != 0u {\n        return array<vec3<f32>, 3>();\n    }\n    let keys = h.y;\n    let base = _optik_hit.gas + h.w + _optik_hit.slot * 3u * keys;\n",
     );
     if c.geometry_motion() {
         s.push_str(
-            "    let m = optk_fetch(optk_hit.gas + 1u);\n    let k = optk_motion_key(keys, bitcast<f32>(m.x), bitcast<f32>(m.y), 0u, optk_ray.time);\n    let a = base + 3u * u32(max(k.key, 0));\n    let b = base + 3u * min(u32(max(k.key, 0)) + 1u, keys - 1u);\n    var v: array<vec3<f32>, 3>;\n    for (var j = 0u; j < 3u; j = j + 1u) {\n        v[j] = mix(bitcast<vec3<f32>>(optk_fetch(a + j).xyz), bitcast<vec3<f32>>(optk_fetch(b + j).xyz), k.frac);\n    }\n    return v;\n",
+            "    let m = _optik_fetch(_optik_hit.gas + 1u);\n    let k = _optik_motion_key(keys, bitcast<f32>(m.x), bitcast<f32>(m.y), 0u, _optik_ray.time);\n    let a = base + 3u * u32(max(k.key, 0));\n    let b = base + 3u * min(u32(max(k.key, 0)) + 1u, keys - 1u);\n    var v: array<vec3<f32>, 3>;\n    for (var j = 0u; j < 3u; j = j + 1u) {\n        v[j] = mix(bitcast<vec3<f32>>(_optik_fetch(a + j).xyz), bitcast<vec3<f32>>(_optik_fetch(b + j).xyz), k.frac);\n    }\n    return v;\n",
         );
     } else {
         s.push_str(
-            "    return array<vec3<f32>, 3>(bitcast<vec3<f32>>(optk_fetch(base).xyz), bitcast<vec3<f32>>(optk_fetch(base + 1u).xyz), bitcast<vec3<f32>>(optk_fetch(base + 2u).xyz));\n",
+            "    return array<vec3<f32>, 3>(bitcast<vec3<f32>>(_optik_fetch(base).xyz), bitcast<vec3<f32>>(_optik_fetch(base + 1u).xyz), bitcast<vec3<f32>>(_optik_fetch(base + 2u).xyz));\n",
         );
     }
     s
@@ -215,14 +215,14 @@ fn sphere_data(c: &KernelConfig<'_>) -> String {
         return "    return vec4<f32>();\n".to_string();
     }
     let mut s = String::from(
-        "    let h = optk_fetch(optk_hit.gas);\n    if ((h.x >> 4u) & 15u) != 2u {\n        return vec4<f32>();\n    }\n    let keys = h.y;\n    let base = optk_hit.gas + h.w + optk_hit.slot * (1u + keys) + 1u;\n",
+        "    let h = _optik_fetch(_optik_hit.gas);\n    if ((h.x >> 4u) & 15u) != 2u {\n        return vec4<f32>();\n    }\n    let keys = h.y;\n    let base = _optik_hit.gas + h.w + _optik_hit.slot * (1u + keys) + 1u;\n",
     );
     if c.geometry_motion() {
         s.push_str(
-            "    let m = optk_fetch(optk_hit.gas + 1u);\n    let k = optk_motion_key(keys, bitcast<f32>(m.x), bitcast<f32>(m.y), 0u, optk_ray.time);\n    let a = u32(max(k.key, 0));\n    return mix(bitcast<vec4<f32>>(optk_fetch(base + a)), bitcast<vec4<f32>>(optk_fetch(base + min(a + 1u, keys - 1u))), k.frac);\n",
+            "    let m = _optik_fetch(_optik_hit.gas + 1u);\n    let k = _optik_motion_key(keys, bitcast<f32>(m.x), bitcast<f32>(m.y), 0u, _optik_ray.time);\n    let a = u32(max(k.key, 0));\n    return mix(bitcast<vec4<f32>>(_optik_fetch(base + a)), bitcast<vec4<f32>>(_optik_fetch(base + min(a + 1u, keys - 1u))), k.frac);\n",
         );
     } else {
-        s.push_str("    return bitcast<vec4<f32>>(optk_fetch(base));\n");
+        s.push_str("    return bitcast<vec4<f32>>(_optik_fetch(base));\n");
     }
     s
 }

@@ -34,7 +34,7 @@ fn write_plain(c: &KernelConfig<'_>, out: &mut String) {
     enter(c, out);
     if c.instancing() {
         out.push_str(
-            "fn optk_rows(at: u32) -> OptkXform {\n    return OptkXform(bitcast<vec4<f32>>(optk_fetch(at)), bitcast<vec4<f32>>(optk_fetch(at + 1u)), bitcast<vec4<f32>>(optk_fetch(at + 2u)));\n}\n\n",
+            "fn _optik_rows(at: u32) -> _OptikXform {\n    return _OptikXform(bitcast<vec4<f32>>(_optik_fetch(at)), bitcast<vec4<f32>>(_optik_fetch(at + 1u)), bitcast<vec4<f32>>(_optik_fetch(at + 2u)));\n}\n\n",
         );
     }
     if c.any_graph() {
@@ -59,16 +59,16 @@ fn write_plain(c: &KernelConfig<'_>, out: &mut String) {
 
 fn level_struct(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
-        "\n// One level of the graph being traversed: the ray in its space and its structure.\nstruct OptkLevel {\n    origin: vec3<f32>,\n    direction: vec3<f32>,\n    slab: OptkSlabRay,\n",
+        "\n// One level of the graph being traversed: the ray in its space and its structure.\nstruct _OptikLevel {\n    origin: vec3<f32>,\n    direction: vec3<f32>,\n    slab: _OptikSlabRay,\n",
     );
     if c.triangles() && c.accuracy.triangle == TriangleTest::Watertight {
-        out.push_str("    woop: OptkWoop,\n");
+        out.push_str("    woop: _OptikWoop,\n");
     }
     out.push_str(
         "    header: u32,\n    node_base: u32,\n    prim_base: u32,\n    kind_word: u32,\n    keys: u32,\n    key: u32,\n    frac: f32,\n    is_ias: bool,\n    instance_id: u32,\n    instance_index: u32,\n    sbt_offset: u32,\n    inst_flags: u32,\n    flip: bool,\n",
     );
     if c.instancing() {
-        out.push_str("    w2o: OptkXform,\n    o2w: OptkXform,\n");
+        out.push_str("    w2o: _OptikXform,\n    o2w: _OptikXform,\n");
     }
     out.push_str("}\n");
 }
@@ -77,11 +77,11 @@ fn rules(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
         r#"
 // optik_api::semantics::opacity::resolve: 0 culled, 1 opaque, 2 non-opaque. `omm` is a
-// micromap state 0..3 or OPTK_NONE.
-fn optk_fate(geom: u32, inst: u32, ray: u32, omm: u32) -> u32 {
+// micromap state 0..3 or _OPTIK_NONE.
+fn _optik_fate(geom: u32, inst: u32, ray: u32, omm: u32) -> u32 {
     let force2 = (ray & 1024u) != 0u || (inst & 16u) != 0u;
     var opaque = (geom & 1u) != 0u;
-    if omm != OPTK_NONE && (inst & 32u) == 0u {
+    if omm != _OPTIK_NONE && (inst & 32u) == 0u {
         if omm == 0u || (omm == 2u && force2) {
             return 0u;
         }
@@ -104,12 +104,12 @@ fn optk_fate(geom: u32, inst: u32, ray: u32, omm: u32) -> u32 {
 }
 
 // Pushing order of four children: keys descending (misses carry +inf and come first).
-struct OptkSorted {
+struct _OptikSorted {
     keys: vec4<f32>,
     refs: vec4<u32>,
 }
 
-fn optk_sort4(k_in: vec4<f32>, r_in: vec4<u32>) -> OptkSorted {
+fn _optik_sort4(k_in: vec4<f32>, r_in: vec4<u32>) -> _OptikSorted {
     var k = k_in;
     var r = r_in;
     if k.y > k.x {
@@ -132,17 +132,17 @@ fn optk_sort4(k_in: vec4<f32>, r_in: vec4<u32>) -> OptkSorted {
         k = k.xzyw;
         r = r.xzyw;
     }
-    return OptkSorted(k, r);
+    return _OptikSorted(k, r);
 }
 
-// A traversable's header from its handle-table slot and generation, or OPTK_NONE.
-fn optk_resolve(slot: u32, generation: u32) -> u32 {
-    if slot >= arrayLength(&optk_handles) {
-        return OPTK_NONE;
+// A traversable's header from its handle-table slot and generation, or _OPTIK_NONE.
+fn _optik_resolve(slot: u32, generation: u32) -> u32 {
+    if slot >= arrayLength(&_optik_handles) {
+        return _OPTIK_NONE;
     }
-    let e = optk_handles[slot];
+    let e = _optik_handles[slot];
     if e.x != (generation | 0x80000000u) {
-        return OPTK_NONE;
+        return _OPTIK_NONE;
     }
     return e.z;
 }
@@ -150,13 +150,13 @@ fn optk_resolve(slot: u32, generation: u32) -> u32 {
 "#,
     );
     out.push_str(&format!(
-        r#"// A 64-bit traversable handle (slot + 1, generation, device) to a header, or OPTK_NONE.
-fn optk_resolve_handle(h: vec2<u32>) -> u32 {{
+        r#"// A 64-bit traversable handle (slot + 1, generation, device) to a header, or _OPTIK_NONE.
+fn _optik_resolve_handle(h: vec2<u32>) -> u32 {{
     let slot_field = h.x & 0xFFFFFFu;
     if slot_field == 0u || (h.y >> 16u) != {}u {{
-        return OPTK_NONE;
+        return _OPTIK_NONE;
     }}
-    return optk_resolve(slot_field - 1u, (h.x >> 24u) | ((h.y & 0xFFFFu) << 8u));
+    return _optik_resolve(slot_field - 1u, (h.x >> 24u) | ((h.y & 0xFFFFu) << 8u));
 }}
 
 "#,
@@ -165,7 +165,7 @@ fn optk_resolve_handle(h: vec2<u32>) -> u32 {{
     if c.triangles() {
         out.push_str(
             r#"// optik_api::semantics::opacity::triangle_face_culled.
-fn optk_face_culled(front: bool, geom: u32, inst: u32, ray: u32) -> bool {
+fn _optik_face_culled(front: bool, geom: u32, inst: u32, ray: u32) -> bool {
     if (geom & 4u) != 0u || (inst & 1u) != 0u {
         return false;
     }
@@ -177,23 +177,23 @@ fn optk_face_culled(front: bool, geom: u32, inst: u32, ray: u32) -> bool {
     }
     let debug = c.debug();
     out.push_str(
-        "// The hit group record of a candidate (optik_api::semantics::sbt_index), or OPTK_NONE.\nfn optk_hit_record(instance_offset: u32, gas_index: u32) -> u32 {\n    let stride = optk_ray.sbt_stride;\n    let base = instance_offset + optk_ray.sbt_offset;\n    var index = OPTK_NONE;\n    if stride == 0u || gas_index <= (OPTK_NONE - base) / stride {\n        index = base + gas_index * stride;\n    }\n    if index >= optk_launch.sbt1.x {\n",
+        "// The hit group record of a candidate (optik_api::semantics::sbt_index), or _OPTIK_NONE.\nfn _optik_hit_record(instance_offset: u32, gas_index: u32) -> u32 {\n    let stride = _optik_ray.sbt_stride;\n    let base = instance_offset + _optik_ray.sbt_offset;\n    var index = _OPTIK_NONE;\n    if stride == 0u || gas_index <= (_OPTIK_NONE - base) / stride {\n        index = base + gas_index * stride;\n    }\n    if index >= _optik_launch.sbt1.x {\n",
     );
     if debug {
-        out.push_str("        optk_raise(-7);\n        optk_done = true;\n");
+        out.push_str("        _optik_raise(-7);\n        _optik_done = true;\n");
     }
-    out.push_str("        return OPTK_NONE;\n    }\n    return optk_launch.sbt0.z + index * optk_launch.sbt0.w;\n}\n\n");
+    out.push_str("        return _OPTIK_NONE;\n    }\n    return _optik_launch.sbt0.z + index * _optik_launch.sbt0.w;\n}\n\n");
     if c.micromaps() {
         out.push_str(
             r#"// The micromap state of a triangle at barycentrics (u, v).
-fn optk_micromap(lv: ptr<function, OptkLevel>, word: u32, u: f32, v: f32) -> u32 {
+fn _optik_micromap(lv: ptr<function, _OptikLevel>, word: u32, u: f32, v: f32) -> u32 {
     if word <= 4u {
         return word - 1u;
     }
-    let h1 = optk_fetch((*lv).header + 1u);
-    let h2 = optk_fetch((*lv).header + 2u);
-    let d = optk_fetch((*lv).header + h1.w + word - 5u);
-    return optk_micromap_state((*lv).header + h2.x, d.x, d.y, d.z != 0u, u, v);
+    let h1 = _optik_fetch((*lv).header + 1u);
+    let h2 = _optik_fetch((*lv).header + 2u);
+    let d = _optik_fetch((*lv).header + h1.w + word - 5u);
+    return _optik_micromap_state((*lv).header + h2.x, d.x, d.y, d.z != 0u, u, v);
 }
 
 "#,
@@ -201,10 +201,10 @@ fn optk_micromap(lv: ptr<function, OptkLevel>, word: u32, u: f32, v: f32) -> u32
     }
 }
 
-/// `optk_enter`: points a level at a structure; false when it holds nothing to hit now.
+/// `_optik_enter`: points a level at a structure; false when it holds nothing to hit now.
 fn enter(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
-        "fn optk_enter(lv: ptr<function, OptkLevel>, header: u32) -> bool {\n    let h0 = optk_fetch(header);\n    (*lv).header = header;\n    (*lv).kind_word = h0.x;\n    (*lv).keys = max(h0.y, 1u);\n    (*lv).node_base = header + h0.z;\n    (*lv).prim_base = header + h0.w;\n    (*lv).is_ias = (h0.x & 15u) == 2u;\n    (*lv).key = 0u;\n    (*lv).frac = 0.0;\n",
+        "fn _optik_enter(lv: ptr<function, _OptikLevel>, header: u32) -> bool {\n    let h0 = _optik_fetch(header);\n    (*lv).header = header;\n    (*lv).kind_word = h0.x;\n    (*lv).keys = max(h0.y, 1u);\n    (*lv).node_base = header + h0.z;\n    (*lv).prim_base = header + h0.w;\n    (*lv).is_ias = (h0.x & 15u) == 2u;\n    (*lv).key = 0u;\n    (*lv).frac = 0.0;\n",
     );
     // Primitive types the pipeline was not compiled for are skipped (DEBUG: exception).
     let mut supported = Vec::new();
@@ -227,7 +227,7 @@ fn enter(c: &KernelConfig<'_>, out: &mut String) {
         "    let prim_type = (h0.x >> 4u) & 15u;\n    if (h0.x & 15u) == 1u && {unsupported} {{\n"
     ));
     if c.debug() {
-        out.push_str("        optk_raise(-8);\n        optk_done = true;\n");
+        out.push_str("        _optik_raise(-8);\n        _optik_done = true;\n");
     }
     out.push_str("        return false;\n    }\n");
     if !c.instancing() {
@@ -235,55 +235,55 @@ fn enter(c: &KernelConfig<'_>, out: &mut String) {
     }
     if c.geometry_motion() {
         out.push_str(
-            "    if (h0.x & 15u) == 1u && h0.y > 1u {\n        let h1 = optk_fetch(header + 1u);\n        let k = optk_motion_key(h0.y, bitcast<f32>(h1.x), bitcast<f32>(h1.y), h1.z, optk_ray.time);\n        if k.key < 0 {\n            return false;\n        }\n        (*lv).key = u32(k.key);\n        (*lv).frac = k.frac;\n    }\n",
+            "    if (h0.x & 15u) == 1u && h0.y > 1u {\n        let h1 = _optik_fetch(header + 1u);\n        let k = _optik_motion_key(h0.y, bitcast<f32>(h1.x), bitcast<f32>(h1.y), h1.z, _optik_ray.time);\n        if k.key < 0 {\n            return false;\n        }\n        (*lv).key = u32(k.key);\n        (*lv).frac = k.frac;\n    }\n",
         );
     }
-    out.push_str("    (*lv).slab = optk_slab_ray((*lv).origin, (*lv).direction);\n");
+    out.push_str("    (*lv).slab = _optik_slab_ray((*lv).origin, (*lv).direction);\n");
     if c.triangles() && c.accuracy.triangle == TriangleTest::Watertight {
-        out.push_str("    (*lv).woop = optk_woop_ray((*lv).direction);\n");
+        out.push_str("    (*lv).woop = _optik_woop_ray((*lv).direction);\n");
     }
-    out.push_str("    return optk_fetch(header + 2u).y > 0u;\n}\n\n");
+    out.push_str("    return _optik_fetch(header + 2u).y > 0u;\n}\n\n");
 }
 
-/// `optk_through_transforms`: folds a chain of transform traversables into a level.
+/// `_optik_through_transforms`: folds a chain of transform traversables into a level.
 fn transforms(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
-        r#"fn optk_srt_key(at: u32) -> array<vec4<f32>, 4> {
-    return array<vec4<f32>, 4>(bitcast<vec4<f32>>(optk_fetch(at)), bitcast<vec4<f32>>(optk_fetch(at + 1u)), bitcast<vec4<f32>>(optk_fetch(at + 2u)), bitcast<vec4<f32>>(optk_fetch(at + 3u)));
+        r#"fn _optik_srt_key(at: u32) -> array<vec4<f32>, 4> {
+    return array<vec4<f32>, 4>(bitcast<vec4<f32>>(_optik_fetch(at)), bitcast<vec4<f32>>(_optik_fetch(at + 1u)), bitcast<vec4<f32>>(_optik_fetch(at + 2u)), bitcast<vec4<f32>>(_optik_fetch(at + 3u)));
 }
 
 // Follows transform traversables from `first` down to a structure, composing them into the
-// level's ray and matrices; OPTK_NONE when a child is gone or the object has vanished.
-fn optk_through_transforms(lv: ptr<function, OptkLevel>, first: u32) -> u32 {
+// level's ray and matrices; _OPTIK_NONE when a child is gone or the object has vanished.
+fn _optik_through_transforms(lv: ptr<function, _OptikLevel>, first: u32) -> u32 {
     var header = first;
     for (var i = 0u; i < 64u; i = i + 1u) {
-        let h0 = optk_fetch(header);
+        let h0 = _optik_fetch(header);
         let kind = h0.x & 15u;
         if kind <= 2u {
             return header;
         }
-        let h1 = optk_fetch(header + 1u);
+        let h1 = _optik_fetch(header + 1u);
         let data = header + h1.w;
-        var o2w: OptkXform;
-        var w2o: OptkXform;
+        var o2w: _OptikXform;
+        var w2o: _OptikXform;
         if kind == 3u {
-            w2o = optk_rows(data);
-            o2w = optk_rows(data + 3u);
+            w2o = _optik_rows(data);
+            o2w = _optik_rows(data + 3u);
         } else {
 "#,
     );
     if c.motion() {
         out.push_str(
-            r#"            let k = optk_motion_key(h0.y, bitcast<f32>(h1.x), bitcast<f32>(h1.y), h1.z, optk_ray.time);
+            r#"            let k = _optik_motion_key(h0.y, bitcast<f32>(h1.x), bitcast<f32>(h1.y), h1.z, _optik_ray.time);
             if k.key < 0 {
-                return OPTK_NONE;
+                return _OPTIK_NONE;
             }
             let a = u32(k.key);
             let b = min(a + 1u, h0.y - 1u);
             if kind == 4u {
-                o2w = optk_lerp_xform(optk_rows(data + 3u * a), optk_rows(data + 3u * b), k.frac);
+                o2w = _optik_lerp_xform(_optik_rows(data + 3u * a), _optik_rows(data + 3u * b), k.frac);
             } else {
-                o2w = optk_srt_lerp(optk_srt_key(data + 4u * a), optk_srt_key(data + 4u * b), k.frac);
+                o2w = _optik_srt_lerp(_optik_srt_key(data + 4u * a), _optik_srt_key(data + 4u * b), k.frac);
             }
 "#,
         );
@@ -291,27 +291,27 @@ fn optk_through_transforms(lv: ptr<function, OptkLevel>, first: u32) -> u32 {
         // Without motion compiled in, keys 0 are used (FeatureSet::motion).
         out.push_str(
             r#"            if kind == 4u {
-                o2w = optk_rows(data);
+                o2w = _optik_rows(data);
             } else {
-                let k = optk_srt_key(data);
-                o2w = optk_srt_matrix(k[0], k[1], k[2], k[3]);
+                let k = _optik_srt_key(data);
+                o2w = _optik_srt_matrix(k[0], k[1], k[2], k[3]);
             }
 "#,
         );
     }
     out.push_str(
-        r#"            w2o = optk_xform_inverse(o2w);
+        r#"            w2o = _optik_xform_inverse(o2w);
         }
-        (*lv).w2o = optk_xform_mul(w2o, (*lv).w2o);
-        (*lv).o2w = optk_xform_mul((*lv).o2w, o2w);
-        (*lv).origin = optk_xform_point(w2o, (*lv).origin);
-        (*lv).direction = optk_canonical_direction(optk_xform_vector(w2o, (*lv).direction));
-        header = optk_resolve(h0.z, h0.w);
-        if header == OPTK_NONE {
-            return OPTK_NONE;
+        (*lv).w2o = _optik_xform_mul(w2o, (*lv).w2o);
+        (*lv).o2w = _optik_xform_mul((*lv).o2w, o2w);
+        (*lv).origin = _optik_xform_point(w2o, (*lv).origin);
+        (*lv).direction = _optik_canonical_direction(_optik_xform_vector(w2o, (*lv).direction));
+        header = _optik_resolve(h0.z, h0.w);
+        if header == _OPTIK_NONE {
+            return _OPTIK_NONE;
         }
     }
-    return OPTK_NONE;
+    return _OPTIK_NONE;
 }
 
 "#,
@@ -321,13 +321,13 @@ fn optk_through_transforms(lv: ptr<function, OptkLevel>, first: u32) -> u32 {
 /// The candidate record and the acceptance of built-in primitive hits (any-hit included).
 fn accept(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
-        r#"fn optk_candidate(lv: ptr<function, OptkLevel>, slot: u32, prim: u32, gas_index: u32, geom: u32) -> OptkHit {
-    var h: OptkHit;
+        r#"fn _optik_candidate(lv: ptr<function, _OptikLevel>, slot: u32, prim: u32, gas_index: u32, geom: u32) -> _OptikHit {
+    var h: _OptikHit;
     h.prim_index = prim;
     h.gas_index = gas_index;
     h.instance_id = (*lv).instance_id;
     h.instance_index = (*lv).instance_index;
-    h.record = optk_hit_record((*lv).sbt_offset, gas_index);
+    h.record = _optik_hit_record((*lv).sbt_offset, gas_index);
     h.gas = (*lv).header;
     h.slot = slot;
     h.geom_flags = geom;
@@ -343,46 +343,48 @@ fn accept(c: &KernelConfig<'_>, out: &mut String) {
         r#"    return h;
 }
 
-fn optk_commit(h: OptkHit) {
-    optk_best = h;
-    optk_found = true;
-    optk_ray.tmax = h.t;
+fn _optik_commit(h: _OptikHit) {
+    _optik_best = h;
+    _optik_found = true;
+    _optik_ray.tmax = h.t;
 }
 
 // Accepts a built-in primitive's candidate of fate `fate` (1 opaque, 2 non-opaque).
-fn optk_accept(h: OptkHit, fate: u32) {
-    if optk_unwind == 3u {
+fn _optik_accept(h: _OptikHit, fate: u32) {
+    if _optik_unwind == 3u {
         return;
     }
 "#,
     );
     if c.any_hit() {
         out.push_str(
-            r#"    if fate == 2u && (optk_group_flags(h.record) & 2u) != 0u {
-        optk_hit = h;
-        optk_ray.tmax = h.t;
-        let reason = optk_ah(h.record);
-        optk_ray.tmax = optk_best.t;
+            r#"    if fate == 2u && (_optik_group_flags(h.record) & 2u) != 0u {
+        _optik_hit = h;
+        _optik_ray.tmax = h.t;
+        let reason = _optik_ah(h.record);
+        _optik_ray.tmax = _optik_best.t;
         if reason == 3u {
-            optk_done = true;
+            _optik_done = true;
             return;
         }
         if reason == 1u {
             return;
         }
-        optk_commit(h);
+        _optik_commit(h);
         if reason == 2u {
-            optk_done = true;
+            _optik_done = true;
         }
     } else {
-        optk_commit(h);
+        _optik_commit(h);
     }
 "#,
         );
     } else {
-        out.push_str("    optk_commit(h);\n");
+        out.push_str("    _optik_commit(h);\n");
     }
-    out.push_str("    if (optk_ray.flags & 4u) != 0u {\n        optk_done = true;\n    }\n}\n\n");
+    out.push_str(
+        "    if (_optik_ray.flags & 4u) != 0u {\n        _optik_done = true;\n    }\n}\n\n",
+    );
 }
 
 /// The code reading key `key` of a slot's data, lerped toward the next key under motion.
@@ -392,16 +394,16 @@ fn keyed(c: &KernelConfig<'_>) -> bool {
 
 fn triangles(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
-        r#"fn optk_leaf_triangles(lv: ptr<function, OptkLevel>, first: u32, count: u32) {
+        r#"fn _optik_leaf_triangles(lv: ptr<function, _OptikLevel>, first: u32, count: u32) {
     for (var i = 0u; i < count; i = i + 1u) {
-        if optk_done {
+        if _optik_done {
             return;
         }
         let slot = first + i;
         let a = (*lv).prim_base + (slot * (*lv).keys + (*lv).key) * 3u;
-        let q0 = optk_fetch(a);
-        let q1 = optk_fetch(a + 1u);
-        let q2 = optk_fetch(a + 2u);
+        let q0 = _optik_fetch(a);
+        let q1 = _optik_fetch(a + 1u);
+        let q2 = _optik_fetch(a + 2u);
         var v0 = bitcast<vec3<f32>>(q0.xyz);
         var v1 = bitcast<vec3<f32>>(q1.xyz);
         var v2 = bitcast<vec3<f32>>(q2.xyz);
@@ -410,17 +412,17 @@ fn triangles(c: &KernelConfig<'_>, out: &mut String) {
     if keyed(c) {
         out.push_str(
             r#"        if (*lv).frac > 0.0 {
-            v0 = mix(v0, bitcast<vec3<f32>>(optk_fetch(a + 3u).xyz), (*lv).frac);
-            v1 = mix(v1, bitcast<vec3<f32>>(optk_fetch(a + 4u).xyz), (*lv).frac);
-            v2 = mix(v2, bitcast<vec3<f32>>(optk_fetch(a + 5u).xyz), (*lv).frac);
+            v0 = mix(v0, bitcast<vec3<f32>>(_optik_fetch(a + 3u).xyz), (*lv).frac);
+            v1 = mix(v1, bitcast<vec3<f32>>(_optik_fetch(a + 4u).xyz), (*lv).frac);
+            v2 = mix(v2, bitcast<vec3<f32>>(_optik_fetch(a + 5u).xyz), (*lv).frac);
         }
 "#,
         );
     }
     out.push_str(match c.accuracy.triangle {
         // `Driver` is refused by `set_accuracy`; it never reaches a kernel.
-        TriangleTest::Watertight | TriangleTest::Driver => "        let t = optk_tri_watertight((*lv).woop, (*lv).origin, v0, v1, v2, optk_ray.tmin, optk_best.t);\n",
-        TriangleTest::MollerTrumbore => "        let t = optk_tri_moller_trumbore((*lv).origin, (*lv).direction, v0, v1, v2, optk_ray.tmin, optk_best.t);\n",
+        TriangleTest::Watertight | TriangleTest::Driver => "        let t = _optik_tri_watertight((*lv).woop, (*lv).origin, v0, v1, v2, _optik_ray.tmin, _optik_best.t);\n",
+        TriangleTest::MollerTrumbore => "        let t = _optik_tri_moller_trumbore((*lv).origin, (*lv).direction, v0, v1, v2, _optik_ray.tmin, _optik_best.t);\n",
     });
     out.push_str(
         r#"        if !t.hit {
@@ -428,28 +430,28 @@ fn triangles(c: &KernelConfig<'_>, out: &mut String) {
         }
         let geom = q1.w >> 29u;
         let front = t.front != (*lv).flip;
-        if optk_face_culled(front, geom, (*lv).inst_flags, optk_ray.flags) {
+        if _optik_face_culled(front, geom, (*lv).inst_flags, _optik_ray.flags) {
             continue;
         }
-        var omm = OPTK_NONE;
+        var omm = _OPTIK_NONE;
 "#,
     );
     if c.micromaps() {
         out.push_str(
-            "        if q2.w != 0u && ((*lv).inst_flags & 32u) == 0u {\n            omm = optk_micromap(lv, q2.w, t.u, t.v);\n        }\n",
+            "        if q2.w != 0u && ((*lv).inst_flags & 32u) == 0u {\n            omm = _optik_micromap(lv, q2.w, t.u, t.v);\n        }\n",
         );
     }
     out.push_str(
-        r#"        let fate = optk_fate(geom, (*lv).inst_flags, optk_ray.flags, omm);
+        r#"        let fate = _optik_fate(geom, (*lv).inst_flags, _optik_ray.flags, omm);
         if fate == 0u {
             continue;
         }
-        var h = optk_candidate(lv, slot, q0.w, q1.w & 0x1FFFFFFFu, geom);
+        var h = _optik_candidate(lv, slot, q0.w, q1.w & 0x1FFFFFFFu, geom);
         h.t = t.t;
         h.hit_kind = select(0xFFu, 0xFEu, front);
         h.attrs[0] = bitcast<u32>(t.u);
         h.attrs[1] = bitcast<u32>(t.v);
-        optk_accept(h, fate);
+        _optik_accept(h, fate);
     }
 }
 
@@ -459,49 +461,49 @@ fn triangles(c: &KernelConfig<'_>, out: &mut String) {
 
 fn custom(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
-        r#"fn optk_leaf_custom(lv: ptr<function, OptkLevel>, first: u32, count: u32) {
+        r#"fn _optik_leaf_custom(lv: ptr<function, _OptikLevel>, first: u32, count: u32) {
     for (var i = 0u; i < count; i = i + 1u) {
-        if optk_done {
+        if _optik_done {
             return;
         }
         let slot = first + i;
         let base = (*lv).prim_base + slot * (1u + 2u * (*lv).keys);
-        let info = optk_fetch(base);
+        let info = _optik_fetch(base);
         let a = base + 1u + 2u * (*lv).key;
-        var lo = bitcast<vec3<f32>>(optk_fetch(a).xyz);
-        var hi = bitcast<vec3<f32>>(optk_fetch(a + 1u).xyz);
+        var lo = bitcast<vec3<f32>>(_optik_fetch(a).xyz);
+        var hi = bitcast<vec3<f32>>(_optik_fetch(a + 1u).xyz);
 "#,
     );
     if keyed(c) {
         out.push_str(
             r#"        if (*lv).frac > 0.0 {
-            lo = mix(lo, bitcast<vec3<f32>>(optk_fetch(a + 2u).xyz), (*lv).frac);
-            hi = mix(hi, bitcast<vec3<f32>>(optk_fetch(a + 3u).xyz), (*lv).frac);
+            lo = mix(lo, bitcast<vec3<f32>>(_optik_fetch(a + 2u).xyz), (*lv).frac);
+            hi = mix(hi, bitcast<vec3<f32>>(_optik_fetch(a + 3u).xyz), (*lv).frac);
         }
 "#,
         );
     }
     out.push_str(
-        r#"        if !optk_box1((*lv).slab, lo, hi, optk_ray.tmin, optk_best.t) {
+        r#"        if !_optik_box1((*lv).slab, lo, hi, _optik_ray.tmin, _optik_best.t) {
             continue;
         }
         let geom = info.y >> 29u;
-        if optk_fate(geom, (*lv).inst_flags, optk_ray.flags, OPTK_NONE) == 0u {
+        if _optik_fate(geom, (*lv).inst_flags, _optik_ray.flags, _OPTIK_NONE) == 0u {
             continue;
         }
-        let h = optk_candidate(lv, slot, info.x, info.y & 0x1FFFFFFFu, geom);
-        if optk_unwind == 3u {
+        let h = _optik_candidate(lv, slot, info.x, info.y & 0x1FFFFFFFu, geom);
+        if _optik_unwind == 3u {
             return;
         }
-        if (optk_group_flags(h.record) & 4u) == 0u {
+        if (_optik_group_flags(h.record) & 4u) == 0u {
             continue;
         }
-        optk_hit = h;
-        optk_hit.t = optk_best.t;
-        optk_ray.tmax = optk_best.t;
-        let reason = optk_is(h.record);
+        _optik_hit = h;
+        _optik_hit.t = _optik_best.t;
+        _optik_ray.tmax = _optik_best.t;
+        let reason = _optik_is(h.record);
         if reason >= 2u {
-            optk_done = true;
+            _optik_done = true;
             return;
         }
     }
@@ -514,18 +516,18 @@ fn custom(c: &KernelConfig<'_>, out: &mut String) {
 fn report(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
         r#"// rt_report_intersection: t in the closed interval [tmin, closest so far], then any-hit.
-fn optk_report(t: f32, hit_kind: u32, attributes: array<u32, 8>) -> bool {
-    if optk_done || optk_unwind != 0u {
+fn _optik_report(t: f32, hit_kind: u32, attributes: array<u32, 8>) -> bool {
+    if _optik_done || _optik_unwind != 0u {
         return false;
     }
-    if !(t >= optk_ray.tmin && t <= optk_best.t) {
+    if !(t >= _optik_ray.tmin && t <= _optik_best.t) {
         return false;
     }
-    let fate = optk_fate(optk_hit.geom_flags, optk_hit.inst_flags, optk_ray.flags, OPTK_NONE);
+    let fate = _optik_fate(_optik_hit.geom_flags, _optik_hit.inst_flags, _optik_ray.flags, _OPTIK_NONE);
     if fate == 0u {
         return false;
     }
-    var h = optk_hit;
+    var h = _optik_hit;
     h.t = t;
     h.hit_kind = hit_kind & 0x7Fu;
     h.attrs = attributes;
@@ -533,75 +535,75 @@ fn optk_report(t: f32, hit_kind: u32, attributes: array<u32, 8>) -> bool {
     );
     if c.any_hit() {
         out.push_str(
-            r#"    if fate == 2u && (optk_group_flags(h.record) & 2u) != 0u {
-        let own = optk_hit;
-        optk_hit = h;
-        optk_ray.tmax = t;
-        let reason = optk_ah(h.record);
-        optk_hit = own;
-        optk_ray.tmax = optk_best.t;
+            r#"    if fate == 2u && (_optik_group_flags(h.record) & 2u) != 0u {
+        let own = _optik_hit;
+        _optik_hit = h;
+        _optik_ray.tmax = t;
+        let reason = _optik_ah(h.record);
+        _optik_hit = own;
+        _optik_ray.tmax = _optik_best.t;
         if reason == 3u {
-            optk_done = true;
+            _optik_done = true;
             return false;
         }
         if reason == 1u {
             return false;
         }
-        optk_commit(h);
+        _optik_commit(h);
         if reason == 2u {
-            optk_done = true;
-            optk_unwind = 2u;
+            _optik_done = true;
+            _optik_unwind = 2u;
             return true;
         }
     } else {
-        optk_commit(h);
+        _optik_commit(h);
     }
 "#,
         );
     } else {
-        out.push_str("    optk_commit(h);\n");
+        out.push_str("    _optik_commit(h);\n");
     }
     out.push_str(
-        "    if (optk_ray.flags & 4u) != 0u {\n        optk_done = true;\n        optk_unwind = 2u;\n    }\n    return true;\n}\n\n",
+        "    if (_optik_ray.flags & 4u) != 0u {\n        _optik_done = true;\n        _optik_unwind = 2u;\n    }\n    return true;\n}\n\n",
     );
 }
 
 fn spheres(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
-        r#"fn optk_leaf_spheres(lv: ptr<function, OptkLevel>, first: u32, count: u32) {
+        r#"fn _optik_leaf_spheres(lv: ptr<function, _OptikLevel>, first: u32, count: u32) {
     for (var i = 0u; i < count; i = i + 1u) {
-        if optk_done {
+        if _optik_done {
             return;
         }
         let slot = first + i;
         let base = (*lv).prim_base + slot * (1u + (*lv).keys);
-        let info = optk_fetch(base);
-        var s = bitcast<vec4<f32>>(optk_fetch(base + 1u + (*lv).key));
+        let info = _optik_fetch(base);
+        var s = bitcast<vec4<f32>>(_optik_fetch(base + 1u + (*lv).key));
 "#,
     );
     if keyed(c) {
         out.push_str(
-            "        if (*lv).frac > 0.0 {\n            s = mix(s, bitcast<vec4<f32>>(optk_fetch(base + 2u + (*lv).key)), (*lv).frac);\n        }\n",
+            "        if (*lv).frac > 0.0 {\n            s = mix(s, bitcast<vec4<f32>>(_optik_fetch(base + 2u + (*lv).key)), (*lv).frac);\n        }\n",
         );
     }
     out.push_str(
         r#"        // Built-in primitives hit in the open interval (tmin, tmax): the near root entering
         // (front), else the far root leaving (a ray from inside; back).
-        let r = optik_sphere_roots(s.xyz, s.w, (*lv).origin, (*lv).direction);
-        let near_ok = r.z != 0.0 && r.x > optk_ray.tmin && r.x < optk_best.t;
-        let far_ok = r.z != 0.0 && r.y > optk_ray.tmin && r.y < optk_best.t;
+        let r = _optik_sphere_roots(s.xyz, s.w, (*lv).origin, (*lv).direction);
+        let near_ok = r.z != 0.0 && r.x > _optik_ray.tmin && r.x < _optik_best.t;
+        let far_ok = r.z != 0.0 && r.y > _optik_ray.tmin && r.y < _optik_best.t;
         if !near_ok && !far_ok {
             continue;
         }
         let geom = info.y >> 29u;
-        let fate = optk_fate(geom, (*lv).inst_flags, optk_ray.flags, OPTK_NONE);
+        let fate = _optik_fate(geom, (*lv).inst_flags, _optik_ray.flags, _OPTIK_NONE);
         if fate == 0u {
             continue;
         }
-        var h = optk_candidate(lv, slot, info.x, info.y & 0x1FFFFFFFu, geom);
+        var h = _optik_candidate(lv, slot, info.x, info.y & 0x1FFFFFFFu, geom);
         h.t = select(r.y, r.x, near_ok);
         h.hit_kind = select(0xFFu, 0xFEu, near_ok);
-        optk_accept(h, fate);
+        _optik_accept(h, fate);
     }
 }
 
@@ -611,42 +613,42 @@ fn spheres(c: &KernelConfig<'_>, out: &mut String) {
 
 fn curves(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
-        r#"fn optk_leaf_curves(lv: ptr<function, OptkLevel>, first: u32, count: u32) {
+        r#"fn _optik_leaf_curves(lv: ptr<function, _OptikLevel>, first: u32, count: u32) {
     let basis = ((*lv).kind_word >> 8u) & 3u;
     for (var i = 0u; i < count; i = i + 1u) {
-        if optk_done {
+        if _optik_done {
             return;
         }
         let slot = first + i;
         let base = (*lv).prim_base + slot * (1u + 4u * (*lv).keys);
-        let info = optk_fetch(base);
+        let info = _optik_fetch(base);
         let a = base + 1u + 4u * (*lv).key;
         var p: array<vec4<f32>, 4>;
         for (var j = 0u; j < 4u; j = j + 1u) {
-            p[j] = bitcast<vec4<f32>>(optk_fetch(a + j));
+            p[j] = bitcast<vec4<f32>>(_optik_fetch(a + j));
 "#,
     );
     if keyed(c) {
         out.push_str(
-            "            if (*lv).frac > 0.0 {\n                p[j] = mix(p[j], bitcast<vec4<f32>>(optk_fetch(a + 4u + j)), (*lv).frac);\n            }\n",
+            "            if (*lv).frac > 0.0 {\n                p[j] = mix(p[j], bitcast<vec4<f32>>(_optik_fetch(a + 4u + j)), (*lv).frac);\n            }\n",
         );
     }
     out.push_str(
         r#"        }
-        let t = optik_curve_intersect(basis, p[0], p[1], p[2], p[3], (info.z & 1u) != 0u, (info.z & 2u) != 0u, (*lv).origin, (*lv).direction, optk_ray.tmin, optk_best.t);
-        if t.z == 0.0 || !(t.x > optk_ray.tmin && t.x < optk_best.t) {
+        let t = _optik_curve_intersect(basis, p[0], p[1], p[2], p[3], (info.z & 1u) != 0u, (info.z & 2u) != 0u, (*lv).origin, (*lv).direction, _optik_ray.tmin, _optik_best.t);
+        if t.z == 0.0 || !(t.x > _optik_ray.tmin && t.x < _optik_best.t) {
             continue;
         }
         let geom = info.y >> 29u;
-        let fate = optk_fate(geom, (*lv).inst_flags, optk_ray.flags, OPTK_NONE);
+        let fate = _optik_fate(geom, (*lv).inst_flags, _optik_ray.flags, _OPTIK_NONE);
         if fate == 0u {
             continue;
         }
-        var h = optk_candidate(lv, slot, info.x, info.y & 0x1FFFFFFFu, geom);
+        var h = _optik_candidate(lv, slot, info.x, info.y & 0x1FFFFFFFu, geom);
         h.t = t.x;
         h.hit_kind = 0xFEu;
         h.attrs[0] = bitcast<u32>(t.y);
-        optk_accept(h, fate);
+        _optik_accept(h, fate);
     }
 }
 
@@ -658,29 +660,29 @@ fn traverse(c: &KernelConfig<'_>, out: &mut String) {
     let stack = c.sizes.stack.max(1);
     let saved_levels = c.sizes.levels.saturating_sub(1).max(1);
     out.push_str(&format!(
-        "const OPTK_STACK: u32 = {stack}u;\nconst OPTK_LEVELS: u32 = {saved_levels}u;\n\n"
+        "const _OPTIK_STACK: u32 = {stack}u;\nconst _OPTIK_LEVELS: u32 = {saved_levels}u;\n\n"
     ));
     out.push_str(
-        r#"// Walks the graph under `handle` for optk_ray; the closest accepted hit ends in optk_best.
-fn optk_traverse(handle: vec2<u32>) -> bool {
-    optk_found = false;
-    optk_done = false;
-    optk_best.t = optk_ray.tmax;
-    var root = optk_resolve_handle(handle);
-    if root == OPTK_NONE {
+        r#"// Walks the graph under `handle` for _optik_ray; the closest accepted hit ends in _optik_best.
+fn _optik_traverse(handle: vec2<u32>) -> bool {
+    _optik_found = false;
+    _optik_done = false;
+    _optik_best.t = _optik_ray.tmax;
+    var root = _optik_resolve_handle(handle);
+    if root == _OPTIK_NONE {
 "#,
     );
     if c.exception(ExceptionFlags::DEBUG) {
         out.push_str(
-            "        if (handle.x | handle.y) != 0u {\n            optk_raise(-5);\n        }\n",
+            "        if (handle.x | handle.y) != 0u {\n            _optik_raise(-5);\n        }\n",
         );
     }
     out.push_str(
         r#"        return false;
     }
-    var lv: OptkLevel;
-    lv.origin = optk_ray.origin;
-    lv.direction = optk_ray.direction;
+    var lv: _OptikLevel;
+    lv.origin = _optik_ray.origin;
+    lv.direction = _optik_ray.direction;
     lv.instance_id = 0u;
     lv.instance_index = 0u;
     lv.sbt_offset = 0u;
@@ -689,28 +691,30 @@ fn optk_traverse(handle: vec2<u32>) -> bool {
 "#,
     );
     if c.instancing() {
-        out.push_str("    lv.w2o = optk_xform_identity();\n    lv.o2w = optk_xform_identity();\n");
+        out.push_str(
+            "    lv.w2o = _optik_xform_identity();\n    lv.o2w = _optik_xform_identity();\n",
+        );
     }
     if c.any_graph() {
         out.push_str(
-            "    root = optk_through_transforms(&lv, root);\n    if root == OPTK_NONE || !optk_finite3(lv.origin) || !optk_finite3(lv.direction) {\n        return false;\n    }\n",
+            "    root = _optik_through_transforms(&lv, root);\n    if root == _OPTIK_NONE || !_optik_finite3(lv.origin) || !_optik_finite3(lv.direction) {\n        return false;\n    }\n",
         );
     }
     out.push_str(
-        r#"    if !optk_enter(&lv, root) {
+        r#"    if !_optik_enter(&lv, root) {
         return false;
     }
-    var stack: array<vec2<u32>, OPTK_STACK>;
-    stack[0] = vec2<u32>(0u, bitcast<u32>(optk_ray.tmin));
+    var stack: array<vec2<u32>, _OPTIK_STACK>;
+    stack[0] = vec2<u32>(0u, bitcast<u32>(_optik_ray.tmin));
     var sp = 1u;
 "#,
     );
     if c.instancing() {
-        out.push_str("    var levels: array<OptkLevel, OPTK_LEVELS>;\n    var lvl = 0u;\n");
+        out.push_str("    var levels: array<_OptikLevel, _OPTIK_LEVELS>;\n    var lvl = 0u;\n");
     }
     out.push_str(
         r#"    loop {
-        if sp == 0u || optk_done {
+        if sp == 0u || _optik_done {
             break;
         }
         sp = sp - 1u;
@@ -724,12 +728,12 @@ fn optk_traverse(handle: vec2<u32>) -> bool {
         );
     }
     out.push_str(
-        r#"        if bitcast<f32>(e.y) > optk_best.t {
+        r#"        if bitcast<f32>(e.y) > _optik_best.t {
             continue;
         }
         if tag == 0u {
-            let n = optk_node4(lv.node_base, e.x & 0x3FFFFFFFu, lv.slab, optk_ray.tmin, optk_best.t);
-            var refs = vec4<u32>(OPTK_NONE);
+            let n = _optik_node4(lv.node_base, e.x & 0x3FFFFFFFu, lv.slab, _optik_ray.tmin, _optik_best.t);
+            var refs = vec4<u32>(_OPTIK_NONE);
             for (var k = 0u; k < 4u; k = k + 1u) {
                 if n.hit[k] {
                     if n.kind[k] == 1u {
@@ -741,9 +745,9 @@ fn optk_traverse(handle: vec2<u32>) -> bool {
                     }
                 }
             }
-            let s = optk_sort4(select(vec4<f32>(optk_inf()), n.tnear, n.hit), refs);
+            let s = _optik_sort4(select(vec4<f32>(_optik_inf()), n.tnear, n.hit), refs);
             for (var k = 0u; k < 4u; k = k + 1u) {
-                if s.refs[k] != OPTK_NONE && sp < OPTK_STACK {
+                if s.refs[k] != _OPTIK_NONE && sp < _OPTIK_STACK {
                     stack[sp] = vec2<u32>(s.refs[k], bitcast<u32>(s.keys[k]));
                     sp = sp + 1u;
                 }
@@ -755,22 +759,22 @@ fn optk_traverse(handle: vec2<u32>) -> bool {
 "#,
     );
     if c.triangles() {
-        out.push_str("                case 0u: {\n                    optk_leaf_triangles(&lv, first, count);\n                }\n");
+        out.push_str("                case 0u: {\n                    _optik_leaf_triangles(&lv, first, count);\n                }\n");
     }
     if c.custom() && c.intersection() {
-        out.push_str("                case 1u: {\n                    optk_leaf_custom(&lv, first, count);\n                }\n");
+        out.push_str("                case 1u: {\n                    _optik_leaf_custom(&lv, first, count);\n                }\n");
     }
     if c.spheres() {
-        out.push_str("                case 2u: {\n                    optk_leaf_spheres(&lv, first, count);\n                }\n");
+        out.push_str("                case 2u: {\n                    _optik_leaf_spheres(&lv, first, count);\n                }\n");
     }
     if c.curves() {
-        out.push_str("                case 3u: {\n                    optk_leaf_curves(&lv, first, count);\n                }\n");
+        out.push_str("                case 3u: {\n                    _optik_leaf_curves(&lv, first, count);\n                }\n");
     }
     out.push_str("                default: {}\n            }\n        }");
     if c.instancing() {
         instance_entry(c, out);
     }
-    out.push_str("\n    }\n    return optk_found;\n}\n\n");
+    out.push_str("\n    }\n    return _optik_found;\n}\n\n");
 }
 
 /// Entering an instance popped from the stack (tag 2).
@@ -780,27 +784,27 @@ fn instance_entry(c: &KernelConfig<'_>, out: &mut String) {
             // An instance leaf: enter its first instance, leaving the rest for later.
             let count = ((e.x >> 27u) & 7u) + 1u;
             let slot = e.x & 0x7FFFFFFu;
-            if count > 1u && sp < OPTK_STACK {
+            if count > 1u && sp < _OPTIK_STACK {
                 stack[sp] = vec2<u32>((2u << 30u) | ((count - 2u) << 27u) | (slot + 1u), e.y);
                 sp = sp + 1u;
             }
             let rec = lv.prim_base + slot * 8u;
-            let info = optk_fetch(rec + 6u);
-            if ((info.z & 0xFFu) & optk_ray.mask) == 0u {
+            let info = _optik_fetch(rec + 6u);
+            if ((info.z & 0xFFu) & _optik_ray.mask) == 0u {
                 continue;
             }
-            let link = optk_fetch(rec + 7u);
-            var child = optk_resolve(link.x, link.y);
-            if child == OPTK_NONE {
+            let link = _optik_fetch(rec + 7u);
+            var child = _optik_resolve(link.x, link.y);
+            if child == _OPTIK_NONE {
                 continue;
             }
-            let iw = optk_rows(rec);
-            let io = optk_rows(rec + 3u);
+            let iw = _optik_rows(rec);
+            let io = _optik_rows(rec + 3u);
             var next = lv;
-            next.w2o = optk_xform_mul(iw, lv.w2o);
-            next.o2w = optk_xform_mul(lv.o2w, io);
-            next.origin = optk_xform_point(iw, lv.origin);
-            next.direction = optk_canonical_direction(optk_xform_vector(iw, lv.direction));
+            next.w2o = _optik_xform_mul(iw, lv.w2o);
+            next.o2w = _optik_xform_mul(lv.o2w, io);
+            next.origin = _optik_xform_point(iw, lv.origin);
+            next.direction = _optik_canonical_direction(_optik_xform_vector(iw, lv.direction));
             next.instance_id = info.x;
             next.instance_index = info.w;
             next.sbt_offset = lv.sbt_offset + info.y;
@@ -816,13 +820,13 @@ fn instance_entry(c: &KernelConfig<'_>, out: &mut String) {
 "#,
     );
     if c.any_graph() {
-        out.push_str("            child = optk_through_transforms(&next, child);\n            if child == OPTK_NONE {\n                continue;\n            }\n");
+        out.push_str("            child = _optik_through_transforms(&next, child);\n            if child == _OPTIK_NONE {\n                continue;\n            }\n");
     }
     out.push_str(
-        r#"            if !optk_finite3(next.origin) || !optk_finite3(next.direction) {
+        r#"            if !_optik_finite3(next.origin) || !_optik_finite3(next.direction) {
                 continue;
             }
-            if !optk_enter(&next, child) {
+            if !_optik_enter(&next, child) {
                 continue;
             }
 "#,
@@ -832,13 +836,13 @@ fn instance_entry(c: &KernelConfig<'_>, out: &mut String) {
         out.push_str("            if next.is_ias {\n                continue;\n            }\n");
     }
     out.push_str(
-        r#"            if lvl >= OPTK_LEVELS || sp + 2u > OPTK_STACK {
+        r#"            if lvl >= _OPTIK_LEVELS || sp + 2u > _OPTIK_STACK {
                 continue;
             }
             levels[lvl] = lv;
             lvl = lvl + 1u;
             stack[sp] = vec2<u32>(3u << 30u, 0u);
-            stack[sp + 1u] = vec2<u32>(0u, bitcast<u32>(optk_ray.tmin));
+            stack[sp + 1u] = vec2<u32>(0u, bitcast<u32>(_optik_ray.tmin));
             sp = sp + 2u;
             lv = next;
         }"#,

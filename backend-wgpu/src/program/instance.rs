@@ -13,10 +13,10 @@
 //! during a trace, an intersection program during the any-hit its report triggers) keeps its
 //! values, and each program starts fresh.
 //!
-//! Device-API calls become calls to stubs named `optk_*_fn`; after naga writes the module
+//! Device-API calls become calls to stubs named `_optik_*_fn`; after naga writes the module
 //! with `wgsl-out`, the stubs' bodies are cut out and `crate::kernel` supplies real ones.
 //! After every call that may unwind (ignore, terminate, an exception), the copy checks
-//! `optk_unwinding_fn()` and returns (the shared pass of `optik_api::unwind`), which is how
+//! `_optik_unwinding_fn()` and returns (the shared pass of `optik_api::unwind`), which is how
 //! "does not return" is expressed in WGSL.
 
 use super::analysis::{self, FnFacts};
@@ -87,12 +87,12 @@ pub(crate) struct Lowered {
     pub module_wgsl: Vec<String>,
     /// Per site, the program copy each group runs there.
     pub dispatch: BTreeMap<Site, Vec<(u32, String)>>,
-    /// Trace depths `d` whose `optk_trace_{d}_fn` is called (d = max_trace_depth: the
+    /// Trace depths `d` whose `_optik_trace_{d}_fn` is called (d = max_trace_depth: the
     /// depth-exceeded stub).
     pub traces: BTreeSet<u32>,
-    /// Direct-callable levels `k` whose `optk_direct_{k}_fn` is called.
+    /// Direct-callable levels `k` whose `_optik_direct_{k}_fn` is called.
     pub directs: BTreeSet<u32>,
-    /// `(d, c)` of the `optk_cont_{d}_{c}_fn` called.
+    /// `(d, c)` of the `_optik_cont_{d}_{c}_fn` called.
     pub continuations: BTreeSet<(u32, u32)>,
     /// The other device functions called.
     pub device_functions: BTreeSet<DeviceFunction>,
@@ -103,26 +103,26 @@ pub(crate) const BINDING_STRIDE: u32 = 128;
 
 /// The stub name of a plain device function.
 pub(crate) fn device_stub_name(f: DeviceFunction) -> String {
-    format!("optk_{}_fn", f.name().trim_start_matches("rt_"))
+    format!("_optik_{}_fn", f.name().trim_start_matches("rt_"))
 }
 
 /// The stub name of `rt_trace` at trace depth `d`.
 pub(crate) fn trace_stub_name(d: u32) -> String {
-    format!("optk_trace_{d}_fn")
+    format!("_optik_trace_{d}_fn")
 }
 
 /// The stub name of `rt_direct_call` calling nesting level `k`.
 pub(crate) fn direct_stub_name(k: u32) -> String {
-    format!("optk_direct_{k}_fn")
+    format!("_optik_direct_{k}_fn")
 }
 
 /// The stub name of `rt_continuation_call` at depth `d` calling nesting level `c`.
 pub(crate) fn continuation_stub_name(d: u32, c: u32) -> String {
-    format!("optk_cont_{d}_{c}_fn")
+    format!("_optik_cont_{d}_{c}_fn")
 }
 
 /// The stub that says whether the current program must return at once.
-pub(crate) const UNWINDING_STUB: &str = "optk_unwinding_fn";
+pub(crate) const UNWINDING_STUB: &str = "_optik_unwinding_fn";
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 struct Ctx {

@@ -24,9 +24,12 @@ use crate::case::{Case, Group};
 use crate::oracle;
 use optik::{ProgramKind, ProgramSource};
 
+/// A group module's `cases`: every case of the group, in catalog order.
+pub type GroupCases = fn() -> Vec<Case>;
+
 /// Each group with its module's `cases`, in [`Group::ALL`]'s order: the module of a group is
 /// named after it (`catalog::tri` holds the `tri` group).
-pub const GROUPS: [(Group, fn() -> Vec<Case>); 17] = [
+pub const GROUPS: [(Group, GroupCases); 17] = [
     (Group::Launch, launch::cases),
     (Group::Builtin, builtin::cases),
     (Group::Tri, tri::cases),

@@ -1,4 +1,4 @@
-//! The `numerics` group: rays where `f32` rounding decides (DESIGN.md §5, research/numerics.md):
+//! The `numerics` group: rays where `f32` rounding decides (DESIGN.md §5, docs/numerics.md):
 //! shared edges and vertices near the origin, far from it and tiny; grazing rays; secondary
 //! rays with and without `rt_offset_ray`; degenerate neighbours; signed zeros, infinities,
 //! NaN and denormals in rays; interval boundaries; tiny and huge spheres; extreme, mirrored

@@ -3,7 +3,7 @@
 //!
 //! A model becomes one [`Mesh`] per (object × material), read with `tobj` (polygons
 //! triangulated, one index per vertex). Materials map as follows (render/README.md, "OBJ+MTL
-//! scenes", has the table):
+//! models", has the table):
 //! - `Ke` above zero: the mesh is an area light of radiance `Ke` (front side only, as Mitsuba);
 //! - `illum 7`, or `d` < 1 with an `Ni` other than 1: a smooth `dielectric` of `int_ior` = `Ni`;
 //! - `Ks` above zero: a `roughplastic` over `Kd`/`map_Kd` with `int_ior` = `Ni` (1.5 when
