@@ -157,6 +157,15 @@ impl Aabb {
         d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
     }
 
+    /// The box with every coordinate multiplied by `s` (for `s` > 0: still a box, min below
+    /// max; exact for a power of two unless a coordinate underflows).
+    pub fn scaled(&self, s: f32) -> Aabb {
+        Aabb {
+            min: self.min.map(|v| v * s),
+            max: self.max.map(|v| v * s),
+        }
+    }
+
     pub(crate) fn to_obvhs(self) -> obvhs::aabb::Aabb {
         obvhs::aabb::Aabb::new(self.min.into(), self.max.into())
     }

@@ -115,10 +115,12 @@ impl Bvh {
             return Ok((Bvh::default(), Vec::new()));
         }
         let params = quality.params();
-        // obvhs reads every box it is given, so it only sees the included ones.
+        // obvhs reads every box it is given, so it only sees the included ones, scaled so
+        // that no surface area it computes overflows (see `topology_scale`).
+        let scale = topology_scale(included.iter().map(|&i| &boxes[i as usize]));
         let obvhs_boxes: Vec<obvhs::aabb::Aabb> = included
             .iter()
-            .map(|&i| boxes[i as usize].to_obvhs())
+            .map(|&i| boxes[i as usize].scaled(scale).to_obvhs())
             .collect();
         // obvhs asserts on inputs it does not expect; a panic must not cross the API.
         let built = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
@@ -206,6 +208,31 @@ impl Bvh {
     pub fn size_in_bytes(&self) -> u64 {
         (self.pairs.len() * std::mem::size_of::<NodePair>()) as u64
     }
+}
+
+/// Coordinates up to this magnitude reach obvhs unchanged: its surface areas (products of
+/// two extents, each at most twice this) stay far from `f32::MAX`.
+const TOPOLOGY_LIMIT: f32 = (1u64 << 40) as f32;
+
+/// The power of two the builder's boxes are multiplied by: 1 for every scene whose
+/// coordinates stay within [`TOPOLOGY_LIMIT`], less for larger ones.
+///
+/// obvhs's PLOC merge costs are surface areas: with coordinates near `f32::MAX` an extent
+/// overflows to infinity, and a flat box then has area `∞ · 0 = NaN`; the NaN costs break
+/// PLOC's pairing and it indexes out of bounds (fuzz input accel-705066: flat triangles
+/// from x = -3e38 to 3e38). Only the tree's shape comes from these boxes (`refit` puts the
+/// exact ones back), and SAH costs are scale-invariant, so a uniform power-of-two scale
+/// (exact, order-preserving) gives the tree the unscaled boxes would, without the overflow.
+fn topology_scale<'a>(boxes: impl Iterator<Item = &'a Aabb>) -> f32 {
+    let largest = boxes
+        .flat_map(|b| b.min.iter().chain(b.max.iter()))
+        .fold(0.0f32, |m, v| m.max(v.abs()));
+    if largest <= TOPOLOGY_LIMIT {
+        return 1.0;
+    }
+    // largest <= f32::MAX < 2^128, so the exponent is at most 88 and 2^-88 is a normal f32.
+    let exponent = (largest / TOPOLOGY_LIMIT).log2().ceil() as i32;
+    2.0f32.powi(-exponent)
 }
 
 /// Converts obvhs's tree into optik's layout: depth-first, siblings adjacent, children after
@@ -348,5 +375,57 @@ mod tests {
         moved[10] = Aabb::EMPTY;
         check_structure(&bvh, &order, &moved);
         assert_eq!(bvh.bounds().min[0], -0.25);
+    }
+
+    #[test]
+    fn flat_primitives_spanning_the_float_range_build() {
+        // Fuzz input accel-705066 in small: flat boxes (zero z extent) at x = ±3e38. obvhs
+        // saw extents of ∞, areas of ∞ · 0 = NaN, and indexed out of bounds; the build
+        // returned a backend error.
+        let boxes: Vec<Aabb> = (0..8)
+            .map(|i| {
+                let x = if i % 2 == 0 { -3e38 } else { 3e38 };
+                Aabb {
+                    min: [x, i as f32, 0.0],
+                    max: [x, i as f32 + 1.0, 0.0],
+                }
+            })
+            .collect();
+        for q in [
+            BuildQuality::FastBuild,
+            BuildQuality::Balanced,
+            BuildQuality::FastTrace,
+        ] {
+            let (bvh, order) = Bvh::build(&boxes, q).expect("a build over finite boxes");
+            assert_eq!(order.len(), boxes.len());
+            check_structure(&bvh, &order, &boxes);
+            assert_eq!(
+                bvh.bounds().min,
+                [-3e38, 0.0, 0.0],
+                "exact boxes, not scaled ones"
+            );
+            assert_eq!(bvh.bounds().max, [3e38, 8.0, 0.0]);
+        }
+    }
+
+    #[test]
+    fn builder_boxes_are_scaled_only_beyond_the_limit() {
+        let at = |v: f32| Aabb::point([v, -v, 0.0]);
+        assert_eq!(topology_scale([at(1e12)].iter()), 1.0);
+        assert_eq!(
+            topology_scale([at(-f32::MAX), at(1.0)].iter()),
+            2.0f32.powi(-88)
+        );
+        for v in [2e12f32, 1e20, 3e38, f32::MAX] {
+            let s = topology_scale([at(v)].iter());
+            assert!(
+                s.log2().fract() == 0.0,
+                "a power of two, so scaling is exact"
+            );
+            assert!(
+                v * s <= TOPOLOGY_LIMIT && v * s > TOPOLOGY_LIMIT / 2.0,
+                "{v}: {s}"
+            );
+        }
     }
 }

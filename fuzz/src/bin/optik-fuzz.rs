@@ -1,5 +1,7 @@
 //! `optik-fuzz TARGET`: runs a fuzz target and prints one JSON line of figures; exits 1
-//! when an input panicked (the inputs are written to `--save`), 3 on a hang.
+//! when an input panicked (the inputs are written to `--save`), 3 on a hang. With
+//! `OPTIK_FUZZ_VERBOSE` set, panics print where they happened and targets say why they
+//! rejected an input.
 
 use clap::Parser;
 use std::path::PathBuf;
@@ -69,8 +71,11 @@ fn main() -> ExitCode {
         progress: args.progress,
     };
     // Panics are findings, reported once each below; the default hook's backtraces for
-    // each would flood a long run.
-    std::panic::set_hook(Box::new(|_| {}));
+    // each would flood a long run. OPTIK_FUZZ_VERBOSE keeps the hook, so replaying one
+    // input shows where it panicked.
+    if std::env::var_os("OPTIK_FUZZ_VERBOSE").is_none() {
+        std::panic::set_hook(Box::new(|_| {}));
+    }
     let report = optik_fuzz::run(target, &settings);
     for c in &report.crashes {
         eprintln!("optik-fuzz: {name}: input {}: {}", c.index, c.message);

@@ -327,6 +327,9 @@ fn builds(
     if let Err(e) = d.accel_memory_usage(&opts, &inputs) {
         return Ok(Err(e));
     }
+    if std::env::var_os("OPTIK_FUZZ_VERBOSE").is_some() {
+        describe(d, &opts, &inputs, &bufs);
+    }
     let gas = match d.accel_build(&opts, &inputs) {
         Ok(a) => a,
         Err(e) => return Ok(Err(e)),
@@ -395,4 +398,28 @@ fn builds(
         Err(e) => return Ok(Err(e)),
     }
     Ok(Ok(()))
+}
+
+/// Prints the build about to run (`OPTIK_FUZZ_VERBOSE`, for replaying one input): the options, the inputs and
+/// every buffer as f32 and u32 words, enough to write the failing case as a unit test.
+fn describe(d: &dyn Device, opts: &AccelBuildOptions, inputs: &[BuildInput], bufs: &[Buffer]) {
+    eprintln!("accel: options {opts:?}");
+    for (i, input) in inputs.iter().enumerate() {
+        eprintln!("accel: input {i}: {input:?}");
+    }
+    for b in bufs {
+        let size = d.buffer_size(*b).unwrap_or(0);
+        let mut bytes = vec![0u8; size as usize];
+        if d.read_buffer(*b, 0, &mut bytes).is_err() {
+            continue;
+        }
+        let words: Vec<String> = bytes
+            .chunks_exact(4)
+            .map(|w| {
+                let w = [w[0], w[1], w[2], w[3]];
+                format!("{:e}/{}", f32::from_le_bytes(w), u32::from_le_bytes(w))
+            })
+            .collect();
+        eprintln!("accel: {b:?} ({size} bytes): {}", words.join(" "));
+    }
 }
