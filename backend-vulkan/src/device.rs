@@ -81,7 +81,8 @@ pub struct VulkanDevice {
     ctx: Arc<Context>,
     props: DeviceProperties,
     inner: Mutex<Inner>,
-    lost: std::sync::atomic::AtomicBool,
+    /// The error that lost the device, returned again by every later call.
+    lost: Mutex<Option<Error>>,
 }
 
 impl VulkanDevice {
@@ -121,7 +122,7 @@ impl VulkanDevice {
             ctx,
             props,
             inner: Mutex::new(inner),
-            lost: false.into(),
+            lost: Mutex::new(None),
         })
     }
 
@@ -156,23 +157,46 @@ impl VulkanDevice {
         self.inner.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    /// Runs `f` on the state; a lost device stays lost.
+    /// Runs `f` on the state; a lost device stays lost: every call after the one that met
+    /// `VK_ERROR_DEVICE_LOST` returns that error again, without touching the device.
     fn with<T>(&self, f: impl FnOnce(&mut Inner) -> Result<T>) -> Result<T> {
-        use std::sync::atomic::Ordering;
-        if self.lost.load(Ordering::Relaxed) {
-            return Err(Error::new(
-                ErrorKind::DeviceLost,
-                "the Vulkan device was lost earlier; open a new optik device",
-            ));
+        if let Some(e) = self.lost_error() {
+            return Err(e);
         }
         let mut inner = self.lock();
         let r = f(&mut inner);
         if let Err(e) = &r
             && e.kind() == ErrorKind::DeviceLost
         {
-            self.lost.store(true, Ordering::Relaxed);
+            let mut lost = self.lost.lock().unwrap_or_else(|p| p.into_inner());
+            lost.get_or_insert_with(|| {
+                Error::new(
+                    ErrorKind::DeviceLost,
+                    format!(
+                        "this Vulkan device was lost earlier and every object it owned is gone; drop it and open a new device (the first error: {})",
+                        e.message()
+                    ),
+                )
+            });
         }
         r
+    }
+
+    fn lost_error(&self) -> Option<Error> {
+        self.lost.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    }
+
+    /// Makes the device behave as lost (`VK_ERROR_DEVICE_LOST`), as after a driver reset:
+    /// every later call fails with `ErrorKind::DeviceLost`. The Vulkan device itself stays
+    /// intact, so dropping it frees everything. For testing how applications handle device
+    /// loss.
+    pub fn lose_device_for_testing(&self) {
+        let _ = self.with(|_| -> Result<()> {
+            Err(crate::error::vk_error(
+                "lose_device_for_testing",
+                vk::Result::ERROR_DEVICE_LOST,
+            ))
+        });
     }
 }
 

@@ -304,3 +304,68 @@ fn compile_errors_point_at_the_users_line() {
         .unwrap_err();
     assert!(e.message().contains("is a raygen program"), "{e}");
 }
+
+#[test]
+fn a_lost_device_fails_every_later_call_and_a_new_one_works() {
+    let dev = device();
+    let s = setup(&dev);
+    let mut table = Table::new(s.rg);
+    table.miss.push((s.ms, &[]));
+    let sbt = table.build(&dev);
+    let b = dev.create_buffer(16).unwrap();
+    let gas = dev.triangles(
+        &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        GeometryFlags::NONE,
+    );
+    launch(&dev, &s, &sbt).unwrap();
+    dev.lose_device_for_testing();
+    let lost = |what: &str, r: Result<()>| {
+        let e = r.unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::DeviceLost, "{what}: {e}");
+        assert!(
+            e.message().contains("open a new device")
+                && e.message().contains("VK_ERROR_DEVICE_LOST"),
+            "{what}: {e}"
+        );
+    };
+    lost("create_buffer", dev.create_buffer(16).map(|_| ()));
+    lost("write_buffer", dev.write_buffer(b, 0, &[0; 4]));
+    lost("read_buffer", dev.read_buffer(b, 0, &mut [0; 4]));
+    lost(
+        "launch",
+        dev.launch(
+            s.pipeline,
+            &params(TraversableHandle::NULL, 1, 1),
+            &[Resource::buffer(1, b)],
+            &sbt,
+            LaunchSize::new(1, 1, 1),
+        ),
+    );
+    lost(
+        "launch_with",
+        dev.launch_with(
+            s.pipeline,
+            &params(TraversableHandle::NULL, 1, 1),
+            &[Resource::buffer(1, b)],
+            &sbt,
+            LaunchSize::new(1, 1, 1),
+            &LaunchOptions::with_timeout(std::time::Duration::from_secs(5)),
+        ),
+    );
+    lost(
+        "traversable_handle",
+        dev.traversable_handle(gas).map(|_| ()),
+    );
+    lost("destroy_accel", dev.destroy_accel(gas));
+    lost("synchronize", dev.synchronize());
+    // Dropping a lost device frees everything without a panic or a validation message; a
+    // new device in the same process works.
+    drop(dev);
+    let dev = device();
+    let s = setup(&dev);
+    let mut table = Table::new(s.rg);
+    table.miss.push((s.ms, &[]));
+    let sbt = table.build(&dev);
+    let out = run_rays(&dev, s.pipeline, &sbt, TraversableHandle::NULL, 1, 1, &[]);
+    assert_eq!(out, vec![1], "the miss program ran on the new device");
+}
