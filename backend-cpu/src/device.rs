@@ -1,4 +1,5 @@
-//! [`CpuDevice`]: the `optik_api::Device` of the CPU backend.
+//! [`CpuBackend`]: the CPU backend's `optik_core::Backend` ([`CpuDevice`] is the device
+//! users hold: optik-core's checks in front of it).
 //!
 //! All objects live in one table set behind a mutex. Launches run synchronously inside
 //! `launch` (OptiX allows a launch to finish before it returns), so `synchronize` has
@@ -17,15 +18,13 @@ use crate::sbt::{self, RecordBytes};
 use crate::traverse::TraceConfig;
 use optik_api::decode::BufferBytes;
 use optik_api::frontend::BindingInfo;
-use optik_api::sbt::SbtHeader;
 use optik_api::{
-    Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BuildFlags,
-    BuildInput, BuildOperation, Device, DeviceId, DeviceProperties, Error, ErrorKind,
-    ExceptionFlags, FeatureSet, Handle, HandleTable, LaunchOptions, LaunchSize, LaunchWatch,
-    MicromapArray, Module, ModuleCompileOptions, OpacityMicromapArrayDesc, Pipeline,
-    PipelineCompileOptions, PipelineLinkOptions, ProgramGroup, ProgramGroupDesc, ProgramSource,
-    Resource, Result, SceneFeatures, ShaderBindingTable, Texture, TextureDesc, TransformDesc,
-    TraversableHandle, validate,
+    Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BuildInput,
+    DeviceId, DeviceProperties, Error, ErrorKind, ExceptionFlags, FeatureSet, GroupRegion, Handle,
+    HandleTable, LaunchOptions, LaunchSize, LaunchWatch, MicromapArray, Module,
+    ModuleCompileOptions, OpacityMicromapArrayDesc, Pipeline, PipelineCompileOptions,
+    PipelineLinkOptions, ProgramGroup, ProgramGroupDesc, ProgramSource, Resource, Result,
+    SceneFeatures, ShaderBindingTable, Texture, TextureDesc, TransformDesc, TraversableHandle,
 };
 use std::sync::{Arc, Mutex, MutexGuard};
 
@@ -145,9 +144,13 @@ impl MicromapLookup for Inputs<'_> {
     }
 }
 
-/// The CPU device: robust traversal over obvhs-built BVHs, programs JIT-compiled from WGSL
+/// The CPU device users hold: optik-core's checks in front of [`CpuBackend`], whose own
+/// methods (thread count, native modules) it dereferences to.
+pub type CpuDevice = optik_core::Device<CpuBackend>;
+
+/// The CPU backend: robust traversal over obvhs-built BVHs, programs JIT-compiled from WGSL
 /// (or native Rust closures), launches on a rayon thread pool.
-pub struct CpuDevice {
+pub struct CpuBackend {
     id: DeviceId,
     props: DeviceProperties,
     state: Mutex<State>,
@@ -177,15 +180,15 @@ pub fn cpu_name() -> String {
         .unwrap_or_else(|| std::env::consts::ARCH.to_string())
 }
 
-impl CpuDevice {
+impl CpuBackend {
     /// A device launching on as many threads as the machine has cores.
-    pub fn new() -> Result<CpuDevice> {
+    pub fn new() -> Result<CpuBackend> {
         Self::with_threads(0)
     }
 
     /// A device launching on `threads` threads (0: one per core). Results do not depend on
     /// the count.
-    pub fn with_threads(threads: usize) -> Result<CpuDevice> {
+    pub fn with_threads(threads: usize) -> Result<CpuBackend> {
         let id = DeviceId::next();
         let pool = thread_pool(threads)?;
         let props = DeviceProperties {
@@ -211,7 +214,7 @@ impl CpuDevice {
                 pool.current_num_threads()
             ),
         };
-        Ok(CpuDevice {
+        Ok(CpuBackend {
             id,
             props,
             state: Mutex::new(State {
@@ -300,10 +303,6 @@ impl CpuDevice {
     }
 }
 
-fn sizes(st: &State) -> impl Fn(Buffer) -> Result<u64> + '_ {
-    |b| st.buffers.get(b).map(|d| d.size as u64)
-}
-
 /// A panic turned into an error (no panic crosses the API).
 fn panic_message(p: Box<dyn std::any::Any + Send>) -> String {
     p.downcast_ref::<&str>()
@@ -335,12 +334,12 @@ fn pipeline_bindings(groups: &[(ProgramGroup, Arc<GroupObject>)]) -> Result<Vec<
     Ok(out)
 }
 
-impl Device for CpuDevice {
+impl optik_core::Backend for CpuBackend {
     fn id(&self) -> DeviceId {
         self.id
     }
 
-    fn backend(&self) -> BackendKind {
+    fn kind(&self) -> BackendKind {
         BackendKind::Cpu
     }
 
@@ -363,20 +362,12 @@ impl Device for CpuDevice {
     }
 
     fn create_buffer(&self, size: u64) -> Result<Buffer> {
-        validate::buffer_create(size, &self.props)?;
         let data = BufferData::zeroed(size)?;
         Ok(self.state().buffers.insert(data))
     }
 
     fn write_buffer(&self, buffer: Buffer, offset: u64, data: &[u8]) -> Result<()> {
         let mut st = self.state();
-        validate::buffer_range(
-            "write_buffer",
-            buffer,
-            offset,
-            data.len() as u64,
-            &sizes(&st),
-        )?;
         let b = st.buffers.get_mut(buffer)?;
         b.bytes_mut()[offset as usize..offset as usize + data.len()].copy_from_slice(data);
         Ok(())
@@ -384,7 +375,6 @@ impl Device for CpuDevice {
 
     fn read_buffer(&self, buffer: Buffer, offset: u64, out: &mut [u8]) -> Result<()> {
         let st = self.state();
-        validate::buffer_range("read_buffer", buffer, offset, out.len() as u64, &sizes(&st))?;
         let b = st.buffers.get(buffer)?;
         out.copy_from_slice(&b.bytes()[offset as usize..offset as usize + out.len()]);
         Ok(())
@@ -399,7 +389,6 @@ impl Device for CpuDevice {
     }
 
     fn create_texture(&self, desc: &TextureDesc) -> Result<Texture> {
-        validate::texture(desc)?;
         let bytes = desc.width as u64 * desc.height as u64 * desc.format.texel_size() as u64;
         let texels = BufferData::zeroed(bytes)?;
         Ok(self.state().textures.insert(TextureData {
@@ -411,9 +400,12 @@ impl Device for CpuDevice {
     fn write_texture(&self, texture: Texture, data: &[u8]) -> Result<()> {
         let mut st = self.state();
         let t = st.textures.get_mut(texture)?;
-        validate::texture_data(&t.desc, data)?;
         t.texels.bytes_mut().copy_from_slice(data);
         Ok(())
+    }
+
+    fn texture_desc(&self, texture: Texture) -> Result<TextureDesc> {
+        Ok(self.state().textures.get(texture)?.desc)
     }
 
     fn destroy_texture(&self, texture: Texture) -> Result<()> {
@@ -422,23 +414,21 @@ impl Device for CpuDevice {
 
     fn accel_memory_usage(
         &self,
-        options: &AccelBuildOptions,
+        _options: &AccelBuildOptions,
         inputs: &[BuildInput],
+        keys: usize,
     ) -> Result<AccelBufferSizes> {
-        let st = self.state();
-        let keys = validate::build_inputs(options, inputs, &self.props, &sizes(&st))?;
         Ok(accel::memory_usage(inputs, keys))
     }
 
-    fn accel_build(&self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<Accel> {
+    fn accel_build(
+        &self,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+        keys: usize,
+    ) -> Result<Accel> {
         let mut guard = self.state();
         let st = &mut *guard;
-        let keys = validate::build_inputs(options, inputs, &self.props, &sizes(st))?;
-        if options.operation != BuildOperation::Build {
-            return Err(Error::invalid(
-                "accel_build needs build_options.operation = Build; refit with accel_update",
-            ));
-        }
         let data = Inputs {
             buffers: &st.buffers,
             micromaps: &st.micromaps,
@@ -466,23 +456,20 @@ impl Device for CpuDevice {
     fn accel_update(
         &self,
         accel: Accel,
-        options: &AccelBuildOptions,
+        _options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<()> {
+        // Refits keep the build's options (optik-core checked that the update's agree).
         let mut guard = self.state();
         let st = &mut *guard;
-        validate::build_inputs(options, inputs, &self.props, &sizes(st))?;
         let object = st.accels.get(accel)?;
         let AccelOrigin::Build {
             options: built_with,
-            inputs: built_inputs,
+            ..
         } = &object.origin
         else {
-            return Err(Error::invalid(
-                "accel_update: this is a transform; create a new transform instead",
-            ));
+            return Err(Error::backend("accel_update was given a transform"));
         };
-        validate::update(built_with, built_inputs, options, inputs)?;
         let built_with = *built_with;
         let mut traversable = (*object.traversable).clone();
         let data = Inputs {
@@ -517,15 +504,8 @@ impl Device for CpuDevice {
         let st = &mut *guard;
         let object = st.accels.get(accel)?;
         let AccelOrigin::Build { options, inputs } = &object.origin else {
-            return Err(Error::invalid(
-                "accel_compact: transforms cannot be compacted",
-            ));
+            return Err(Error::backend("accel_compact was given a transform"));
         };
-        if !options.flags.contains(BuildFlags::ALLOW_COMPACTION) {
-            return Err(Error::invalid(
-                "accel_compact: the structure was built without BuildFlags::ALLOW_COMPACTION; rebuild it with that flag",
-            ));
-        }
         let compacted = object.traversable.compacted();
         let size = compacted.size_in_bytes();
         let origin = AccelOrigin::Build {
@@ -535,12 +515,21 @@ impl Device for CpuDevice {
         self.insert_accel(st, compacted, origin, size)
     }
 
+    fn accel_build_record(
+        &self,
+        accel: Accel,
+    ) -> Result<Option<(AccelBuildOptions, Vec<BuildInput>)>> {
+        Ok(match &self.state().accels.get(accel)?.origin {
+            AccelOrigin::Build { options, inputs } => Some((*options, inputs.clone())),
+            AccelOrigin::Transform => None,
+        })
+    }
+
     fn accel_size(&self, accel: Accel) -> Result<u64> {
         Ok(self.state().accels.get(accel)?.size)
     }
 
     fn create_transform(&self, desc: &TransformDesc) -> Result<Accel> {
-        validate::transform(desc)?;
         let mut guard = self.state();
         let st = &mut *guard;
         let t = Transform::new(desc, &st.scene, self.props.max_traversable_graph_depth)?;
@@ -552,7 +541,6 @@ impl Device for CpuDevice {
         &self,
         desc: &OpacityMicromapArrayDesc,
     ) -> Result<MicromapArray> {
-        validate::micromap_array(desc)?;
         Ok(self
             .state()
             .micromaps
@@ -583,14 +571,20 @@ impl Device for CpuDevice {
         source: &ProgramSource,
     ) -> Result<(Module, String)> {
         let payload_len = pipeline_options.num_payload_values.or(32);
-        if payload_len > 32 {
-            return Err(Error::limit(format!(
-                "pipeline_options.num_payload_values is {payload_len}; at most 32 payload registers exist"
-            )));
-        }
         let compiled = Arc::new(optik_api::frontend::compile(source, payload_len)?);
         let (module, log) = crate::jit_glue::compile(compiled, module_options)?;
         Ok((self.state().modules.insert(module), log))
+    }
+
+    fn module_programs(&self, module: Module) -> Result<Vec<String>> {
+        Ok(self
+            .state()
+            .modules
+            .get(module)?
+            .programs
+            .keys()
+            .cloned()
+            .collect())
     }
 
     fn destroy_module(&self, module: Module) -> Result<()> {
@@ -609,6 +603,10 @@ impl Device for CpuDevice {
             objects.push(Arc::new(GroupObject::new(i, desc, &module, &program)?));
         }
         Ok(objects.into_iter().map(|g| st.groups.insert(g)).collect())
+    }
+
+    fn group_region(&self, group: ProgramGroup) -> Result<GroupRegion> {
+        Ok(self.state().groups.get(group)?.desc.region())
     }
 
     fn destroy_program_group(&self, group: ProgramGroup) -> Result<()> {
@@ -675,17 +673,15 @@ impl Device for CpuDevice {
         Ok(self.state().pipelines.get(pipeline)?.features)
     }
 
+    fn pipeline_bindings(&self, pipeline: Pipeline) -> Result<Vec<BindingInfo>> {
+        Ok(self.state().pipelines.get(pipeline)?.bindings.clone())
+    }
+
     fn destroy_pipeline(&self, pipeline: Pipeline) -> Result<()> {
         self.state().pipelines.remove(pipeline).map(drop)
     }
 
-    fn sbt_record_pack_header(&self, group: ProgramGroup) -> Result<[u8; 32]> {
-        let st = self.state();
-        let g = st.groups.get(group)?;
-        Ok(SbtHeader::pack(group, g.desc.region()))
-    }
-
-    fn launch_with(
+    fn launch(
         &self,
         pipeline: Pipeline,
         params: &[u8],
@@ -698,39 +694,6 @@ impl Device for CpuDevice {
         let mut guard = self.state();
         let st = &mut *guard;
         let pipeline = st.pipelines.get(pipeline)?.clone();
-        validate::launch_size(size, &self.props)?;
-        validate::sbt(sbt, &self.props, &sizes(st))?;
-        validate::launch_bindings(params, resources, &pipeline.bindings, &sizes(st))?;
-        for r in resources {
-            match r {
-                Resource::Buffer {
-                    binding,
-                    buffer,
-                    offset,
-                    size,
-                } => {
-                    let total = st
-                        .buffers
-                        .get(*buffer)
-                        .map_err(|e| e.context(format!("resource at binding {binding}")))?
-                        .size as u64;
-                    let len = size.unwrap_or(total.saturating_sub(*offset));
-                    validate::buffer_range(
-                        &format!("resource at binding {binding}"),
-                        *buffer,
-                        *offset,
-                        len,
-                        &sizes(st),
-                    )?;
-                }
-                Resource::Texture { binding, texture } => {
-                    st.textures
-                        .get(*texture)
-                        .map_err(|e| e.context(format!("resource at binding {binding}")))?;
-                }
-                Resource::Sampler { .. } => {}
-            }
-        }
         if size.is_empty() {
             return Ok(());
         }
@@ -836,7 +799,7 @@ impl Device for CpuDevice {
 mod tests {
     use super::*;
     use crate::pipeline::ProgramCode;
-    use optik_api::{ProgramRef, Setting};
+    use optik_api::{Device, ProgramRef, Setting};
 
     /// Registers 0..=4 are used (`p[4]` in the raygen).
     const SOURCE: &str = r#"
@@ -888,7 +851,7 @@ fn miss__main() {
 
     #[test]
     fn pipelines_compile_modules_for_their_payload_registers() {
-        let dev = CpuDevice::with_threads(1).unwrap();
+        let dev = CpuBackend::with_threads(1).map(CpuDevice::new).unwrap();
         // Auto: the module has 32 registers, the pipeline resolves the 5 the programs use.
         let p = pipeline(&dev, Setting::Auto, Setting::Auto);
         assert_eq!(compiled_registers(&dev, p), [5, 5]);

@@ -21,15 +21,17 @@ mod launch;
 pub mod pipeline;
 mod sbt;
 
-pub use device::{CpuDevice, MAX_CALLABLE_DEPTH, cpu_name};
+pub use device::{CpuBackend, CpuDevice, MAX_CALLABLE_DEPTH, cpu_name};
 pub use pipeline::{NativeModuleDesc, NativeProgram};
 
 /// Opens a CPU device with one launch thread per core.
 pub fn open() -> optik_api::Result<Box<dyn optik_api::Device>> {
-    Ok(Box::new(CpuDevice::new()?))
+    Ok(Box::new(CpuBackend::new().map(CpuDevice::new)?))
 }
 
 /// Opens a CPU device with `threads` launch threads (`None`: one per core).
 pub fn open_with_threads(threads: Option<usize>) -> optik_api::Result<Box<dyn optik_api::Device>> {
-    Ok(Box::new(CpuDevice::with_threads(threads.unwrap_or(0))?))
+    Ok(Box::new(
+        CpuBackend::with_threads(threads.unwrap_or(0)).map(CpuDevice::new)?,
+    ))
 }

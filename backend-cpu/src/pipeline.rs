@@ -300,21 +300,13 @@ impl GroupObject {
                 )
             };
             let (compiled, native_features) = module(p.module).map_err(|e| e.context(what()))?;
-            let Some((found, code)) = program(p)? else {
-                return Err(Error::invalid(format!(
-                    "{}: the module has no program of that name",
+            // optik-core has checked that the program exists with this kind.
+            let Some((_, code)) = program(p)? else {
+                return Err(Error::backend(format!(
+                    "{}: the program vanished from its module",
                     what()
                 )));
             };
-            if found != kind {
-                return Err(Error::invalid(format!(
-                    "{}: `{}` is a {} program (by its prefix), but the group uses it as its {} program",
-                    what(),
-                    p.entry,
-                    found.name(),
-                    kind.name()
-                )));
-            }
             match kind {
                 ProgramKind::AnyHit => programs.any_hit = Some(code),
                 ProgramKind::Intersection => programs.intersection = Some(code),

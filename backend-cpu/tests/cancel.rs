@@ -5,7 +5,7 @@
 //! One test: the interrupt is process-wide, so nothing else may launch while it is set.
 
 use optik_api::*;
-use optik_cpu::CpuDevice;
+use optik_cpu::{CpuBackend, CpuDevice};
 use std::time::{Duration, Instant};
 
 const RUNAWAY: &str = r#"
@@ -45,7 +45,7 @@ struct Runaway {
 
 impl Runaway {
     fn new() -> Runaway {
-        let dev = CpuDevice::with_threads(2).unwrap();
+        let dev = CpuBackend::with_threads(2).map(CpuDevice::new).unwrap();
         let options = PipelineCompileOptions::default();
         let (module, _) = dev
             .create_module(
@@ -206,7 +206,7 @@ fn raygen__main() {
 #[test]
 #[ignore = "a measurement, not a check: run with --ignored --nocapture, with and without OPTIK_JIT_STOP_CHECKS=0"]
 fn back_edge_check_cost() {
-    let dev = CpuDevice::with_threads(1).unwrap();
+    let dev = CpuBackend::with_threads(1).map(CpuDevice::new).unwrap();
     let options = PipelineCompileOptions::default();
     let (module, _) = dev
         .create_module(

@@ -1,7 +1,7 @@
 //! WGSL programs through the JIT, end to end: create_module, groups, pipeline, launch.
 
 use optik_api::*;
-use optik_cpu::CpuDevice;
+use optik_cpu::{CpuBackend, CpuDevice};
 
 const SOURCE: &str = r#"
 struct Params {
@@ -37,7 +37,7 @@ fn miss__main() {
 
 #[test]
 fn wgsl_programs_trace_through_the_jit() {
-    let dev = CpuDevice::with_threads(2).unwrap();
+    let dev = CpuBackend::with_threads(2).map(CpuDevice::new).unwrap();
     let handle = one_triangle(&dev);
     let options = PipelineCompileOptions {
         num_payload_values: Setting::Value(4),
@@ -258,7 +258,7 @@ fn one_triangle(dev: &CpuDevice) -> TraversableHandle {
 
 #[test]
 fn an_exception_in_a_closest_hit_ends_the_raygen_too() {
-    let dev = CpuDevice::with_threads(1).unwrap();
+    let dev = CpuBackend::with_threads(1).map(CpuDevice::new).unwrap();
     let handle = one_triangle(&dev);
     let mut programs = Programs {
         source: THROW_IN_CLOSEST_HIT,
@@ -317,7 +317,7 @@ fn closesthit__seen() {
 
 #[test]
 fn an_intersection_program_stops_after_its_any_hit_terminates_the_ray() {
-    let dev = CpuDevice::with_threads(1).unwrap();
+    let dev = CpuBackend::with_threads(1).map(CpuDevice::new).unwrap();
     let aabb: [f32; 6] = [0.0, 0.0, 0.0, 1.0, 1.0, 4.0];
     let ab = dev.create_buffer(24).unwrap();
     dev.write_buffer(ab, 0, bytemuck::cast_slice(&aabb))

@@ -2,7 +2,7 @@
 //! open file descriptors after each: a device must give back everything it took, or a long
 //! test run eventually cannot create an instance. `cargo run -p optik-vulkan --example reopen`.
 
-use optik_vulkan::{VulkanDevice, VulkanOptions};
+use optik_vulkan::{VulkanBackend, VulkanDevice, VulkanOptions};
 
 fn open_fds() -> usize {
     std::fs::read_dir("/proc/self/fd").map_or(0, |d| d.count())
@@ -24,7 +24,7 @@ fn main() {
             cache_dir: None,
             max_dispatch_invocations: None,
         };
-        match VulkanDevice::open(&options) {
+        match VulkanBackend::open(&options).map(VulkanDevice::new) {
             Ok(dev) => drop(dev),
             Err(e) => {
                 println!("open {i} failed: {e}");

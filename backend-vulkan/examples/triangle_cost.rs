@@ -11,7 +11,7 @@
 //! falls on all of them alike, and the best of each counts.
 
 use optik_api::*;
-use optik_vulkan::{VulkanDevice, VulkanOptions};
+use optik_vulkan::{VulkanBackend, VulkanDevice, VulkanOptions};
 use std::time::Instant;
 
 const PROGRAMS: &str = r#"
@@ -67,7 +67,7 @@ impl Setup {
             pipeline_cache: false,
             ..VulkanOptions::from_env()
         };
-        let dev = VulkanDevice::open(&options)?;
+        let dev = VulkanBackend::open(&options).map(VulkanDevice::new)?;
         dev.set_accuracy(accuracy)?;
         let upload = |bytes: &[u8]| -> Result<Buffer> {
             let b = dev.create_buffer(bytes.len().max(4) as u64)?;

@@ -1,4 +1,5 @@
-//! [`VulkanDevice`]: the `optik_api::Device` of this backend, and the state behind its lock.
+//! [`VulkanBackend`]: this backend's `optik_core::Backend` ([`VulkanDevice`] is the device
+//! users hold: optik-core's checks in front of it), and the state behind its lock.
 //!
 //! The trait methods lock the state and call the `impl Inner` methods of the modules named
 //! as in every backend (`accel`, `pipeline`, `sbt`, `launch`), plus `buffer` and `texture`.
@@ -75,8 +76,12 @@ pub struct Inner {
     pub retired_proxies: Vec<u64>,
 }
 
-/// A Vulkan ray tracing device.
-pub struct VulkanDevice {
+/// The Vulkan device users hold: optik-core's checks in front of [`VulkanBackend`], whose own
+/// methods (device info, validation log, pipeline cache) it dereferences to.
+pub type VulkanDevice = optik_core::Device<VulkanBackend>;
+
+/// The Vulkan backend: ray tracing pipelines through ash.
+pub struct VulkanBackend {
     id: DeviceId,
     ctx: Arc<Context>,
     props: DeviceProperties,
@@ -85,9 +90,9 @@ pub struct VulkanDevice {
     lost: Mutex<Option<Error>>,
 }
 
-impl VulkanDevice {
+impl VulkanBackend {
     /// Opens the device `options` ask for.
-    pub fn open(options: &VulkanOptions) -> Result<VulkanDevice> {
+    pub fn open(options: &VulkanOptions) -> Result<VulkanBackend> {
         let ctx = Arc::new(Context::new(options)?);
         let id = DeviceId::next();
         let props = properties(&ctx.info);
@@ -117,7 +122,7 @@ impl VulkanDevice {
             retired_proxies: Vec::new(),
         };
         inner.create_empty_tlas()?;
-        Ok(VulkanDevice {
+        Ok(VulkanBackend {
             id,
             ctx,
             props,
@@ -347,7 +352,7 @@ impl Inner {
     }
 }
 
-impl Drop for VulkanDevice {
+impl Drop for VulkanBackend {
     fn drop(&mut self) {
         let mut inner = self.lock();
         let _ = inner.wait_launches();
@@ -403,12 +408,12 @@ impl Inner {
     }
 }
 
-impl Device for VulkanDevice {
+impl optik_core::Backend for VulkanBackend {
     fn id(&self) -> DeviceId {
         self.id
     }
 
-    fn backend(&self) -> BackendKind {
+    fn kind(&self) -> BackendKind {
         BackendKind::Vulkan
     }
 
@@ -452,6 +457,10 @@ impl Device for VulkanDevice {
         self.with(|i| i.write_texture(texture, data))
     }
 
+    fn texture_desc(&self, texture: Texture) -> Result<TextureDesc> {
+        self.with(|i| Ok(i.textures.get(texture)?.desc))
+    }
+
     fn destroy_texture(&self, texture: Texture) -> Result<()> {
         self.with(|i| i.destroy_texture(texture))
     }
@@ -460,11 +469,17 @@ impl Device for VulkanDevice {
         &self,
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
+        _keys: usize,
     ) -> Result<AccelBufferSizes> {
         self.with(|i| i.accel_memory_usage(options, inputs))
     }
 
-    fn accel_build(&self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<Accel> {
+    fn accel_build(
+        &self,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+        _keys: usize,
+    ) -> Result<Accel> {
         self.with(|i| i.accel_build(options, inputs))
     }
 
@@ -481,6 +496,13 @@ impl Device for VulkanDevice {
         self.with(|i| i.accel_compact(accel))
     }
 
+    fn accel_build_record(
+        &self,
+        accel: Accel,
+    ) -> Result<Option<(AccelBuildOptions, Vec<BuildInput>)>> {
+        self.with(|i| i.accel_build_record(accel))
+    }
+
     fn accel_size(&self, accel: Accel) -> Result<u64> {
         self.with(|i| Ok(i.accels.get(accel)?.size()))
     }
@@ -493,7 +515,6 @@ impl Device for VulkanDevice {
         &self,
         desc: &OpacityMicromapArrayDesc,
     ) -> Result<MicromapArray> {
-        validate::micromap_array(desc)?;
         self.with(|i| Ok(i.micromap_arrays.insert(Arc::new(desc.clone()))))
     }
 
@@ -519,12 +540,20 @@ impl Device for VulkanDevice {
         self.with(|i| i.create_module(module_options, pipeline_options, source))
     }
 
+    fn module_programs(&self, module: Module) -> Result<Vec<String>> {
+        self.with(|i| i.module_programs(module))
+    }
+
     fn destroy_module(&self, module: Module) -> Result<()> {
         self.with(|i| i.modules.remove(module).map(|_| ()))
     }
 
     fn create_program_groups(&self, descs: &[ProgramGroupDesc]) -> Result<Vec<ProgramGroup>> {
         self.with(|i| i.create_program_groups(descs))
+    }
+
+    fn group_region(&self, group: ProgramGroup) -> Result<GroupRegion> {
+        self.with(|i| Ok(i.groups.get(group)?.desc.region()))
     }
 
     fn destroy_program_group(&self, group: ProgramGroup) -> Result<()> {
@@ -548,11 +577,14 @@ impl Device for VulkanDevice {
         self.with(|i| i.destroy_pipeline(pipeline))
     }
 
-    fn sbt_record_pack_header(&self, group: ProgramGroup) -> Result<[u8; 32]> {
-        self.with(|i| Ok(SbtHeader::pack(group, i.groups.get(group)?.desc.region())))
+    fn pipeline_bindings(
+        &self,
+        pipeline: Pipeline,
+    ) -> Result<Vec<optik_api::frontend::BindingInfo>> {
+        self.with(|i| Ok(i.pipelines.get(pipeline)?.bindings.clone()))
     }
 
-    fn launch_with(
+    fn launch(
         &self,
         pipeline: Pipeline,
         params: &[u8],

@@ -151,11 +151,9 @@ impl Inner {
         table: &ShaderBindingTable,
         size: LaunchSize,
     ) -> Result<()> {
-        validate::launch_size(size, &self.props)?;
-        let sizes = |b: Buffer| self.buffers.get(b).map(|x| x.gpu.size);
-        validate::sbt(table, &self.props, &sizes)?;
+        // optik-core checked the pipeline, the size, the SBT's layout and the bindings; the
+        // limits below are this device's own (launches past one dispatch are split, below).
         let p = self.pipelines.get(pipeline)?;
-        validate::launch_bindings(params, resources, &p.bindings, &sizes)?;
         if params.len() as u64 > self.ctx.info.max_uniform_buffer_range as u64 {
             return Err(Error::limit(format!(
                 "params is {} bytes; this device's uniform buffers (maxUniformBufferRange) hold {}; put large data in a storage buffer",

@@ -30,17 +30,19 @@ mod texture;
 pub mod validation;
 
 pub use context::VulkanOptions;
-pub use device::VulkanDevice;
+pub use device::{VulkanBackend, VulkanDevice};
 pub use probe::{RayTracingExtensions, VulkanDeviceInfo, probe};
 
 /// Opens a device of this backend with the options the environment asks for
 /// ([`VulkanOptions::from_env`]): the first device with ray tracing pipelines, discrete GPUs
 /// first. The error says what each device lacks when none can run optik.
 pub fn open() -> optik_api::Result<Box<dyn optik_api::Device>> {
-    Ok(Box::new(VulkanDevice::open(&VulkanOptions::from_env())?))
+    Ok(Box::new(VulkanDevice::new(VulkanBackend::open(
+        &VulkanOptions::from_env(),
+    )?)))
 }
 
 /// Opens a device of this backend with `options`.
 pub fn open_with(options: &VulkanOptions) -> optik_api::Result<VulkanDevice> {
-    VulkanDevice::open(options)
+    VulkanBackend::open(options).map(VulkanDevice::new)
 }

@@ -288,12 +288,8 @@ impl Inner {
         pipeline_options: &PipelineCompileOptions,
         source: &ProgramSource,
     ) -> Result<(Module, String)> {
+        // optik-core has checked the register count.
         let payload = pipeline_options.num_payload_values.or(32);
-        if payload > 32 {
-            return Err(Error::limit(format!(
-                "pipeline_options.num_payload_values is {payload}; at most 32 payload registers exist"
-            )));
-        }
         let compiled = optik_api::frontend::compile(source, payload)?;
         let mut log = format!(
             "{}: {} program(s)",
@@ -309,40 +305,17 @@ impl Inner {
         Ok((module, log))
     }
 
+    /// The names of a module's programs.
+    pub fn module_programs(&self, module: Module) -> Result<Vec<String>> {
+        let m = self.modules.get(module)?;
+        Ok(m.compiled.programs.iter().map(|p| p.name.clone()).collect())
+    }
+
     pub fn create_program_groups(
         &mut self,
         descs: &[ProgramGroupDesc],
     ) -> Result<Vec<ProgramGroup>> {
-        for (i, desc) in descs.iter().enumerate() {
-            for (kind, p) in desc.programs() {
-                let module = self
-                    .modules
-                    .get(p.module)
-                    .map_err(|e| e.context(format!("program group {i}")))?;
-                match module.compiled.program(&p.entry) {
-                    Some(info) if info.kind == kind => {}
-                    Some(info) => {
-                        return Err(Error::invalid(format!(
-                            "program group {i}: `{}` is a {} program, but the group uses it as a {kind} program",
-                            p.entry, info.kind
-                        )));
-                    }
-                    None => {
-                        let names: Vec<&str> = module
-                            .compiled
-                            .programs
-                            .iter()
-                            .map(|p| p.name.as_str())
-                            .collect();
-                        return Err(Error::invalid(format!(
-                            "program group {i}: the module has no program `{}` (its programs: {})",
-                            p.entry,
-                            names.join(", ")
-                        )));
-                    }
-                }
-            }
-        }
+        // optik-core has checked that every program exists with the kind its group uses.
         Ok(descs
             .iter()
             .map(|d| self.groups.insert(GroupObject { desc: d.clone() }))
@@ -363,11 +336,6 @@ impl Inner {
         link: &PipelineLinkOptions,
         groups: &[ProgramGroup],
     ) -> Result<Pipeline> {
-        if groups.is_empty() {
-            return Err(Error::invalid(
-                "create_pipeline needs at least one program group (a raygen group)",
-            ));
-        }
         let mut descs = Vec::with_capacity(groups.len());
         for (i, g) in groups.iter().enumerate() {
             descs.push(

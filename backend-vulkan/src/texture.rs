@@ -5,7 +5,6 @@ use crate::error::VkResultExt;
 use ash::vk;
 use optik_api::{
     AddressMode, Error, FilterMode, Result, SamplerDesc, Texture, TextureDesc, TextureFormat,
-    validate,
 };
 
 /// A 2D image in shader-read layout, with its own memory.
@@ -79,7 +78,6 @@ fn transition(
 
 impl Inner {
     pub fn create_texture(&mut self, desc: &TextureDesc) -> Result<Texture> {
-        validate::texture(desc)?;
         let format = vk_format(desc.format);
         let ctx = self.ctx.clone();
         let info = vk::ImageCreateInfo::default()
@@ -191,7 +189,6 @@ impl Inner {
             let t = self.textures.get(texture)?;
             (t.image, t.desc)
         };
-        validate::texture_data(&desc, data)?;
         self.wait_launches()?;
         self.upload_with(data, |device, cmd, src| {
             transition(

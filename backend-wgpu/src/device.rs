@@ -1,6 +1,7 @@
-//! [`WgpuDevice`]: the `optik_api::Device` of the wgpu backend.
+//! [`WgpuBackend`]: the wgpu backend's `optik_core::Backend` ([`WgpuDevice`] is the device
+//! users hold: optik-core's checks in front of it).
 //!
-//! All state sits behind one lock; calls are checked (handles, sizes, limits) before
+//! All state sits behind one lock; handles and the adapter's own limits are checked before
 //! anything is changed, so a failed call leaves the device as it was. Dropping the device
 //! drops every wgpu object it owns.
 
@@ -14,18 +15,23 @@ use crate::pipeline::{self, PipelineObject};
 use crate::program::{GroupObject, ModuleObject, ModuleSource};
 use optik_accel::{MicromapArrayData, MicromapLookup};
 use optik_api::decode::BufferBytes;
+use optik_api::frontend::BindingInfo;
 use optik_api::{
     Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BufferView,
-    BuildFlags, BuildInput, BuildOperation, DeviceId, DeviceProperties, Error, FeatureSet, Handle,
+    BuildInput, BuildOperation, DeviceId, DeviceProperties, Error, FeatureSet, GroupRegion, Handle,
     HandleTable, LaunchSize, MicromapArray, Module, ModuleCompileOptions, OpacityMicromapArrayDesc,
     Pipeline, PipelineCompileOptions, PipelineLinkOptions, ProgramGroup, ProgramGroupDesc,
-    ProgramRef, ProgramSource, Resource, Result, SbtHeader, SceneFeatures, ShaderBindingTable,
-    Texture, TextureDesc, TransformDesc, TraversableHandle, validate,
+    ProgramRef, ProgramSource, Resource, Result, SceneFeatures, ShaderBindingTable, Texture,
+    TextureDesc, TransformDesc, TraversableHandle,
 };
 use std::sync::{Arc, Mutex, MutexGuard};
 
-/// A wgpu device running optik pipelines as compute megakernels.
-pub struct WgpuDevice {
+/// The wgpu device users hold: optik-core's checks in front of [`WgpuBackend`], whose own
+/// methods (kernel source, memory tracker, limits) it dereferences to.
+pub type WgpuDevice = optik_core::Device<WgpuBackend>;
+
+/// The wgpu backend: optik pipelines run as compute megakernels.
+pub struct WgpuBackend {
     id: DeviceId,
     gpu: Arc<Gpu>,
     properties: DeviceProperties,
@@ -63,14 +69,14 @@ pub struct WgpuOptions {
     pub max_storage_buffers_per_stage: Option<u32>,
 }
 
-impl WgpuDevice {
+impl WgpuBackend {
     /// Opens the adapter chosen by [`crate::gpu::ADAPTER_ENV`] or the best one found.
-    pub fn new() -> Result<WgpuDevice> {
-        WgpuDevice::with_options(WgpuOptions::default())
+    pub fn new() -> Result<WgpuBackend> {
+        WgpuBackend::with_options(WgpuOptions::default())
     }
 
-    /// [`WgpuDevice::new`] with options.
-    pub fn with_options(options: WgpuOptions) -> Result<WgpuDevice> {
+    /// [`WgpuBackend::new`] with options.
+    pub fn with_options(options: WgpuOptions) -> Result<WgpuBackend> {
         let gpu = Arc::new(Gpu::open(&options)?);
         let id = DeviceId::next();
         let properties = DeviceProperties {
@@ -93,7 +99,7 @@ impl WgpuDevice {
             device_name: gpu.info.name.clone(),
         };
         let scene = Scene::new(&gpu)?;
-        Ok(WgpuDevice {
+        Ok(WgpuBackend {
             id,
             properties,
             state: Mutex::new(State {
@@ -349,12 +355,12 @@ impl State {
     }
 }
 
-impl optik_api::Device for WgpuDevice {
+impl optik_core::Backend for WgpuBackend {
     fn id(&self) -> DeviceId {
         self.id
     }
 
-    fn backend(&self) -> BackendKind {
+    fn kind(&self) -> BackendKind {
         BackendKind::Wgpu
     }
 
@@ -377,7 +383,6 @@ impl optik_api::Device for WgpuDevice {
     }
 
     fn create_buffer(&self, size: u64) -> Result<Buffer> {
-        validate::buffer_create(size, &self.properties)?;
         let mut s = self.lock()?;
         let b = BufferObject::create(&self.gpu, size)?;
         Ok(s.buffers.insert(b))
@@ -385,17 +390,11 @@ impl optik_api::Device for WgpuDevice {
 
     fn write_buffer(&self, buffer: Buffer, offset: u64, data: &[u8]) -> Result<()> {
         let mut s = self.lock()?;
-        validate::buffer_range("write_buffer", buffer, offset, data.len() as u64, &|b| {
-            s.size_of(b)
-        })?;
         s.buffers.get_mut(buffer)?.write(&self.gpu, offset, data)
     }
 
     fn read_buffer(&self, buffer: Buffer, offset: u64, out: &mut [u8]) -> Result<()> {
         let s = self.lock()?;
-        validate::buffer_range("read_buffer", buffer, offset, out.len() as u64, &|b| {
-            s.size_of(b)
-        })?;
         s.buffers.get(buffer)?.read(&self.gpu, offset, out)
     }
 
@@ -408,7 +407,6 @@ impl optik_api::Device for WgpuDevice {
     }
 
     fn create_texture(&self, desc: &TextureDesc) -> Result<Texture> {
-        validate::texture(desc)?;
         let mut s = self.lock()?;
         let t = TextureObject::create(&self.gpu, desc)?;
         Ok(s.textures.insert(t))
@@ -417,8 +415,11 @@ impl optik_api::Device for WgpuDevice {
     fn write_texture(&self, texture: Texture, data: &[u8]) -> Result<()> {
         let s = self.lock()?;
         let t = s.textures.get(texture)?;
-        validate::texture_data(&t.desc, data)?;
         t.write(&self.gpu, data)
+    }
+
+    fn texture_desc(&self, texture: Texture) -> Result<TextureDesc> {
+        Ok(self.lock()?.textures.get(texture)?.desc)
     }
 
     fn destroy_texture(&self, texture: Texture) -> Result<()> {
@@ -429,9 +430,9 @@ impl optik_api::Device for WgpuDevice {
         &self,
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
+        keys: usize,
     ) -> Result<AccelBufferSizes> {
-        let s = self.lock()?;
-        let keys = validate::build_inputs(options, inputs, &self.properties, &|b| s.size_of(b))?;
+        let _ = options;
         let n: u64 = inputs.iter().map(|i| i.num_primitives() as u64).sum();
         let per_slot = match &inputs[0] {
             BuildInput::Instances(_) => accel::layout::INSTANCE_VEC4S,
@@ -458,14 +459,13 @@ impl optik_api::Device for WgpuDevice {
         })
     }
 
-    fn accel_build(&self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<Accel> {
-        if options.operation == BuildOperation::Update {
-            return Err(Error::invalid(
-                "accel_build was given operation Update; refit an existing structure with accel_update",
-            ));
-        }
+    fn accel_build(
+        &self,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+        _keys: usize,
+    ) -> Result<Accel> {
         let mut s = self.lock()?;
-        validate::build_inputs(options, inputs, &self.properties, &|b| s.size_of(b))?;
         let (words, object) = s.encode(&self.gpu, self.id, options, inputs, None)?;
         s.store(&self.gpu, &self.properties, &words, object)
     }
@@ -477,17 +477,10 @@ impl optik_api::Device for WgpuDevice {
         inputs: &[BuildInput],
     ) -> Result<()> {
         let mut s = self.lock()?;
-        let (built_options, built_inputs, refit, region) = {
+        let (built_options, refit, region) = {
             let a = s.accels.get(accel)?;
-            if a.inputs.is_empty() {
-                return Err(Error::invalid(
-                    "accel_update was given a transform; transforms are not updated, create a new one",
-                ));
-            }
-            (a.options, a.inputs.clone(), a.refit.clone(), a.region)
+            (a.options, a.refit.clone(), a.region)
         };
-        validate::update(&built_options, &built_inputs, options, inputs)?;
-        validate::build_inputs(options, inputs, &self.properties, &|b| s.size_of(b))?;
         let build_like = AccelBuildOptions {
             operation: BuildOperation::Build,
             ..*options
@@ -511,11 +504,6 @@ impl optik_api::Device for WgpuDevice {
     fn accel_compact(&self, accel: Accel) -> Result<Accel> {
         let mut s = self.lock()?;
         let a = s.accels.get(accel)?;
-        if !a.options.flags.contains(BuildFlags::ALLOW_COMPACTION) {
-            return Err(Error::invalid(
-                "the acceleration structure was built without BuildFlags::ALLOW_COMPACTION; rebuild it with that flag to compact it",
-            ));
-        }
         let copy = AccelObject {
             region: a.region,
             bounds: a.bounds,
@@ -541,12 +529,21 @@ impl optik_api::Device for WgpuDevice {
         Ok(handle)
     }
 
+    fn accel_build_record(
+        &self,
+        accel: Accel,
+    ) -> Result<Option<(AccelBuildOptions, Vec<BuildInput>)>> {
+        let s = self.lock()?;
+        let a = s.accels.get(accel)?;
+        // Transforms are stored without inputs.
+        Ok((!a.inputs.is_empty()).then(|| (a.options, a.inputs.clone())))
+    }
+
     fn accel_size(&self, accel: Accel) -> Result<u64> {
         Ok(self.lock()?.accels.get(accel)?.region.1 * accel::arena::VEC4_BYTES)
     }
 
     fn create_transform(&self, desc: &TransformDesc) -> Result<Accel> {
-        validate::transform(desc)?;
         let mut s = self.lock()?;
         let child = s
             .child(self.id, desc.child().0)
@@ -570,7 +567,6 @@ impl optik_api::Device for WgpuDevice {
         &self,
         desc: &OpacityMicromapArrayDesc,
     ) -> Result<MicromapArray> {
-        validate::micromap_array(desc)?;
         let mut s = self.lock()?;
         Ok(s.micromaps.insert(Arc::new(MicromapArrayData::new(desc))))
     }
@@ -602,6 +598,17 @@ impl optik_api::Device for WgpuDevice {
         Ok((self.lock()?.modules.insert(m), log))
     }
 
+    fn module_programs(&self, module: Module) -> Result<Vec<String>> {
+        let s = self.lock()?;
+        let m = s.modules.get(module)?;
+        Ok(m.source
+            .compiled
+            .programs
+            .iter()
+            .map(|p| p.name.clone())
+            .collect())
+    }
+
     fn destroy_module(&self, module: Module) -> Result<()> {
         self.lock()?.modules.remove(module).map(drop)
     }
@@ -619,6 +626,10 @@ impl optik_api::Device for WgpuDevice {
             })
             .collect::<Result<_>>()?;
         Ok(objects.into_iter().map(|g| s.groups.insert(g)).collect())
+    }
+
+    fn group_region(&self, group: ProgramGroup) -> Result<GroupRegion> {
+        Ok(self.lock()?.groups.get(group)?.desc.region())
     }
 
     fn destroy_program_group(&self, group: ProgramGroup) -> Result<()> {
@@ -661,17 +672,20 @@ impl optik_api::Device for WgpuDevice {
         Ok(self.lock()?.pipelines.get(pipeline)?.features)
     }
 
+    fn pipeline_bindings(&self, pipeline: Pipeline) -> Result<Vec<BindingInfo>> {
+        let s = self.lock()?;
+        let p = s.pipelines.get(pipeline)?;
+        Ok(p.bindings
+            .iter()
+            .flat_map(|(_, b)| b.iter().cloned())
+            .collect())
+    }
+
     fn destroy_pipeline(&self, pipeline: Pipeline) -> Result<()> {
         self.lock()?.pipelines.remove(pipeline).map(drop)
     }
 
-    fn sbt_record_pack_header(&self, group: ProgramGroup) -> Result<[u8; 32]> {
-        let s = self.lock()?;
-        let g = s.groups.get(group)?;
-        Ok(SbtHeader::pack(group, g.desc.region()))
-    }
-
-    fn launch_with(
+    fn launch(
         &self,
         pipeline: Pipeline,
         params: &[u8],

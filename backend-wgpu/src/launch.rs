@@ -5,12 +5,12 @@
 //! so it never exceeds the per-dimension workgroup limit below 2³¹ invocations; the kernel
 //! turns the workgroup position back into a launch index and drops the padding.
 
-use crate::device::WgpuDevice;
+use crate::device::WgpuBackend;
 use crate::kernel::WORKGROUP_SIZE;
 use optik_api::frontend::BindingKind;
 use optik_api::{
     AddressMode, Error, FilterMode, LaunchSize, Pipeline, Resource, Result, SamplerDesc,
-    ShaderBindingTable, validate,
+    ShaderBindingTable,
 };
 
 /// How the benchmark observes a launch; the default (the `Device` trait's launches) adds
@@ -27,7 +27,7 @@ pub(crate) struct Observe<'a> {
 /// Runs a launch; when `observe.timed`, waits for it and returns its GPU time in seconds
 /// (when the adapter offers timestamp queries).
 pub(crate) fn launch(
-    dev: &WgpuDevice,
+    dev: &WgpuBackend,
     pipeline: Pipeline,
     params: &[u8],
     resources: &[Resource],
@@ -37,19 +37,8 @@ pub(crate) fn launch(
 ) -> Result<Option<f64>> {
     let gpu = dev.gpu();
     let mut s = dev.lock()?;
+    // optik-core checked the pipeline, the size, the SBT's layout and the bindings.
     s.pipelines.get(pipeline)?;
-    validate::launch_size(size, optik_api::Device::properties(dev))?;
-    validate::sbt(sbt, optik_api::Device::properties(dev), &|b| {
-        Ok(s.buffers.get(b)?.size)
-    })?;
-    {
-        let p = s.pipelines.get(pipeline)?;
-        for (_, bindings) in &p.bindings {
-            validate::launch_bindings(params, resources, bindings, &|b| {
-                Ok(s.buffers.get(b)?.size)
-            })?;
-        }
-    }
     if size.is_empty() {
         return Ok(None);
     }

@@ -24,7 +24,7 @@ mod probe;
 mod program;
 mod sbt;
 
-pub use device::{WgpuDevice, WgpuOptions};
+pub use device::{WgpuBackend, WgpuDevice, WgpuOptions};
 pub use gpu::ADAPTER_ENV;
 pub use memory::MemoryTracker;
 pub use probe::{AdapterReport, probe};
@@ -32,5 +32,5 @@ pub use probe::{AdapterReport, probe};
 /// Opens a device of this backend on the adapter named by [`ADAPTER_ENV`], or else the
 /// best adapter wgpu finds (discrete, integrated, virtual, then CPU).
 pub fn open() -> optik_api::Result<Box<dyn optik_api::Device>> {
-    Ok(Box::new(WgpuDevice::new()?))
+    Ok(Box::new(WgpuBackend::new().map(WgpuDevice::new)?))
 }

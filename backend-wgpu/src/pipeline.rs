@@ -61,19 +61,7 @@ pub(crate) fn link(
     max_trace_depth_limit: u32,
     device16: u32,
 ) -> Result<PipelineObject> {
-    if groups.is_empty() {
-        return Err(Error::invalid(
-            "create_pipeline needs at least one program group (a raygen group)",
-        ));
-    }
-    if !groups
-        .iter()
-        .any(|(_, g)| matches!(g.desc, ProgramGroupDesc::Raygen(_)))
-    {
-        return Err(Error::invalid(
-            "the pipeline has no raygen program group; launches start in a raygen program",
-        ));
-    }
+    // optik-core has checked that the groups include a raygen group.
     // The modules of the programs, once each, by handle.
     let mut sources: Vec<(Module, Arc<ModuleSource>)> = Vec::new();
     for (_, g) in groups {

@@ -92,10 +92,11 @@ fn compaction_copies_and_reports_sizes() {
 #[test]
 fn scenes_larger_than_one_storage_binding_are_split() {
     // 64 KiB per binding: a 64×64 grid of quads (8192 triangles) spans several.
-    let dev = optik_wgpu::WgpuDevice::with_options(optik_wgpu::WgpuOptions {
+    let dev = optik_wgpu::WgpuBackend::with_options(optik_wgpu::WgpuOptions {
         max_storage_binding: Some(64 * 1024),
         ..Default::default()
     })
+    .map(optik_wgpu::WgpuDevice::new)
     .unwrap();
     let d: &dyn Device = &dev;
     let n = 64;

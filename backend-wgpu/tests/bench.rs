@@ -4,8 +4,8 @@
 mod common;
 use common::*;
 use optik_api::*;
-use optik_wgpu::WgpuDevice;
 use optik_wgpu::bench::{BenchConfig, TrafficCounts};
+use optik_wgpu::{WgpuBackend, WgpuDevice};
 
 fn small_config() -> BenchConfig {
     BenchConfig {
@@ -145,7 +145,7 @@ fn count_one_ray(dev: &WgpuDevice, accel: Accel, ray: Ray) -> (TrafficCounts, Re
 
 #[test]
 fn counts_match_the_layout() {
-    let dev = WgpuDevice::new().unwrap();
+    let dev = WgpuBackend::new().map(WgpuDevice::new).unwrap();
     let gas = triangles(&dev, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
     // A miss outside the structure's box: the root node and the header, nothing else.
     let (miss, rec) = count_one_ray(&dev, gas, Ray::new([5.0, 5.0, 1.0], [0.0, 0.0, -1.0]));
@@ -179,7 +179,7 @@ fn counts_match_the_layout() {
 
 #[test]
 fn instance_traffic_is_counted() {
-    let dev = WgpuDevice::new().unwrap();
+    let dev = WgpuBackend::new().map(WgpuDevice::new).unwrap();
     let d: &dyn Device = &dev;
     let gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
     let child = d.traversable_handle(gas).unwrap();
@@ -221,7 +221,7 @@ fn instance_traffic_is_counted() {
 
 #[test]
 fn normal_pipelines_contain_no_counters() {
-    let dev = WgpuDevice::new().unwrap();
+    let dev = WgpuBackend::new().map(WgpuDevice::new).unwrap();
     let d: &dyn Device = &dev;
     let gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
     let h = d.traversable_handle(gas).unwrap();

@@ -208,7 +208,9 @@ fn acceleration_structure_errors() {
 
 #[test]
 fn device_loss_is_an_error_not_a_panic() {
-    let dev = optik_wgpu::WgpuDevice::new().unwrap();
+    let dev = optik_wgpu::WgpuBackend::new()
+        .map(optik_wgpu::WgpuDevice::new)
+        .unwrap();
     let memory = dev.memory();
     let d: &dyn Device = &dev;
     let b = d.create_buffer(16).unwrap();
@@ -270,10 +272,11 @@ fn index_writer(d: &dyn Device) -> (Pipeline, ShaderBindingTable) {
 #[test]
 fn launches_are_split_over_the_workgroup_grid_or_refused_naming_the_limit() {
     // Two workgroups of 64 per dimension: at most 2 x 2 x 64 = 256 invocations.
-    let dev = optik_wgpu::WgpuDevice::with_options(optik_wgpu::WgpuOptions {
+    let dev = optik_wgpu::WgpuBackend::with_options(optik_wgpu::WgpuOptions {
         max_workgroups_per_dimension: Some(2),
         ..Default::default()
     })
+    .map(optik_wgpu::WgpuDevice::new)
     .unwrap();
     let d: &dyn Device = &dev;
     let (p, table) = index_writer(d);
@@ -322,10 +325,11 @@ fn a_launch_past_one_row_of_workgroups_runs_with_the_adapters_limits() {
 
 #[test]
 fn storage_bindings_over_the_adapter_limit_are_refused() {
-    let dev = optik_wgpu::WgpuDevice::with_options(optik_wgpu::WgpuOptions {
+    let dev = optik_wgpu::WgpuBackend::with_options(optik_wgpu::WgpuOptions {
         max_storage_binding: Some(64 << 10),
         ..Default::default()
     })
+    .map(optik_wgpu::WgpuDevice::new)
     .unwrap();
     let d: &dyn Device = &dev;
     let (p, table) = index_writer(d);
@@ -367,10 +371,11 @@ fn storage_bindings_over_the_adapter_limit_are_refused() {
 fn kernels_needing_more_storage_bindings_than_the_adapter_has_are_refused() {
     // The RAY_LIST kernel binds 5 storage buffers: the SBT, the handle table, one scene
     // chunk and the user's two.
-    let dev = optik_wgpu::WgpuDevice::with_options(optik_wgpu::WgpuOptions {
+    let dev = optik_wgpu::WgpuBackend::with_options(optik_wgpu::WgpuOptions {
         max_storage_buffers_per_stage: Some(4),
         ..Default::default()
     })
+    .map(optik_wgpu::WgpuDevice::new)
     .unwrap();
     let d: &dyn Device = &dev;
     let _gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
@@ -392,7 +397,9 @@ fn kernels_needing_more_storage_bindings_than_the_adapter_has_are_refused() {
 
 #[test]
 fn gpu_memory_is_freed_with_its_owners_and_the_device() {
-    let dev = optik_wgpu::WgpuDevice::new().unwrap();
+    let dev = optik_wgpu::WgpuBackend::new()
+        .map(optik_wgpu::WgpuDevice::new)
+        .unwrap();
     let memory = dev.memory();
     let d: &dyn Device = &dev;
     // The empty device: the scene arena's first chunk.

@@ -311,7 +311,9 @@ fn instance_flags_and_their_precedence() {
 
 #[test]
 fn scenes_that_grow_after_linking_get_bigger_kernels() {
-    let dev = optik_wgpu::WgpuDevice::new().unwrap();
+    let dev = optik_wgpu::WgpuBackend::new()
+        .map(optik_wgpu::WgpuDevice::new)
+        .unwrap();
     let d: &dyn Device = &dev;
     let gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
     let m = module(d, RAY_LIST);

@@ -16,7 +16,9 @@ const MICROMAPS: &str = "_optik_micromap_state(";
 
 #[test]
 fn a_triangle_only_single_gas_pipeline_has_nothing_else() {
-    let dev = optik_wgpu::WgpuDevice::new().unwrap();
+    let dev = optik_wgpu::WgpuBackend::new()
+        .map(optik_wgpu::WgpuDevice::new)
+        .unwrap();
     let d: &dyn Device = &dev;
     let gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
     let m = module(d, RAY_LIST);
@@ -63,7 +65,9 @@ fn a_triangle_only_single_gas_pipeline_has_nothing_else() {
 
 #[test]
 fn forcing_every_feature_compiles_every_part() {
-    let dev = optik_wgpu::WgpuDevice::new().unwrap();
+    let dev = optik_wgpu::WgpuBackend::new()
+        .map(optik_wgpu::WgpuDevice::new)
+        .unwrap();
     let d: &dyn Device = &dev;
     let src = format!(
         "{RAY_LIST}\nfn anyhit__a() {{ }}\nfn intersection__i() {{ var a: RtAttributes; _ = rt_report_intersection(1.0, 0u, a); }}\n"
@@ -130,7 +134,9 @@ fn forcing_every_feature_compiles_every_part() {
 
 #[test]
 fn accuracy_selects_the_tests_compiled() {
-    let dev = optik_wgpu::WgpuDevice::new().unwrap();
+    let dev = optik_wgpu::WgpuBackend::new()
+        .map(optik_wgpu::WgpuDevice::new)
+        .unwrap();
     let d: &dyn Device = &dev;
     triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
     d.set_accuracy(Accuracy::FAST).unwrap();

@@ -132,7 +132,7 @@ fn signed_zero_directions_agree() {
 /// traces them all in batches; on the CPU device batches give the hits of one launch.
 #[test]
 fn rays_beyond_a_binding_limit_trace_in_batches() {
-    use optik::backends::wgpu::{WgpuDevice, WgpuOptions};
+    use optik::backends::wgpu::{WgpuBackend, WgpuDevice, WgpuOptions};
     let mesh = Mesh::icosphere(2);
     let aimed = rays::aimed_at_vertices_and_edges(&mesh, [0.0123, -0.0311, 0.0217]);
     let rays: Vec<f32> = aimed.iter().copied().cycle().take(4000 * 8).collect();
@@ -147,10 +147,12 @@ fn rays_beyond_a_binding_limit_trace_in_batches() {
     assert_eq!(batched.upload(&rays).expect("upload").batches(), 14);
     assert_eq!(batched.cast(&rays, 1).expect("batches").0, expected);
 
-    let gpu = match WgpuDevice::with_options(WgpuOptions {
+    let gpu = match WgpuBackend::with_options(WgpuOptions {
         max_storage_binding: Some(16 << 10),
         ..Default::default()
-    }) {
+    })
+    .map(WgpuDevice::new)
+    {
         Ok(d) => d,
         Err(e) => {
             eprintln!("skipping the wgpu part: {}", e.message());

@@ -3,7 +3,7 @@
 
 use optik_api::*;
 use optik_cpu::program::abi::{Bindings, DeviceCalls};
-use optik_cpu::{CpuDevice, NativeModuleDesc, NativeProgram};
+use optik_cpu::{CpuBackend, CpuDevice, NativeModuleDesc, NativeProgram};
 use std::sync::{Arc, Mutex};
 
 /// A device with helpers.
@@ -138,7 +138,7 @@ pub fn trace_ray(c: &mut dyn DeviceCalls, handle: TraversableHandle, r: Ray, pay
 impl Kit {
     pub fn new() -> Kit {
         Kit {
-            dev: CpuDevice::with_threads(2).unwrap(),
+            dev: CpuBackend::with_threads(2).map(CpuDevice::new).unwrap(),
         }
     }
 

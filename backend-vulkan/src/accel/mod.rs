@@ -608,10 +608,12 @@ impl Inner {
         self.accuracy.triangle != TriangleTest::Driver
     }
 
+    /// What native Vulkan triangles cannot carry (optik-core has checked the rest).
     fn check_buildable(&self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<()> {
-        let keys = validate::build_inputs(options, inputs, &self.props, &|b| {
-            self.buffers.get(b).map(|x| x.gpu.size)
-        })?;
+        let keys = options
+            .motion
+            .filter(|m| m.num_keys >= 2)
+            .map_or(1, |m| m.num_keys as usize);
         let emulated = self.emulates_triangles();
         for (i, input) in inputs.iter().enumerate() {
             let BuildInput::Triangles(t) = input else {
@@ -726,11 +728,6 @@ impl Inner {
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<Accel> {
-        if options.operation == BuildOperation::Update {
-            return Err(Error::invalid(
-                "accel_build needs build_options.operation = Build; refit an existing structure with accel_update",
-            ));
-        }
         self.check_buildable(options, inputs)?;
         let accel = match &inputs[0] {
             BuildInput::Instances(ia) => self.build_ias(options, inputs, ia)?,
@@ -883,17 +880,7 @@ impl Inner {
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<()> {
-        let (built_options, built_inputs) = match self.accels.get(accel)? {
-            AccelObject::Gas(g) => (g.options, g.inputs.clone()),
-            AccelObject::Ias(i) => (i.options, i.inputs.clone()),
-            AccelObject::Transform(_) => {
-                return Err(Error::invalid(
-                    "accel_update takes an acceleration structure; transforms are created once",
-                ));
-            }
-        };
         self.check_buildable(options, inputs)?;
-        validate::update(&built_options, &built_inputs, options, inputs)?;
         match &inputs[0] {
             BuildInput::Instances(ia) => {
                 let (instances, children) = self.decode_instances(ia)?;
@@ -1032,14 +1019,21 @@ impl Inner {
         Ok(())
     }
 
+    /// The options and inputs of a structure's last build or update; `None` for transforms.
+    pub fn accel_build_record(
+        &self,
+        accel: Accel,
+    ) -> Result<Option<(AccelBuildOptions, Vec<BuildInput>)>> {
+        Ok(match self.accels.get(accel)? {
+            AccelObject::Gas(g) => Some((g.options, g.inputs.clone())),
+            AccelObject::Ias(i) => Some((i.options, i.inputs.clone())),
+            AccelObject::Transform(_) => None,
+        })
+    }
+
     pub fn accel_compact(&mut self, accel: Accel) -> Result<Accel> {
         let copy = match self.accels.get(accel)? {
             AccelObject::Gas(g) => {
-                if !g.options.flags.contains(BuildFlags::ALLOW_COMPACTION) {
-                    return Err(Error::invalid(
-                        "the acceleration structure was built without BuildFlags::ALLOW_COMPACTION, so it cannot be compacted; rebuild it with that flag",
-                    ));
-                }
                 let parts: Vec<(vk::AccelerationStructureKHR, u32)> =
                     g.parts.iter().map(|(p, f)| (p.accel, *f)).collect();
                 let records_range = (g.geometry_start, g.geometry_count, g.data_start, g.data_len);
@@ -1138,9 +1132,7 @@ impl Inner {
                 })
             }
             AccelObject::Transform(_) => {
-                return Err(Error::invalid(
-                    "accel_compact takes an acceleration structure; transforms cannot be compacted",
-                ));
+                return Err(Error::backend("accel_compact was given a transform"));
             }
         };
         let handle = copy.handle();

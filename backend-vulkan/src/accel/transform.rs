@@ -57,7 +57,6 @@ impl Inner {
 
     /// Creates a static, matrix-motion or SRT-motion transform.
     pub fn create_transform(&mut self, desc: &TransformDesc) -> Result<Accel> {
-        validate::transform(desc)?;
         let (link, kinds) = match desc {
             TransformDesc::Static {
                 object_to_world, ..

@@ -3,7 +3,7 @@
 //! for buffers, programs and shader binding tables.
 
 use optik_api::*;
-use optik_vulkan::{VulkanDevice, VulkanOptions};
+use optik_vulkan::{VulkanBackend, VulkanDevice, VulkanOptions};
 use std::sync::Arc;
 
 /// A validated device; dropping it fails the test on any validation message.
@@ -43,7 +43,8 @@ pub fn device_with(force_staging: bool) -> TestDevice {
         cache_dir: None,
         max_dispatch_invocations: None,
     };
-    let dev = VulkanDevice::open(&options)
+    let dev = VulkanBackend::open(&options)
+        .map(VulkanDevice::new)
         .unwrap_or_else(|e| panic!("no Vulkan ray tracing device for the tests: {e}"));
     let log = dev.validation_log();
     TestDevice {
@@ -55,7 +56,8 @@ pub fn device_with(force_staging: bool) -> TestDevice {
 /// A validated device with `options` (validation is forced on).
 pub fn device_with_options(mut options: VulkanOptions) -> TestDevice {
     options.validation = true;
-    let dev = VulkanDevice::open(&options)
+    let dev = VulkanBackend::open(&options)
+        .map(VulkanDevice::new)
         .unwrap_or_else(|e| panic!("no Vulkan ray tracing device for the tests: {e}"));
     let log = dev.validation_log();
     TestDevice {

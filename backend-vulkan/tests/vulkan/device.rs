@@ -183,7 +183,8 @@ fn naming_a_device_that_does_not_exist_lists_the_devices() {
         cache_dir: None,
         max_dispatch_invocations: None,
     };
-    let e = optik_vulkan::VulkanDevice::open(&options)
+    let e = optik_vulkan::VulkanBackend::open(&options)
+        .map(optik_vulkan::VulkanDevice::new)
         .err()
         .expect("no device has that name");
     assert_eq!(e.kind(), ErrorKind::InvalidArgument);
@@ -207,7 +208,9 @@ fn devices_open_and_drop_any_number_of_times() {
             cache_dir: None,
             max_dispatch_invocations: None,
         };
-        if let Err(e) = optik_vulkan::VulkanDevice::open(&options) {
+        if let Err(e) =
+            optik_vulkan::VulkanBackend::open(&options).map(optik_vulkan::VulkanDevice::new)
+        {
             panic!(
                 "opening the device for the {}th time failed: {e}",
                 round + 1

@@ -298,7 +298,11 @@ fn compile_errors_point_at_the_users_line() {
     let e = dev
         .create_program_groups(&[ProgramGroupDesc::Miss(Some(prog(m, "miss__nothere")))])
         .unwrap_err();
-    assert!(e.message().contains("no program `miss__nothere`"), "{e}");
+    assert!(
+        e.message().contains("miss program `miss__nothere`")
+            && e.message().contains("no program of that name"),
+        "{e}"
+    );
     let e = dev
         .create_program_groups(&[ProgramGroupDesc::Miss(Some(prog(m, "raygen__rg")))])
         .unwrap_err();

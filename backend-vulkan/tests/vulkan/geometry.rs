@@ -354,7 +354,24 @@ fn empty_structures_and_null_children_miss() {
         &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
         GeometryFlags::DISABLE_ANYHIT,
     );
-    let ias = dev.instances(&[Instance::new(dev.traversable_handle(gas).unwrap())]);
+    let instances = [Instance::new(dev.traversable_handle(gas).unwrap())];
+    // Without ALLOW_COMPACTION an instance structure is refused as on every backend.
+    let plain = dev.instances(&instances);
+    let e = dev.accel_compact(plain).unwrap_err();
+    assert!(e.message().contains("ALLOW_COMPACTION"), "{e}");
+    let b = dev.buffer_with(bytemuck::cast_slice(&instances));
+    let ias = dev
+        .accel_build(
+            &AccelBuildOptions {
+                flags: BuildFlags::ALLOW_COMPACTION,
+                ..Default::default()
+            },
+            &[BuildInput::Instances(InstanceArray {
+                instances: BufferView::new(b),
+                num_instances: 1,
+            })],
+        )
+        .unwrap();
     let copy = dev.accel_compact(ias).unwrap();
     assert_ne!(
         dev.traversable_handle(copy).unwrap(),

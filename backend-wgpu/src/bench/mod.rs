@@ -13,7 +13,7 @@
 
 pub mod bandwidth;
 
-use crate::device::WgpuDevice;
+use crate::device::{WgpuBackend, WgpuDevice};
 use crate::kernel::counters;
 pub use crate::kernel::counters::TrafficCounts;
 pub use bandwidth::Bandwidth;
@@ -480,7 +480,7 @@ pub fn bench_trace(
     indices: &[[u32; 3]],
     config: &BenchConfig,
 ) -> Result<BenchReport> {
-    let wgpu_device = WgpuDevice::new()?;
+    let wgpu_device = WgpuBackend::new().map(WgpuDevice::new)?;
     let dev: &dyn Device = &wgpu_device;
     dev.set_accuracy(config.accuracy)?;
     let size = LaunchSize::new(config.width, config.height, 1);

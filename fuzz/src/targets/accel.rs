@@ -43,7 +43,11 @@ fn seeds() -> Vec<Vec<u8>> {
 
 fn device() -> &'static dyn Device {
     static DEVICE: OnceLock<Option<optik_cpu::CpuDevice>> = OnceLock::new();
-    match DEVICE.get_or_init(|| optik_cpu::CpuDevice::with_threads(1).ok()) {
+    match DEVICE.get_or_init(|| {
+        optik_cpu::CpuBackend::with_threads(1)
+            .map(optik_cpu::CpuDevice::new)
+            .ok()
+    }) {
         Some(d) => d,
         None => panic!("the CPU device cannot open"),
     }
