@@ -305,7 +305,9 @@ fn launches_are_split_over_the_workgroup_grid_or_refused_naming_the_limit() {
 #[test]
 fn a_launch_past_one_row_of_workgroups_runs_with_the_adapters_limits() {
     // More invocations than one row of workgroups holds: the grid takes a second row.
-    let dev = optik_wgpu::WgpuDevice::new().unwrap();
+    let dev = optik_wgpu::WgpuBackend::new()
+        .map(optik_wgpu::WgpuDevice::new)
+        .unwrap();
     let d: &dyn Device = &dev;
     let per_dim = dev.limits().max_compute_workgroups_per_dimension;
     let n = per_dim * 64 + 4099;
