@@ -12,6 +12,9 @@ const PATH: &str = include_str!("wgsl/path.wgsl");
 const PROBE: &str = include_str!("wgsl/probe.wgsl");
 const TEXTURE: &str = include_str!("wgsl/texture.wgsl");
 const MASK: &str = include_str!("wgsl/mask.wgsl");
+const ENVMAP: &str = include_str!("wgsl/envmap.wgsl");
+/// Stands in for envmap.wgsl where no envmap exists: never called (ENVMAP is false).
+const NO_ENVMAP: &str = "fn env_eval(b: u32, d: vec3<f32>) -> vec3<f32> {\n    return vec3<f32>(0.0);\n}\nfn env_pdf(b: u32, d: vec3<f32>) -> f32 {\n    return 0.0;\n}\nfn sample_env(b: u32, x: vec3<f32>, u: vec2<f32>) -> LightSample {\n    return light_none();\n}\n";
 /// Stands in for texture.wgsl where no bitmap exists: never called (no texture has kind 2 or 3).
 const NO_TEXTURE: &str = "fn tex_bitmap(image: u32, uv: vec2<f32>, bilinear: bool, wrap: u32) -> vec4<f32> {\n    return vec4<f32>(0.0);\n}\n";
 
@@ -41,8 +44,11 @@ pub fn path_module(features: &RenderFeatures) -> String {
     s += &format!("const NEE: bool = {};\n", features.shadow_rays);
     s += &format!("const INSTANCED: bool = {};\n", features.uses_ias());
     s += &format!("const MASKS: bool = {};\n", features.masks);
+    let envmap = features.emitters.contains("envmap");
+    s += &format!("const ENVMAP: bool = {envmap};\n");
     s += if features.bitmap { TEXTURE } else { NO_TEXTURE };
     s += SCENE;
+    s += if envmap { ENVMAP } else { NO_ENVMAP };
     for kind in &features.bsdf_kinds {
         s += kind.wgsl();
     }

@@ -395,7 +395,7 @@ pub fn render_with_progress(
             let row = m.row(r);
             p.f(row.x).f(row.y).f(row.z).f(row.w);
         }
-        p.f(tan_y).u(stride).u(0).u(0);
+        p.f(tan_y).u(stride).u(0).u(built.env_light);
         p.f(built.env_radiance.x)
             .f(built.env_radiance.y)
             .f(built.env_radiance.z)

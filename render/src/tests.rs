@@ -478,3 +478,6 @@ fn outputs_encode() {
 
 #[path = "tests_shapes.rs"]
 mod shapes;
+
+#[path = "tests_emitters.rs"]
+mod emitters;

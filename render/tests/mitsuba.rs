@@ -125,39 +125,39 @@ scene!(cbox, 128);
 scene!(
     spheres_area,
     64,
-    "needs twosided, built-in spheres and the grid's BSDFs in the engine"
+    "needs the BSDFs twosided, dielectric, plastic, roughdielectric, roughplastic, conductor and roughconductor in the engine"
 );
 scene!(
     spheres_point,
     64,
-    "needs twosided, built-in spheres and the grid's BSDFs in the engine"
+    "needs the BSDFs twosided, dielectric, plastic, roughdielectric, roughplastic, conductor and roughconductor in the engine"
 );
 scene!(
     spheres_constant,
     64,
-    "needs twosided, built-in spheres and the grid's BSDFs in the engine"
+    "needs the BSDFs twosided, dielectric, plastic, roughdielectric, roughplastic, conductor and roughconductor in the engine"
 );
 scene!(
     spheres_envmap,
     64,
-    "needs envmap, twosided, built-in spheres and the grid's BSDFs in the engine"
+    "needs the BSDFs twosided, dielectric, plastic, roughdielectric, roughplastic, conductor and roughconductor in the engine"
 );
 scene!(textured_diffuse, 128);
 scene!(
     rough_dielectric,
     128,
-    "needs built-in spheres, roughdielectric and envmap in the engine"
+    "needs the roughdielectric BSDF in the engine"
 );
 scene!(
     rough_plastic,
     128,
-    "needs built-in spheres, roughplastic and envmap in the engine"
+    "needs the roughplastic BSDF in the engine"
 );
 scene!(instancing, 128);
 scene!(
     infinite_mirrors,
     128,
-    "needs built-in spheres, conductor and envmap in the engine"
+    "needs the conductor BSDF in the engine"
 );
 scene!(various_shapes, 64);
 
@@ -200,7 +200,7 @@ mod teeth {
         teeth("cbox", [0.885809, 0.698859, 0.666422], 512);
     }
     #[test]
-    #[ignore = "needs twosided, built-in spheres and the grid's BSDFs in the engine"]
+    #[ignore = "needs the BSDFs twosided, dielectric, plastic, roughdielectric, roughplastic, conductor and roughconductor in the engine"]
     fn spheres_constant_diffuse_sphere() {
         teeth("spheres_constant", [0.2, 0.5, 0.3], 256);
     }
@@ -225,17 +225,17 @@ fn check_breakfast_room(kind: BackendKind, cpu_spp: u32) {
 mod breakfast_room {
     use super::*;
     #[test]
-    #[ignore = "needs twosided, roughplastic, roughconductor and bitmap textures in the engine"]
+    #[ignore = "needs the BSDFs twosided, roughplastic and roughconductor in the engine"]
     fn cpu() {
         check_breakfast_room(BackendKind::Cpu, 64);
     }
     #[test]
-    #[ignore = "needs twosided, roughplastic, roughconductor and bitmap textures in the engine"]
+    #[ignore = "needs the BSDFs twosided, roughplastic and roughconductor in the engine"]
     fn wgpu() {
         check_breakfast_room(BackendKind::Wgpu, 64);
     }
     #[test]
-    #[ignore = "needs twosided, roughplastic, roughconductor and bitmap textures in the engine"]
+    #[ignore = "needs the BSDFs twosided, roughplastic and roughconductor in the engine"]
     fn vulkan() {
         check_breakfast_room(BackendKind::Vulkan, 64);
     }

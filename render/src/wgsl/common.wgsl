@@ -22,7 +22,8 @@ struct Params {
     tan_y: f32,
     accum_stride: u32,
     probe_count: u32,
-    pad1: u32,
+    // The envmap's light table entry (NONE: no envmap).
+    env_light: u32,
     env_radiance: vec3<f32>,
     env_pdf: f32,
 }
@@ -34,7 +35,7 @@ const INV_PI: f32 = 0.31830988618379067154;
 const FLAG_HIDE_EMITTERS: u32 = 1u;
 const FLAG_AOVS: u32 = 2u;
 const NONE: u32 = 0xFFFFFFFFu;
-const LIGHT_WORDS: u32 = 16u;
+const LIGHT_WORDS: u32 = 32u;
 
 // PCG (O'Neill), the RXS-M-XS output of a 32-bit LCG step: counter-based seeding below makes
 // every pixel's stream depend only on (pixel, sample, seed).
