@@ -5,7 +5,7 @@ use crate::camera::half_fov_tangents;
 use crate::error::{Context, RenderError};
 use crate::features::RenderFeatures;
 use crate::gpu::{Owned, Std140};
-use crate::material::{self, BsdfKind, MAT_PARAMS};
+use crate::material::{self, BsdfKind, MAT_EXTRA, MAT_PARAMS};
 use crate::programs;
 use crate::scene::{Emitter, Filter, Integrator, Scene, ShapeRef, Texture};
 use glam::{Mat3, Vec3};
@@ -99,8 +99,8 @@ pub fn render(
 /// Floats per pixel of the accumulation buffer (path.wgsl's ACC_* layout).
 const ACCUM_WORDS: u32 = 7;
 const ACCUM_WORDS_AOVS: u32 = 13;
-/// Words of SBT record data (scene.wgsl: SBT_MATERIAL + MatParams).
-const RECORD_DATA_WORDS: usize = 10 + MAT_PARAMS;
+/// Words of SBT record data (scene.wgsl: SBT_MATERIAL + MatParams + the material's table).
+const RECORD_DATA_WORDS: usize = 10 + MAT_PARAMS + MAT_EXTRA;
 const RECORD_STRIDE: u32 = (32 + RECORD_DATA_WORDS as u32 * 4).div_ceil(16) * 16;
 const LIGHT_WORDS: usize = 16;
 
@@ -516,7 +516,7 @@ impl GeometryTables {
             for (i, c) in emission.to_array().iter().enumerate() {
                 record[6 + i] = c.to_bits();
             }
-            for (i, v) in enc.params.iter().enumerate() {
+            for (i, v) in enc.params.iter().chain(&enc.extra).enumerate() {
                 record[10 + i] = v.to_bits();
             }
             if emission.max_element() > 0.0 {

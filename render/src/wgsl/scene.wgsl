@@ -138,7 +138,8 @@ fn sample_light(x: vec3<f32>, u_sel: f32, u: vec2<f32>) -> LightSample {
 
 // ---- Mesh hits ----
 // SBT record data words: vertex base, triangle base, normal base, uv base (NONE: absent),
-// flip, emitter area pdf, emitted radiance rgb, pad, then 24 material parameters.
+// flip, emitter area pdf, emitted radiance rgb, pad, then the material's parameters and its
+// precomputed table.
 const SBT_MATERIAL: u32 = 10u;
 
 struct Hit {
@@ -200,10 +201,16 @@ fn mesh_hit() -> Hit {
 
 fn sbt_material() -> MatParams {
     var m: MatParams;
-    for (var i = 0u; i < 24u; i++) {
+    for (var i = 0u; i < MAT_PARAMS_LEN; i++) {
         m[i] = rt_sbt_data_f32(SBT_MATERIAL + i);
     }
     return m;
+}
+
+// The material's precomputed table (roughplastic's transmittance), read where needed rather
+// than copied with the parameters.
+fn mat_extra(i: u32) -> f32 {
+    return rt_sbt_data_f32(SBT_MATERIAL + MAT_PARAMS_LEN + i);
 }
 
 // Emission seen along d at the hit (Mitsuba's area emitter: front side only) and the
