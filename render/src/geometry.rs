@@ -3,7 +3,7 @@
 //! them when the scene has spheres or instances) and the light table.
 
 use crate::error::RenderError;
-use crate::material::{self, BsdfKind, MAT_PARAMS};
+use crate::material::{self, BsdfKind, MAT_EXTRA, MAT_PARAMS};
 use crate::scene::{Emitter, Mesh, Scene, Sphere, Texture};
 use glam::{Mat3, Mat4, Vec3};
 
@@ -11,8 +11,10 @@ use glam::{Mat3, Mat4, Vec3};
 pub const SBT_OPACITY: usize = 10;
 /// Where the material parameters start in the record data.
 pub const SBT_MATERIAL: usize = SBT_OPACITY + 13;
+/// Where the material's precomputed table (roughplastic's transmittance) starts.
+pub const SBT_EXTRA: usize = SBT_MATERIAL + MAT_PARAMS;
 /// Words of SBT record data.
-pub const RECORD_DATA_WORDS: usize = SBT_MATERIAL + MAT_PARAMS;
+pub const RECORD_DATA_WORDS: usize = SBT_EXTRA + MAT_EXTRA;
 /// Floats per light table entry (scene.wgsl's LIGHT_WORDS).
 pub const LIGHT_WORDS: usize = 32;
 /// Floats per sphere table entry: centre, radius, world-to-local rotation rows, spare.
@@ -229,6 +231,9 @@ impl Tables {
         }
         for (i, v) in enc.params.iter().enumerate() {
             data[SBT_MATERIAL + i] = v.to_bits();
+        }
+        for (i, v) in enc.extra.iter().enumerate() {
+            data[SBT_EXTRA + i] = v.to_bits();
         }
         Ok((data, enc.kind, opacity.is_some()))
     }

@@ -18,6 +18,7 @@ pub mod output;
 pub mod probe;
 mod programs;
 mod render;
+mod roughplastic;
 pub mod scene;
 pub mod validate;
 

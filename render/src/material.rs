@@ -1,39 +1,126 @@
-//! Materials as the WGSL BSDF code reads them: a kind (one closest-hit program each) and 24
-//! floats of parameters (MatParams in common.wgsl).
+//! Materials as the WGSL BSDF code reads them: a kind (one closest-hit program each), 40 floats
+//! of parameters (MatParams in common.wgsl) and 64 floats of precomputed table (roughplastic's
+//! rough-interface transmittance; read through `mat_extra` in WGSL).
 
 use crate::RenderError;
-use crate::scene::{Bsdf, Texture};
-use glam::Mat3;
+use crate::scene::{Bsdf, Microfacet, Roughness, Texture};
+use glam::{Mat3, Vec3};
 
 /// Floats of material parameters per SBT record.
-pub const MAT_PARAMS: usize = 24;
+pub const MAT_PARAMS: usize = 40;
+/// Floats of precomputed table per SBT record, after the parameters.
+pub const MAT_EXTRA: usize = crate::roughplastic::TABLE_RES;
 
-/// A BSDF kind: one closest-hit program per kind present in a scene.
+// Parameter layout (common.wgsl repeats it): two texture slots of 13 floats, kind-specific
+// scalars, the microfacet distribution, and the two-sided flag.
+const TEX_A: usize = 0;
+const TEX_B: usize = 13;
+const SCALARS: usize = 26;
+const MICROFACET: usize = 33;
+const TWOSIDED: usize = 39;
+
+/// A BSDF kind: one closest-hit program per kind present in a scene. `twosided` is not a kind:
+/// it is a flag on the kind it wraps (Mitsuba's `twosided` only mirrors directions).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum BsdfKind {
     /// Mitsuba's `diffuse`.
     Diffuse,
+    /// Mitsuba's `conductor` (a delta reflection).
+    Conductor,
+    /// Mitsuba's `roughconductor`.
+    RoughConductor,
+    /// Mitsuba's `dielectric` (delta reflection and refraction).
+    Dielectric,
+    /// Mitsuba's `thindielectric` (delta reflection and straight transmission).
+    ThinDielectric,
+    /// Mitsuba's `roughdielectric`.
+    RoughDielectric,
+    /// Mitsuba's `plastic` (delta coating reflection over a diffuse base).
+    Plastic,
+    /// Mitsuba's `roughplastic`.
+    RoughPlastic,
+}
+
+/// WGSL pieces shared by several kinds, assembled once per module.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum SharedWgsl {
+    /// Fresnel equations, reflection and refraction (fresnel.wgsl).
+    Fresnel,
+    /// Beckmann and GGX distributions and their sampling (microfacet.wgsl).
+    Microfacet,
+}
+
+impl SharedWgsl {
+    /// The piece's source.
+    pub fn wgsl(self) -> &'static str {
+        match self {
+            SharedWgsl::Fresnel => include_str!("wgsl/fresnel.wgsl"),
+            SharedWgsl::Microfacet => include_str!("wgsl/microfacet.wgsl"),
+        }
+    }
 }
 
 impl BsdfKind {
-    /// The name used in program names and `--features` (`diffuse`).
+    /// Every kind, in program order.
+    pub const ALL: [BsdfKind; 8] = [
+        BsdfKind::Diffuse,
+        BsdfKind::Conductor,
+        BsdfKind::RoughConductor,
+        BsdfKind::Dielectric,
+        BsdfKind::ThinDielectric,
+        BsdfKind::RoughDielectric,
+        BsdfKind::Plastic,
+        BsdfKind::RoughPlastic,
+    ];
+
+    /// The name used in program names and `--features` (Mitsuba's plugin name).
     pub fn name(self) -> &'static str {
         match self {
             BsdfKind::Diffuse => "diffuse",
+            BsdfKind::Conductor => "conductor",
+            BsdfKind::RoughConductor => "roughconductor",
+            BsdfKind::Dielectric => "dielectric",
+            BsdfKind::ThinDielectric => "thindielectric",
+            BsdfKind::RoughDielectric => "roughdielectric",
+            BsdfKind::Plastic => "plastic",
+            BsdfKind::RoughPlastic => "roughplastic",
         }
     }
 
-    /// Whether the BSDF has a non-delta lobe, so that next-event estimation applies.
+    /// Whether the BSDF has a non-delta lobe, so that next-event estimation applies (Mitsuba's
+    /// path integrator: `has_flag(bsdf.flags(), Smooth)`).
     pub fn smooth(self) -> bool {
-        match self {
-            BsdfKind::Diffuse => true,
-        }
+        !matches!(
+            self,
+            BsdfKind::Conductor | BsdfKind::Dielectric | BsdfKind::ThinDielectric
+        )
     }
 
     /// The WGSL source of the kind's `bsdf_<name>_{eval,sample,albedo}` functions.
     pub fn wgsl(self) -> &'static str {
         match self {
             BsdfKind::Diffuse => include_str!("wgsl/bsdf_diffuse.wgsl"),
+            BsdfKind::Conductor => include_str!("wgsl/bsdf_conductor.wgsl"),
+            BsdfKind::RoughConductor => include_str!("wgsl/bsdf_roughconductor.wgsl"),
+            BsdfKind::Dielectric => include_str!("wgsl/bsdf_dielectric.wgsl"),
+            BsdfKind::ThinDielectric => include_str!("wgsl/bsdf_thindielectric.wgsl"),
+            BsdfKind::RoughDielectric => include_str!("wgsl/bsdf_roughdielectric.wgsl"),
+            BsdfKind::Plastic => include_str!("wgsl/bsdf_plastic.wgsl"),
+            BsdfKind::RoughPlastic => include_str!("wgsl/bsdf_roughplastic.wgsl"),
+        }
+    }
+
+    /// The shared pieces the kind's WGSL calls.
+    pub fn needs(self) -> &'static [SharedWgsl] {
+        match self {
+            BsdfKind::Diffuse => &[],
+            BsdfKind::Conductor
+            | BsdfKind::Dielectric
+            | BsdfKind::ThinDielectric
+            | BsdfKind::Plastic => &[SharedWgsl::Fresnel],
+            BsdfKind::RoughConductor | BsdfKind::RoughDielectric | BsdfKind::RoughPlastic => {
+                &[SharedWgsl::Fresnel, SharedWgsl::Microfacet]
+            }
         }
     }
 }
@@ -54,27 +141,219 @@ pub struct Encoded {
     pub kind: BsdfKind,
     /// Its parameters.
     pub params: [f32; MAT_PARAMS],
+    /// Its precomputed table (zeros where the kind has none).
+    pub extra: [f32; MAT_EXTRA],
 }
 
 /// Encodes `bsdf` for the WGSL BSDF code; `what` names it in errors.
 pub fn encode(bsdf: &Bsdf, what: &str) -> Result<Encoded, RenderError> {
-    let mut params = [0.0; MAT_PARAMS];
-    let kind = match bsdf {
+    let mut e = Encoded {
+        kind: BsdfKind::Diffuse,
+        params: [0.0; MAT_PARAMS],
+        extra: [0.0; MAT_EXTRA],
+    };
+    let p = &mut e.params;
+    e.kind = match bsdf {
         Bsdf::Diffuse { reflectance } => {
-            encode_texture(reflectance, &mut params[0..13], what)?;
+            encode_texture(reflectance, &mut p[TEX_A..TEX_A + 13], what)?;
             BsdfKind::Diffuse
         }
         // The mask's opacity is the any-hit program's (see `opacity`); hits are shaded by the
         // inner BSDF.
         Bsdf::Mask { inner, .. } => return encode(inner, what),
-        other => {
-            return Err(RenderError::Unsupported(format!(
-                "{what}: BSDF {} (supported: diffuse)",
-                bsdf_name(other)
-            )));
+        Bsdf::TwoSided { front, back } => {
+            if front != back {
+                return Err(RenderError::Unsupported(format!(
+                    "{what}: twosided with two different nested BSDFs (supported: one nested \
+                     BSDF, used on both sides)"
+                )));
+            }
+            if matches!(
+                **front,
+                Bsdf::TwoSided { .. }
+                    | Bsdf::Dielectric { .. }
+                    | Bsdf::ThinDielectric { .. }
+                    | Bsdf::RoughDielectric { .. }
+                    | Bsdf::Mask { .. }
+            ) {
+                // Mitsuba refuses transmissive children ("Only materials without a
+                // transmission component can be nested").
+                return Err(RenderError::Invalid(format!(
+                    "{what}: twosided around {}: expected a BSDF without transmission",
+                    bsdf_name(front)
+                )));
+            }
+            let mut inner = encode(front, what)?;
+            inner.params[TWOSIDED] = 1.0;
+            return Ok(inner);
+        }
+        Bsdf::Conductor {
+            eta,
+            k,
+            specular_reflectance,
+        } => {
+            encode_texture(specular_reflectance, &mut p[TEX_A..TEX_A + 13], what)?;
+            p[SCALARS..SCALARS + 3].copy_from_slice(&eta.to_array());
+            p[SCALARS + 3..SCALARS + 6].copy_from_slice(&k.to_array());
+            BsdfKind::Conductor
+        }
+        Bsdf::RoughConductor {
+            eta,
+            k,
+            roughness,
+            specular_reflectance,
+            sample_visible,
+        } => {
+            encode_texture(specular_reflectance, &mut p[TEX_A..TEX_A + 13], what)?;
+            p[SCALARS..SCALARS + 3].copy_from_slice(&eta.to_array());
+            p[SCALARS + 3..SCALARS + 6].copy_from_slice(&k.to_array());
+            encode_roughness(roughness, *sample_visible, p, what)?;
+            BsdfKind::RoughConductor
+        }
+        Bsdf::Dielectric {
+            int_ior,
+            ext_ior,
+            specular_reflectance,
+            specular_transmittance,
+        }
+        | Bsdf::ThinDielectric {
+            int_ior,
+            ext_ior,
+            specular_reflectance,
+            specular_transmittance,
+        } => {
+            encode_texture(specular_reflectance, &mut p[TEX_A..TEX_A + 13], what)?;
+            encode_texture(specular_transmittance, &mut p[TEX_B..TEX_B + 13], what)?;
+            p[SCALARS] = relative_ior(*int_ior, *ext_ior, false, what)?;
+            if matches!(bsdf, Bsdf::Dielectric { .. }) {
+                BsdfKind::Dielectric
+            } else {
+                BsdfKind::ThinDielectric
+            }
+        }
+        Bsdf::RoughDielectric {
+            int_ior,
+            ext_ior,
+            roughness,
+            specular_reflectance,
+            specular_transmittance,
+            sample_visible,
+        } => {
+            encode_texture(specular_reflectance, &mut p[TEX_A..TEX_A + 13], what)?;
+            encode_texture(specular_transmittance, &mut p[TEX_B..TEX_B + 13], what)?;
+            p[SCALARS] = relative_ior(*int_ior, *ext_ior, true, what)?;
+            encode_roughness(roughness, *sample_visible, p, what)?;
+            BsdfKind::RoughDielectric
+        }
+        Bsdf::Plastic {
+            diffuse_reflectance,
+            specular_reflectance,
+            int_ior,
+            ext_ior,
+            nonlinear,
+        } => {
+            encode_texture(diffuse_reflectance, &mut p[TEX_A..TEX_A + 13], what)?;
+            encode_texture(specular_reflectance, &mut p[TEX_B..TEX_B + 13], what)?;
+            let eta = relative_ior(*int_ior, *ext_ior, false, what)?;
+            p[SCALARS] = eta;
+            p[SCALARS + 1] = 1.0 / (eta * eta);
+            p[SCALARS + 2] =
+                specular_sampling_weight(diffuse_reflectance, specular_reflectance, what)?;
+            p[SCALARS + 3] = f32::from(u8::from(*nonlinear));
+            p[SCALARS + 4] = crate::roughplastic::fresnel_diffuse_reflectance(1.0 / eta);
+            BsdfKind::Plastic
+        }
+        Bsdf::RoughPlastic {
+            diffuse_reflectance,
+            specular_reflectance,
+            int_ior,
+            ext_ior,
+            nonlinear,
+            roughness,
+        } => {
+            encode_texture(diffuse_reflectance, &mut p[TEX_A..TEX_A + 13], what)?;
+            encode_texture(specular_reflectance, &mut p[TEX_B..TEX_B + 13], what)?;
+            let eta = relative_ior(*int_ior, *ext_ior, true, what)?;
+            if roughness.alpha_u != roughness.alpha_v {
+                return Err(RenderError::Invalid(format!(
+                    "{what}: roughplastic with alpha_u {} and alpha_v {}: Mitsuba's roughplastic \
+                     is isotropic; expected one alpha",
+                    roughness.alpha_u, roughness.alpha_v
+                )));
+            }
+            p[SCALARS] = eta;
+            p[SCALARS + 1] = 1.0 / (eta * eta);
+            p[SCALARS + 2] =
+                specular_sampling_weight(diffuse_reflectance, specular_reflectance, what)?;
+            p[SCALARS + 3] = f32::from(u8::from(*nonlinear));
+            encode_roughness(roughness, true, p, what)?;
+            let alpha = roughness.alpha_u.max(1e-4);
+            let tables = crate::roughplastic::Tables::new(roughness.distribution, alpha, eta);
+            p[SCALARS + 4] = tables.internal_reflectance;
+            e.extra = tables.external_transmittance;
+            BsdfKind::RoughPlastic
         }
     };
-    Ok(Encoded { kind, params })
+    Ok(e)
+}
+
+/// int_ior / ext_ior, checked as Mitsuba checks it (rough interfaces need differing indices).
+fn relative_ior(int_ior: f32, ext_ior: f32, rough: bool, what: &str) -> Result<f32, RenderError> {
+    if !(int_ior > 0.0 && ext_ior > 0.0 && int_ior.is_finite() && ext_ior.is_finite()) {
+        return Err(RenderError::Invalid(format!(
+            "{what}: int_ior {int_ior} and ext_ior {ext_ior}: expected positive indices of refraction"
+        )));
+    }
+    if rough && int_ior == ext_ior {
+        return Err(RenderError::Invalid(format!(
+            "{what}: int_ior and ext_ior are both {int_ior}: a rough interface needs differing indices"
+        )));
+    }
+    Ok(int_ior / ext_ior)
+}
+
+/// Distribution, alpha_u, alpha_v and sample_visible at MICROFACET.
+fn encode_roughness(
+    r: &Roughness,
+    sample_visible: bool,
+    p: &mut [f32; MAT_PARAMS],
+    what: &str,
+) -> Result<(), RenderError> {
+    if !(r.alpha_u >= 0.0 && r.alpha_v >= 0.0 && r.alpha_u.is_finite() && r.alpha_v.is_finite()) {
+        return Err(RenderError::Invalid(format!(
+            "{what}: roughness alpha_u {} alpha_v {}: expected finite values of at least 0",
+            r.alpha_u, r.alpha_v
+        )));
+    }
+    p[MICROFACET] = match r.distribution {
+        Microfacet::Beckmann => 0.0,
+        Microfacet::Ggx => 1.0,
+    };
+    p[MICROFACET + 1] = r.alpha_u;
+    p[MICROFACET + 2] = r.alpha_v;
+    p[MICROFACET + 3] = f32::from(u8::from(sample_visible));
+    Ok(())
+}
+
+/// Plastic's probability weight of the specular lobe: `s_mean / (d_mean + s_mean)` of the
+/// textures' means (Mitsuba's `Texture::mean`).
+fn specular_sampling_weight(
+    diffuse: &Texture,
+    specular: &Texture,
+    what: &str,
+) -> Result<f32, RenderError> {
+    let mean = |t: &Texture| -> Result<f32, RenderError> {
+        let m = |c: Vec3| (c.x + c.y + c.z) / 3.0;
+        match t {
+            Texture::Constant(c) => Ok(m(*c)),
+            Texture::Checkerboard { color0, color1, .. } => Ok(0.5 * (m(*color0) + m(*color1))),
+            Texture::Bitmap { .. } => Err(RenderError::Unsupported(format!(
+                "{what}: bitmap textures (supported: constant and checkerboard)"
+            ))),
+        }
+    };
+    let (d, s) = (mean(diffuse)?, mean(specular)?);
+    Ok(s / (d + s))
 }
 
 /// The opacity texture of a masked material (13 floats, as `tex_rgb` reads them), or `None`

@@ -2,7 +2,7 @@
 
 use crate::features::RenderFeatures;
 use crate::geometry::Primitive;
-use crate::material::BsdfKind;
+use crate::material::{BsdfKind, SharedWgsl};
 use std::collections::BTreeSet;
 
 const COMMON: &str = include_str!("wgsl/common.wgsl");
@@ -17,6 +17,7 @@ const ENVMAP: &str = include_str!("wgsl/envmap.wgsl");
 const NO_ENVMAP: &str = "fn env_eval(b: u32, d: vec3<f32>) -> vec3<f32> {\n    return vec3<f32>(0.0);\n}\nfn env_pdf(b: u32, d: vec3<f32>) -> f32 {\n    return 0.0;\n}\nfn sample_env(b: u32, x: vec3<f32>, u: vec2<f32>) -> LightSample {\n    return light_none();\n}\n";
 /// Stands in for texture.wgsl where no bitmap exists: never called (no texture has kind 2 or 3).
 const NO_TEXTURE: &str = "fn tex_bitmap(image: u32, uv: vec2<f32>, bilinear: bool, wrap: u32) -> vec4<f32> {\n    return vec4<f32>(0.0);\n}\n";
+const TWOSIDED: &str = include_str!("wgsl/twosided.wgsl");
 
 /// The name suffix of a primitive type's hit programs.
 fn suffix(primitive: Primitive) -> &'static str {
@@ -49,8 +50,10 @@ pub fn path_module(features: &RenderFeatures) -> String {
     s += if features.bitmap { TEXTURE } else { NO_TEXTURE };
     s += SCENE;
     s += if envmap { ENVMAP } else { NO_ENVMAP };
+    s += &shared(features.bsdf_kinds.iter().copied());
     for kind in &features.bsdf_kinds {
         s += kind.wgsl();
+        s += &TWOSIDED.replace("KIND", kind.name());
     }
     let mut masked = BTreeSet::new();
     let mut shaded = BTreeSet::new();
@@ -94,7 +97,15 @@ pub fn probe_module(kind: BsdfKind) -> String {
     let mut s = String::new();
     s += COMMON;
     s += NO_TEXTURE;
+    s += &shared([kind].into_iter());
     s += kind.wgsl();
+    s += &TWOSIDED.replace("KIND", kind.name());
     s += &PROBE.replace("KIND", kind.name());
     s
+}
+
+/// The shared pieces (Fresnel, microfacet) the kinds call, each once.
+fn shared(kinds: impl Iterator<Item = BsdfKind>) -> String {
+    let pieces: BTreeSet<SharedWgsl> = kinds.flat_map(|k| k.needs().iter().copied()).collect();
+    pieces.iter().map(|p| p.wgsl()).collect()
 }

@@ -409,9 +409,9 @@ pub struct Image {
 /// A microfacet distribution.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Microfacet {
-    /// Beckmann.
+    /// Beckmann, Mitsuba's default.
     Beckmann,
-    /// GGX (Trowbridge–Reitz), Mitsuba's default.
+    /// GGX (Trowbridge–Reitz).
     Ggx,
 }
 

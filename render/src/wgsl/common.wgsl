@@ -126,6 +126,11 @@ fn mis_weight(a: f32, b: f32) -> f32 {
     return 0.0;
 }
 
+// dr::mulsign(a, b): a with the sign of b applied (b's sign bit, so -0 counts as negative).
+fn mulsign(a: f32, b: f32) -> f32 {
+    return select(a, -a, (bitcast<u32>(b) & 0x80000000u) != 0u);
+}
+
 fn luminance(c: vec3<f32>) -> f32 {
     return dot(c, vec3<f32>(0.212671, 0.715160, 0.072169));
 }
@@ -135,7 +140,15 @@ fn luminance(c: vec3<f32>) -> f32 {
 // bitmap, 3 nearest bitmap), colour 0 (a bitmap: image id, wrap mode), colour 1, then
 // Mitsuba's to_uv as two rows of a 3x3 affine matrix. Bitmaps are read by tex_bitmap
 // (texture.wgsl, compiled in only when a scene has one).
-alias MatParams = array<f32, 24>;
+// Material parameters (material.rs): texture slots A and B, kind-specific scalars from
+// MP_SCALARS, the microfacet distribution at MP_MICROFACET, the two-sided flag.
+alias MatParams = array<f32, 40>;
+const MAT_PARAMS_LEN: u32 = 40u;
+const MP_TEX_A: u32 = 0u;
+const MP_TEX_B: u32 = 13u;
+const MP_SCALARS: u32 = 26u;
+const MP_MICROFACET: u32 = 33u;
+const MP_TWOSIDED: u32 = 39u;
 
 fn tex_rgb(m: MatParams, at: u32, uv: vec2<f32>) -> vec3<f32> {
     let kind = u32(m[at]);
@@ -161,7 +174,8 @@ struct BsdfSample {
     weight: vec3<f32>,
     pdf: f32,
     eta: f32,
-    // 1 for a Dirac (delta) lobe.
+    // 0: a smooth lobe; 1: a Dirac (delta) lobe; 2: a null lobe (thindielectric's straight
+    // transmission; Mitsuba's Delta flag includes Null).
     delta: u32,
 }
 

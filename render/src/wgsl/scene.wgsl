@@ -236,8 +236,8 @@ fn sample_sphere_light(b: u32, x: vec3<f32>, le: vec3<f32>, sel: f32, u: vec2<f3
 // ---- Mesh hits ----
 // SBT record data words: vertex base (a sphere: its index), triangle base, normal base, uv
 // base (NONE: absent), flip, emitter pdf (meshes: selection / area; spheres: selection),
-// emitted radiance rgb, pad, a mask's opacity texture (13 floats), then the material
-// parameters (geometry.rs's layout).
+// emitted radiance rgb, pad, a mask's opacity texture (13 floats), then the material's
+// parameters and its precomputed table (geometry.rs's layout).
 const SBT_OPACITY: u32 = 10u;
 const SBT_MATERIAL: u32 = 23u;
 
@@ -376,10 +376,16 @@ fn sphere_emission(h: Hit, d: vec3<f32>) {
 
 fn sbt_material() -> MatParams {
     var m: MatParams;
-    for (var i = 0u; i < 24u; i++) {
+    for (var i = 0u; i < MAT_PARAMS_LEN; i++) {
         m[i] = rt_sbt_data_f32(SBT_MATERIAL + i);
     }
     return m;
+}
+
+// The material's precomputed table (roughplastic's transmittance), read where needed rather
+// than copied with the parameters.
+fn mat_extra(i: u32) -> f32 {
+    return rt_sbt_data_f32(SBT_MATERIAL + MAT_PARAMS_LEN + i);
 }
 
 // Emission seen along d at the hit (Mitsuba's area emitter: front side only) and the
