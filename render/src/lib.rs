@@ -13,7 +13,9 @@ mod error;
 pub mod features;
 mod gpu;
 pub mod material;
+pub mod modes;
 pub mod output;
+pub mod plan;
 pub mod probe;
 mod programs;
 mod render;
@@ -22,8 +24,9 @@ pub mod validate;
 
 pub use error::RenderError;
 pub use features::RenderFeatures;
+pub use plan::{Effects, PipelinePlan};
 pub use render::{
-    AovImage, Frame, Progress, RenderOptions, RenderStats, render, render_with_progress,
+    AovImage, Frame, Progress, RenderOptions, RenderStats, Renderer, render, render_with_progress,
 };
 
 #[cfg(test)]

@@ -23,6 +23,24 @@ impl BsdfKind {
         }
     }
 
+    /// Every kind, in order: what the benchmark mode's all-effects pipeline compiles.
+    pub fn all() -> Vec<BsdfKind> {
+        let mut v = vec![BsdfKind::Diffuse];
+        while let Some(next) = v.last().and_then(|k| k.next()) {
+            v.push(next);
+        }
+        v
+    }
+
+    /// The kind after this one in [`BsdfKind::all`]. The match is exhaustive on purpose: a new
+    /// kind does not compile until it has its place here (and the test
+    /// `every_bsdf_source_belongs_to_a_kind` checks every bsdf_*.wgsl file is reached).
+    fn next(self) -> Option<BsdfKind> {
+        match self {
+            BsdfKind::Diffuse => None,
+        }
+    }
+
     /// Whether the BSDF has a non-delta lobe, so that next-event estimation applies.
     pub fn smooth(self) -> bool {
         match self {
