@@ -87,6 +87,12 @@ impl BsdfKind {
         }
     }
 
+    /// Every kind, in order: what the benchmark mode's all-effects pipeline compiles (the
+    /// test `every_bsdf_source_belongs_to_a_kind` checks every bsdf_*.wgsl file is reached).
+    pub fn all() -> Vec<BsdfKind> {
+        BsdfKind::ALL.to_vec()
+    }
+
     /// Whether the BSDF has a non-delta lobe, so that next-event estimation applies (Mitsuba's
     /// path integrator: `has_flag(bsdf.flags(), Smooth)`).
     pub fn smooth(self) -> bool {

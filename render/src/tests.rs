@@ -10,7 +10,7 @@ use crate::{Frame, RenderOptions, render};
 use glam::{Mat4, Vec3};
 use optik::{BackendChoice, BackendKind, Device, OpenOptions};
 
-fn cpu(threads: usize) -> Box<dyn Device> {
+pub(crate) fn cpu(threads: usize) -> Box<dyn Device> {
     optik::open_with(
         BackendChoice::Named(BackendKind::Cpu),
         &OpenOptions {
@@ -132,7 +132,7 @@ fn cornell_at(o: Vec3, s: f32) -> Scene {
     }
 }
 
-fn cornell(o: Vec3) -> Scene {
+pub(crate) fn cornell(o: Vec3) -> Scene {
     cornell_at(o, 1.0)
 }
 
