@@ -65,7 +65,7 @@ impl RenderFeatures {
             area |= emission;
             if let Some(b) = scene.materials.get(material as usize) {
                 let masked = matches!(b, crate::scene::Bsdf::Mask { .. });
-                if let Ok(e) = material::encode(b, "") {
+                if let Ok(e) = material::encode(b, &scene.images, "") {
                     f.bsdf_kinds.insert(e.kind);
                     f.hit_groups.insert(HitGroupKey {
                         kind: e.kind,

@@ -211,7 +211,7 @@ impl Tables {
                 scene.materials.len()
             ))
         })?;
-        let enc = material::encode(bsdf, what)?;
+        let enc = material::encode(bsdf, &scene.images, what)?;
         let opacity = material::opacity(bsdf, what)?;
         let emission = match emission {
             None => Vec3::ZERO,

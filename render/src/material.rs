@@ -3,7 +3,7 @@
 //! rough-interface transmittance; read through `mat_extra` in WGSL).
 
 use crate::RenderError;
-use crate::scene::{Bsdf, Microfacet, Roughness, Texture};
+use crate::scene::{Bsdf, Image, Microfacet, Roughness, Texture};
 use glam::{Mat3, Vec3};
 
 /// Floats of material parameters per SBT record.
@@ -151,8 +151,9 @@ pub struct Encoded {
     pub extra: [f32; MAT_EXTRA],
 }
 
-/// Encodes `bsdf` for the WGSL BSDF code; `what` names it in errors.
-pub fn encode(bsdf: &Bsdf, what: &str) -> Result<Encoded, RenderError> {
+/// Encodes `bsdf` for the WGSL BSDF code; `images` are the scene's bitmaps (plastics weigh
+/// their lobes by the textures' means); `what` names it in errors.
+pub fn encode(bsdf: &Bsdf, images: &[Image], what: &str) -> Result<Encoded, RenderError> {
     let mut e = Encoded {
         kind: BsdfKind::Diffuse,
         params: [0.0; MAT_PARAMS],
@@ -166,7 +167,7 @@ pub fn encode(bsdf: &Bsdf, what: &str) -> Result<Encoded, RenderError> {
         }
         // The mask's opacity is the any-hit program's (see `opacity`); hits are shaded by the
         // inner BSDF.
-        Bsdf::Mask { inner, .. } => return encode(inner, what),
+        Bsdf::Mask { inner, .. } => return encode(inner, images, what),
         Bsdf::TwoSided { front, back } => {
             if front != back {
                 return Err(RenderError::Unsupported(format!(
@@ -189,7 +190,7 @@ pub fn encode(bsdf: &Bsdf, what: &str) -> Result<Encoded, RenderError> {
                     bsdf_name(front)
                 )));
             }
-            let mut inner = encode(front, what)?;
+            let mut inner = encode(front, images, what)?;
             inner.params[TWOSIDED] = 1.0;
             return Ok(inner);
         }
@@ -264,7 +265,7 @@ pub fn encode(bsdf: &Bsdf, what: &str) -> Result<Encoded, RenderError> {
             p[SCALARS] = eta;
             p[SCALARS + 1] = 1.0 / (eta * eta);
             p[SCALARS + 2] =
-                specular_sampling_weight(diffuse_reflectance, specular_reflectance, what)?;
+                specular_sampling_weight(diffuse_reflectance, specular_reflectance, images, what)?;
             p[SCALARS + 3] = f32::from(u8::from(*nonlinear));
             p[SCALARS + 4] = crate::roughplastic::fresnel_diffuse_reflectance(1.0 / eta);
             BsdfKind::Plastic
@@ -290,7 +291,7 @@ pub fn encode(bsdf: &Bsdf, what: &str) -> Result<Encoded, RenderError> {
             p[SCALARS] = eta;
             p[SCALARS + 1] = 1.0 / (eta * eta);
             p[SCALARS + 2] =
-                specular_sampling_weight(diffuse_reflectance, specular_reflectance, what)?;
+                specular_sampling_weight(diffuse_reflectance, specular_reflectance, images, what)?;
             p[SCALARS + 3] = f32::from(u8::from(*nonlinear));
             encode_roughness(roughness, true, p, what)?;
             let alpha = roughness.alpha_u.max(1e-4);
@@ -342,10 +343,11 @@ fn encode_roughness(
 }
 
 /// Plastic's probability weight of the specular lobe: `s_mean / (d_mean + s_mean)` of the
-/// textures' means (Mitsuba's `Texture::mean`).
+/// textures' means (Mitsuba's `Texture::mean`: a bitmap's is its texels' mean luminance).
 fn specular_sampling_weight(
     diffuse: &Texture,
     specular: &Texture,
+    images: &[Image],
     what: &str,
 ) -> Result<f32, RenderError> {
     let mean = |t: &Texture| -> Result<f32, RenderError> {
@@ -353,13 +355,26 @@ fn specular_sampling_weight(
         match t {
             Texture::Constant(c) => Ok(m(*c)),
             Texture::Checkerboard { color0, color1, .. } => Ok(0.5 * (m(*color0) + m(*color1))),
-            Texture::Bitmap { .. } => Err(RenderError::Unsupported(format!(
-                "{what}: bitmap textures (supported: constant and checkerboard)"
-            ))),
+            Texture::Bitmap { image, .. } => {
+                let img = images.get(*image as usize).ok_or_else(|| {
+                    RenderError::Invalid(format!(
+                        "{what}: image {image} of {}: expected an image of the scene",
+                        images.len()
+                    ))
+                })?;
+                Ok(bitmap_mean(img))
+            }
         }
     };
     let (d, s) = (mean(diffuse)?, mean(specular)?);
     Ok(s / (d + s))
+}
+
+/// Mitsuba's bitmap `mean()`: the mean luminance of the (linear) texels.
+fn bitmap_mean(img: &Image) -> f32 {
+    let lum = Vec3::new(0.212671, 0.715160, 0.072169);
+    let sum: f64 = img.texels.iter().map(|t| f64::from(t.dot(lum))).sum();
+    (sum / img.texels.len().max(1) as f64) as f32
 }
 
 /// The opacity texture of a masked material (13 floats, as `tex_rgb` reads them), or `None`
@@ -503,4 +518,38 @@ fn affine_rows(m: &Mat3) -> [f32; 6] {
     let r0 = m.row(0);
     let r1 = m.row(1);
     [r0.x, r0.y, r0.z, r1.x, r1.y, r1.z]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A textured plastic weighs its specular lobe by the bitmap's mean luminance, as Mitsuba's
+    /// `BitmapTexture::mean`, and an image id outside the scene is an error.
+    #[test]
+    fn plastic_with_a_bitmap_weighs_lobes_by_its_mean_luminance() {
+        let image = Image {
+            path: "t.png".into(),
+            width: 2,
+            height: 1,
+            texels: vec![Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)],
+            alpha: None,
+        };
+        let bsdf = Bsdf::Plastic {
+            diffuse_reflectance: Texture::Bitmap {
+                image: 0,
+                to_uv: Mat3::IDENTITY,
+                bilinear: true,
+            },
+            specular_reflectance: Texture::Constant(Vec3::splat(0.5)),
+            int_ior: 1.5,
+            ext_ior: 1.0,
+            nonlinear: false,
+        };
+        let d = (0.212671 + 0.715160) / 2.0;
+        let e = encode(&bsdf, std::slice::from_ref(&image), "t").unwrap();
+        assert!((e.params[SCALARS + 2] - 0.5 / (d + 0.5)).abs() < 1e-6);
+        let err = encode(&bsdf, &[], "t").unwrap_err().to_string();
+        assert!(err.contains("image 0 of 0"), "{err}");
+    }
 }

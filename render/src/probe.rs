@@ -135,7 +135,7 @@ fn run(
     if count == 0 {
         return Ok(Vec::new());
     }
-    let enc = material::encode(bsdf, "probed BSDF")?;
+    let enc = material::encode(bsdf, &[], "probed BSDF")?;
     let mut owned = Owned::new(device);
     let pipeline_options = PipelineCompileOptions::default();
     let (module, _) = device

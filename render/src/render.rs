@@ -170,7 +170,9 @@ impl<'a> Renderer<'a> {
             Integrator::Direct(_) => {
                 return Err(RenderError::Unsupported("the `direct` integrator".into()));
             }
-            Integrator::Aov(_) => return Err(RenderError::Unsupported("the `aov` integrator".into())),
+            Integrator::Aov(_) => {
+                return Err(RenderError::Unsupported("the `aov` integrator".into()));
+            }
         };
         let plan = PipelinePlan::new(scene, options.want_aovs, effects);
         let features = &plan.features;

@@ -122,43 +122,15 @@ macro_rules! scene {
 }
 
 scene!(cbox, 128);
-scene!(
-    spheres_area,
-    64,
-    "needs the BSDFs twosided, dielectric, plastic, roughdielectric, roughplastic, conductor and roughconductor in the engine"
-);
-scene!(
-    spheres_point,
-    64,
-    "needs the BSDFs twosided, dielectric, plastic, roughdielectric, roughplastic, conductor and roughconductor in the engine"
-);
-scene!(
-    spheres_constant,
-    64,
-    "needs the BSDFs twosided, dielectric, plastic, roughdielectric, roughplastic, conductor and roughconductor in the engine"
-);
-scene!(
-    spheres_envmap,
-    64,
-    "needs the BSDFs twosided, dielectric, plastic, roughdielectric, roughplastic, conductor and roughconductor in the engine"
-);
+scene!(spheres_area, 64);
+scene!(spheres_point, 64);
+scene!(spheres_constant, 64);
+scene!(spheres_envmap, 64);
 scene!(textured_diffuse, 128);
-scene!(
-    rough_dielectric,
-    128,
-    "needs the roughdielectric BSDF in the engine"
-);
-scene!(
-    rough_plastic,
-    128,
-    "needs the roughplastic BSDF in the engine"
-);
+scene!(rough_dielectric, 128);
+scene!(rough_plastic, 128);
 scene!(instancing, 128);
-scene!(
-    infinite_mirrors,
-    128,
-    "needs the conductor BSDF in the engine"
-);
+scene!(infinite_mirrors, 128);
 scene!(various_shapes, 64);
 
 /// The teeth test: `scene` rendered with the diffuse albedo `albedo` scaled by 1.05 must fail
@@ -200,7 +172,6 @@ mod teeth {
         teeth("cbox", [0.885809, 0.698859, 0.666422], 512);
     }
     #[test]
-    #[ignore = "needs the BSDFs twosided, dielectric, plastic, roughdielectric, roughplastic, conductor and roughconductor in the engine"]
     fn spheres_constant_diffuse_sphere() {
         teeth("spheres_constant", [0.2, 0.5, 0.3], 256);
     }
@@ -225,17 +196,14 @@ fn check_breakfast_room(kind: BackendKind, cpu_spp: u32) {
 mod breakfast_room {
     use super::*;
     #[test]
-    #[ignore = "needs the BSDFs twosided, roughplastic and roughconductor in the engine"]
     fn cpu() {
         check_breakfast_room(BackendKind::Cpu, 64);
     }
     #[test]
-    #[ignore = "needs the BSDFs twosided, roughplastic and roughconductor in the engine"]
     fn wgpu() {
         check_breakfast_room(BackendKind::Wgpu, 64);
     }
     #[test]
-    #[ignore = "needs the BSDFs twosided, roughplastic and roughconductor in the engine"]
     fn vulkan() {
         check_breakfast_room(BackendKind::Vulkan, 64);
     }
