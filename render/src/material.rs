@@ -2,7 +2,7 @@
 //! floats of parameters (MatParams in common.wgsl).
 
 use crate::RenderError;
-use crate::scene::{Bsdf, Texture};
+use crate::scene::{Bsdf, Texture, WrapMode};
 use glam::Mat3;
 
 /// Floats of material parameters per SBT record.
@@ -198,6 +198,7 @@ pub fn encode_texture(t: &Texture, out: &mut [f32], what: &str) -> Result<(), Re
             image,
             to_uv,
             bilinear,
+            wrap,
         } => {
             // Image ids index the texel table's directory (exact as f32 below 2^24).
             if *image >= 1 << 24 {
@@ -207,6 +208,11 @@ pub fn encode_texture(t: &Texture, out: &mut [f32], what: &str) -> Result<(), Re
             }
             out[0] = if *bilinear { 2.0 } else { 3.0 };
             out[1] = *image as f32;
+            out[2] = match wrap {
+                WrapMode::Repeat => 0.0,
+                WrapMode::Mirror => 1.0,
+                WrapMode::Clamp => 2.0,
+            };
             out[7..13].copy_from_slice(&affine_rows(to_uv));
         }
     }
