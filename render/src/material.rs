@@ -3,7 +3,7 @@
 //! rough-interface transmittance; read through `mat_extra` in WGSL).
 
 use crate::RenderError;
-use crate::scene::{Bsdf, Image, Microfacet, Roughness, Texture};
+use crate::scene::{Bsdf, Image, Microfacet, Roughness, Texture, WrapMode};
 use glam::{Mat3, Vec3};
 
 /// Floats of material parameters per SBT record.
@@ -498,6 +498,7 @@ pub fn encode_texture(t: &Texture, out: &mut [f32], what: &str) -> Result<(), Re
             image,
             to_uv,
             bilinear,
+            wrap,
         } => {
             // Image ids index the texel table's directory (exact as f32 below 2^24).
             if *image >= 1 << 24 {
@@ -507,6 +508,11 @@ pub fn encode_texture(t: &Texture, out: &mut [f32], what: &str) -> Result<(), Re
             }
             out[0] = if *bilinear { 2.0 } else { 3.0 };
             out[1] = *image as f32;
+            out[2] = match wrap {
+                WrapMode::Repeat => 0.0,
+                WrapMode::Mirror => 1.0,
+                WrapMode::Clamp => 2.0,
+            };
             out[7..13].copy_from_slice(&affine_rows(to_uv));
         }
     }
@@ -540,6 +546,7 @@ mod tests {
                 image: 0,
                 to_uv: Mat3::IDENTITY,
                 bilinear: true,
+                wrap: WrapMode::Repeat,
             },
             specular_reflectance: Texture::Constant(Vec3::splat(0.5)),
             int_ior: 1.5,

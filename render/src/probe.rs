@@ -168,7 +168,7 @@ fn run(
         p.u(0);
     }
     p.u(count as u32);
-    for _ in 0..5 {
+    for _ in 0..13 {
         p.u(0);
     }
     let sbt = ShaderBindingTable {

@@ -8,7 +8,7 @@ use crate::geometry::{Geometry, HitGroupKey, Primitive, RECORD_DATA_WORDS, SPHER
 use crate::gpu::{Owned, Std140};
 use crate::plan::{Effects, PipelinePlan};
 use crate::programs;
-use crate::scene::{Filter, Integrator, Scene};
+use crate::scene::{Aov, AovKind, Filter, Integrator, PathSettings, Scene};
 use glam::Vec3;
 use optik::{
     AccelBuildOptions, Buffer, BufferView, BuildFlags, BuildInput, BuiltinIntersector, Device,
@@ -136,6 +136,8 @@ pub struct Renderer<'a> {
     per_launch: u32,
     want_variance: bool,
     want_aovs: bool,
+    /// The aov integrator's outputs (`None`: another integrator).
+    aov_outputs: Option<Vec<Aov>>,
     plan: PipelinePlan,
     done: u32,
     render_seconds: f64,
@@ -165,16 +167,54 @@ impl<'a> Renderer<'a> {
             ));
         }
         let seed = options.seed.unwrap_or(scene.sampler.seed);
-        let settings = match &scene.integrator {
-            Integrator::Path(p) => *p,
-            Integrator::Direct(_) => {
-                return Err(RenderError::Unsupported("the `direct` integrator".into()));
+        // The integrator: its id in Params, settings of the path loop, and the direct
+        // integrator's strategy weights (fraction of light samples, of BSDF samples, and the
+        // weight of one light sample); the path integrator's are all 1.
+        let mut mis = [1.0f32, 1.0, 1.0];
+        let mut samples = [1u32, 1];
+        let (integrator_id, settings) = match &scene.integrator {
+            Integrator::Path(p) => (0u32, *p),
+            Integrator::Direct(d) => {
+                let (ne, nb) = (d.emitter_samples, d.bsdf_samples);
+                if ne == 0 && nb == 0 {
+                    return Err(RenderError::Invalid(
+                        "the direct integrator with emitter_samples = 0 and bsdf_samples = 0: expected at least one sample of either".into(),
+                    ));
+                }
+                let total = (ne + nb) as f32;
+                mis = [
+                    ne as f32 / total,
+                    nb as f32 / total,
+                    if ne > 0 { 1.0 / ne as f32 } else { 0.0 },
+                ];
+                samples = [ne, nb];
+                let s = PathSettings {
+                    max_depth: Some(2),
+                    rr_depth: u32::MAX,
+                    hide_emitters: d.hide_emitters,
+                };
+                (1, s)
             }
-            Integrator::Aov(_) => {
-                return Err(RenderError::Unsupported("the `aov` integrator".into()));
+            Integrator::Aov(list) => {
+                if list.is_empty() {
+                    return Err(RenderError::Invalid(
+                        "the aov integrator without outputs: expected aovs such as \"albedo:albedo,nn:sh_normal,dd:depth\"".into(),
+                    ));
+                }
+                let s = PathSettings {
+                    max_depth: Some(1),
+                    rr_depth: u32::MAX,
+                    hide_emitters: false,
+                };
+                (2, s)
             }
         };
-        let plan = PipelinePlan::new(scene, options.want_aovs, effects);
+        let aov_outputs = match &scene.integrator {
+            Integrator::Aov(list) => Some(list.clone()),
+            _ => None,
+        };
+        let want_aovs = options.want_aovs || aov_outputs.is_some();
+        let plan = PipelinePlan::new(scene, want_aovs, effects);
         let features = &plan.features;
         let built = Tables::build(scene)?;
         let mut owned = Owned::new(device);
@@ -386,7 +426,9 @@ impl<'a> Renderer<'a> {
             callables: None,
         };
 
-        let stride = if options.want_aovs {
+        let stride = if aov_outputs.is_some() {
+            ACCUM_WORDS_AOVS + 1
+        } else if want_aovs {
             ACCUM_WORDS_AOVS
         } else {
             ACCUM_WORDS
@@ -415,7 +457,7 @@ impl<'a> Renderer<'a> {
             )));
         }
         let m = scene.camera.to_world;
-        let flags = u32::from(settings.hide_emitters) | if options.want_aovs { 2 } else { 0 };
+        let flags = u32::from(settings.hide_emitters) | if want_aovs { 2 } else { 0 };
         let params = move |base: u32, count: u32| {
             let mut p = Std140::default();
             let h = handle.to_words();
@@ -441,6 +483,8 @@ impl<'a> Renderer<'a> {
                 .f(built.env_radiance.y)
                 .f(built.env_radiance.z)
                 .f(built.env_pdf);
+            p.f(mis[0]).f(mis[1]).f(mis[2]).u(integrator_id);
+            p.u(samples[0]).u(samples[1]).u(0).u(0);
             p.0
         };
         let setup_seconds = setup_start.elapsed().as_secs_f64();
@@ -460,7 +504,8 @@ impl<'a> Renderer<'a> {
             spp,
             per_launch,
             want_variance: options.want_variance,
-            want_aovs: options.want_aovs,
+            want_aovs,
+            aov_outputs,
             plan,
             done: 0,
             render_seconds: 0.0,
@@ -577,6 +622,9 @@ impl<'a> Renderer<'a> {
         let mut rays = 0.0f64;
         let mut albedo = Vec::new();
         let mut normal = Vec::new();
+        let mut normal_mean = Vec::new();
+        let mut depth = Vec::new();
+        let aov_integrator = self.aov_outputs.is_some();
         for px in acc.chunks_exact(stride as usize) {
             let s = [px[0], px[1], px[2]];
             mean.push(s.map(|v| v / n));
@@ -591,10 +639,47 @@ impl<'a> Renderer<'a> {
                 albedo.extend(px[7..10].iter().map(|v| v / n));
                 let nv = Vec3::new(px[10], px[11], px[12]).normalize_or_zero();
                 normal.extend_from_slice(&nv.to_array());
+                normal_mean.extend(px[10..13].iter().map(|v| v / n));
+            }
+            if aov_integrator {
+                depth.push(px[13] / n);
             }
         }
         let mut aovs = Vec::new();
-        if self.want_aovs {
+        if let Some(list) = &self.aov_outputs {
+            // Mitsuba's aov integrator: one layer per entry, pixel means (normals not
+            // renormalised), channels named as Mitsuba names them.
+            let names = |s: &[&str]| s.iter().map(|c| c.to_string()).collect::<Vec<String>>();
+            for a in list {
+                let (channels, data) = match a.kind {
+                    AovKind::Albedo => (names(&["R", "G", "B"]), albedo.clone()),
+                    AovKind::ShadingNormal => (names(&["X", "Y", "Z"]), normal_mean.clone()),
+                    AovKind::Depth => (names(&["T"]), depth.clone()),
+                };
+                aovs.push(AovImage {
+                    name: a.name.clone(),
+                    channels,
+                    data,
+                });
+            }
+            // The main image repeats the first output (a grey one for depth), so that a PNG
+            // shows it.
+            if let Some(first) = aovs.first() {
+                let k = first.channels.len();
+                mean = first
+                    .data
+                    .chunks_exact(k)
+                    .map(|c| {
+                        if k == 3 {
+                            [c[0], c[1], c[2]]
+                        } else {
+                            [c[0]; 3]
+                        }
+                    })
+                    .collect();
+            }
+            variance.clear();
+        } else if self.want_aovs {
             let rgb = |s: &[&str]| s.iter().map(|c| c.to_string()).collect();
             aovs.push(AovImage {
                 name: "albedo".into(),
@@ -612,7 +697,7 @@ impl<'a> Renderer<'a> {
             height,
             spp,
             mean,
-            variance: (self.want_variance && spp > 1).then_some(variance),
+            variance: (self.want_variance && spp > 1 && !aov_integrator).then_some(variance),
             aovs,
             stats: RenderStats {
                 render_seconds: self.render_seconds,

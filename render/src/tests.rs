@@ -481,3 +481,6 @@ mod shapes;
 
 #[path = "tests_emitters.rs"]
 mod emitters;
+
+#[path = "tests_integrators.rs"]
+mod integrators;

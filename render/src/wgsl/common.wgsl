@@ -26,6 +26,17 @@ struct Params {
     env_light: u32,
     env_radiance: vec3<f32>,
     env_pdf: f32,
+    // Mitsuba's direct integrator: next-event estimation weighs its MIS with the strategies'
+    // sample fractions and 1 / emitter_samples (path: all 1).
+    frac_lum: f32,
+    frac_bsdf: f32,
+    weight_lum: f32,
+    // 0 path, 1 direct, 2 aov.
+    integrator: u32,
+    emitter_samples: u32,
+    bsdf_samples: u32,
+    pad2: u32,
+    pad3: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;

@@ -7,6 +7,7 @@ const ACC_SUMSQ: u32 = 3u;
 const ACC_RAYS: u32 = 6u;
 const ACC_ALBEDO: u32 = 7u;
 const ACC_NORMAL: u32 = 10u;
+const ACC_DEPTH: u32 = 13u;
 
 // Any-hit programs run only where masks exist (shadow rays respect masks too).
 fn anyhit_off() -> u32 {
@@ -31,11 +32,12 @@ struct PathResult {
     rays: f32,
     albedo: vec3<f32>,
     normal: vec3<f32>,
+    depth: f32,
 }
 
 fn trace_path(origin0: vec3<f32>, dir0: vec3<f32>, tmin0: f32, tmax0: f32, rng_in: u32) -> PathResult {
     var rng = rng_in;
-    var res = PathResult(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), vec3<f32>(0.0));
+    var res = PathResult(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), vec3<f32>(0.0), 0.0);
     var origin = origin0;
     var dir = dir0;
     var tmin = tmin0;
@@ -112,6 +114,88 @@ fn trace_path(origin0: vec3<f32>, dir0: vec3<f32>, tmin0: f32, tmax0: f32, rng_i
     return res;
 }
 
+// Mitsuba's `direct`: the emission seen by the camera ray, then emitter_samples light samples
+// and bsdf_samples BSDF samples at its hit, each strategy weighted by the power heuristic of
+// its pdf times its share of the samples. The camera ray is traced again for each further
+// sample (the hit program draws one light and one BSDF sample per call).
+fn trace_direct(origin: vec3<f32>, dir: vec3<f32>, tmin: f32, tmax: f32, rng_in: u32) -> PathResult {
+    var rng = rng_in;
+    var res = PathResult(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), vec3<f32>(0.0), 0.0);
+    let ne = params.emitter_samples;
+    let nb = params.bsdf_samples;
+    let rounds = max(max(ne, nb), 1u);
+    for (var k = 0u; k < rounds; k++) {
+        var p: RtPayload;
+        p[P_RNG] = rng;
+        var inflags = IN_SCATTER;
+        if k >= ne {
+            inflags |= IN_NO_NEE;
+        }
+        if k >= nb {
+            inflags |= IN_NO_BSDF;
+        }
+        p[P_FLAGS] = inflags;
+        rt_trace(params.scene, origin, dir, tmin, tmax, 0.0, 0xFFu, anyhit_off(), 0u, 1u, 0u, &p);
+        res.rays += 1.0;
+        let flags = p[P_FLAGS];
+        if k == 0u {
+            if (params.flags & FLAG_HIDE_EMITTERS) == 0u {
+                res.radiance += get_v3(&p, P_LE);
+            }
+            if (params.flags & FLAG_AOVS) != 0u && (flags & OUT_HIT) != 0u {
+                res.albedo = get_v3(&p, P_ALBEDO);
+                res.normal = get_v3(&p, P_NORMAL);
+            }
+        }
+        if (flags & OUT_HIT) == 0u {
+            break;
+        }
+        rng = p[P_RNG];
+        if (flags & OUT_NEE) != 0u {
+            res.rays += 1.0;
+            if visible(get_v3(&p, P_SORIGIN), get_v3(&p, P_SVEC)) {
+                res.radiance += get_v3(&p, P_NEE);
+            }
+        }
+        if (flags & OUT_CONTINUE) != 0u {
+            let weight = get_v3(&p, P_WEIGHT);
+            let pdf = get_f(&p, P_PDF);
+            let delta = (flags & OUT_DELTA) != 0u;
+            var q: RtPayload;
+            q[P_RNG] = rng;
+            q[P_FLAGS] = 0u;
+            rt_trace(params.scene, get_v3(&p, P_ORIGIN), get_v3(&p, P_WO), 0.0, 3.0e38, 0.0, 0xFFu,
+                     anyhit_off(), 0u, 1u, 0u, &q);
+            res.rays += 1.0;
+            let le = get_v3(&q, P_LE);
+            if any(le > vec3<f32>(0.0)) {
+                var em_pdf = 0.0;
+                if !delta {
+                    em_pdf = get_f(&q, P_EMPDF);
+                }
+                res.radiance += weight * le * mis_weight(pdf * params.frac_bsdf, em_pdf * params.frac_lum)
+                    / f32(nb);
+            }
+        }
+    }
+    return res;
+}
+
+// Mitsuba's `aov`: the first hit's albedo, shading normal and distance (0 on a miss).
+fn trace_aov(origin: vec3<f32>, dir: vec3<f32>, tmin: f32, tmax: f32) -> PathResult {
+    var res = PathResult(vec3<f32>(0.0), 1.0, vec3<f32>(0.0), vec3<f32>(0.0), 0.0);
+    var p: RtPayload;
+    p[P_RNG] = 0u;
+    p[P_FLAGS] = 0u;
+    rt_trace(params.scene, origin, dir, tmin, tmax, 0.0, 0xFFu, anyhit_off(), 0u, 1u, 0u, &p);
+    if (p[P_FLAGS] & OUT_HIT) != 0u {
+        res.albedo = get_v3(&p, P_ALBEDO);
+        res.normal = get_v3(&p, P_NORMAL);
+        res.depth = get_f(&p, P_PDF);
+    }
+    return res;
+}
+
 // A 1D offset from the pixel centre distributed as the reconstruction filter (box, tent or
 // truncated Gaussian as Mitsuba defines them), so each sample's weight is one.
 fn filter_offset(rng: ptr<function, u32>) -> f32 {
@@ -153,6 +237,7 @@ fn raygen__path() {
     var rays = 0.0;
     var albedo = vec3<f32>(0.0);
     var normal = vec3<f32>(0.0);
+    var depth = 0.0;
     for (var s = 0u; s < params.sample_count; s++) {
         var rng = rng_init(pixel, params.sample_base + s, params.seed);
         let ox = filter_offset(&rng);
@@ -165,14 +250,23 @@ fn raygen__path() {
                               dot(params.cam2.xyz, local));
         let dir = normalize(world);
         let scale = length(world);
-        let r = trace_path(cam_t, dir, params.near_clip / local.z * scale,
-                           params.far_clip / local.z * scale, rng_init(pixel ^ 0x9E3779B9u,
-                           params.sample_base + s, params.seed ^ 0x85EBCA6Bu));
+        let tmin = params.near_clip / local.z * scale;
+        let tmax = params.far_clip / local.z * scale;
+        let rng_path = rng_init(pixel ^ 0x9E3779B9u, params.sample_base + s, params.seed ^ 0x85EBCA6Bu);
+        var r: PathResult;
+        if params.integrator == 1u {
+            r = trace_direct(cam_t, dir, tmin, tmax, rng_path);
+        } else if params.integrator == 2u {
+            r = trace_aov(cam_t, dir, tmin, tmax);
+        } else {
+            r = trace_path(cam_t, dir, tmin, tmax, rng_path);
+        }
         sum += r.radiance;
         sumsq += r.radiance * r.radiance;
         rays += r.rays;
         albedo += r.albedo;
         normal += r.normal;
+        depth += r.depth;
     }
     let b = pixel * params.accum_stride;
     accum[b + 0u] += sum.x;
@@ -189,5 +283,8 @@ fn raygen__path() {
         accum[b + 10u] += normal.x;
         accum[b + 11u] += normal.y;
         accum[b + 12u] += normal.z;
+    }
+    if params.integrator == 2u {
+        accum[b + ACC_DEPTH] += depth;
     }
 }

@@ -27,8 +27,11 @@ const P_SVEC: u32 = 23u;
 const P_ALBEDO: u32 = 26u;
 const P_NORMAL: u32 = 29u;
 
-// P_FLAGS in: the hit point should scatter (sample lights and the BSDF).
+// P_FLAGS in: the hit point should scatter (sample lights and the BSDF), and the direct
+// integrator's requests to leave out one of the two.
 const IN_SCATTER: u32 = 1u;
+const IN_NO_NEE: u32 = 2u;
+const IN_NO_BSDF: u32 = 4u;
 // P_FLAGS out.
 const OUT_HIT: u32 = 1u;
 const OUT_CONTINUE: u32 = 2u;
