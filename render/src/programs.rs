@@ -9,6 +9,9 @@ const COMMON: &str = include_str!("wgsl/common.wgsl");
 const SCENE: &str = include_str!("wgsl/scene.wgsl");
 const HIT: &str = include_str!("wgsl/hit.wgsl");
 const PATH: &str = include_str!("wgsl/path.wgsl");
+const INTEGRATOR_PATH: &str = include_str!("wgsl/integrator_path.wgsl");
+const INTEGRATOR_DIRECT: &str = include_str!("wgsl/integrator_direct.wgsl");
+const INTEGRATOR_AOV: &str = include_str!("wgsl/integrator_aov.wgsl");
 const PROBE: &str = include_str!("wgsl/probe.wgsl");
 const TEXTURE: &str = include_str!("wgsl/texture.wgsl");
 const MASK: &str = include_str!("wgsl/mask.wgsl");
@@ -70,6 +73,13 @@ pub fn path_module(features: &RenderFeatures) -> String {
         s += &instantiate_prim(MASK, p);
     }
     s += PATH;
+    // Only the scene's integrator: every rt_trace call site costs a traversal in software
+    // backends.
+    s += match features.integrator {
+        "direct" => INTEGRATOR_DIRECT,
+        "aov" => INTEGRATOR_AOV,
+        _ => INTEGRATOR_PATH,
+    };
     s
 }
 

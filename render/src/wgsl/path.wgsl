@@ -1,6 +1,5 @@
-// Mitsuba 3's `path` integrator as a ray generation program: emission with MIS against the
-// previous BSDF sample, next-event estimation (the closest-hit program samples the light, this
-// program traces the shadow ray), BSDF sampling and Russian roulette.
+// The ray generation program: pixel filter, camera rays and accumulation; the integrator's
+// trace_camera (integrator_*.wgsl) follows each camera ray.
 
 const ACC_SUM: u32 = 0u;
 const ACC_SUMSQ: u32 = 3u;
@@ -33,167 +32,6 @@ struct PathResult {
     albedo: vec3<f32>,
     normal: vec3<f32>,
     depth: f32,
-}
-
-fn trace_path(origin0: vec3<f32>, dir0: vec3<f32>, tmin0: f32, tmax0: f32, rng_in: u32) -> PathResult {
-    var rng = rng_in;
-    var res = PathResult(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), vec3<f32>(0.0), 0.0);
-    var origin = origin0;
-    var dir = dir0;
-    var tmin = tmin0;
-    var tmax = tmax0;
-    var throughput = vec3<f32>(1.0);
-    var eta = 1.0;
-    var depth = 0u;
-    var prev_pdf = 1.0;
-    var prev_delta = true;
-    if params.max_depth == 0u {
-        return res;
-    }
-    loop {
-        var p: RtPayload;
-        p[P_RNG] = rng;
-        let scatter = depth + 1u < params.max_depth;
-        p[P_FLAGS] = select(0u, IN_SCATTER, scatter);
-        rt_trace(params.scene, origin, dir, tmin, tmax, 0.0, 0xFFu, anyhit_off(),
-                 0u, 1u, 0u, &p);
-        res.rays += 1.0;
-        let flags = p[P_FLAGS];
-        if (flags & OUT_HIT) != 0u {
-            rng = p[P_RNG];
-        }
-        if depth == 0u && (params.flags & FLAG_AOVS) != 0u && (flags & OUT_HIT) != 0u {
-            res.albedo = get_v3(&p, P_ALBEDO);
-            res.normal = get_v3(&p, P_NORMAL);
-        }
-        // Direct emission, weighted against next-event estimation at the previous vertex.
-        let le = get_v3(&p, P_LE);
-        let hidden = depth == 0u && (params.flags & FLAG_HIDE_EMITTERS) != 0u;
-        if any(le > vec3<f32>(0.0)) && !hidden {
-            var em_pdf = 0.0;
-            if !prev_delta {
-                em_pdf = get_f(&p, P_EMPDF);
-            }
-            res.radiance += throughput * le * mis_weight(prev_pdf, em_pdf);
-        }
-        if (flags & OUT_HIT) == 0u || !scatter {
-            break;
-        }
-        if (flags & OUT_NEE) != 0u {
-            res.rays += 1.0;
-            if visible(get_v3(&p, P_SORIGIN), get_v3(&p, P_SVEC)) {
-                res.radiance += throughput * get_v3(&p, P_NEE);
-            }
-        }
-        if (flags & OUT_CONTINUE) == 0u {
-            break;
-        }
-        throughput *= get_v3(&p, P_WEIGHT);
-        eta *= get_f(&p, P_ETA);
-        prev_pdf = get_f(&p, P_PDF);
-        prev_delta = (flags & OUT_DELTA) != 0u;
-        origin = get_v3(&p, P_ORIGIN);
-        dir = get_v3(&p, P_WO);
-        tmin = 0.0;
-        tmax = 3.0e38;
-        depth += 1u;
-        // Russian roulette as Mitsuba's path: from rr_depth, survive with
-        // min(max throughput component · eta², 0.95).
-        let tp_max = max(throughput.x, max(throughput.y, throughput.z));
-        if tp_max <= 0.0 {
-            break;
-        }
-        if depth >= params.rr_depth {
-            let q = min(tp_max * eta * eta, 0.95);
-            if rng_next(&rng) >= q {
-                break;
-            }
-            throughput /= q;
-        }
-    }
-    return res;
-}
-
-// Mitsuba's `direct`: the emission seen by the camera ray, then emitter_samples light samples
-// and bsdf_samples BSDF samples at its hit, each strategy weighted by the power heuristic of
-// its pdf times its share of the samples. The camera ray is traced again for each further
-// sample (the hit program draws one light and one BSDF sample per call).
-fn trace_direct(origin: vec3<f32>, dir: vec3<f32>, tmin: f32, tmax: f32, rng_in: u32) -> PathResult {
-    var rng = rng_in;
-    var res = PathResult(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), vec3<f32>(0.0), 0.0);
-    let ne = params.emitter_samples;
-    let nb = params.bsdf_samples;
-    let rounds = max(max(ne, nb), 1u);
-    for (var k = 0u; k < rounds; k++) {
-        var p: RtPayload;
-        p[P_RNG] = rng;
-        var inflags = IN_SCATTER;
-        if k >= ne {
-            inflags |= IN_NO_NEE;
-        }
-        if k >= nb {
-            inflags |= IN_NO_BSDF;
-        }
-        p[P_FLAGS] = inflags;
-        rt_trace(params.scene, origin, dir, tmin, tmax, 0.0, 0xFFu, anyhit_off(), 0u, 1u, 0u, &p);
-        res.rays += 1.0;
-        let flags = p[P_FLAGS];
-        if k == 0u {
-            if (params.flags & FLAG_HIDE_EMITTERS) == 0u {
-                res.radiance += get_v3(&p, P_LE);
-            }
-            if (params.flags & FLAG_AOVS) != 0u && (flags & OUT_HIT) != 0u {
-                res.albedo = get_v3(&p, P_ALBEDO);
-                res.normal = get_v3(&p, P_NORMAL);
-            }
-        }
-        if (flags & OUT_HIT) == 0u {
-            break;
-        }
-        rng = p[P_RNG];
-        if (flags & OUT_NEE) != 0u {
-            res.rays += 1.0;
-            if visible(get_v3(&p, P_SORIGIN), get_v3(&p, P_SVEC)) {
-                res.radiance += get_v3(&p, P_NEE);
-            }
-        }
-        if (flags & OUT_CONTINUE) != 0u {
-            let weight = get_v3(&p, P_WEIGHT);
-            let pdf = get_f(&p, P_PDF);
-            let delta = (flags & OUT_DELTA) != 0u;
-            var q: RtPayload;
-            q[P_RNG] = rng;
-            q[P_FLAGS] = 0u;
-            rt_trace(params.scene, get_v3(&p, P_ORIGIN), get_v3(&p, P_WO), 0.0, 3.0e38, 0.0, 0xFFu,
-                     anyhit_off(), 0u, 1u, 0u, &q);
-            res.rays += 1.0;
-            let le = get_v3(&q, P_LE);
-            if any(le > vec3<f32>(0.0)) {
-                var em_pdf = 0.0;
-                if !delta {
-                    em_pdf = get_f(&q, P_EMPDF);
-                }
-                res.radiance += weight * le * mis_weight(pdf * params.frac_bsdf, em_pdf * params.frac_lum)
-                    / f32(nb);
-            }
-        }
-    }
-    return res;
-}
-
-// Mitsuba's `aov`: the first hit's albedo, shading normal and distance (0 on a miss).
-fn trace_aov(origin: vec3<f32>, dir: vec3<f32>, tmin: f32, tmax: f32) -> PathResult {
-    var res = PathResult(vec3<f32>(0.0), 1.0, vec3<f32>(0.0), vec3<f32>(0.0), 0.0);
-    var p: RtPayload;
-    p[P_RNG] = 0u;
-    p[P_FLAGS] = 0u;
-    rt_trace(params.scene, origin, dir, tmin, tmax, 0.0, 0xFFu, anyhit_off(), 0u, 1u, 0u, &p);
-    if (p[P_FLAGS] & OUT_HIT) != 0u {
-        res.albedo = get_v3(&p, P_ALBEDO);
-        res.normal = get_v3(&p, P_NORMAL);
-        res.depth = get_f(&p, P_PDF);
-    }
-    return res;
 }
 
 // A 1D offset from the pixel centre distributed as the reconstruction filter (box, tent or
@@ -253,14 +91,8 @@ fn raygen__path() {
         let tmin = params.near_clip / local.z * scale;
         let tmax = params.far_clip / local.z * scale;
         let rng_path = rng_init(pixel ^ 0x9E3779B9u, params.sample_base + s, params.seed ^ 0x85EBCA6Bu);
-        var r: PathResult;
-        if params.integrator == 1u {
-            r = trace_direct(cam_t, dir, tmin, tmax, rng_path);
-        } else if params.integrator == 2u {
-            r = trace_aov(cam_t, dir, tmin, tmax);
-        } else {
-            r = trace_path(cam_t, dir, tmin, tmax, rng_path);
-        }
+        // The scene's integrator (programs.rs compiles in only its code).
+        let r = trace_camera(cam_t, dir, tmin, tmax, rng_path);
         sum += r.radiance;
         sumsq += r.radiance * r.radiance;
         rays += r.rays;
