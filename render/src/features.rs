@@ -202,6 +202,12 @@ impl RenderFeatures {
             "bsdfs: {}\n",
             list(self.bsdf_kinds.iter().map(|k| k.name()).collect())
         );
+        let shared: BTreeSet<&str> = self
+            .bsdf_kinds
+            .iter()
+            .flat_map(|k| k.needs().iter().map(|p| p.name()))
+            .collect();
+        s += &format!("shared bsdf code: {}\n", list(shared.into_iter().collect()));
         let mut tex = Vec::new();
         if self.checkerboard {
             tex.push("checkerboard");

@@ -51,6 +51,14 @@ pub enum SharedWgsl {
 }
 
 impl SharedWgsl {
+    /// The piece's name in `--features`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SharedWgsl::Fresnel => "fresnel",
+            SharedWgsl::Microfacet => "microfacet",
+        }
+    }
+
     /// The piece's source.
     pub fn wgsl(self) -> &'static str {
         match self {
