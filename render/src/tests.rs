@@ -460,17 +460,17 @@ fn twosided_accepts_one_reflective_bsdf() {
         front: Box::new(front.clone()),
         back: Box::new(back.clone()),
     };
-    let e = crate::material::encode(&two(&diffuse, &diffuse), "m").unwrap();
+    let e = crate::material::encode(&two(&diffuse, &diffuse), &[], "m").unwrap();
     assert_eq!(e.kind, crate::material::BsdfKind::Diffuse);
     let other = Bsdf::Diffuse {
         reflectance: Texture::Constant(Vec3::splat(0.2)),
     };
-    let err = crate::material::encode(&two(&diffuse, &other), "mesh `a`").unwrap_err();
+    let err = crate::material::encode(&two(&diffuse, &other), &[], "mesh `a`").unwrap_err();
     assert!(
         err.to_string().contains("two different nested BSDFs"),
         "{err}"
     );
-    let err = crate::material::encode(&two(&glass, &glass), "mesh `b`").unwrap_err();
+    let err = crate::material::encode(&two(&glass, &glass), &[], "mesh `b`").unwrap_err();
     assert!(err.to_string().contains("without transmission"), "{err}");
 }
 
