@@ -186,7 +186,7 @@ mod teeth {
     }
     #[test]
     fn spheres_constant_diffuse_sphere() {
-        teeth("spheres_constant", [0.2, 0.5, 0.3], 256);
+        teeth("spheres_constant", [0.2, 0.5, 0.3], 1024);
     }
 }
 
