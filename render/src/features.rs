@@ -13,6 +13,9 @@ pub const PATH_PAYLOAD: u32 = 26;
 /// With albedo and normal of the first hit.
 pub const PATH_PAYLOAD_AOVS: u32 = 32;
 
+/// Every emitter kind's name, as [`RenderFeatures::emitters`] holds them.
+pub const EMITTER_KINDS: [&str; 6] = ["area", "point", "spot", "directional", "constant", "envmap"];
+
 /// What a scene needs simulated.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct RenderFeatures {
@@ -62,7 +65,7 @@ impl RenderFeatures {
             area |= emission;
             if let Some(b) = scene.materials.get(material as usize) {
                 let masked = matches!(b, crate::scene::Bsdf::Mask { .. });
-                if let Ok(e) = material::encode(b, "") {
+                if let Ok(e) = material::encode(b, &scene.images, "") {
                     f.bsdf_kinds.insert(e.kind);
                     f.hit_groups.insert(HitGroupKey {
                         kind: e.kind,
@@ -118,6 +121,42 @@ impl RenderFeatures {
         self.instancing || self.spheres
     }
 
+    /// These features with every effect the renderer can compile switched on: every BSDF kind
+    /// on every primitive type, masked and not, both texture kinds, masks, every emitter kind
+    /// and the environment, instancing, spheres, shadow rays and the most payload registers.
+    /// The benchmark mode's unspecialised pipeline; it renders the same image in expectation,
+    /// only slower.
+    pub fn with_every_effect(&self) -> RenderFeatures {
+        let bsdf_kinds: BTreeSet<BsdfKind> = BsdfKind::all().into_iter().collect();
+        let mut hit_groups = BTreeSet::new();
+        for &kind in &bsdf_kinds {
+            for primitive in [Primitive::Triangles, Primitive::Spheres] {
+                for masked in [false, true] {
+                    hit_groups.insert(HitGroupKey {
+                        kind,
+                        primitive,
+                        masked,
+                    });
+                }
+            }
+        }
+        RenderFeatures {
+            bsdf_kinds,
+            hit_groups,
+            checkerboard: true,
+            bitmap: true,
+            masks: true,
+            emitters: EMITTER_KINDS.iter().copied().collect(),
+            environment: true,
+            instancing: true,
+            spheres: true,
+            max_depth: self.max_depth,
+            shadow_rays: true,
+            payload_values: PATH_PAYLOAD_AOVS,
+            integrator: self.integrator,
+        }
+    }
+
     /// The programs a pipeline for these features holds, in program group order: the path
     /// raygen, the radiance miss, the shadow miss (only with shadow rays), then each hit
     /// group's closest-hit program and, for masked materials, its any-hit program (each
@@ -163,6 +202,12 @@ impl RenderFeatures {
             "bsdfs: {}\n",
             list(self.bsdf_kinds.iter().map(|k| k.name()).collect())
         );
+        let shared: BTreeSet<&str> = self
+            .bsdf_kinds
+            .iter()
+            .flat_map(|k| k.needs().iter().map(|p| p.name()))
+            .collect();
+        s += &format!("shared bsdf code: {}\n", list(shared.into_iter().collect()));
         let mut tex = Vec::new();
         if self.checkerboard {
             tex.push("checkerboard");

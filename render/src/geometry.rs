@@ -3,7 +3,7 @@
 //! them when the scene has spheres or instances) and the light table.
 
 use crate::error::RenderError;
-use crate::material::{self, BsdfKind, MAT_PARAMS};
+use crate::material::{self, BsdfKind, MAT_EXTRA, MAT_PARAMS};
 use crate::scene::{Emitter, Mesh, Scene, Sphere, Texture};
 use glam::{Mat3, Mat4, Vec3};
 
@@ -11,10 +11,12 @@ use glam::{Mat3, Mat4, Vec3};
 pub const SBT_OPACITY: usize = 10;
 /// Where the material parameters start in the record data.
 pub const SBT_MATERIAL: usize = SBT_OPACITY + 13;
+/// Where the material's precomputed table (roughplastic's transmittance) starts.
+pub const SBT_EXTRA: usize = SBT_MATERIAL + MAT_PARAMS;
 /// Words of SBT record data.
-pub const RECORD_DATA_WORDS: usize = SBT_MATERIAL + MAT_PARAMS;
+pub const RECORD_DATA_WORDS: usize = SBT_EXTRA + MAT_EXTRA;
 /// Floats per light table entry (scene.wgsl's LIGHT_WORDS).
-pub const LIGHT_WORDS: usize = 16;
+pub const LIGHT_WORDS: usize = 32;
 /// Floats per sphere table entry: centre, radius, world-to-local rotation rows, spare.
 pub const SPHERE_WORDS: usize = 16;
 
@@ -103,8 +105,10 @@ pub struct Tables {
     pub instances: Vec<(u32, Mat4)>,
     /// Radiance of a constant environment.
     pub env_radiance: Vec3,
-    /// Selection probability of the environment emitter over 4π (constant) or 1 (envmap).
+    /// Selection probability of a constant environment over 4π.
     pub env_pdf: f32,
+    /// The light table entry of the environment map (`u32::MAX`: none).
+    pub env_light: u32,
 }
 
 impl Tables {
@@ -115,7 +119,10 @@ impl Tables {
 
     /// Flattens `scene`.
     pub fn build(scene: &Scene) -> Result<Tables, RenderError> {
-        let mut t = Tables::default();
+        let mut t = Tables {
+            env_light: u32::MAX,
+            ..Tables::default()
+        };
         t.upload_images(scene)?;
         // Top level: world-space meshes and spheres.
         let tri = t.add_gas(scene, Primitive::Triangles, &scene.meshes, &[])?;
@@ -204,7 +211,7 @@ impl Tables {
                 scene.materials.len()
             ))
         })?;
-        let enc = material::encode(bsdf, what)?;
+        let enc = material::encode(bsdf, &scene.images, what)?;
         let opacity = material::opacity(bsdf, what)?;
         let emission = match emission {
             None => Vec3::ZERO,
@@ -224,6 +231,9 @@ impl Tables {
         }
         for (i, v) in enc.params.iter().enumerate() {
             data[SBT_MATERIAL + i] = v.to_bits();
+        }
+        for (i, v) in enc.extra.iter().enumerate() {
+            data[SBT_EXTRA + i] = v.to_bits();
         }
         Ok((data, enc.kind, opacity.is_some()))
     }
@@ -507,17 +517,86 @@ impl Tables {
                     e[9] = far;
                 }
                 Emitter::Constant { radiance } => {
+                    if self.env_light != u32::MAX || self.env_pdf > 0.0 {
+                        return Err(RenderError::Invalid(
+                            "more than one environment emitter (constant or envmap); Mitsuba allows one".into(),
+                        ));
+                    }
                     e[0] = 3.0;
                     e[2..5].copy_from_slice(&radiance.to_array());
                     e[9] = far;
                     self.env_radiance = *radiance;
                     self.env_pdf = select / (4.0 * std::f32::consts::PI);
                 }
-                Emitter::Spot { .. } => {
-                    return Err(RenderError::Unsupported("spot emitters".into()));
+                Emitter::Spot {
+                    to_world,
+                    intensity,
+                    cutoff_angle,
+                    beam_width,
+                } => {
+                    let cutoff = cutoff_angle.to_radians();
+                    let beam = beam_width.to_radians();
+                    if !(cutoff > 0.0 && beam > 0.0 && beam <= cutoff) {
+                        return Err(RenderError::Invalid(format!(
+                            "spot light: cutoff_angle {cutoff_angle} and beam_width {beam_width}; expected 0 < beam_width <= cutoff_angle (degrees)"
+                        )));
+                    }
+                    let inv = Mat3::from_mat4(*to_world).inverse();
+                    if !inv.is_finite() {
+                        return Err(RenderError::Invalid(
+                            "spot light: its to_world cannot be inverted".into(),
+                        ));
+                    }
+                    e[0] = 5.0;
+                    e[2..5].copy_from_slice(&intensity.to_array());
+                    e[6..9].copy_from_slice(&to_world.w_axis.truncate().to_array());
+                    for r in 0..3 {
+                        e[9 + 3 * r..12 + 3 * r].copy_from_slice(&inv.row(r).to_array());
+                    }
+                    e[18] = cutoff.cos();
+                    e[19] = beam.cos();
+                    e[20] = cutoff;
+                    // Mitsuba: 1 / (cutoff - beam width); a hard edge when they agree.
+                    e[21] = if cutoff > beam {
+                        1.0 / (cutoff - beam)
+                    } else {
+                        f32::INFINITY
+                    };
                 }
-                Emitter::EnvMap { .. } => {
-                    return Err(RenderError::Unsupported("envmap emitters".into()));
+                Emitter::EnvMap {
+                    image,
+                    scale,
+                    to_world,
+                } => {
+                    if self.env_light != u32::MAX || self.env_pdf > 0.0 {
+                        return Err(RenderError::Invalid(
+                            "more than one environment emitter (constant or envmap); Mitsuba allows one".into(),
+                        ));
+                    }
+                    let img = scene.images.get(*image as usize).ok_or_else(|| {
+                        RenderError::Invalid(format!(
+                            "envmap: image {image} of {}",
+                            scene.images.len()
+                        ))
+                    })?;
+                    let cdf_base = self.envmap_distribution(img)?;
+                    let m = Mat3::from_mat4(*to_world);
+                    let inv = m.inverse();
+                    if !inv.is_finite() {
+                        return Err(RenderError::Invalid(
+                            "envmap: its to_world cannot be inverted".into(),
+                        ));
+                    }
+                    e[0] = 6.0;
+                    e[2..5].copy_from_slice(&[*scale; 3]);
+                    for r in 0..3 {
+                        e[6 + 3 * r..9 + 3 * r].copy_from_slice(&inv.row(r).to_array());
+                        e[18 + 3 * r..21 + 3 * r].copy_from_slice(&m.row(r).to_array());
+                    }
+                    e[15] = f32::from_bits(*image);
+                    e[16] = f32::from_bits(cdf_base);
+                    e[17] = far;
+                    self.env_light = entries.len() as u32;
                 }
             }
             push(&mut entries, e, select as f64);
@@ -525,5 +604,70 @@ impl Tables {
         self.light_count = entries.len() as u32;
         self.lights = entries.into_iter().flatten().collect();
         Ok(())
+    }
+
+    /// The envmap's sampling tables, appended to the texel table (returns their first float):
+    /// the row CDF (H rows of cells, H + 1 floats), each row's column CDF (W + 1 floats each),
+    /// then each cell's probability. Cell (i, j) lies between texel columns i, i + 1 (periodic)
+    /// and rows j, j + 1, where Mitsuba interpolates the radiance bilinearly; its weight is the
+    /// mean luminance of its corners times sin θ at its centre, plus a small floor so that
+    /// every direction with radiance can be sampled.
+    fn envmap_distribution(&mut self, img: &crate::scene::Image) -> Result<u32, RenderError> {
+        let (w, h) = (img.width as usize, img.height as usize);
+        if w < 1 || h < 2 || img.texels.len() != w * h {
+            return Err(RenderError::Invalid(format!(
+                "envmap {}: {}x{} pixels; expected at least 1x2",
+                img.path.display(),
+                img.width,
+                img.height
+            )));
+        }
+        let rows = h - 1;
+        let lum = |x: usize, y: usize| {
+            let c = img.texels[y * w + x % w];
+            (0.212671 * c.x + 0.715160 * c.y + 0.072169 * c.z).max(0.0) as f64
+        };
+        let mut cells = vec![0.0f64; rows * w];
+        for j in 0..rows {
+            let theta = (j as f64 + 0.5) / rows as f64 * std::f64::consts::PI;
+            for i in 0..w {
+                let m = (lum(i, j) + lum(i + 1, j) + lum(i, j + 1) + lum(i + 1, j + 1)) / 4.0;
+                cells[j * w + i] = m * theta.sin();
+            }
+        }
+        let mean = cells.iter().sum::<f64>() / cells.len() as f64;
+        let floor = if mean > 0.0 { 1e-3 * mean } else { 1.0 };
+        for c in &mut cells {
+            *c += floor;
+        }
+        let total: f64 = cells.iter().sum();
+        let base = self.texels.len();
+        if base + rows + 1 + rows * (w + 1) + rows * w >= u32::MAX as usize {
+            return Err(RenderError::Invalid(format!(
+                "envmap {}: too large for optik-render's tables",
+                img.path.display()
+            )));
+        }
+        let mut acc = 0.0f64;
+        self.texels.push(0.0);
+        for j in 0..rows {
+            acc += cells[j * w..(j + 1) * w].iter().sum::<f64>();
+            self.texels.push((acc / total) as f32);
+        }
+        *self.texels.last_mut().unwrap_or(&mut 0.0) = 1.0;
+        for j in 0..rows {
+            let row = &cells[j * w..(j + 1) * w];
+            let sum: f64 = row.iter().sum();
+            let mut acc = 0.0f64;
+            self.texels.push(0.0);
+            for c in row {
+                acc += c;
+                self.texels.push((acc / sum) as f32);
+            }
+            let last = self.texels.len() - 1;
+            self.texels[last] = 1.0;
+        }
+        self.texels.extend(cells.iter().map(|c| (c / total) as f32));
+        Ok(base as u32)
     }
 }

@@ -14,17 +14,21 @@ pub mod features;
 pub mod geometry;
 mod gpu;
 pub mod material;
+pub mod modes;
 pub mod output;
+pub mod plan;
 pub mod probe;
 mod programs;
 mod render;
+mod roughplastic;
 pub mod scene;
 pub mod validate;
 
 pub use error::RenderError;
 pub use features::RenderFeatures;
+pub use plan::{Effects, PipelinePlan};
 pub use render::{
-    AovImage, Frame, Progress, RenderOptions, RenderStats, render, render_with_progress,
+    AovImage, Frame, Progress, RenderOptions, RenderStats, Renderer, render, render_with_progress,
 };
 
 #[cfg(test)]

@@ -45,8 +45,10 @@ pub struct BsdfSampled {
     pub pdf: f32,
     /// Relative index of refraction of the sampled event.
     pub eta: f32,
-    /// Whether a Dirac lobe was sampled.
+    /// Whether a Dirac lobe was sampled (a null lobe included, as Mitsuba's `Delta` flag).
     pub delta: bool,
+    /// Whether the lobe was a null one (thindielectric's straight transmission).
+    pub null: bool,
 }
 
 /// Evaluates `bsdf` at each query with the renderer's WGSL code.
@@ -82,14 +84,30 @@ pub fn bsdf_sample(
     uv: [f32; 2],
     samples: &[[f32; 3]],
 ) -> Result<Vec<BsdfSampled>, RenderError> {
-    if let Some(bad) = samples.iter().flatten().find(|u| !(0.0..1.0).contains(*u)) {
+    let items: Vec<([f32; 3], [f32; 3])> = samples.iter().map(|u| (wi, *u)).collect();
+    bsdf_sample_each(device, bsdf, uv, &items)
+}
+
+/// Samples `bsdf` once per `(wi, [u1, u2.x, u2.y])` item (sample values in [0, 1)) at texture
+/// coordinates `uv`, in one launch.
+pub fn bsdf_sample_each(
+    device: &dyn Device,
+    bsdf: &Bsdf,
+    uv: [f32; 2],
+    items: &[([f32; 3], [f32; 3])],
+) -> Result<Vec<BsdfSampled>, RenderError> {
+    if let Some(bad) = items
+        .iter()
+        .flat_map(|(_, u)| u)
+        .find(|u| !(0.0..1.0).contains(*u))
+    {
         return Err(RenderError::Invalid(format!(
             "sample value {bad}: expected values in [0, 1)"
         )));
     }
-    let input: Vec<f32> = samples
+    let input: Vec<f32> = items
         .iter()
-        .flat_map(|u| [wi[0], wi[1], wi[2], u[0], u[1], u[2], uv[0], uv[1]])
+        .flat_map(|(wi, u)| [wi[0], wi[1], wi[2], u[0], u[1], u[2], uv[0], uv[1]])
         .collect();
     let out = run(device, bsdf, "raygen__probe_sample", &input, 12)?;
     Ok(out
@@ -100,6 +118,7 @@ pub fn bsdf_sample(
             pdf: o[6],
             eta: o[7],
             delta: o[8] != 0.0,
+            null: o[8] == 2.0,
         })
         .collect())
 }
@@ -116,7 +135,7 @@ fn run(
     if count == 0 {
         return Ok(Vec::new());
     }
-    let enc = material::encode(bsdf, "probed BSDF")?;
+    let enc = material::encode(bsdf, &[], "probed BSDF")?;
     let mut owned = Owned::new(device);
     let pipeline_options = PipelineCompileOptions::default();
     let (module, _) = device
@@ -141,14 +160,15 @@ fn run(
     let sbt_buffer = owned.upload(&header, "the probe's SBT")?;
     let out = owned.zeroed((count * out_words * 4) as u64, "probe results")?;
     let inp = owned.upload(bytemuck::cast_slice(input), "probe queries")?;
-    let mat = owned.upload(bytemuck::cast_slice(&enc.params), "probe material")?;
+    let material: Vec<f32> = enc.params.iter().chain(&enc.extra).copied().collect();
+    let mat = owned.upload(bytemuck::cast_slice(&material), "probe material")?;
     // The shared Params block, with only probe_count used.
     let mut p = Std140::default();
     for _ in 0..30 {
         p.u(0);
     }
     p.u(count as u32);
-    for _ in 0..5 {
+    for _ in 0..13 {
         p.u(0);
     }
     let sbt = ShaderBindingTable {

@@ -2,18 +2,25 @@
 
 use crate::features::RenderFeatures;
 use crate::geometry::Primitive;
-use crate::material::BsdfKind;
+use crate::material::{BsdfKind, SharedWgsl};
 use std::collections::BTreeSet;
 
 const COMMON: &str = include_str!("wgsl/common.wgsl");
 const SCENE: &str = include_str!("wgsl/scene.wgsl");
 const HIT: &str = include_str!("wgsl/hit.wgsl");
 const PATH: &str = include_str!("wgsl/path.wgsl");
+const INTEGRATOR_PATH: &str = include_str!("wgsl/integrator_path.wgsl");
+const INTEGRATOR_DIRECT: &str = include_str!("wgsl/integrator_direct.wgsl");
+const INTEGRATOR_AOV: &str = include_str!("wgsl/integrator_aov.wgsl");
 const PROBE: &str = include_str!("wgsl/probe.wgsl");
 const TEXTURE: &str = include_str!("wgsl/texture.wgsl");
 const MASK: &str = include_str!("wgsl/mask.wgsl");
+const ENVMAP: &str = include_str!("wgsl/envmap.wgsl");
+/// Stands in for envmap.wgsl where no envmap exists: never called (ENVMAP is false).
+const NO_ENVMAP: &str = "fn env_eval(b: u32, d: vec3<f32>) -> vec3<f32> {\n    return vec3<f32>(0.0);\n}\nfn env_pdf(b: u32, d: vec3<f32>) -> f32 {\n    return 0.0;\n}\nfn sample_env(b: u32, x: vec3<f32>, u: vec2<f32>) -> LightSample {\n    return light_none();\n}\n";
 /// Stands in for texture.wgsl where no bitmap exists: never called (no texture has kind 2 or 3).
 const NO_TEXTURE: &str = "fn tex_bitmap(image: u32, uv: vec2<f32>, bilinear: bool, wrap: u32) -> vec4<f32> {\n    return vec4<f32>(0.0);\n}\n";
+const TWOSIDED: &str = include_str!("wgsl/twosided.wgsl");
 
 /// The name suffix of a primitive type's hit programs.
 fn suffix(primitive: Primitive) -> &'static str {
@@ -41,10 +48,15 @@ pub fn path_module(features: &RenderFeatures) -> String {
     s += &format!("const NEE: bool = {};\n", features.shadow_rays);
     s += &format!("const INSTANCED: bool = {};\n", features.uses_ias());
     s += &format!("const MASKS: bool = {};\n", features.masks);
+    let envmap = features.emitters.contains("envmap");
+    s += &format!("const ENVMAP: bool = {envmap};\n");
     s += if features.bitmap { TEXTURE } else { NO_TEXTURE };
     s += SCENE;
+    s += if envmap { ENVMAP } else { NO_ENVMAP };
+    s += &shared(features.bsdf_kinds.iter().copied());
     for kind in &features.bsdf_kinds {
         s += kind.wgsl();
+        s += &TWOSIDED.replace("KIND", kind.name());
     }
     let mut masked = BTreeSet::new();
     let mut shaded = BTreeSet::new();
@@ -61,6 +73,13 @@ pub fn path_module(features: &RenderFeatures) -> String {
         s += &instantiate_prim(MASK, p);
     }
     s += PATH;
+    // Only the scene's integrator: every rt_trace call site costs a traversal in software
+    // backends.
+    s += match features.integrator {
+        "direct" => INTEGRATOR_DIRECT,
+        "aov" => INTEGRATOR_AOV,
+        _ => INTEGRATOR_PATH,
+    };
     s
 }
 
@@ -88,7 +107,15 @@ pub fn probe_module(kind: BsdfKind) -> String {
     let mut s = String::new();
     s += COMMON;
     s += NO_TEXTURE;
+    s += &shared([kind].into_iter());
     s += kind.wgsl();
+    s += &TWOSIDED.replace("KIND", kind.name());
     s += &PROBE.replace("KIND", kind.name());
     s
+}
+
+/// The shared pieces (Fresnel, microfacet) the kinds call, each once.
+fn shared(kinds: impl Iterator<Item = BsdfKind>) -> String {
+    let pieces: BTreeSet<SharedWgsl> = kinds.flat_map(|k| k.needs().iter().copied()).collect();
+    pieces.iter().map(|p| p.wgsl()).collect()
 }

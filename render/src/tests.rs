@@ -10,7 +10,7 @@ use crate::{Frame, RenderOptions, render};
 use glam::{Mat4, Vec3};
 use optik::{BackendChoice, BackendKind, Device, OpenOptions};
 
-fn cpu(threads: usize) -> Box<dyn Device> {
+pub(crate) fn cpu(threads: usize) -> Box<dyn Device> {
     optik::open_with(
         BackendChoice::Named(BackendKind::Cpu),
         &OpenOptions {
@@ -132,7 +132,7 @@ fn cornell_at(o: Vec3, s: f32) -> Scene {
     }
 }
 
-fn cornell(o: Vec3) -> Scene {
+pub(crate) fn cornell(o: Vec3) -> Scene {
     cornell_at(o, 1.0)
 }
 
@@ -390,6 +390,91 @@ fn features_follow_the_scene() {
 }
 
 #[test]
+fn delta_bsdfs_compile_their_programs_without_shadow_rays() {
+    let d = cpu(1);
+    let mut scene = cornell(Vec3::ZERO);
+    let white = Texture::Constant(Vec3::ONE);
+    scene.materials = vec![
+        Bsdf::Conductor {
+            eta: Vec3::ZERO,
+            k: Vec3::ONE,
+            specular_reflectance: white.clone(),
+        },
+        Bsdf::Dielectric {
+            int_ior: 1.5,
+            ext_ior: 1.0,
+            specular_reflectance: white.clone(),
+            specular_transmittance: white.clone(),
+        },
+        Bsdf::ThinDielectric {
+            int_ior: 1.5,
+            ext_ior: 1.0,
+            specular_reflectance: white.clone(),
+            specular_transmittance: white,
+        },
+    ];
+    let f = render(
+        d.as_ref(),
+        &scene,
+        &RenderOptions {
+            spp: Some(2),
+            ..RenderOptions::default()
+        },
+    )
+    .unwrap();
+    let feat = &f.stats.features;
+    // Mitsuba's path integrator samples emitters only at BSDFs with a smooth lobe.
+    assert!(!feat.shadow_rays);
+    assert_eq!(
+        f.stats.programs,
+        [
+            "raygen__path",
+            "miss__radiance",
+            "closesthit__conductor",
+            "closesthit__dielectric",
+            "closesthit__thindielectric"
+        ]
+    );
+    let text = feat.describe();
+    assert!(
+        text.contains("bsdfs: conductor, dielectric, thindielectric"),
+        "{text}"
+    );
+    assert!(text.contains("shared bsdf code: fresnel\n"), "{text}");
+    // The emitter is still reached by BSDF sampling through the mirrors and glass.
+    assert!(image_mean(&f).max_element() > 0.0);
+}
+
+#[test]
+fn twosided_accepts_one_reflective_bsdf() {
+    let diffuse = Bsdf::Diffuse {
+        reflectance: Texture::Constant(Vec3::splat(0.5)),
+    };
+    let glass = Bsdf::Dielectric {
+        int_ior: 1.5,
+        ext_ior: 1.0,
+        specular_reflectance: Texture::Constant(Vec3::ONE),
+        specular_transmittance: Texture::Constant(Vec3::ONE),
+    };
+    let two = |front: &Bsdf, back: &Bsdf| Bsdf::TwoSided {
+        front: Box::new(front.clone()),
+        back: Box::new(back.clone()),
+    };
+    let e = crate::material::encode(&two(&diffuse, &diffuse), &[], "m").unwrap();
+    assert_eq!(e.kind, crate::material::BsdfKind::Diffuse);
+    let other = Bsdf::Diffuse {
+        reflectance: Texture::Constant(Vec3::splat(0.2)),
+    };
+    let err = crate::material::encode(&two(&diffuse, &other), &[], "mesh `a`").unwrap_err();
+    assert!(
+        err.to_string().contains("two different nested BSDFs"),
+        "{err}"
+    );
+    let err = crate::material::encode(&two(&glass, &glass), &[], "mesh `b`").unwrap_err();
+    assert!(err.to_string().contains("without transmission"), "{err}");
+}
+
+#[test]
 fn aovs_hold_albedo_and_normal_of_the_first_hit() {
     let d = cpu(2);
     let scene = cornell(Vec3::ZERO);
@@ -478,3 +563,9 @@ fn outputs_encode() {
 
 #[path = "tests_shapes.rs"]
 mod shapes;
+
+#[path = "tests_emitters.rs"]
+mod emitters;
+
+#[path = "tests_integrators.rs"]
+mod integrators;

@@ -297,6 +297,7 @@ fn sphere_uv_follows_its_frame_and_bitmaps_look_up_nearest() {
                 image: 0,
                 to_uv: Mat3::IDENTITY,
                 bilinear: false,
+                wrap: crate::scene::WrapMode::Repeat,
             },
         });
         let f = render(
@@ -335,6 +336,7 @@ fn bilinear_bitmaps_blend_between_texel_centres() {
             image: 0,
             to_uv: Mat3::IDENTITY,
             bilinear: true,
+            wrap: crate::scene::WrapMode::Repeat,
         },
     });
     let f = render(
@@ -358,6 +360,54 @@ fn bilinear_bitmaps_blend_between_texel_centres() {
     let distinct = ws.windows(2).filter(|w| (w[0] - w[1]).abs() > 1e-3).count();
     assert!(distinct >= 5, "{ws:?}");
     assert!(ws.iter().any(|w| *w > 0.05 && *w < 0.95), "{ws:?}");
+}
+
+/// Mitsuba's (Dr.Jit's) wrap modes on a 2x1 image looked up at u = -0.25 (nearest: texel
+/// column -1): repeat takes column 1, mirror column 0, clamp column 0; at u = 1.75 (column 3)
+/// repeat takes 1, mirror 0 (3 reflects to 0), clamp 1.
+#[test]
+fn wrap_modes_follow_mitsuba() {
+    use crate::scene::WrapMode;
+    let (red, green) = (Vec3::X, Vec3::Y);
+    for (wrap, at_minus, at_plus) in [
+        (WrapMode::Repeat, green, green),
+        (WrapMode::Mirror, red, red),
+        (WrapMode::Clamp, red, green),
+    ] {
+        for (u, expect) in [(-0.25f32, at_minus), (1.75, at_plus)] {
+            let mut s = looking_z(4, 1, path(Some(1), false));
+            let mut wall = shapes::rectangle();
+            shapes::transform_mesh(
+                &mut wall,
+                &(Mat4::from_translation(Vec3::new(0.0, 0.0, 4.0))
+                    * Mat4::from_scale(Vec3::new(10.0, 10.0, 1.0))
+                    * Mat4::from_rotation_y(std::f32::consts::PI)),
+            );
+            s.meshes.push(wall);
+            s.images.push(two_texels());
+            // Every hit looks up (u, 0.5): to_uv maps any uv to that point.
+            let to_uv = Mat3::from_cols(Vec3::ZERO, Vec3::ZERO, Vec3::new(u, 0.5, 1.0));
+            s.materials.push(Bsdf::Diffuse {
+                reflectance: Texture::Bitmap {
+                    image: 0,
+                    to_uv,
+                    bilinear: false,
+                    wrap,
+                },
+            });
+            let f = render(
+                cpu(1).as_ref(),
+                &s,
+                &RenderOptions {
+                    spp: Some(1),
+                    want_aovs: true,
+                    ..RenderOptions::default()
+                },
+            )
+            .unwrap();
+            assert_eq!(albedo_at(&f, 1, 1), expect, "{wrap:?} at u = {u}");
+        }
+    }
 }
 
 /// Mitsuba's mask: a surface of opacity o in front of a constant environment of radiance 1

@@ -671,6 +671,23 @@ fn bad_bsdf_parameters_are_errors() {
 }
 
 #[test]
+fn an_unknown_wrap_mode_is_an_error() {
+    let d = Dir::new("wrap");
+    image::RgbImage::from_raw(1, 1, vec![1, 2, 3])
+        .unwrap()
+        .save(d.0.join("t.png"))
+        .unwrap();
+    let p = d.write(
+        "scene.xml",
+        &scene_text(
+            "<shape type=\"cube\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">\n<string name=\"filename\" value=\"t.png\"/>\n<string name=\"wrap_mode\" value=\"tile\"/></texture></bsdf></shape>",
+        ),
+    );
+    let e = scene::load(&p, &[]).unwrap_err();
+    assert!(e.message.contains("repeat, mirror, clamp"), "{e}");
+}
+
+#[test]
 fn textures_bitmap_and_checkerboard() {
     let d = Dir::new("tex");
     let png = d.0.join("t.png");
@@ -685,7 +702,7 @@ fn textures_bitmap_and_checkerboard() {
   <string name="filename" value="t.png"/><string name="filter_type" value="nearest"/>
   <transform name="to_uv"><scale x="2" y="3"/><translate x="0.5"/></transform></texture></bsdf></shape>
 <shape type="cube"><bsdf type="diffuse"><texture type="bitmap" name="reflectance">
-  <string name="filename" value="t.png"/><boolean name="raw" value="true"/></texture></bsdf></shape>
+  <string name="filename" value="t.png"/><boolean name="raw" value="true"/><string name="wrap_mode" value="mirror"/></texture></bsdf></shape>
 <shape type="cube"><bsdf type="diffuse"><texture type="bitmap" name="reflectance">
   <string name="filename" value="t.png"/></texture></bsdf></shape>
 <shape type="cube"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance">
@@ -701,11 +718,13 @@ fn textures_bitmap_and_checkerboard() {
         image,
         to_uv,
         bilinear,
+        wrap,
     } = tex(0)
     else {
         panic!()
     };
     assert!(!bilinear);
+    assert_eq!(wrap, optik_render::scene::WrapMode::Repeat);
     assert_eq!(
         to_uv,
         Mat3::from_cols(
@@ -723,12 +742,14 @@ fn textures_bitmap_and_checkerboard() {
     let Texture::Bitmap {
         image: raw,
         bilinear,
+        wrap,
         ..
     } = tex(1)
     else {
         panic!()
     };
     assert!(bilinear);
+    assert_eq!(wrap, optik_render::scene::WrapMode::Mirror);
     assert!((s.images[raw as usize].texels[3].x - 128.0 / 255.0).abs() < 1e-6);
     // The same file with the same decoding is loaded once.
     let Texture::Bitmap { image: again, .. } = tex(2) else {

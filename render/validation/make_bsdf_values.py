@@ -6,9 +6,13 @@ values optik's BSDFs must reproduce into bsdf/<name>.json:
       {"wi": [x, y, z], "wo": [x, y, z], "eval": [r, g, b], "pdf": p}, ...]}
 
 Directions are in the local shading frame (normal +z). `eval` is Mitsuba's BSDF::eval, which
-includes the cosine of wo; `pdf` is BSDF::pdf (solid angle). Smooth (delta) BSDFs are left out:
-their eval and pdf are zero everywhere; optik's sampling of them is checked by the chi-square
-and image tests instead.
+includes the cosine of wo; `pdf` is BSDF::pdf (solid angle); smooth (delta) BSDFs have zero eval
+and pdf everywhere.
+
+Each file also holds "samples": BSDF::sample at random incident directions and sample values,
+{"wi", "u": [sample1, sample2.x, sample2.y], "wo", "weight", "pdf", "eta", "lobe"} with lobe
+"delta", "null", "smooth" or "none" (no sample: zero weight). They pin down the discrete lobe
+probabilities and weights of delta BSDFs, which a chi-square test cannot see.
 
 Usage (after scripts/mitsuba-setup):
     .venv-mitsuba/bin/python render/validation/make_bsdf_values.py
@@ -76,10 +80,27 @@ BSDFS = {
         "diffuse_reflectance": RGB(0.8, 0.8, 0.8), "specular_reflectance": RGB(1, 1, 1),
         "int_ior": 1.5, "ext_ior": 1.0,
     },
+    "conductor_mirror": {"type": "conductor"},
+    "conductor_au": {"type": "conductor", "material": "Au", "specular_reflectance": RGB(0.9, 0.8, 1.0)},
+    "conductor_eta_k": {
+        "type": "conductor", "eta": RGB(0.2, 0.9, 1.1), "k": RGB(3.9, 2.4, 1.6),
+        "specular_reflectance": RGB(1, 1, 1),
+    },
+    "twosided_conductor": {"type": "twosided", "bsdf": {"type": "conductor", "material": "Cu"}},
+    "dielectric": {
+        "type": "dielectric", "int_ior": 1.5046, "ext_ior": 1.000277,
+        "specular_reflectance": RGB(1, 0.9, 0.8), "specular_transmittance": RGB(0.9, 0.95, 1),
+    },
+    "thindielectric": {
+        "type": "thindielectric", "int_ior": 1.33, "ext_ior": 1.0,
+        "specular_reflectance": RGB(1, 0.9, 0.8), "specular_transmittance": RGB(0.9, 0.95, 1),
+    },
 }
 
 # BSDFs with transmission or two sides are also queried from below the surface.
-BOTH_SIDES = {"twosided_diffuse", "roughdielectric_beckmann", "roughdielectric_ggx"}
+BOTH_SIDES = {"twosided_diffuse", "roughdielectric_beckmann", "roughdielectric_ggx",
+              "twosided_conductor", "dielectric", "thindielectric"}
+SAMPLES = 64
 
 
 def uniform_sphere(rng):
@@ -117,12 +138,51 @@ def queries(name, desc, rng):
     return out
 
 
+def samples(name, desc, rng):
+    bsdf = mi.load_dict(desc)
+    ctx = mi.BSDFContext()
+    out = []
+    for _ in range(SAMPLES):
+        wi = uniform_sphere(rng)
+        if name not in BOTH_SIDES:
+            wi[2] = abs(wi[2])
+        u = [float(x) for x in rng.uniform(0.0, 1.0, 3)]
+        si = mi.SurfaceInteraction3f()
+        si.p = [0, 0, 0]
+        si.n = [0, 0, 1]
+        si.sh_frame = mi.Frame3f(si.n)
+        si.uv = [0.5, 0.5]
+        si.wi = mi.Vector3f(wi)
+        bs, weight = bsdf.sample(ctx, si, u[0], mi.Point2f(u[1], u[2]))
+        if max(weight) == 0:
+            lobe = "none"
+        elif mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null):
+            lobe = "null"  # also Delta: Mitsuba's Delta flag includes Null
+        elif mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta):
+            lobe = "delta"
+        else:
+            lobe = "smooth"
+        out.append({
+            "wi": [float(c) for c in wi],
+            "u": u,
+            "wo": [float(c) for c in bs.wo],
+            "weight": [float(weight[0]), float(weight[1]), float(weight[2])],
+            "pdf": float(bs.pdf),
+            "eta": float(bs.eta),
+            "lobe": lobe,
+        })
+    return out
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
     rng = np.random.default_rng(11)
+    # A separate stream, so that adding samples left the earlier queries unchanged.
+    sample_rng = np.random.default_rng(12)
     for name, desc in BSDFS.items():
         data = {"name": name, "mitsuba": mi.__version__, "variant": "scalar_rgb", "bsdf": desc,
-                "queries": queries(name, desc, rng)}
+                "queries": queries(name, desc, rng),
+                "samples": samples(name, desc, sample_rng)}
         with open(os.path.join(OUT, name + ".json"), "w") as f:
             json.dump(data, f, indent=1)
             f.write("\n")

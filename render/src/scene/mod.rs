@@ -379,6 +379,8 @@ pub enum Texture {
         to_uv: Mat3,
         /// Bilinear (true) or nearest lookups.
         bilinear: bool,
+        /// What lies outside [0, 1]² (Mitsuba's `wrap_mode`).
+        wrap: WrapMode,
     },
     /// Mitsuba's `checkerboard`: `color0` where `floor(2u) + floor(2v)` is even.
     Checkerboard {
@@ -389,6 +391,18 @@ pub enum Texture {
         /// Applied to the mesh's uv before the lookup.
         to_uv: Mat3,
     },
+}
+
+/// How a bitmap continues outside [0, 1]² (Mitsuba's `wrap_mode`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum WrapMode {
+    /// Tiles (Mitsuba's default).
+    #[default]
+    Repeat,
+    /// Tiles, every other tile mirrored.
+    Mirror,
+    /// The edge texels continue.
+    Clamp,
 }
 
 /// A decoded image, linear RGB, row 0 at the top.
@@ -409,9 +423,9 @@ pub struct Image {
 /// A microfacet distribution.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Microfacet {
-    /// Beckmann.
+    /// Beckmann, Mitsuba's default.
     Beckmann,
-    /// GGX (Trowbridge–Reitz), Mitsuba's default.
+    /// GGX (Trowbridge–Reitz).
     Ggx,
 }
 

@@ -170,6 +170,7 @@ impl MaterialMapper<'_> {
             image: id,
             to_uv: Mat3::IDENTITY,
             bilinear: true,
+            wrap: super::WrapMode::Repeat,
         })
     }
 

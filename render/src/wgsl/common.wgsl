@@ -22,9 +22,21 @@ struct Params {
     tan_y: f32,
     accum_stride: u32,
     probe_count: u32,
-    pad1: u32,
+    // The envmap's light table entry (NONE: no envmap).
+    env_light: u32,
     env_radiance: vec3<f32>,
     env_pdf: f32,
+    // Mitsuba's direct integrator: next-event estimation weighs its MIS with the strategies'
+    // sample fractions and 1 / emitter_samples (path: all 1).
+    frac_lum: f32,
+    frac_bsdf: f32,
+    weight_lum: f32,
+    // 0 path, 1 direct, 2 aov.
+    integrator: u32,
+    emitter_samples: u32,
+    bsdf_samples: u32,
+    pad2: u32,
+    pad3: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -34,7 +46,7 @@ const INV_PI: f32 = 0.31830988618379067154;
 const FLAG_HIDE_EMITTERS: u32 = 1u;
 const FLAG_AOVS: u32 = 2u;
 const NONE: u32 = 0xFFFFFFFFu;
-const LIGHT_WORDS: u32 = 16u;
+const LIGHT_WORDS: u32 = 32u;
 
 // PCG (O'Neill), the RXS-M-XS output of a 32-bit LCG step: counter-based seeding below makes
 // every pixel's stream depend only on (pixel, sample, seed).
@@ -125,6 +137,11 @@ fn mis_weight(a: f32, b: f32) -> f32 {
     return 0.0;
 }
 
+// dr::mulsign(a, b): a with the sign of b applied (b's sign bit, so -0 counts as negative).
+fn mulsign(a: f32, b: f32) -> f32 {
+    return select(a, -a, (bitcast<u32>(b) & 0x80000000u) != 0u);
+}
+
 fn luminance(c: vec3<f32>) -> f32 {
     return dot(c, vec3<f32>(0.212671, 0.715160, 0.072169));
 }
@@ -134,7 +151,15 @@ fn luminance(c: vec3<f32>) -> f32 {
 // bitmap, 3 nearest bitmap), colour 0 (a bitmap: image id, wrap mode), colour 1, then
 // Mitsuba's to_uv as two rows of a 3x3 affine matrix. Bitmaps are read by tex_bitmap
 // (texture.wgsl, compiled in only when a scene has one).
-alias MatParams = array<f32, 24>;
+// Material parameters (material.rs): texture slots A and B, kind-specific scalars from
+// MP_SCALARS, the microfacet distribution at MP_MICROFACET, the two-sided flag.
+alias MatParams = array<f32, 40>;
+const MAT_PARAMS_LEN: u32 = 40u;
+const MP_TEX_A: u32 = 0u;
+const MP_TEX_B: u32 = 13u;
+const MP_SCALARS: u32 = 26u;
+const MP_MICROFACET: u32 = 33u;
+const MP_TWOSIDED: u32 = 39u;
 
 fn tex_rgb(m: MatParams, at: u32, uv: vec2<f32>) -> vec3<f32> {
     let kind = u32(m[at]);
@@ -160,7 +185,8 @@ struct BsdfSample {
     weight: vec3<f32>,
     pdf: f32,
     eta: f32,
-    // 1 for a Dirac (delta) lobe.
+    // 0: a smooth lobe; 1: a Dirac (delta) lobe; 2: a null lobe (thindielectric's straight
+    // transmission; Mitsuba's Delta flag includes Null).
     delta: u32,
 }
 

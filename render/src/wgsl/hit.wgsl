@@ -17,16 +17,19 @@ fn closesthit__KINDSUFFIX() {
         set_v3(P_NORMAL, h.ns);
     }
     if (inflags & IN_SCATTER) == 0u {
+        // Without scattering, P_PDF carries the hit distance (the aov integrator's depth).
+        set_f(P_PDF, h.t);
         rt_set_payload(P_RNG, rng);
         rt_set_payload(P_FLAGS, out);
         return;
     }
-    if SMOOTH && params.light_count > 0u {
+    if SMOOTH && params.light_count > 0u && (inflags & IN_NO_NEE) == 0u {
         let u_sel = rng_next(&rng);
         let ls = sample_light(h.p, u_sel, rng_next2(&rng));
         if ls.pdf > 0.0 {
-            let ev = bsdf_KIND_eval(m, wi, to_local(f, ls.dir), h.uv);
-            let mis = select(mis_weight(ls.pdf, ev.w), 1.0, ls.delta);
+            let ev = bsdf_KIND_eval_sided(m, wi, to_local(f, ls.dir), h.uv);
+            let mis = select(mis_weight(ls.pdf * params.frac_lum, ev.w * params.frac_bsdf)
+                * params.weight_lum, 1.0, ls.delta);
             let c = ev.xyz * ls.weight * mis;
             if any(c > vec3<f32>(0.0)) {
                 let so = rt_offset_ray(h.p, side(h.ng, ls.dir));
@@ -39,8 +42,8 @@ fn closesthit__KINDSUFFIX() {
     }
     let u1 = rng_next(&rng);
     let u2 = rng_next2(&rng);
-    let s = bsdf_KIND_sample(m, wi, h.uv, u1, u2);
-    if s.pdf > 0.0 && any(s.weight > vec3<f32>(0.0)) {
+    let s = bsdf_KIND_sample_sided(m, wi, h.uv, u1, u2);
+    if s.pdf > 0.0 && any(s.weight > vec3<f32>(0.0)) && (inflags & IN_NO_BSDF) == 0u {
         let wo = normalize(to_world(f, s.wo));
         set_v3(P_WO, wo);
         set_v3(P_WEIGHT, s.weight);
@@ -48,6 +51,8 @@ fn closesthit__KINDSUFFIX() {
         set_f(P_ETA, s.eta);
         set_v3(P_ORIGIN, rt_offset_ray(h.p, side(h.ng, wo)));
         out |= OUT_CONTINUE;
+        // Dirac and null lobes (Mitsuba's Delta flag includes Null) skip MIS at the next
+        // emitter hit.
         if s.delta != 0u {
             out |= OUT_DELTA;
         }

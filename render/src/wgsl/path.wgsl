@@ -1,12 +1,12 @@
-// Mitsuba 3's `path` integrator as a ray generation program: emission with MIS against the
-// previous BSDF sample, next-event estimation (the closest-hit program samples the light, this
-// program traces the shadow ray), BSDF sampling and Russian roulette.
+// The ray generation program: pixel filter, camera rays and accumulation; the integrator's
+// trace_camera (integrator_*.wgsl) follows each camera ray.
 
 const ACC_SUM: u32 = 0u;
 const ACC_SUMSQ: u32 = 3u;
 const ACC_RAYS: u32 = 6u;
 const ACC_ALBEDO: u32 = 7u;
 const ACC_NORMAL: u32 = 10u;
+const ACC_DEPTH: u32 = 13u;
 
 // Any-hit programs run only where masks exist (shadow rays respect masks too).
 fn anyhit_off() -> u32 {
@@ -31,85 +31,7 @@ struct PathResult {
     rays: f32,
     albedo: vec3<f32>,
     normal: vec3<f32>,
-}
-
-fn trace_path(origin0: vec3<f32>, dir0: vec3<f32>, tmin0: f32, tmax0: f32, rng_in: u32) -> PathResult {
-    var rng = rng_in;
-    var res = PathResult(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), vec3<f32>(0.0));
-    var origin = origin0;
-    var dir = dir0;
-    var tmin = tmin0;
-    var tmax = tmax0;
-    var throughput = vec3<f32>(1.0);
-    var eta = 1.0;
-    var depth = 0u;
-    var prev_pdf = 1.0;
-    var prev_delta = true;
-    if params.max_depth == 0u {
-        return res;
-    }
-    loop {
-        var p: RtPayload;
-        p[P_RNG] = rng;
-        let scatter = depth + 1u < params.max_depth;
-        p[P_FLAGS] = select(0u, IN_SCATTER, scatter);
-        rt_trace(params.scene, origin, dir, tmin, tmax, 0.0, 0xFFu, anyhit_off(),
-                 0u, 1u, 0u, &p);
-        res.rays += 1.0;
-        let flags = p[P_FLAGS];
-        if (flags & OUT_HIT) != 0u {
-            rng = p[P_RNG];
-        }
-        if depth == 0u && (params.flags & FLAG_AOVS) != 0u && (flags & OUT_HIT) != 0u {
-            res.albedo = get_v3(&p, P_ALBEDO);
-            res.normal = get_v3(&p, P_NORMAL);
-        }
-        // Direct emission, weighted against next-event estimation at the previous vertex.
-        let le = get_v3(&p, P_LE);
-        let hidden = depth == 0u && (params.flags & FLAG_HIDE_EMITTERS) != 0u;
-        if any(le > vec3<f32>(0.0)) && !hidden {
-            var em_pdf = 0.0;
-            if !prev_delta {
-                em_pdf = get_f(&p, P_EMPDF);
-            }
-            res.radiance += throughput * le * mis_weight(prev_pdf, em_pdf);
-        }
-        if (flags & OUT_HIT) == 0u || !scatter {
-            break;
-        }
-        if (flags & OUT_NEE) != 0u {
-            res.rays += 1.0;
-            if visible(get_v3(&p, P_SORIGIN), get_v3(&p, P_SVEC)) {
-                res.radiance += throughput * get_v3(&p, P_NEE);
-            }
-        }
-        if (flags & OUT_CONTINUE) == 0u {
-            break;
-        }
-        throughput *= get_v3(&p, P_WEIGHT);
-        eta *= get_f(&p, P_ETA);
-        prev_pdf = get_f(&p, P_PDF);
-        prev_delta = (flags & OUT_DELTA) != 0u;
-        origin = get_v3(&p, P_ORIGIN);
-        dir = get_v3(&p, P_WO);
-        tmin = 0.0;
-        tmax = 3.0e38;
-        depth += 1u;
-        // Russian roulette as Mitsuba's path: from rr_depth, survive with
-        // min(max throughput component · eta², 0.95).
-        let tp_max = max(throughput.x, max(throughput.y, throughput.z));
-        if tp_max <= 0.0 {
-            break;
-        }
-        if depth >= params.rr_depth {
-            let q = min(tp_max * eta * eta, 0.95);
-            if rng_next(&rng) >= q {
-                break;
-            }
-            throughput /= q;
-        }
-    }
-    return res;
+    depth: f32,
 }
 
 // A 1D offset from the pixel centre distributed as the reconstruction filter (box, tent or
@@ -153,6 +75,7 @@ fn raygen__path() {
     var rays = 0.0;
     var albedo = vec3<f32>(0.0);
     var normal = vec3<f32>(0.0);
+    var depth = 0.0;
     for (var s = 0u; s < params.sample_count; s++) {
         var rng = rng_init(pixel, params.sample_base + s, params.seed);
         let ox = filter_offset(&rng);
@@ -165,14 +88,17 @@ fn raygen__path() {
                               dot(params.cam2.xyz, local));
         let dir = normalize(world);
         let scale = length(world);
-        let r = trace_path(cam_t, dir, params.near_clip / local.z * scale,
-                           params.far_clip / local.z * scale, rng_init(pixel ^ 0x9E3779B9u,
-                           params.sample_base + s, params.seed ^ 0x85EBCA6Bu));
+        let tmin = params.near_clip / local.z * scale;
+        let tmax = params.far_clip / local.z * scale;
+        let rng_path = rng_init(pixel ^ 0x9E3779B9u, params.sample_base + s, params.seed ^ 0x85EBCA6Bu);
+        // The scene's integrator (programs.rs compiles in only its code).
+        let r = trace_camera(cam_t, dir, tmin, tmax, rng_path);
         sum += r.radiance;
         sumsq += r.radiance * r.radiance;
         rays += r.rays;
         albedo += r.albedo;
         normal += r.normal;
+        depth += r.depth;
     }
     let b = pixel * params.accum_stride;
     accum[b + 0u] += sum.x;
@@ -189,5 +115,8 @@ fn raygen__path() {
         accum[b + 10u] += normal.x;
         accum[b + 11u] += normal.y;
         accum[b + 12u] += normal.z;
+    }
+    if params.integrator == 2u {
+        accum[b + ACC_DEPTH] += depth;
     }
 }

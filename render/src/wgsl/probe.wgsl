@@ -7,10 +7,15 @@
 
 fn probe_material() -> MatParams {
     var m: MatParams;
-    for (var i = 0u; i < 24u; i++) {
+    for (var i = 0u; i < MAT_PARAMS_LEN; i++) {
         m[i] = probe_mat[i];
     }
     return m;
+}
+
+// The material's precomputed table, after its parameters.
+fn mat_extra(i: u32) -> f32 {
+    return probe_mat[MAT_PARAMS_LEN + i];
 }
 
 fn probe_v3(b: u32) -> vec3<f32> {
@@ -24,7 +29,7 @@ fn raygen__probe_eval() {
         return;
     }
     let b = i * 8u;
-    let ev = bsdf_KIND_eval(probe_material(), probe_v3(b), probe_v3(b + 3u),
+    let ev = bsdf_KIND_eval_sided(probe_material(), probe_v3(b), probe_v3(b + 3u),
                             vec2<f32>(probe_in[b + 6u], probe_in[b + 7u]));
     probe_out[i * 4u] = ev.x;
     probe_out[i * 4u + 1u] = ev.y;
@@ -32,14 +37,15 @@ fn raygen__probe_eval() {
     probe_out[i * 4u + 3u] = ev.w;
 }
 
-// In: wi, u1, u2.xy, uv (8 floats). Out: wo, weight rgb, pdf, eta, delta (9 of 12 floats).
+// In: wi, u1, u2.xy, uv (8 floats). Out: wo, weight rgb, pdf, eta, lobe (0 smooth, 1 delta,
+// 2 null): 9 of 12 floats.
 fn raygen__probe_sample() {
     let i = rt_launch_index().x;
     if i >= params.probe_count {
         return;
     }
     let b = i * 8u;
-    let s = bsdf_KIND_sample(probe_material(), probe_v3(b),
+    let s = bsdf_KIND_sample_sided(probe_material(), probe_v3(b),
                              vec2<f32>(probe_in[b + 6u], probe_in[b + 7u]), probe_in[b + 3u],
                              vec2<f32>(probe_in[b + 4u], probe_in[b + 5u]));
     let o = i * 12u;

@@ -27,8 +27,11 @@ const P_SVEC: u32 = 23u;
 const P_ALBEDO: u32 = 26u;
 const P_NORMAL: u32 = 29u;
 
-// P_FLAGS in: the hit point should scatter (sample lights and the BSDF).
+// P_FLAGS in: the hit point should scatter (sample lights and the BSDF), and the direct
+// integrator's requests to leave out one of the two.
 const IN_SCATTER: u32 = 1u;
+const IN_NO_NEE: u32 = 2u;
+const IN_NO_BSDF: u32 = 4u;
 // P_FLAGS out.
 const OUT_HIT: u32 = 1u;
 const OUT_CONTINUE: u32 = 2u;
@@ -66,6 +69,8 @@ const LIGHT_POINT: u32 = 1u;
 const LIGHT_DIRECTIONAL: u32 = 2u;
 const LIGHT_CONSTANT: u32 = 3u;
 const LIGHT_SPHERE: u32 = 4u;
+const LIGHT_SPOT: u32 = 5u;
+const LIGHT_ENVMAP: u32 = 6u;
 
 struct LightSample {
     dir: vec3<f32>,
@@ -133,6 +138,33 @@ fn sample_light(x: vec3<f32>, u_sel: f32, u: vec2<f32>) -> LightSample {
     }
     if kind == LIGHT_SPHERE {
         return sample_sphere_light(b, x, le, pdf0, u);
+    }
+    if kind == LIGHT_SPOT {
+        // Mitsuba's spot: intensity times its falloff (1 inside beam_width, linear in the
+        // angle down to 0 at cutoff_angle) in the light's frame.
+        let p = lv3(b + 6u);
+        let v = p - x;
+        let dist2 = dot(v, v);
+        if dist2 <= 0.0 {
+            return light_none();
+        }
+        let dir = v * inverseSqrt(dist2);
+        let l = normalize(vec3<f32>(dot(lv3(b + 9u), -dir), dot(lv3(b + 12u), -dir), dot(lv3(b + 15u), -dir)));
+        let cos_t = l.z;
+        var falloff = 0.0;
+        if cos_t > lights[b + 18u] {
+            falloff = 1.0;
+            if cos_t < lights[b + 19u] {
+                falloff = (lights[b + 20u] - acos(cos_t)) * lights[b + 21u];
+            }
+        }
+        if falloff <= 0.0 {
+            return light_none();
+        }
+        return LightSample(dir, le * falloff / (dist2 * pdf0), pdf0, p, true);
+    }
+    if ENVMAP && kind == LIGHT_ENVMAP {
+        return sample_env(b, x, u);
     }
     // Constant: uniform directions over the sphere (Mitsuba's constant emitter).
     let z = 1.0 - 2.0 * u.x;
@@ -207,8 +239,8 @@ fn sample_sphere_light(b: u32, x: vec3<f32>, le: vec3<f32>, sel: f32, u: vec2<f3
 // ---- Mesh hits ----
 // SBT record data words: vertex base (a sphere: its index), triangle base, normal base, uv
 // base (NONE: absent), flip, emitter pdf (meshes: selection / area; spheres: selection),
-// emitted radiance rgb, pad, a mask's opacity texture (13 floats), then the material
-// parameters (geometry.rs's layout).
+// emitted radiance rgb, pad, a mask's opacity texture (13 floats), then the material's
+// parameters and its precomputed table (geometry.rs's layout).
 const SBT_OPACITY: u32 = 10u;
 const SBT_MATERIAL: u32 = 23u;
 
@@ -347,10 +379,16 @@ fn sphere_emission(h: Hit, d: vec3<f32>) {
 
 fn sbt_material() -> MatParams {
     var m: MatParams;
-    for (var i = 0u; i < 24u; i++) {
+    for (var i = 0u; i < MAT_PARAMS_LEN; i++) {
         m[i] = rt_sbt_data_f32(SBT_MATERIAL + i);
     }
     return m;
+}
+
+// The material's precomputed table (roughplastic's transmittance), read where needed rather
+// than copied with the parameters.
+fn mat_extra(i: u32) -> f32 {
+    return rt_sbt_data_f32(SBT_MATERIAL + MAT_PARAMS_LEN + i);
 }
 
 // Emission seen along d at the hit (Mitsuba's area emitter: front side only) and the
@@ -373,6 +411,13 @@ fn mesh_emission(h: Hit, d: vec3<f32>) {
 
 fn miss__radiance() {
     rt_set_payload(P_FLAGS, 0u);
+    if ENVMAP && params.env_light != NONE {
+        let b = params.env_light * LIGHT_WORDS;
+        let d = rt_world_ray_direction();
+        set_v3(P_LE, env_eval(b, d));
+        set_f(P_EMPDF, env_pdf(b, d));
+        return;
+    }
     set_v3(P_LE, params.env_radiance);
     set_f(P_EMPDF, params.env_pdf);
 }

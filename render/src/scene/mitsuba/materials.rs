@@ -3,7 +3,7 @@
 use super::data::{CONDUCTORS, IORS};
 use super::xml::{Object, Value};
 use super::{Builder, err};
-use crate::scene::{Bsdf, Microfacet, Rgb, Roughness, SceneError, Texture};
+use crate::scene::{Bsdf, Microfacet, Rgb, Roughness, SceneError, Texture, WrapMode};
 use glam::{DMat4, Mat3, Vec3};
 use std::rc::Rc;
 
@@ -345,14 +345,22 @@ impl Builder<'_> {
                         }
                     },
                 };
-                if let Some((w, at)) = self.string(o, "wrap_mode")?
-                    && w != "repeat"
-                {
-                    self.warn(
-                        &at,
-                        format!("wrap_mode \"{w}\" is not supported; textures repeat"),
-                    );
-                }
+                let wrap = match self.string(o, "wrap_mode")? {
+                    None => WrapMode::Repeat,
+                    Some((w, at)) => match w.as_str() {
+                        "repeat" => WrapMode::Repeat,
+                        "mirror" => WrapMode::Mirror,
+                        "clamp" => WrapMode::Clamp,
+                        other => {
+                            return Err(err(
+                                &at,
+                                format!(
+                                    "wrap_mode \"{other}\" is not one of Mitsuba's: repeat, mirror, clamp"
+                                ),
+                            ));
+                        }
+                    },
+                };
                 let to_uv = self
                     .transform(o, "to_uv")?
                     .map(to_uv)
@@ -362,6 +370,7 @@ impl Builder<'_> {
                     image,
                     to_uv,
                     bilinear,
+                    wrap,
                 })
             }
             ("texture", "checkerboard") => Ok(Texture::Checkerboard {

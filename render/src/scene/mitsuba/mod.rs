@@ -8,6 +8,7 @@
 
 pub mod data;
 mod materials;
+pub use materials::{named_conductor, named_ior};
 mod shapes;
 pub mod spectrum;
 pub mod xml;
