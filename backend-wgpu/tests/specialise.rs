@@ -163,3 +163,69 @@ fn accuracy_selects_the_tests_compiled() {
     assert!(e.message().contains("TriangleTest::Driver"), "{e}");
     assert_eq!(d.accuracy(), Accuracy::ROBUST);
 }
+
+/// A trace whose flags always include DISABLE_CLOSESTHIT (a shadow ray) calls a trace without
+/// the closest-hit dispatch, which drivers would otherwise inline once more at that call site;
+/// a trace with other flags keeps it, and both behave as the flags say.
+#[test]
+fn a_shadow_ray_call_site_traces_without_the_closest_hit_dispatch() {
+    let dev = optik_wgpu::WgpuBackend::new()
+        .map(optik_wgpu::WgpuDevice::new)
+        .unwrap();
+    let d: &dyn Device = &dev;
+    let gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
+    let src = format!(
+        "{HEADER}
+fn shoot(flags: u32, x: f32) -> u32 {{
+    var p: RtPayload;
+    rt_trace(params.handle, vec3<f32>(x, 0.5, 1.0), vec3<f32>(0.0, 0.0, -1.0), 0.0, 10.0, 0.0,
+        0xFFu, flags, 0u, 1u, 0u, &p);
+    return p[0];
+}}
+fn raygen__main() {{
+    let i = rt_launch_index().x;
+    let x = select(0.5, 5.0, i == 1u);
+    var p: RtPayload;
+    // The shadow ray: the closest-hit bit is set whatever params.a holds.
+    rt_trace(params.handle, vec3<f32>(x, 0.5, 1.0), vec3<f32>(0.0, 0.0, -1.0), 0.0, 10.0, 0.0,
+        0xFFu, RT_RAY_FLAG_DISABLE_CLOSESTHIT | RT_RAY_FLAG_TERMINATE_ON_FIRST_HIT | params.a,
+        0u, 1u, 0u, &p);
+    out[2u * i] = p[0];
+    // Flags only known at run time: the full trace.
+    out[2u * i + 1u] = shoot(params.b, x);
+}}
+fn miss__m() {{ rt_set_payload(0u, 1u); }}
+fn closesthit__c() {{ rt_set_payload(0u, 2u); }}
+"
+    );
+    let m = module(d, &src);
+    let g = groups(
+        d,
+        &[
+            raygen(m, "raygen__main"),
+            miss(m, "miss__m"),
+            closest_hit(m, "closesthit__c"),
+        ],
+    );
+    let p = pipeline(d, &g, 1);
+    let kernel = dev.kernel_source(p).unwrap();
+    assert_eq!(
+        kernel.matches("_optik_trace_0_nch_fn(").count(),
+        2,
+        "one definition, one call"
+    );
+    assert_eq!(
+        kernel.matches("_optik_trace_0_fn(").count(),
+        2,
+        "one definition, one call"
+    );
+    let nch = &kernel[kernel.find("fn _optik_trace_0_nch_fn(").unwrap()..];
+    let nch = &nch[..nch.find("\n}\n").unwrap()];
+    assert!(!nch.contains("_optik_closest_hit_"), "{nch}");
+    let table = sbt(d, &g, &[]);
+    let h = d.traversable_handle(gas).unwrap();
+    let out = run(d, p, &table, &params(h, &[0, 0]), 2, 1, 4);
+    // Ray 0 hits: the shadow ray runs no closest-hit (payload untouched), the other one does;
+    // ray 1 misses both times.
+    assert_eq!(out, vec![0, 2, 1, 1]);
+}

@@ -7,7 +7,10 @@
 //! TRACE_DEPTH_EXCEEDED: that is where the per-depth copies end.
 
 use super::KernelConfig;
-use crate::program::instance::{Site, continuation_stub_name, direct_stub_name, trace_stub_name};
+use crate::program::instance::{
+    Site, continuation_stub_name, direct_stub_name, trace_stub_name,
+    trace_without_closest_hit_stub_name,
+};
 use optik_api::ExceptionFlags;
 
 pub(super) fn write(c: &KernelConfig<'_>, out: &mut String) {
@@ -15,7 +18,10 @@ pub(super) fn write(c: &KernelConfig<'_>, out: &mut String) {
         raise(c, out);
     }
     for &d in &c.lowered.traces {
-        trace(c, d, out);
+        trace(c, d, true, out);
+    }
+    for &d in &c.lowered.traces_without_closest_hit {
+        trace(c, d, false, out);
     }
     for &k in &c.lowered.directs {
         callable(
@@ -90,11 +96,17 @@ fn _optik_raise(code: i32) {
     );
 }
 
-fn trace(c: &KernelConfig<'_>, d: u32, out: &mut String) {
+/// `_optik_trace_{d}_fn`, or with `closest_hit` false the copy for call sites whose flags
+/// always disable closest-hit.
+fn trace(c: &KernelConfig<'_>, d: u32, closest_hit: bool, out: &mut String) {
     let n = c.payload_len();
-    out.push_str(&format!(
-        "fn {}(handle: vec2<u32>, origin: vec3<f32>, direction: vec3<f32>, tmin: f32, tmax: f32, time: f32, mask: u32, flags: u32, sbt_offset: u32, sbt_stride: u32, miss_index: u32, payload: ptr<function, array<u32, {n}>>) {{\n",
+    let name = if closest_hit {
         trace_stub_name(d)
+    } else {
+        trace_without_closest_hit_stub_name(d)
+    };
+    out.push_str(&format!(
+        "fn {name}(handle: vec2<u32>, origin: vec3<f32>, direction: vec3<f32>, tmin: f32, tmax: f32, time: f32, mask: u32, flags: u32, sbt_offset: u32, sbt_stride: u32, miss_index: u32, payload: ptr<function, array<u32, {n}>>) {{\n"
     ));
     if d >= c.features.max_trace_depth {
         if c.exception(ExceptionFlags::TRACE_DEPTH) {
@@ -108,6 +120,14 @@ fn trace(c: &KernelConfig<'_>, d: u32, out: &mut String) {
         out.push_str("        _optik_raise(-9);\n");
     }
     let time = if c.motion() { "time" } else { "0.0" };
+    let run_closest_hit = if closest_hit {
+        format!(
+            "            if (flags & 8u) == 0u {{\n                _optik_closest_hit_{}(_optik_best.record);\n            }}\n",
+            d + 1
+        )
+    } else {
+        String::new()
+    };
     out.push_str(&format!(
         r#"        return;
     }}
@@ -123,10 +143,7 @@ fn trace(c: &KernelConfig<'_>, d: u32, out: &mut String) {
         if hit {{
             _optik_hit = _optik_best;
             _optik_ray.tmax = _optik_best.t;
-            if (flags & 8u) == 0u {{
-                _optik_closest_hit_{next}(_optik_best.record);
-            }}
-        }} else {{
+{run_closest_hit}        }} else {{
             _optik_miss_{next}(miss_index & 0xFFFFu);
         }}
     }}

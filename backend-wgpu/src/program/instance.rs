@@ -90,6 +90,11 @@ pub(crate) struct Lowered {
     /// Trace depths `d` whose `_optik_trace_{d}_fn` is called (d = max_trace_depth: the
     /// depth-exceeded stub).
     pub traces: BTreeSet<u32>,
+    /// Trace depths `d` below max_trace_depth whose `_optik_trace_{d}_nch_fn` is called: call
+    /// sites whose flags have the `DISABLE_CLOSESTHIT` bit whatever their other operands are
+    /// (shadow rays). Every driver inlines a trace's closest-hit dispatch, usually the
+    /// largest part of a kernel, at each call site; these sites go without it.
+    pub traces_without_closest_hit: BTreeSet<u32>,
     /// Direct-callable levels `k` whose `_optik_direct_{k}_fn` is called.
     pub directs: BTreeSet<u32>,
     /// `(d, c)` of the `_optik_cont_{d}_{c}_fn` called.
@@ -109,6 +114,12 @@ pub(crate) fn device_stub_name(f: DeviceFunction) -> String {
 /// The stub name of `rt_trace` at trace depth `d`.
 pub(crate) fn trace_stub_name(d: u32) -> String {
     format!("_optik_trace_{d}_fn")
+}
+
+/// The stub name of `rt_trace` at trace depth `d` for call sites whose ray flags always
+/// include `DISABLE_CLOSESTHIT`: a trace without the closest-hit dispatch.
+pub(crate) fn trace_without_closest_hit_stub_name(d: u32) -> String {
+    format!("_optik_trace_{d}_nch_fn")
 }
 
 /// The stub name of `rt_direct_call` calling nesting level `k`.
@@ -207,6 +218,7 @@ pub(crate) fn lower(input: &LowerInput<'_>) -> Result<Lowered> {
             module_wgsl: Vec::new(),
             dispatch: BTreeMap::new(),
             traces: BTreeSet::new(),
+            traces_without_closest_hit: BTreeSet::new(),
             directs: BTreeSet::new(),
             continuations: BTreeSet::new(),
             device_functions: BTreeSet::new(),
@@ -393,6 +405,7 @@ impl<'a> Lowering<'a> {
         // Callees first: naga wants a function's callees earlier in the arena.
         let mut target: HashMap<Handle<Function>, Handle<Function>> = HashMap::new();
         let mut unwinds: BTreeSet<Handle<Function>> = BTreeSet::new();
+        let mut trace_stub = None;
         for callee in callees {
             let facts = self.work[mi].facts[callee.index()].clone();
             let mapped = match facts.device {
@@ -405,7 +418,11 @@ impl<'a> Lowering<'a> {
                         unwinds.insert(callee);
                     }
                     let name = self.device_stub(df, ctx);
-                    self.stub(mi, &name, callee)
+                    let stub = self.stub(mi, &name, callee);
+                    if df == DeviceFunction::Trace && ctx.d < self.input.max_trace_depth {
+                        trace_stub = Some((callee, stub));
+                    }
+                    stub
                 }
                 None => {
                     if facts.unwinds {
@@ -487,6 +504,34 @@ impl<'a> Lowering<'a> {
             redirect: &|c| target.get(&c).copied().unwrap_or(c),
         };
         func.body = unwind::insert_checks(body, &mut func.expressions, result_ty, &how);
+        if let Some((template, with)) = trace_stub {
+            let has_site = {
+                let bits = KnownBits {
+                    module: &self.work[mi].out,
+                    exprs: &func.expressions,
+                };
+                let mut found = false;
+                for_each_call(&mut func.body.clone(), &mut |callee, args| {
+                    found |= *callee == with && closest_hit_disabled(&bits, args);
+                });
+                found
+            };
+            if has_site {
+                let name = trace_without_closest_hit_stub_name(ctx.d);
+                let without = self.stub(mi, &name, template);
+                let bits = KnownBits {
+                    module: &self.work[mi].out,
+                    exprs: &func.expressions,
+                };
+                for_each_call(&mut func.body, &mut |callee, args| {
+                    if *callee == with && closest_hit_disabled(&bits, args) {
+                        *callee = without;
+                    }
+                });
+                self.out.traces_without_closest_hit.insert(ctx.d);
+            }
+        }
+        let w = &mut self.work[mi];
         let original = func.name.clone().unwrap_or_else(|| "f".into());
         let name = stable_name(&w.prefix, &original, w.count);
         w.count += 1;
@@ -569,6 +614,81 @@ impl<'a> Lowering<'a> {
         let h = w.out.functions.append(f, Span::UNDEFINED);
         w.stubs.insert(UNWINDING_STUB.to_string(), h);
         h
+    }
+}
+
+/// Bits of `u32` expressions that are set whatever the values of non-constant operands.
+struct KnownBits<'a> {
+    module: &'a Module,
+    exprs: &'a naga::Arena<Expression>,
+}
+
+impl KnownBits<'_> {
+    /// The bits of `e` known to be set (0 where nothing is known).
+    fn of(&self, e: Handle<Expression>) -> u32 {
+        self.in_arena(self.exprs, e, 0)
+    }
+
+    fn in_arena(&self, arena: &naga::Arena<Expression>, e: Handle<Expression>, depth: u32) -> u32 {
+        if depth > 16 {
+            return 0;
+        }
+        match arena[e] {
+            Expression::Literal(naga::Literal::U32(v)) => v,
+            Expression::Constant(c) => {
+                let init = self.module.constants[c].init;
+                self.in_arena(&self.module.global_expressions, init, depth + 1)
+            }
+            Expression::Binary {
+                op: naga::BinaryOperator::InclusiveOr,
+                left,
+                right,
+            } => self.in_arena(arena, left, depth + 1) | self.in_arena(arena, right, depth + 1),
+            _ => 0,
+        }
+    }
+}
+
+/// `RT_RAY_FLAG_DISABLE_CLOSESTHIT`.
+const DISABLE_CLOSESTHIT: u32 = 8;
+
+/// Whether the flags argument (the eighth) of a call of `rt_trace` always disables closest-hit.
+fn closest_hit_disabled(bits: &KnownBits<'_>, args: &[Handle<Expression>]) -> bool {
+    args.get(7)
+        .is_some_and(|&flags| bits.of(flags) & DISABLE_CLOSESTHIT != 0)
+}
+
+/// Calls `f` with the callee and arguments of every call statement in `block`, nested
+/// blocks included.
+fn for_each_call(
+    block: &mut Block,
+    f: &mut dyn FnMut(&mut Handle<Function>, &[Handle<Expression>]),
+) {
+    for statement in block.iter_mut() {
+        match statement {
+            Statement::Call {
+                function,
+                arguments,
+                ..
+            } => f(function, arguments),
+            Statement::Block(b) => for_each_call(b, f),
+            Statement::If { accept, reject, .. } => {
+                for_each_call(accept, f);
+                for_each_call(reject, f);
+            }
+            Statement::Switch { cases, .. } => {
+                for case in cases {
+                    for_each_call(&mut case.body, f);
+                }
+            }
+            Statement::Loop {
+                body, continuing, ..
+            } => {
+                for_each_call(body, f);
+                for_each_call(continuing, f);
+            }
+            _ => {}
+        }
     }
 }
 
