@@ -134,10 +134,10 @@ macro_rules! scene {
 scene!(cbox, 128);
 scene!(cbox_smooth, 128, wgpu: 32);
 scene!(cbox_rough, 128, wgpu: 16);
-scene!(spheres_area, 64, slow_wgpu: "wgpu on lavapipe takes 7 to 11 minutes on this scene (the software sphere traversal); it passed on 2026-12-02; run it with `cargo test -p optik-render --test mitsuba -- --ignored`");
-scene!(spheres_point, 64, slow_wgpu: "wgpu on lavapipe takes 7 to 11 minutes on this scene (the software sphere traversal); it passed on 2026-12-02; run it with `cargo test -p optik-render --test mitsuba -- --ignored`");
-scene!(spheres_constant, 64, slow_wgpu: "wgpu on lavapipe takes 7 to 11 minutes on this scene (the software sphere traversal); it passed on 2026-12-02; run it with `cargo test -p optik-render --test mitsuba -- --ignored`");
-scene!(spheres_envmap, 64, slow_wgpu: "wgpu on lavapipe takes 7 to 11 minutes on this scene (the software sphere traversal); it passed on 2026-12-02; run it with `cargo test -p optik-render --test mitsuba -- --ignored`");
+scene!(spheres_area, 64, slow_wgpu: "wgpu on lavapipe compiles this scene's kernel for minutes (llvmpipe, nine BSDF programs: about 4 min) before it renders; it passes on an NVIDIA H200 (2026-12-02); run it with `cargo test -p optik-render --test mitsuba -- --ignored`");
+scene!(spheres_point, 64, slow_wgpu: "wgpu on lavapipe compiles this scene's kernel for minutes (llvmpipe, nine BSDF programs: about 4 min) before it renders; it passes on an NVIDIA H200 (2026-12-02); run it with `cargo test -p optik-render --test mitsuba -- --ignored`");
+scene!(spheres_constant, 64, slow_wgpu: "wgpu on lavapipe compiles this scene's kernel for minutes (llvmpipe, nine BSDF programs: about 4 min) before it renders; it passes on an NVIDIA H200 (2026-12-02); run it with `cargo test -p optik-render --test mitsuba -- --ignored`");
+scene!(spheres_envmap, 64, slow_wgpu: "wgpu on lavapipe compiles this scene's kernel for minutes (llvmpipe, nine BSDF programs: about 4 min) before it renders; it passes on an NVIDIA H200 (2026-12-02); run it with `cargo test -p optik-render --test mitsuba -- --ignored`");
 // Spheres and instances make the wgpu backend's software traversal a larger shader: on
 // lavapipe it compiles for about 40 s, so these scenes render fewer samples.
 scene!(textured_diffuse, 32);
@@ -217,7 +217,7 @@ mod breakfast_room {
         check_breakfast_room(BackendKind::Cpu, 64);
     }
     #[test]
-    #[ignore = "wgpu on lavapipe takes over 10 minutes on the Breakfast Room (270k triangles); it passed on 2026-12-02; run it with `cargo test -p optik-render --test mitsuba -- --ignored`"]
+    #[ignore = "wgpu on lavapipe takes over 10 minutes on the Breakfast Room (270k triangles); it passes on an NVIDIA H200 (2026-12-02); run it with `cargo test -p optik-render --test mitsuba -- --ignored`"]
     fn wgpu() {
         check_breakfast_room(BackendKind::Wgpu, 64);
     }
