@@ -25,16 +25,24 @@ fn _optik_nan(x: f32) -> bool {
 }
 
 // The invalid-ray policy of optik_api::semantics::ray::check: finite origin and direction,
-// tmin not NaN and not negative (-0.0 is allowed), tmax not NaN, tmin <= tmax.
+// tmin not NaN and not negative (-0.0 is allowed), tmax not NaN, tmin <= tmax. Each check is a
+// comparison of bits that returns at once. An earlier form (`_optik_nan(tmin) || (sign bit &&
+// not -0.0)`, then `_optik_nan(tmax)`) judged valid rays invalid in lavapipe's Vulkan ray
+// tracing stages (backend-vulkan/tests/vulkan/exceptions.rs failed) while it was right in
+// compute shaders; this one is right in both, so both GPU backends share it.
 fn _optik_ray_is_valid(origin: vec3<f32>, direction: vec3<f32>, tmin: f32, tmax: f32) -> bool {
-    if !_optik_finite3(origin) || !_optik_finite3(direction) {
+    if !_optik_finite3(origin) {
+        return false;
+    }
+    if !_optik_finite3(direction) {
         return false;
     }
     let tmin_bits = bitcast<u32>(tmin);
-    if _optik_nan(tmin) || ((tmin_bits >> 31u) != 0u && tmin_bits != 0x80000000u) {
+    // +0.0 up to +inf, or -0.0: negatives (sign bit set) and NaNs are above +inf's bits.
+    if tmin_bits > 0x7f800000u && tmin_bits != 0x80000000u {
         return false;
     }
-    if _optik_nan(tmax) {
+    if (bitcast<u32>(tmax) & 0x7fffffffu) > 0x7f800000u {
         return false;
     }
     return !(tmin > tmax);

@@ -97,9 +97,7 @@ pub fn prelude(c: &LoweringConfig) -> String {
             i.stand_in_body()
         ));
     }
-    if c.triangles.emulated() || c.motion_structures || c.box_guard() {
-        s.push_str(optik_api::wgsl::RAY);
-    }
+    s.push_str(optik_api::wgsl::RAY);
     if c.motion_structures {
         s.push_str(optik_api::wgsl::MOTION);
     }
@@ -204,28 +202,6 @@ fn _optik_slot() -> u32 {
     let id = _optik_launch_id();
     let n = _optik_launch_size();
     return id.x + n.x * (id.y + n.y * id.z);
-}
-
-fn _optik_vk_finite3(v: vec3<f32>) -> bool {
-    let e = bitcast<vec3<u32>>(v) & vec3<u32>(0x7F800000u);
-    return all(e != vec3<u32>(0x7F800000u));
-}
-
-// The invalid-ray policy of optik_api::semantics::ray, on bit patterns so that no compiler's
-// fast-math can fold the NaN cases away.
-fn _optik_vk_ray_valid(origin: vec3<f32>, direction: vec3<f32>, tmin: f32, tmax: f32) -> bool {
-    if !_optik_vk_finite3(origin) || !_optik_vk_finite3(direction) {
-        return false;
-    }
-    let bmin = bitcast<u32>(tmin);
-    // tmin must be +0.0..+inf or -0.0; negatives and NaNs fail.
-    if bmin > 0x7F800000u && bmin != 0x80000000u {
-        return false;
-    }
-    if (bitcast<u32>(tmax) & 0x7FFFFFFFu) > 0x7F800000u {
-        return false;
-    }
-    return !(tmin > tmax);
 }
 
 // Vulkan allows only one of OpaqueKHR, NoOpaqueKHR, CullOpaqueKHR and CullNoOpaqueKHR, and not
@@ -551,7 +527,7 @@ const TRIANGLE_VERTICES: &str = "if _optik_ctx != _OPTIK_CTX_TRIANGLES {
 fn trace_body(c: &LoweringConfig) -> String {
     let state = c.uses_state();
     let mut b = String::new();
-    b.push_str("if !_optik_vk_ray_valid(origin, direction, tmin, tmax) {\n");
+    b.push_str("if !_optik_ray_is_valid(origin, direction, tmin, tmax) {\n");
     b.push_str(&format!(
         "        {}\n",
         raise_if(c, ExceptionFlags::DEBUG, "RT_EXCEPTION_CODE_INVALID_RAY")
