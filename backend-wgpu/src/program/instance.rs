@@ -658,12 +658,12 @@ fn closest_hit_disabled(bits: &KnownBits<'_>, args: &[Handle<Expression>]) -> bo
         .is_some_and(|&flags| bits.of(flags) & DISABLE_CLOSESTHIT != 0)
 }
 
+/// What [`for_each_call`] calls: the callee (to rewrite) and the arguments of one call.
+type CallVisitor<'a> = dyn FnMut(&mut Handle<Function>, &[Handle<Expression>]) + 'a;
+
 /// Calls `f` with the callee and arguments of every call statement in `block`, nested
 /// blocks included.
-fn for_each_call(
-    block: &mut Block,
-    f: &mut dyn FnMut(&mut Handle<Function>, &[Handle<Expression>]),
-) {
+fn for_each_call(block: &mut Block, f: &mut CallVisitor<'_>) {
     for statement in block.iter_mut() {
         match statement {
             Statement::Call {
