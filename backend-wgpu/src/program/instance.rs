@@ -505,29 +505,20 @@ impl<'a> Lowering<'a> {
         };
         func.body = unwind::insert_checks(body, &mut func.expressions, result_ty, &how);
         if let Some((template, with)) = trace_stub {
-            let has_site = {
-                let bits = KnownBits {
-                    module: &self.work[mi].out,
-                    exprs: &func.expressions,
-                };
-                let mut found = false;
-                for_each_call(&mut func.body.clone(), &mut |callee, args| {
-                    found |= *callee == with && closest_hit_disabled(&bits, args);
-                });
-                found
+            // The stub costs nothing when no site uses it: `finish` cuts every stub out.
+            let without = self.stub(mi, &trace_without_closest_hit_stub_name(ctx.d), template);
+            let bits = KnownBits {
+                module: &self.work[mi].out,
+                exprs: &func.expressions,
             };
-            if has_site {
-                let name = trace_without_closest_hit_stub_name(ctx.d);
-                let without = self.stub(mi, &name, template);
-                let bits = KnownBits {
-                    module: &self.work[mi].out,
-                    exprs: &func.expressions,
-                };
-                for_each_call(&mut func.body, &mut |callee, args| {
-                    if *callee == with && closest_hit_disabled(&bits, args) {
-                        *callee = without;
-                    }
-                });
+            let mut redirected = false;
+            for_each_call(&mut func.body, &mut |callee, args| {
+                if *callee == with && closest_hit_disabled(&bits, args) {
+                    *callee = without;
+                    redirected = true;
+                }
+            });
+            if redirected {
                 self.out.traces_without_closest_hit.insert(ctx.d);
             }
         }
