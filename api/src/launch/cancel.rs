@@ -98,9 +98,26 @@ enum Stop {
 }
 
 /// What the registry keeps of a running launch.
+/// The flag word on a cache line of its own: every worker reads it for every launch index,
+/// so a write to a neighbouring allocation (the `Arc`'s counts, another thread's heap data)
+/// must not move the line between cores.
+#[derive(Debug, Default)]
+#[repr(align(64))]
+struct StopFlag(AtomicU32);
+
+// The point of the type: a line of its own.
+const _: () = assert!(std::mem::align_of::<StopFlag>() == 64);
+
+impl std::ops::Deref for StopFlag {
+    type Target = AtomicU32;
+    fn deref(&self) -> &AtomicU32 {
+        &self.0
+    }
+}
+
 #[derive(Debug)]
 struct Watched {
-    flag: AtomicU32,
+    flag: StopFlag,
     token: Option<CancelToken>,
     deadline: Option<Instant>,
 }
@@ -176,7 +193,7 @@ impl LaunchWatch {
     pub fn new(options: &LaunchOptions) -> Result<LaunchWatch> {
         let watch = LaunchWatch {
             watched: Arc::new(Watched {
-                flag: AtomicU32::new(0),
+                flag: StopFlag::default(),
                 token: options.cancel.clone(),
                 deadline: options.deadline,
             }),
