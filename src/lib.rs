@@ -8,6 +8,10 @@
 
 pub use optik_api::*;
 
+/// The WGSL program front end every backend compiles through: parse, check and reflect a
+/// module without a device (`optik compile` uses it).
+pub use optik_core::frontend;
+
 mod auto;
 pub use auto::{AutoChoice, FoundDevice, auto_choice, decide_auto};
 pub mod raycast;

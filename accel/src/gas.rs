@@ -5,7 +5,7 @@ use super::aabb::Aabb;
 use super::bvh::{BuildQuality, Bvh};
 use super::curve_basis::BezierSegment;
 use super::micromap::MicromapArrayData;
-use optik_api::decode::{self, BufferBytes};
+use crate::decode::{self, BufferBytes};
 use optik_api::semantics::{primitive, sbt_index};
 use optik_api::{
     AccelBuildOptions, BuildInput, CurveEndcaps, CurveType, Error, GeometryFlags, MicromapArray,
@@ -534,7 +534,7 @@ fn decode_inputs(
 }
 
 impl<E: GasEncoding> Gas<E> {
-    /// Builds a geometry structure from validated inputs (`optik_api::validate::build_inputs`
+    /// Builds a geometry structure from validated inputs (`optik_core::validate::build_inputs`
     /// passed) whose buffers `bytes` reads.
     pub fn build(
         options: &AccelBuildOptions,
@@ -562,7 +562,7 @@ impl<E: GasEncoding> Gas<E> {
         })
     }
 
-    /// Refits to moved primitives (`optik_api::validate::update` passed): same slots, new
+    /// Refits to moved primitives (`optik_core::validate::update` passed): same slots, new
     /// positions. Primitives left out at build (never hittable then) stay out. On error the
     /// structure is unchanged.
     pub fn refit(

@@ -8,7 +8,7 @@ use super::aabb::Aabb;
 use super::bvh::{BuildQuality, Bvh};
 use super::gas::GasEncoding;
 use super::handle::{Resolved, SceneTable};
-use optik_api::decode::{self, BufferBytes};
+use crate::decode::{self, BufferBytes};
 use optik_api::semantics::{affine, motion, sbt_index};
 use optik_api::{
     AccelBuildOptions, Error, InstanceArray, Matrix3x4, MotionKinds, MotionOptions, Result,
@@ -357,7 +357,7 @@ pub fn srt_motion_bounds(keys: &[SrtData], child: &Aabb) -> Aabb {
 }
 
 impl Transform {
-    /// A transform from a validated description (`optik_api::validate::transform` passed).
+    /// A transform from a validated description (`optik_core::validate::transform` passed).
     pub fn new<E: GasEncoding>(
         desc: &TransformDesc,
         scene: &SceneTable<E>,

@@ -20,12 +20,13 @@
 //! - [`micromap`]: opacity micromap arrays and the micro-triangle a hit falls in;
 //! - [`curve_basis`]: curve segments in Bézier form and their bounds.
 //!
-//! Builders read inputs through [`optik_api::decode`] from any [`BufferBytes`] and resolve
+//! Builders read inputs through [`decode`] from any [`BufferBytes`] and resolve
 //! children through a [`SceneTable`], so they need no device.
 
 mod aabb;
 mod bvh;
 pub mod curve_basis;
+pub mod decode;
 mod gas;
 pub mod handle;
 mod instances;
@@ -34,6 +35,7 @@ pub mod widen;
 
 pub use aabb::Aabb;
 pub use bvh::{BuildQuality, Bvh, BvhNode};
+pub use decode::BufferBytes;
 pub use gas::{
     Curves, CustomPrimitives, Gas, GasEncoding, Geometry, MicromapLookup, MicromapRef,
     PrimitiveInfo, Spheres, TriangleMicromaps, Triangles, curve_caps,
@@ -44,7 +46,6 @@ pub use instances::{
     srt_motion_bounds,
 };
 pub use micromap::MicromapArrayData;
-pub use optik_api::decode::BufferBytes;
 
 use optik_api::SceneFeatures;
 

@@ -2,7 +2,7 @@
 //! `OptixAccelBuildOptions`, `Optix*Transform`).
 //!
 //! Geometry data lives in device [`Buffer`]s, as in OptiX. A build input names the buffers and
-//! how to read them; [`crate::validate`] checks every size, stride and count against the
+//! how to read them; `optik_core::validate` checks every size, stride and count against the
 //! buffers before a backend reads anything.
 
 use crate::flags::{BuildFlags, GeometryFlags, InstanceFlags, MotionFlags};

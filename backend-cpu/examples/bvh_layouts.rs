@@ -7,7 +7,7 @@
 //! project's test scenes, DESIGN.md §9, are kept outside the repository; without the argument
 //! only the generated scene runs). Timings are single-threaded; jobs run interleaved, best of 7.
 
-use optik_api::decode::BufferBytes;
+use optik_accel::decode::BufferBytes;
 use optik_api::semantics::opacity::CandidateFate;
 use optik_api::*;
 use optik_cpu::accel::{Gas, MicromapArrayData, MicromapLookup, SceneTable, Traversable};

@@ -16,16 +16,17 @@ use crate::pipeline::{
 use crate::program::abi::{Bindings, BoundBuffer, BoundResource, BoundTexture};
 use crate::sbt::{self, RecordBytes};
 use crate::traverse::TraceConfig;
-use optik_api::decode::BufferBytes;
-use optik_api::frontend::BindingInfo;
+use optik_accel::decode::BufferBytes;
 use optik_api::{
     Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BuildInput,
     DeviceId, DeviceProperties, Error, ErrorKind, ExceptionFlags, FeatureSet, GroupRegion, Handle,
-    HandleTable, LaunchOptions, LaunchSize, LaunchWatch, MicromapArray, Module,
-    ModuleCompileOptions, OpacityMicromapArrayDesc, Pipeline, PipelineCompileOptions,
-    PipelineLinkOptions, ProgramGroup, ProgramGroupDesc, ProgramSource, Resource, Result,
-    SceneFeatures, ShaderBindingTable, Texture, TextureDesc, TransformDesc, TraversableHandle,
+    LaunchOptions, LaunchSize, LaunchWatch, MicromapArray, Module, ModuleCompileOptions,
+    OpacityMicromapArrayDesc, Pipeline, PipelineCompileOptions, PipelineLinkOptions, ProgramGroup,
+    ProgramGroupDesc, ProgramSource, Resource, Result, SceneFeatures, ShaderBindingTable, Texture,
+    TextureDesc, TransformDesc, TraversableHandle,
 };
+use optik_core::HandleTable;
+use optik_core::frontend::BindingInfo;
 use std::sync::{Arc, Mutex, MutexGuard};
 
 /// Deepest nesting of callables a pipeline may link with (each level is a native stack
@@ -571,7 +572,7 @@ impl optik_core::Backend for CpuBackend {
         source: &ProgramSource,
     ) -> Result<(Module, String)> {
         let payload_len = pipeline_options.num_payload_values.or(32);
-        let compiled = Arc::new(optik_api::frontend::compile(source, payload_len)?);
+        let compiled = Arc::new(optik_core::frontend::compile(source, payload_len)?);
         let (module, log) = crate::jit_glue::compile(compiled, module_options)?;
         Ok((self.state().modules.insert(module), log))
     }
@@ -649,7 +650,7 @@ impl optik_core::Backend for CpuBackend {
         let objects: Vec<Arc<GroupObject>> = group_objects.iter().map(|(_, g)| g.clone()).collect();
         let programs = pipeline::program_features(&objects);
         let scene = Self::scene_features(&st);
-        let features = optik_api::features::resolve(
+        let features = optik_core::features::resolve(
             pipeline_options,
             link_options,
             scene,

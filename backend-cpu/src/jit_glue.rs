@@ -1,8 +1,8 @@
 //! Turning a front-end module into callable programs with the Cranelift JIT (`program`).
 
 use crate::pipeline::ModuleObject;
-use optik_api::frontend::CompiledModule;
 use optik_api::{ModuleCompileOptions, Result};
+use optik_core::frontend::CompiledModule;
 use std::sync::Arc;
 
 /// Compiles every program of `compiled`; returns the module object and a log line.
@@ -66,7 +66,7 @@ pub(crate) fn recompile(
     use crate::program::{JitModule, JitOptions};
     let program =
         optik_api::ProgramSource::new(source.file_name.clone(), source.user_source.clone());
-    let compiled = Arc::new(optik_api::frontend::compile(&program, payload_len)?);
+    let compiled = Arc::new(optik_core::frontend::compile(&program, payload_len)?);
     let jit = JitModule::compile(
         &compiled,
         &JitOptions {

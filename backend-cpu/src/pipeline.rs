@@ -4,11 +4,11 @@
 use crate::program::abi::{Bindings, DeviceCalls};
 use crate::traverse::{Spec, Specialised, TraceRay};
 use optik_api::features::ProgramFeatures;
-use optik_api::frontend::{BindingInfo, CompiledModule};
 use optik_api::{
     Accuracy, BoxTest, Error, FeatureSet, PipelineLinkOptions, ProgramGroupDesc, ProgramKind,
     ProgramRef, Result, TraversableHandle, TriangleTest,
 };
+use optik_core::frontend::{BindingInfo, CompiledModule};
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -341,7 +341,7 @@ pub(crate) fn program_features(groups: &[Arc<GroupObject>]) -> ProgramFeatures {
             .find(|(m, _)| *m == p.module)
             .map(|(_, c)| c.as_ref())
     };
-    let mut f = ProgramFeatures::of_groups(&descs, module_of);
+    let mut f = optik_core::features::program_features(&descs, module_of);
     for n in groups.iter().flat_map(|g| g.native.iter()) {
         f.payload_values_used = f.payload_values_used.max(n.payload_values);
         f.attribute_values_used = f.attribute_values_used.max(n.attribute_values);

@@ -84,14 +84,20 @@ impl<'l> Reader<'_, 'l> {
         region: GroupRegion,
     ) -> Result<Record<'l>> {
         let bytes = self.bytes.buffer(buffer).map_err(|e| e.context(what))?;
-        let group: &'l GroupObject =
-            optik_api::sbt::resolve_record_header(what, bytes, offset, region, self.device, |h| {
+        let group: &'l GroupObject = optik_core::sbt::resolve_record_header(
+            what,
+            bytes,
+            offset,
+            region,
+            self.device,
+            |h| {
                 self.pipeline
                     .groups
                     .iter()
                     .find(|(g, _)| optik_api::Handle::raw(g) == h)
                     .map(|(_, g)| g.as_ref())
-            })?;
+            },
+        )?;
         let start = offset as usize;
         let data_start = start + SBT_RECORD_HEADER_SIZE as usize;
         let data_end = (data_start + data_len.min(self.max_data)).min(bytes.len());

@@ -4,7 +4,7 @@
 use crate::device::{Inner, UserBuffer};
 use crate::memory::{GpuBuffer, Location};
 use ash::vk;
-use optik_api::decode::BufferBytes;
+use optik_accel::decode::BufferBytes;
 use optik_api::{Buffer, Error, Result};
 use std::borrow::Cow;
 use std::collections::HashMap;
@@ -202,7 +202,7 @@ impl Inner {
     }
 }
 
-/// Buffer bytes on the host, for `optik_api::decode`.
+/// Buffer bytes on the host, for `optik_accel::decode`.
 pub struct Snapshot<'a> {
     views: HashMap<Buffer, Cow<'a, [u8]>>,
 }

@@ -15,6 +15,7 @@ use crate::probe::VulkanDeviceInfo;
 use crate::texture::TextureObject;
 use ash::vk;
 use optik_api::*;
+use optik_core::HandleTable;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, MutexGuard};
 
@@ -580,7 +581,7 @@ impl optik_core::Backend for VulkanBackend {
     fn pipeline_bindings(
         &self,
         pipeline: Pipeline,
-    ) -> Result<Vec<optik_api::frontend::BindingInfo>> {
+    ) -> Result<Vec<optik_core::frontend::BindingInfo>> {
         self.with(|i| Ok(i.pipelines.get(pipeline)?.bindings.clone()))
     }
 

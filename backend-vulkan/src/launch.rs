@@ -16,8 +16,8 @@ use crate::memory::{GpuBuffer, Location};
 use crate::program::LoweringConfig;
 use crate::sbt::TranslatedSbt;
 use ash::vk;
-use optik_api::frontend::BindingKind;
 use optik_api::*;
+use optik_core::frontend::BindingKind;
 use std::sync::Arc;
 
 /// A launch the host has not waited for, with what it holds.
@@ -334,7 +334,7 @@ impl Inner {
         pipeline: Pipeline,
         params: &[u8],
         resources: &[Resource],
-        bindings: &[frontend::BindingInfo],
+        bindings: &[optik_core::frontend::BindingInfo],
         sbt: &TranslatedSbt,
         tables: [vk::Buffer; 3],
         size: LaunchSize,

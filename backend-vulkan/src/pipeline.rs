@@ -19,8 +19,8 @@ use crate::program::{
 };
 use crate::sbt::TranslatedSbt;
 use ash::vk;
-use optik_api::frontend::{BindingInfo, BindingKind, CompiledModule, DeviceFunction};
 use optik_api::*;
+use optik_core::frontend::{BindingInfo, BindingKind, CompiledModule, DeviceFunction};
 use std::collections::HashMap;
 use std::ffi::CString;
 use std::sync::Arc;
@@ -290,7 +290,7 @@ impl Inner {
     ) -> Result<(Module, String)> {
         // optik-core has checked the register count.
         let payload = pipeline_options.num_payload_values.or(32);
-        let compiled = optik_api::frontend::compile(source, payload)?;
+        let compiled = optik_core::frontend::compile(source, payload)?;
         let mut log = format!(
             "{}: {} program(s)",
             compiled.file_name,
@@ -358,9 +358,10 @@ impl Inner {
         }
         let module_of = |p: &ProgramRef| modules.get(&p.module).cloned();
         let desc_refs: Vec<&ProgramGroupDesc> = descs.iter().collect();
-        let program_features =
-            ProgramFeatures::of_groups(&desc_refs, |p| modules.get(&p.module).map(|m| &**m));
-        let features = features::resolve(
+        let program_features = optik_core::features::program_features(&desc_refs, |p| {
+            modules.get(&p.module).map(|m| &**m)
+        });
+        let features = optik_core::features::resolve(
             options,
             link,
             self.scene_features(),

@@ -24,7 +24,7 @@ use crate::memory::{Allocator, GpuBuffer, Location};
 use crate::pipeline::{GroupHandles, PipelineObject};
 use crate::program::prelude::SBT_DATA_WORDS;
 use ash::vk;
-use optik_api::decode::BufferBytes;
+use optik_accel::decode::BufferBytes;
 use optik_api::*;
 use std::sync::Arc;
 
@@ -108,9 +108,14 @@ impl Reader<'_> {
         region: GroupRegion,
     ) -> Result<&GroupHandles> {
         let bytes = self.bytes.bytes(buffer)?;
-        let handles = sbt::resolve_record_header(what, bytes, offset, region, self.device, |h| {
-            self.pipeline.handles.get(&h).map(|(_, handles)| handles)
-        })?;
+        let handles = optik_core::sbt::resolve_record_header(
+            what,
+            bytes,
+            offset,
+            region,
+            self.device,
+            |h| self.pipeline.handles.get(&h).map(|(_, handles)| handles),
+        )?;
         Ok(handles)
     }
 

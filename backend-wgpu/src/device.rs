@@ -13,17 +13,18 @@ use crate::gpu::Gpu;
 use crate::kernel::Sizes;
 use crate::pipeline::{self, PipelineObject};
 use crate::program::{GroupObject, ModuleObject, ModuleSource};
+use optik_accel::decode::BufferBytes;
 use optik_accel::{MicromapArrayData, MicromapLookup};
-use optik_api::decode::BufferBytes;
-use optik_api::frontend::BindingInfo;
 use optik_api::{
     Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BufferView,
     BuildInput, BuildOperation, DeviceId, DeviceProperties, Error, FeatureSet, GroupRegion, Handle,
-    HandleTable, LaunchSize, MicromapArray, Module, ModuleCompileOptions, OpacityMicromapArrayDesc,
-    Pipeline, PipelineCompileOptions, PipelineLinkOptions, ProgramGroup, ProgramGroupDesc,
-    ProgramRef, ProgramSource, Resource, Result, SceneFeatures, ShaderBindingTable, Texture,
-    TextureDesc, TransformDesc, TraversableHandle,
+    LaunchSize, MicromapArray, Module, ModuleCompileOptions, OpacityMicromapArrayDesc, Pipeline,
+    PipelineCompileOptions, PipelineLinkOptions, ProgramGroup, ProgramGroupDesc, ProgramRef,
+    ProgramSource, Resource, Result, SceneFeatures, ShaderBindingTable, Texture, TextureDesc,
+    TransformDesc, TraversableHandle,
 };
+use optik_core::HandleTable;
+use optik_core::frontend::BindingInfo;
 use std::sync::{Arc, Mutex, MutexGuard};
 
 /// The wgpu device users hold: optik-core's checks in front of [`WgpuBackend`], whose own

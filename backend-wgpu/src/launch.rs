@@ -7,11 +7,11 @@
 
 use crate::device::WgpuBackend;
 use crate::kernel::WORKGROUP_SIZE;
-use optik_api::frontend::BindingKind;
 use optik_api::{
     AddressMode, Error, FilterMode, LaunchSize, Pipeline, Resource, Result, SamplerDesc,
     ShaderBindingTable,
 };
+use optik_core::frontend::BindingKind;
 
 /// How the benchmark observes a launch; the default (the `Device` trait's launches) adds
 /// nothing.

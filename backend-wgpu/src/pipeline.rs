@@ -10,11 +10,11 @@ use crate::program::instance::{
     self, BINDING_STRIDE, GroupPrograms, LowerInput, Lowered, ProgramLoc,
 };
 use crate::program::{GroupObject, ModuleSource};
-use optik_api::frontend::{self, BindingInfo, BindingKind, CompiledModule};
 use optik_api::{
-    Accuracy, Error, ExceptionFlags, FeatureSet, Handle, Module, PipelineLinkOptions,
-    ProgramFeatures, ProgramGroup, ProgramGroupDesc, ProgramKind, RawHandle, Result,
+    Accuracy, Error, ExceptionFlags, FeatureSet, Handle, Module, PipelineLinkOptions, ProgramGroup,
+    ProgramGroupDesc, ProgramKind, RawHandle, Result,
 };
+use optik_core::frontend::{self, BindingInfo, BindingKind, CompiledModule};
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -72,13 +72,13 @@ pub(crate) fn link(
         }
     }
     let descs: Vec<&ProgramGroupDesc> = groups.iter().map(|(_, g)| &g.desc).collect();
-    let program_features = ProgramFeatures::of_groups(&descs, |p| {
+    let program_features = optik_core::features::program_features(&descs, |p| {
         sources
             .iter()
             .find(|(m, _)| *m == p.module)
             .map(|(_, s)| &s.compiled)
     });
-    let features = optik_api::features::resolve(
+    let features = optik_core::features::resolve(
         options,
         link,
         scene,

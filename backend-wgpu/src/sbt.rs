@@ -5,7 +5,7 @@
 //! `optik_api::SbtHeader`) is replaced by `(pipeline group index, group flags, 0 × 6)`, so
 //! the kernel's `switch` selects the program and `rt_sbt_data_*` reads the data after the
 //! header at the same offsets the user wrote it. Headers are checked on the host by
-//! `optik_api::sbt::resolve_record_header`, the check every backend shares.
+//! `optik_core::sbt::resolve_record_header`, the check every backend shares.
 
 use crate::pipeline::PipelineObject;
 use optik_api::{Buffer, Error, GroupRegion, Result, SBT_RECORD_HEADER_SIZE, ShaderBindingTable};
@@ -53,7 +53,7 @@ pub(crate) fn pack(
             .map(|(_, d)| d)
             .ok_or_else(|| Error::backend("SBT buffer cache"))?;
         let header_end = offset + SBT_RECORD_HEADER_SIZE as u64;
-        let group = optik_api::sbt::resolve_record_header(
+        let group = optik_core::sbt::resolve_record_header(
             &what,
             data,
             offset,

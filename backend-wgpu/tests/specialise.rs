@@ -108,7 +108,7 @@ fn forcing_every_feature_compiles_every_part() {
             parts.next().is_some_and(digits) && parts.next().is_none_or(digits)
         })
     };
-    let unprefixed: Vec<String> = optik_api::wgsl::unprefixed_internal_names(&kernel, &src)
+    let unprefixed: Vec<String> = optik_core::frontend::unprefixed_internal_names(&kernel, &src)
         .into_iter()
         .filter(|n| !module_prefixed(n))
         .collect();

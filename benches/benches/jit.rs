@@ -412,7 +412,7 @@ impl Scene {
 }
 
 fn compile() -> JitModule {
-    let module = optik_api::frontend::compile(&ProgramSource::new("bench.wgsl", SHADER), 4)
+    let module = optik_core::frontend::compile(&ProgramSource::new("bench.wgsl", SHADER), 4)
         .expect("front end");
     let options = JitOptions {
         disk_cache: DiskCache::Disabled,

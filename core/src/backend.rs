@@ -1,6 +1,6 @@
 //! [`Backend`]: what a backend implements, unchecked.
 
-use optik_api::frontend::BindingInfo;
+use crate::frontend::BindingInfo;
 use optik_api::{
     Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BuildInput,
     DeviceId, DeviceProperties, FeatureSet, GroupRegion, LaunchOptions, LaunchSize, MicromapArray,
@@ -13,7 +13,7 @@ use optik_api::{
 /// [`crate::Device`] makes before it calls them.
 ///
 /// Each method's documentation says what has been checked by the time it runs. Handles are
-/// not: a backend looks each up in its own `optik_api::HandleTable`, whose errors are the
+/// not: a backend looks each up in its own `crate::HandleTable`, whose errors are the
 /// same on every backend. Methods that only report (`buffer_size`, `texture_desc`,
 /// `accel_build_record`, `module_programs`, `group_region`, `pipeline_bindings`) give
 /// [`crate::Device`] what its checks need.
@@ -50,7 +50,7 @@ pub trait Backend: Send + Sync + 'static {
     fn destroy_texture(&self, texture: Texture) -> Result<()>;
 
     /// The memory a build would need; options and inputs have been checked
-    /// (`optik_api::validate::build_inputs`), `motion_keys` is their key count.
+    /// (`crate::validate::build_inputs`), `motion_keys` is their key count.
     fn accel_memory_usage(
         &self,
         options: &AccelBuildOptions,

@@ -1,13 +1,14 @@
 //! [`Device<B>`]: `optik_api::Device` for every backend, checking each call once.
 
 use crate::Backend;
+use crate::validate;
 use optik_api::{
     Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BuildFlags,
     BuildInput, BuildOperation, DeviceId, DeviceProperties, Error, FeatureSet, GroupRegion,
     LaunchOptions, LaunchSize, MicromapArray, Module, ModuleCompileOptions,
     OpacityMicromapArrayDesc, Pipeline, PipelineCompileOptions, PipelineLinkOptions, ProgramGroup,
     ProgramGroupDesc, ProgramKind, ProgramSource, Resource, Result, SbtHeader, ShaderBindingTable,
-    Texture, TextureDesc, TransformDesc, TraversableHandle, validate,
+    Texture, TextureDesc, TransformDesc, TraversableHandle,
 };
 
 /// Most payload registers a module or pipeline may ask for (OptiX's 32).

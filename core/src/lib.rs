@@ -9,14 +9,31 @@
 //! here, with one message whatever the backend. `conformance/tests/misuse.rs` holds every
 //! backend to that.
 //!
-//! What stays in the backends: handle tables and locking (each checks the handles it is
-//! given: a destroyed or foreign handle is an `InvalidHandle` error from
-//! `optik_api::HandleTable`, which words it one way), the SBT record headers (read where the
-//! backend reads records, through `optik_api::sbt::resolve_record_header`), and the limits
-//! only a backend knows (a driver's uniform range, a GPU's workgroup counts).
+//! What every backend shares, beside the checks, also lives here, once:
+//! - [`frontend`]: the WGSL program front end (prelude, parse, checks, reflection);
+//! - [`validate`]: the checks of user input, each naming what was wrong and what was
+//!   expected ([`Device`] calls them before any backend method);
+//! - [`HandleTable`]: the checked handle tables backends keep their objects in;
+//! - [`sbt`]: the reader of the user's SBT record headers;
+//! - [`features`]: feature resolution, from options, scene and programs;
+//! - [`unwind`]: the exception-unwinding pass on naga IR of the GPU backends.
+//!
+//! What stays in the backends: their objects in their own tables and locks, the records
+//! they read (through [`sbt::resolve_record_header`]), and the limits only a backend knows
+//! (a driver's uniform range, a GPU's workgroup counts).
 
 mod backend;
 mod device;
+pub mod features;
+pub mod frontend;
+mod handle_table;
+pub mod sbt;
+pub mod unwind;
+pub mod validate;
 
 pub use backend::Backend;
 pub use device::Device;
+pub use handle_table::HandleTable;
+
+/// naga, re-exported so backends lower the same IR version the front end produces.
+pub use naga;

@@ -11,7 +11,7 @@
 //! Every module-scope name in them, and in the WGSL the backends generate around the user's
 //! programs, starts with [`INTERNAL_PREFIX`] (`_optik_name` for functions and variables,
 //! `_OPTIK_NAME` for constants, `_OptikName` for types); the front end refuses user names
-//! that do ([`crate::frontend::compile`]), so the two never clash.
+//! that do (`optik_core::frontend::compile`), so the two never clash.
 //!
 //! Dependencies: [`CURVE`] needs [`SPHERE`]; [`SLAB`], [`TRIANGLE`] and [`MOTION`] need [`RAY`];
 //! [`BVH4`] needs [`RAY`] and [`SLAB`]; [`BVH4`] and [`MICROMAP`] call
@@ -27,26 +27,6 @@ pub const INTERNAL_PREFIX: &str = "_optik";
 pub fn is_internal_name(name: &str) -> bool {
     name.get(..INTERNAL_PREFIX.len())
         .is_some_and(|p| p.eq_ignore_ascii_case(INTERNAL_PREFIX))
-}
-
-/// The module-scope names `generated` declares (functions, structs, aliases, constants,
-/// overrides, variables) that are neither declared by `user` nor device-API names of the
-/// front end's prelude, and do not start with [`INTERNAL_PREFIX`]: what a backend's
-/// generated WGSL must not have. Backends test their generated sources with it.
-pub fn unprefixed_internal_names(generated: &str, user: &str) -> Vec<String> {
-    let user: Vec<String> = crate::frontend::scan::module_scope_names(user)
-        .into_iter()
-        .map(|d| d.name)
-        .collect();
-    let api: Vec<String> = crate::frontend::scan::module_scope_names(&crate::frontend::prelude(32))
-        .into_iter()
-        .map(|d| d.name)
-        .collect();
-    crate::frontend::scan::module_scope_names(generated)
-        .into_iter()
-        .map(|d| d.name)
-        .filter(|n| !is_internal_name(n) && !user.contains(n) && !api.contains(n))
-        .collect()
 }
 
 /// The sphere intersector: `_optik_sphere_roots` (Ray Tracing Gems ch. 7) and the hit kinds
@@ -137,23 +117,6 @@ mod tests {
                 "{name} missing"
             );
         }
-    }
-
-    #[test]
-    fn every_shared_name_has_the_internal_prefix() {
-        let all = [RAY, SLAB, TRIANGLE, SPHERE, CURVE, MOTION, BVH4, MICROMAP].concat();
-        assert_eq!(unprefixed_internal_names(&all, ""), Vec::<String>::new());
-        // The check sees every kind of declaration, leaves the user's and the device API's
-        // names alone, and ignores letter case in the prefix.
-        let generated = "fn helper() {}\nconst LIMIT: u32 = 1u;\nstruct Hit { t: f32 }\n\
-                         fn _optik_a() {}\nconst _OPTIK_B: u32 = 2u;\nstruct _OptikC { t: f32 }\n\
-                         fn raygen__a() {}\nfn rt_trace() {}\nalias RtPayload = u32;";
-        assert_eq!(
-            unprefixed_internal_names(generated, "fn raygen__a() {}"),
-            ["helper", "LIMIT", "Hit"]
-        );
-        assert!(is_internal_name("_OptikX") && is_internal_name("_optik_x"));
-        assert!(!is_internal_name("optik_x") && !is_internal_name("_opti"));
     }
 
     fn validate(src: &str, f64: bool) {

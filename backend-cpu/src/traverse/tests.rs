@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::accel::{Gas, MicromapArrayData, MicromapLookup, SceneTable, Traversable};
-use optik_api::decode::BufferBytes;
+use optik_accel::decode::BufferBytes;
 use optik_api::{
     AccelBuildOptions, Buffer, BufferView, BuildInput, DeviceId, GeometryFlags, Handle,
     MicromapArray, PrimitiveTypeFlags, RawHandle, RayFlags, Result, TraversableHandle,

@@ -1,4 +1,4 @@
-//! Build inputs decoded on the host (with `optik_api::decode`, which checks index and SBT
+//! Build inputs decoded on the host (with `optik_accel::decode`, which checks index and SBT
 //! offset ranges) into what the Vulkan builds take: `f32` vertices with `u32` indices for
 //! native triangles, and packed AABBs for everything optik intersects itself, one Vulkan
 //! geometry per SBT record (DESIGN.md §2: OptiX's per-primitive SBT offsets select among an
@@ -21,7 +21,7 @@
 //! intersection program (conformance `numerics.near_box_faces`).
 
 use super::tables::{self, NONE, Record};
-use optik_api::decode::{self, BufferBytes};
+use optik_accel::decode::{self, BufferBytes};
 use optik_api::semantics::primitive;
 use optik_api::{
     AccelBuildOptions, BuildFlags, BuildInput, CurveEndcaps, CurveType, Error, GeometryFlags,

@@ -661,8 +661,10 @@ impl Inner {
         ia: &InstanceArray,
     ) -> Result<(Vec<Instance>, Vec<Option<Accel>>)> {
         let downloaded = self.download_for_snapshot(&[ia.instances.buffer])?;
-        let instances =
-            decode::instances(ia, &self.snapshot_view(downloaded, &[ia.instances.buffer])?)?;
+        let instances = optik_accel::decode::instances(
+            ia,
+            &self.snapshot_view(downloaded, &[ia.instances.buffer])?,
+        )?;
         let mut children = Vec::with_capacity(instances.len());
         for (i, inst) in instances.iter().enumerate() {
             if inst.traversable_handle == 0 {

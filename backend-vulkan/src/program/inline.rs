@@ -17,7 +17,7 @@ use super::config::LoweringConfig;
 use super::prelude::raise_if;
 use naga::{Block, Function, Handle, Statement};
 use optik_api::ExceptionFlags;
-use optik_api::frontend::CompiledModule;
+use optik_core::frontend::CompiledModule;
 use std::collections::{BTreeSet, HashMap};
 
 /// The direct callables of a pipeline a module holds: their program id in the pipeline's

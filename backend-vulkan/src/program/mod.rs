@@ -19,8 +19,8 @@ mod unwind;
 
 pub use config::{HitContext, LoweringConfig, StageRole, TriangleMode, VkStage};
 
-use optik_api::frontend::CompiledModule;
 use optik_api::{Error, Result};
+use optik_core::frontend::CompiledModule;
 use postpass::{PostPassError, StageShape};
 
 /// One lowered stage.

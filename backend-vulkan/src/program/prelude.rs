@@ -36,8 +36,8 @@
 use super::config::{HitContext, LoweringConfig, StageRole, stage_code};
 use super::emulation;
 use super::intrinsic::Intrinsic;
-use optik_api::frontend::{OFFSET_RAY_BODY, PRELUDE_CONSTANTS, PRELUDE_EXCEPTION_CODES};
 use optik_api::{ExceptionFlags, ProgramKind};
+use optik_core::frontend::{OFFSET_RAY_BODY, PRELUDE_CONSTANTS, PRELUDE_EXCEPTION_CODES};
 
 /// Words of shader record data a program can address (`rt_sbt_data_u32` indices are clamped
 /// below this); the translated SBT buffer is padded by as many bytes so no read leaves it.
@@ -396,7 +396,7 @@ pub(crate) fn raise_if(c: &LoweringConfig, flag: ExceptionFlags, code: &str) -> 
 
 /// The device functions with their Vulkan bodies, in the API prelude's order and signatures.
 fn device_functions(c: &LoweringConfig) -> String {
-    use optik_api::frontend::DeviceFunction as F;
+    use optik_core::frontend::DeviceFunction as F;
     let last_payload = c.payload_len.max(1) - 1;
     let state = c.uses_state();
     let mut s = String::new();

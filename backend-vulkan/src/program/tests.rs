@@ -155,7 +155,7 @@ fn continuation_callable__cc() {
 "#;
 
 pub(crate) fn user_roles(src: &str) -> Vec<StageRole> {
-    let compiled = optik_api::frontend::compile(&ProgramSource::new("everything.wgsl", src), 4)
+    let compiled = optik_core::frontend::compile(&ProgramSource::new("everything.wgsl", src), 4)
         .unwrap_or_else(|e| panic!("{e}"));
     let mut roles = Vec::new();
     for p in &compiled.programs {
@@ -381,7 +381,7 @@ fn intersection__is() {
 fn raygen__rg() { }
 "#;
     let compiled =
-        optik_api::frontend::compile(&ProgramSource::new("inline.wgsl", src), 4).unwrap();
+        optik_core::frontend::compile(&ProgramSource::new("inline.wgsl", src), 4).unwrap();
     let callables = [
         (0, "direct_callable__leaf".to_string()),
         (1, "direct_callable__nested".to_string()),
@@ -450,7 +450,7 @@ fn every_generated_name_has_the_internal_prefix() {
     let roles = user_roles(EVERYTHING);
     for config in [largest_config(), LoweringConfig::default()] {
         let text = vulkan_source(ModuleText::User(EVERYTHING), &config, &roles, None);
-        let bad: Vec<String> = optik_api::wgsl::unprefixed_internal_names(&text, EVERYTHING)
+        let bad: Vec<String> = optik_core::frontend::unprefixed_internal_names(&text, EVERYTHING)
             .into_iter()
             .filter(|n| !is_copy(n, EVERYTHING))
             .collect();
@@ -462,7 +462,7 @@ fn every_generated_name_has_the_internal_prefix() {
             &roles,
             None,
         );
-        let bad = optik_api::wgsl::unprefixed_internal_names(&text, "");
+        let bad = optik_core::frontend::unprefixed_internal_names(&text, "");
         assert!(bad.is_empty(), "internal module: {bad:?}");
     }
 }

@@ -2,11 +2,11 @@
 //! Vulkan cannot end an invocation from inside a function, so the lowering unwinds: after
 //! every call that may raise an exception, user functions check the prelude's private flag
 //! `_optik_unwound` and return at once, by the pass every GPU backend shares
-//! (`optik_api::unwind`). (A flag, not a call: naga needs callees before callers in its
+//! (`optik_core::unwind`). (A flag, not a call: naga needs callees before callers in its
 //! function arena, and the prelude's functions come after the user's.)
 
 use naga::{Function, Handle, Module};
-use optik_api::unwind::{self, Unwinding, UnwoundFlag};
+use optik_core::unwind::{self, Unwinding, UnwoundFlag};
 use std::collections::{HashMap, HashSet};
 
 /// The device functions that may raise: the traces and calls (whose callees may raise, and

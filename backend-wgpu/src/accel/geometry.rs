@@ -8,8 +8,8 @@
 
 use super::bvh4::{Bvh4, NODE_VEC4S};
 use super::layout::{self, HEADER_VEC4S, kind, prim};
+use optik_accel::decode::BufferBytes;
 use optik_accel::{Aabb, Gas, Geometry, MicromapLookup, MicromapRef, curve_caps};
-use optik_api::decode::BufferBytes;
 use optik_api::{AccelBuildOptions, BuildFlags, BuildInput, Error, OpacityMicromapFormat, Result};
 
 /// What an update needs: the host structure and the wide tree of the build.

@@ -6,8 +6,8 @@
 
 use super::bvh4::{Bvh4, NODE_VEC4S};
 use super::layout::{self, HEADER_VEC4S, INSTANCE_VEC4S, kind};
+use optik_accel::decode::{self, BufferBytes};
 use optik_accel::{Aabb, BuildQuality, Bvh, TransformKind, motion_bounds};
-use optik_api::decode::{self, BufferBytes};
 use optik_api::semantics::{affine, sbt_index};
 use optik_api::{
     AccelBuildOptions, InstanceArray, MotionKinds, Result, SceneFeatures, TransformDesc,

@@ -8,7 +8,7 @@
 
 use super::KernelConfig;
 use crate::program::instance::device_stub_name;
-use optik_api::frontend::DeviceFunction;
+use optik_core::frontend::DeviceFunction;
 
 pub(super) fn write(c: &KernelConfig<'_>, out: &mut String) {
     let n = c.payload_len();

@@ -3,7 +3,7 @@
 //! can unwind.
 
 use naga::{AddressSpace, Block, Expression, Function, GlobalVariable, Handle, Module, Statement};
-use optik_api::frontend::DeviceFunction;
+use optik_core::frontend::DeviceFunction;
 use std::collections::BTreeSet;
 
 /// Facts about one function, including everything it calls.

@@ -16,7 +16,7 @@
 //! Device-API calls become calls to stubs named `_optik_*_fn`; after naga writes the module
 //! with `wgsl-out`, the stubs' bodies are cut out and `crate::kernel` supplies real ones.
 //! After every call that may unwind (ignore, terminate, an exception), the copy checks
-//! `_optik_unwinding_fn()` and returns (the shared pass of `optik_api::unwind`), which is how
+//! `_optik_unwinding_fn()` and returns (the shared pass of `optik_core::unwind`), which is how
 //! "does not return" is expressed in WGSL.
 
 use super::analysis::{self, FnFacts};
@@ -24,9 +24,9 @@ use naga::{
     AddressSpace, Block, Expression, Function, FunctionResult, GlobalVariable, Handle, Module,
     Scalar, Span, Statement, Type, TypeInner,
 };
-use optik_api::frontend::{CompiledModule, DeviceFunction};
-use optik_api::unwind::{self, Unwinding, UnwoundFlag};
 use optik_api::{Error, Result};
+use optik_core::frontend::{CompiledModule, DeviceFunction};
+use optik_core::unwind::{self, Unwinding, UnwoundFlag};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 
 /// Where a program is: a module (index into the pipeline's modules) and a function.
@@ -687,7 +687,7 @@ fn for_each_call(block: &mut Block, f: &mut CallVisitor<'_>) {
 fn finish(w: &mut ModuleWork<'_>) -> Result<String> {
     let info = naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
-        optik_api::frontend::capabilities(),
+        optik_core::frontend::capabilities(),
     )
     .validate(&w.out)
     .map_err(|e| {

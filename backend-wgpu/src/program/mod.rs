@@ -8,11 +8,11 @@
 pub(crate) mod analysis;
 pub(crate) mod instance;
 
-use optik_api::frontend::{self, CompiledModule};
 use optik_api::{
     Error, ModuleCompileOptions, PipelineCompileOptions, ProgramGroupDesc, ProgramRef,
     ProgramSource, Result,
 };
+use optik_core::frontend::{self, CompiledModule};
 use std::sync::Arc;
 
 /// A compiled module.

@@ -55,7 +55,8 @@ pub fn run(data: &[u8]) -> Outcome {
     let Ok(text) = std::str::from_utf8(data) else {
         return Outcome::Rejected;
     };
-    let Ok(module) = optik_api::frontend::compile(&ProgramSource::new("fuzz.wgsl", text), 8) else {
+    let Ok(module) = optik_core::frontend::compile(&ProgramSource::new("fuzz.wgsl", text), 8)
+    else {
         return Outcome::Rejected;
     };
     let jit = JitModule::compile_uncached(

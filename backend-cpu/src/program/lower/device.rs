@@ -18,7 +18,7 @@ use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::types::{F32, I32, I64};
 use cranelift_codegen::ir::{BlockArg, InstBuilder, MemFlagsData, Type, Value};
 use naga::{Expression, Handle, TypeInner};
-use optik_api::frontend::DeviceFunction as D;
+use optik_core::frontend::DeviceFunction as D;
 
 impl Lowerer<'_, '_> {
     /// Lowers a call of the device function `df`.

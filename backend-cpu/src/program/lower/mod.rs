@@ -30,7 +30,7 @@ use cranelift_codegen::isa::TargetFrontendConfig;
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 pub(crate) use device::state_bits;
 use naga::{Expression, Function, GlobalVariable, Handle};
-use optik_api::frontend::{CompiledModule, DeviceFunction};
+use optik_core::frontend::{CompiledModule, DeviceFunction};
 pub(crate) use place::Place;
 use std::collections::{HashMap, HashSet};
 use types::Types;

@@ -28,7 +28,7 @@ impl Leaf {
     }
 
     /// The leaf of a naga scalar; f16, f64 and 64-bit integers are outside the front end's
-    /// capabilities (`optik_api::frontend::capabilities`), so they never reach here from a
+    /// capabilities (`optik_core::frontend::capabilities`), so they never reach here from a
     /// validated module.
     pub fn of(scalar: Scalar) -> LResult<Leaf> {
         match (scalar.kind, scalar.width) {

@@ -14,14 +14,14 @@ mod texture;
 use super::abi::{Bindings, BoundBuffer, BoundResource, DeviceCalls, DeviceState};
 use super::{DiskCache, JitModule, JitOptions};
 use optik_api::ProgramSource;
-use optik_api::frontend::CompiledModule;
+use optik_core::frontend::CompiledModule;
 
 /// Payload registers of test modules.
 pub const PAYLOAD: u32 = 4;
 
 /// Parses and checks `wgsl` with the front end.
 pub fn front(wgsl: &str) -> CompiledModule {
-    optik_api::frontend::compile(&ProgramSource::new("test.wgsl", wgsl), PAYLOAD)
+    optik_core::frontend::compile(&ProgramSource::new("test.wgsl", wgsl), PAYLOAD)
         .unwrap_or_else(|e| panic!("front end rejected the test program: {e}"))
 }
 

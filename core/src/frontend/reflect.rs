@@ -7,9 +7,9 @@
 
 use super::device_api::DeviceFunction;
 use super::locate::Locator;
-use crate::error::Diagnostic;
-use crate::program::ProgramKind;
 use naga::{AddressSpace, Block, Expression, Function, Handle, Module, Span, Statement, TypeInner};
+use optik_api::error::Diagnostic;
+use optik_api::program::ProgramKind;
 use std::collections::{BTreeSet, HashMap, VecDeque};
 
 /// One program of a module.

@@ -10,7 +10,7 @@ fn compile_src(src: &str) -> Result<CompiledModule> {
 /// The single diagnostic of a module that must fail.
 fn diag(src: &str) -> Diagnostic {
     let e = compile_src(src).expect_err("module should not compile");
-    assert_eq!(e.kind(), crate::ErrorKind::Compile);
+    assert_eq!(e.kind(), optik_api::ErrorKind::Compile);
     assert!(!e.diagnostics().is_empty(), "{e}");
     e.diagnostics()[0].clone()
 }
@@ -443,4 +443,30 @@ fn invalid_utf8_names_its_byte_offset() {
         "{d}"
     );
     assert!(d.message.contains("byte offset 25 holds 0xe9"), "{d}");
+}
+
+#[test]
+fn every_shared_name_has_the_internal_prefix() {
+    let all = {
+        use optik_api::wgsl::*;
+        [RAY, SLAB, TRIANGLE, SPHERE, CURVE, MOTION, BVH4, MICROMAP].concat()
+    };
+    assert_eq!(unprefixed_internal_names(&all, ""), Vec::<String>::new());
+    // The check sees every kind of declaration, leaves the user's and the device API's
+    // names alone, and ignores letter case in the prefix.
+    let generated = "fn helper() {}\nconst LIMIT: u32 = 1u;\nstruct Hit { t: f32 }\n\
+                         fn _optik_a() {}\nconst _OPTIK_B: u32 = 2u;\nstruct _OptikC { t: f32 }\n\
+                         fn raygen__a() {}\nfn rt_trace() {}\nalias RtPayload = u32;";
+    assert_eq!(
+        unprefixed_internal_names(generated, "fn raygen__a() {}"),
+        ["helper", "LIMIT", "Hit"]
+    );
+    assert!(
+        optik_api::wgsl::is_internal_name("_OptikX")
+            && optik_api::wgsl::is_internal_name("_optik_x")
+    );
+    assert!(
+        !optik_api::wgsl::is_internal_name("optik_x")
+            && !optik_api::wgsl::is_internal_name("_opti")
+    );
 }

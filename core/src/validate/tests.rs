@@ -1,10 +1,10 @@
 //! Every validation error path, each asserting what its message names.
 
 use super::*;
-use crate::accel::*;
-use crate::flags::*;
-use crate::handle::{DeviceId, Handle, RawHandle};
-use crate::launch::{SamplerDesc, TextureFormat};
+use optik_api::accel::*;
+use optik_api::flags::*;
+use optik_api::handle::{DeviceId, Handle, RawHandle};
+use optik_api::launch::{SamplerDesc, TextureFormat};
 
 fn props() -> DeviceProperties {
     DeviceProperties {
@@ -23,7 +23,7 @@ fn props() -> DeviceProperties {
         max_attribute_values: 8,
         max_launch_size: 1 << 20,
         max_buffer_size: 1 << 30,
-        backend: crate::device::BackendKind::Cpu,
+        backend: optik_api::device::BackendKind::Cpu,
         device_name: "test".into(),
     }
 }
@@ -40,7 +40,7 @@ fn buf(slot: u32) -> Buffer {
 fn sizes(b: Buffer) -> Result<u64> {
     if b.raw().slot == 9 {
         return Err(Error::new(
-            crate::ErrorKind::InvalidHandle,
+            optik_api::ErrorKind::InvalidHandle,
             "buffer handle was destroyed",
         ));
     }
@@ -454,7 +454,7 @@ fn region(slot: u32, offset: u64, stride: u32, count: u32) -> SbtRegion {
 
 #[test]
 fn sbt_shapes() {
-    let rec = crate::sbt::SbtRecord {
+    let rec = optik_api::sbt::SbtRecord {
         buffer: buf(10),
         offset: 0,
     };
@@ -467,7 +467,7 @@ fn sbt_shapes() {
     };
     assert!(sbt(&good, &props(), &sizes).is_ok());
     let t = ShaderBindingTable {
-        raygen: crate::sbt::SbtRecord {
+        raygen: optik_api::sbt::SbtRecord {
             buffer: buf(10),
             offset: 8,
         },
@@ -478,7 +478,7 @@ fn sbt_shapes() {
         &["sbt.raygen.offset is 8", "multiple of 16"],
     );
     let t = ShaderBindingTable {
-        raygen: crate::sbt::SbtRecord {
+        raygen: optik_api::sbt::SbtRecord {
             buffer: buf(10),
             offset: 992,
         },
@@ -523,7 +523,7 @@ fn sbt_shapes() {
     };
     expect_err(sbt(&t, &props(), &sizes), &["sbt.callables.offset is 4"]);
     let t = ShaderBindingTable {
-        exception: Some(crate::sbt::SbtRecord {
+        exception: Some(optik_api::sbt::SbtRecord {
             buffer: buf(9),
             offset: 0,
         }),
@@ -535,13 +535,13 @@ fn sbt_shapes() {
 #[test]
 fn launch_bindings_checks() {
     // Build real binding infos through the front end.
-    let src = crate::device::ProgramSource::new(
+    let src = optik_api::device::ProgramSource::new(
         "b.wgsl",
         "struct P { a: vec4<f32> }\n@group(0) @binding(0) var<uniform> params: P;\n@group(0) @binding(1) var<storage, read_write> out: array<u32>;\n@group(0) @binding(2) var tex: texture_2d<f32>;\n@group(0) @binding(3) var smp: sampler;\nfn raygen__a() { out[0] = u32(params.a.x) + u32(textureSampleLevel(tex, smp, vec2<f32>(0.0), 0.0).x); }\n",
     );
     let m = crate::frontend::compile(&src, 1).unwrap();
     let b = &m.bindings;
-    let tex = crate::handle::Texture::from_raw(RawHandle {
+    let tex = optik_api::handle::Texture::from_raw(RawHandle {
         device: DeviceId(1),
         slot: 0,
         generation: 0,

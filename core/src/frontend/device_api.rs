@@ -6,8 +6,8 @@
 //! backend replaces them (Cranelift host calls, generated WGSL, SPIR-V ray tracing
 //! instructions). `rt_offset_ray` is the exception: its body is the real, shared algorithm.
 
-use crate::program::ProgramKind;
 use ProgramKind::*;
+use optik_api::program::ProgramKind;
 
 /// One device function of the prelude.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -323,35 +323,35 @@ pub const PRELUDE_CONSTANTS: &[(&str, &str, u32)] = &[
 pub const PRELUDE_EXCEPTION_CODES: &[(&str, i32)] = &[
     (
         "RT_EXCEPTION_CODE_STACK_OVERFLOW",
-        crate::semantics::exception::STACK_OVERFLOW,
+        optik_api::semantics::exception::STACK_OVERFLOW,
     ),
     (
         "RT_EXCEPTION_CODE_TRACE_DEPTH_EXCEEDED",
-        crate::semantics::exception::TRACE_DEPTH_EXCEEDED,
+        optik_api::semantics::exception::TRACE_DEPTH_EXCEEDED,
     ),
     (
         "RT_EXCEPTION_CODE_INVALID_TRAVERSABLE",
-        crate::semantics::exception::INVALID_TRAVERSABLE,
+        optik_api::semantics::exception::INVALID_TRAVERSABLE,
     ),
     (
         "RT_EXCEPTION_CODE_INVALID_MISS_SBT",
-        crate::semantics::exception::INVALID_MISS_SBT,
+        optik_api::semantics::exception::INVALID_MISS_SBT,
     ),
     (
         "RT_EXCEPTION_CODE_INVALID_HIT_SBT",
-        crate::semantics::exception::INVALID_HIT_SBT,
+        optik_api::semantics::exception::INVALID_HIT_SBT,
     ),
     (
         "RT_EXCEPTION_CODE_UNSUPPORTED_PRIMITIVE_TYPE",
-        crate::semantics::exception::UNSUPPORTED_PRIMITIVE_TYPE,
+        optik_api::semantics::exception::UNSUPPORTED_PRIMITIVE_TYPE,
     ),
     (
         "RT_EXCEPTION_CODE_INVALID_RAY",
-        crate::semantics::exception::INVALID_RAY,
+        optik_api::semantics::exception::INVALID_RAY,
     ),
     (
         "RT_EXCEPTION_CODE_CALLABLE_INVALID_SBT",
-        crate::semantics::exception::CALLABLE_INVALID_SBT,
+        optik_api::semantics::exception::CALLABLE_INVALID_SBT,
     ),
 ];
 

@@ -17,10 +17,10 @@ pub use device_api::{
 };
 pub use reflect::{BindingInfo, BindingKind, ProgramInfo};
 
-use crate::device::ProgramSource;
-use crate::error::{Diagnostic, Error, Result};
-use crate::program::ProgramKind;
 use locate::Locator;
+use optik_api::device::ProgramSource;
+use optik_api::error::{Diagnostic, Error, Result};
+use optik_api::program::ProgramKind;
 
 /// A parsed, validated and checked module, ready for a backend to lower.
 #[derive(Debug, Clone)]
@@ -213,7 +213,7 @@ fn fallback_span(message: &str, user: &str) -> naga::Span {
 /// What naga cannot report in the user's text because it only notices it in the prelude
 /// that follows: a bracket or comment left open, module-scope names that would hide a name
 /// the prelude declares or relies on, and names with the prefix of the WGSL the backends add
-/// (`crate::wgsl::INTERNAL_PREFIX`), which would clash there.
+/// (`optik_api::wgsl::INTERNAL_PREFIX`), which would clash there.
 fn check_user_text(loc: &Locator, user: &str, prelude_text: &str) -> Result<()> {
     let one = |start: usize, end: usize, message: String| {
         Err(Error::compile(vec![loc.diagnostic(
@@ -249,13 +249,13 @@ fn check_user_text(loc: &Locator, user: &str, prelude_text: &str) -> Result<()> 
             "override" => "an override",
             _ => "a variable",
         };
-        if crate::wgsl::is_internal_name(&d.name) {
+        if optik_api::wgsl::is_internal_name(&d.name) {
             diagnostics.push(loc.diagnostic(
                 naga::Span::new(d.start as u32, d.end as u32),
                 format!(
                     "{what} named `{}`: names starting with `{}` (in any letter case) are reserved for the WGSL optik adds to your programs; rename it",
                     d.name,
-                    crate::wgsl::INTERNAL_PREFIX
+                    optik_api::wgsl::INTERNAL_PREFIX
                 ),
             ));
             continue;
@@ -319,6 +319,26 @@ pub fn source_from_bytes(file_name: &str, bytes: &[u8]) -> Result<ProgramSource>
 /// The programs of a module kind by kind, for listings.
 pub fn programs_of_kind(module: &CompiledModule, kind: ProgramKind) -> Vec<&ProgramInfo> {
     module.programs.iter().filter(|p| p.kind == kind).collect()
+}
+
+/// The module-scope names `generated` declares (functions, structs, aliases, constants,
+/// overrides, variables) that are neither declared by `user` nor device-API names of the
+/// front end's prelude, and do not start with `optik_api::wgsl::INTERNAL_PREFIX`: what a backend's
+/// generated WGSL must not have. Backends test their generated sources with it.
+pub fn unprefixed_internal_names(generated: &str, user: &str) -> Vec<String> {
+    let user: Vec<String> = scan::module_scope_names(user)
+        .into_iter()
+        .map(|d| d.name)
+        .collect();
+    let api: Vec<String> = scan::module_scope_names(&prelude(32))
+        .into_iter()
+        .map(|d| d.name)
+        .collect();
+    scan::module_scope_names(generated)
+        .into_iter()
+        .map(|d| d.name)
+        .filter(|n| !optik_api::wgsl::is_internal_name(n) && !user.contains(n) && !api.contains(n))
+        .collect()
 }
 
 #[cfg(test)]

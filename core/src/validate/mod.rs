@@ -4,17 +4,17 @@
 //! Backends call these before touching any data, so a bad input is reported the same way on
 //! every backend and nothing is half-built.
 
-use crate::accel::{
+use crate::frontend::{BindingInfo, BindingKind};
+use optik_api::accel::{
     AccelBuildOptions, BuildInput, BuildOperation, Instance, MAX_MICROMAP_SUBDIVISION_LEVEL,
     MotionOptions, OpacityMicromapArrayDesc, OpacityMicromapFormat, SbtIndexOffsets, TransformDesc,
 };
-use crate::device::DeviceProperties;
-use crate::error::{Error, Result};
-use crate::frontend::{BindingInfo, BindingKind};
-use crate::handle::Buffer;
-use crate::launch::{LaunchSize, Resource, TextureDesc};
-use crate::sbt::{SBT_RECORD_ALIGNMENT, SBT_RECORD_HEADER_SIZE, SbtRegion, ShaderBindingTable};
-use crate::semantics::{affine, motion};
+use optik_api::device::DeviceProperties;
+use optik_api::error::{Error, Result};
+use optik_api::handle::Buffer;
+use optik_api::launch::{LaunchSize, Resource, TextureDesc};
+use optik_api::sbt::{SBT_RECORD_ALIGNMENT, SBT_RECORD_HEADER_SIZE, SbtRegion, ShaderBindingTable};
+use optik_api::semantics::{affine, motion};
 
 /// Looks up buffer sizes (and checks the handles) for validation.
 pub trait BufferSizes {
@@ -508,7 +508,7 @@ pub fn update(
     }
     if !built_with
         .flags
-        .contains(crate::flags::BuildFlags::ALLOW_UPDATE)
+        .contains(optik_api::flags::BuildFlags::ALLOW_UPDATE)
     {
         return Err(Error::invalid(
             "the acceleration structure was built without BuildFlags::ALLOW_UPDATE, so it cannot be updated; rebuild it with that flag",
@@ -561,7 +561,7 @@ pub fn transform(desc: &TransformDesc) -> Result<()> {
                 .fold(1.0f32, |a, v| a.max(v.abs()));
             let off = product
                 .iter()
-                .zip(crate::accel::IDENTITY_3X4.iter())
+                .zip(optik_api::accel::IDENTITY_3X4.iter())
                 .map(|(a, b)| (a - b).abs())
                 .fold(0.0f32, f32::max);
             if off > 1e-3 * scale {

@@ -1,6 +1,6 @@
 //! Turning naga spans into diagnostics at the user's `file:line:column`.
 
-use crate::error::Diagnostic;
+use optik_api::error::Diagnostic;
 
 /// Maps byte spans of the parsed source (user source + prelude) to diagnostics.
 pub(crate) struct Locator<'a> {

@@ -1,17 +1,19 @@
-//! Reading build inputs out of buffer bytes, shared by the backends that build on the host
-//! (CPU, and wgpu which uses the CPU builders) and by the Vulkan backend's checks.
+//! Reading build inputs out of buffer bytes, shared by optik-accel's builders (which every
+//! backend builds with) and by the Vulkan backend's checks.
 //!
-//! Every function here assumes [`crate::validate::build_inputs`] passed, and still returns
+//! Every function here assumes `optik_core::validate::build_inputs` passed, and still returns
 //! an error (never panics) for data that only the bytes can reveal: indices past the vertex
 //! count, SBT offsets past the record count, micromap indices past the array.
 
-use crate::accel::{
+// `!(x >= 0.0)` is how this module says "negative or NaN": the NaN case is the point.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+use optik_api::accel::{
     BufferView, CurveArray, CustomPrimitiveArray, IndexFormat, Instance, InstanceArray,
     SbtIndexOffsets, SphereArray, TriangleArray, VertexFormat,
 };
-use crate::error::{Error, Result};
-use crate::handle::Buffer;
-use crate::semantics::affine;
+use optik_api::error::{Error, Result};
+use optik_api::handle::Buffer;
+use optik_api::semantics::affine;
 
 /// Access to buffer bytes for decoding.
 pub trait BufferBytes {
@@ -303,10 +305,10 @@ pub fn instances(ia: &InstanceArray, bytes: &dyn BufferBytes) -> Result<Vec<Inst
                 inst.transform
             )));
         }
-        if inst.flags & !crate::flags::InstanceFlags::ALL.0 != 0 {
+        if inst.flags & !optik_api::flags::InstanceFlags::ALL.0 != 0 {
             return Err(Error::invalid(format!(
                 "instance {i} has unknown flag bits {:#x}",
-                inst.flags & !crate::flags::InstanceFlags::ALL.0
+                inst.flags & !optik_api::flags::InstanceFlags::ALL.0
             )));
         }
         out.push(inst);
