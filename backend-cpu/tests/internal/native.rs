@@ -1,5 +1,6 @@
-//! Helpers: a device, buffers, structures, native programs, SBTs and a shared log that
-//! programs write into.
+//! Native (Rust closure) programs, this backend's own program API: helpers (a device,
+//! buffers, structures, native programs, SBTs and a shared log that programs write into) and
+//! the native side of the unwinding contract (`DeviceCalls::unwinding`).
 
 use optik_api::*;
 use optik_cpu::program::abi::{Bindings, DeviceCalls};
@@ -54,11 +55,6 @@ impl Log {
         self.of(x).into_iter().find(|e| e.0 == what).map(|e| e.1)
     }
 
-    /// How many entries named `what` launch index `x` has.
-    pub fn count(&self, x: u32, what: &str) -> usize {
-        self.of(x).iter().filter(|e| e.0 == what).count()
-    }
-
     pub fn clear(&self) {
         self.0.lock().unwrap().clear();
     }
@@ -106,14 +102,8 @@ impl Ray {
             miss: 0,
         }
     }
-    pub fn flags(self, flags: u32) -> Ray {
-        Ray { flags, ..self }
-    }
     pub fn time(self, time: f32) -> Ray {
         Ray { time, ..self }
-    }
-    pub fn mask(self, mask: u32) -> Ray {
-        Ray { mask, ..self }
     }
 }
 
@@ -302,11 +292,6 @@ impl Kit {
     }
 }
 
-/// f32 bits as f64 for logs.
-pub fn fb(bits: u32) -> f64 {
-    f32::from_bits(bits) as f64
-}
-
 /// A quad of two triangles in the plane z = `z`, spanning [x0, x1] × [y0, y1], facing -z
 /// (counter-clockwise seen from below, so rays going +z see its front).
 pub fn quad(x0: f32, y0: f32, x1: f32, y1: f32, z: f32) -> Vec<[f32; 3]> {
@@ -318,4 +303,104 @@ pub fn quad(x0: f32, y0: f32, x1: f32, y1: f32, z: f32) -> Vec<[f32; 3]> {
         [x1, y1, z],
         [x1, y0, z],
     ]
+}
+
+/// Native programs see `unwinding()` after a throw and return; the exception program runs
+/// once and the launch index ends (without `USER`, a throw ends only the throwing program).
+#[test]
+fn user_exceptions_end_the_launch_index() {
+    let _launches = crate::shared();
+    let kit = Kit::new();
+    let gas = kit.triangles(
+        &quad(-1.0, -1.0, 1.0, 1.0, 5.0),
+        GeometryFlags::DISABLE_ANYHIT,
+    );
+    let log = Log::default();
+    let (l1, l2, l3, l4) = (log.clone(), log.clone(), log.clone(), log.clone());
+    let m = kit.module_with(
+        vec![
+            (
+                "raygen__main",
+                program(move |c| {
+                    let x = c.launch_index()[0];
+                    if x == 0 {
+                        c.throw_exception(42 | (1 << 31));
+                        return;
+                    }
+                    trace_ray(c, gas, Ray::new([0.0; 3], [0.0, 0.0, 1.0]), &mut [x]);
+                    if c.unwinding() {
+                        return;
+                    }
+                    l1.put(c, "after", &[]);
+                }),
+            ),
+            (
+                "closesthit__main",
+                program(move |c| {
+                    l2.put(c, "ch", &[]);
+                    if c.get_payload(0) == 1 {
+                        c.throw_exception(7);
+                    }
+                }),
+            ),
+            (
+                "exception__main",
+                program(move |c| {
+                    l3.put(
+                        c,
+                        "exception",
+                        &[c.exception_code() as f64, c.sbt_data_u32(0) as f64],
+                    )
+                }),
+            ),
+            ("miss__main", program(move |c| l4.put(c, "miss", &[]))),
+        ],
+        1,
+        true,
+    );
+    let rg = kit.raygen(m, "raygen__main");
+    let hg = kit.hit(m, Some("closesthit__main"), None, None);
+    let ex = kit.group(ProgramGroupDesc::Exception(ProgramRef::new(
+        m,
+        "exception__main",
+    )));
+    let p = kit.pipeline(PipelineCompileOptions::default(), 1, &[rg, hg, ex]);
+    assert!(
+        kit.dev
+            .pipeline_features(p)
+            .unwrap()
+            .exceptions
+            .contains(ExceptionFlags::USER)
+    );
+    let sbt = kit.sbt(
+        Rec::new(rg),
+        &[],
+        &[Rec::new(hg)],
+        &[],
+        Some(Rec::with_u32(ex, &[77])),
+    );
+    kit.launch(p, &sbt, 3);
+    assert_eq!(
+        log.of(0),
+        vec![("exception".to_string(), vec![42.0, 77.0])],
+        "user codes keep 30 bits"
+    );
+    assert_eq!(
+        log.of(1),
+        vec![
+            ("ch".to_string(), vec![]),
+            ("exception".to_string(), vec![7.0, 77.0])
+        ]
+    );
+    assert_eq!(log.names(2), vec!["ch", "after"]);
+    // Without USER checks a throw does nothing but end the throwing program.
+    let options = PipelineCompileOptions {
+        exception_flags: Setting::Value(ExceptionFlags::NONE),
+        ..Default::default()
+    };
+    let p = kit.pipeline(options, 1, &[rg, hg, ex]);
+    log.clear();
+    kit.launch(p, &sbt, 2);
+    assert_eq!(log.names(0), Vec::<String>::new());
+    assert_eq!(log.names(1), vec!["ch", "after"]);
 }

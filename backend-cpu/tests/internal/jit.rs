@@ -37,6 +37,7 @@ fn miss__main() {
 
 #[test]
 fn wgsl_programs_trace_through_the_jit() {
+    let _launches = crate::shared();
     let dev = CpuBackend::with_threads(2).map(CpuDevice::new).unwrap();
     let handle = one_triangle(&dev);
     let options = PipelineCompileOptions {
@@ -258,6 +259,7 @@ fn one_triangle(dev: &CpuDevice) -> TraversableHandle {
 
 #[test]
 fn an_exception_in_a_closest_hit_ends_the_raygen_too() {
+    let _launches = crate::shared();
     let dev = CpuBackend::with_threads(1).map(CpuDevice::new).unwrap();
     let handle = one_triangle(&dev);
     let mut programs = Programs {
@@ -317,6 +319,7 @@ fn closesthit__seen() {
 
 #[test]
 fn an_intersection_program_stops_after_its_any_hit_terminates_the_ray() {
+    let _launches = crate::shared();
     let dev = CpuBackend::with_threads(1).map(CpuDevice::new).unwrap();
     let aabb: [f32; 6] = [0.0, 0.0, 0.0, 1.0, 1.0, 4.0];
     let ab = dev.create_buffer(24).unwrap();

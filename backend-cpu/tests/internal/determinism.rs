@@ -1,10 +1,11 @@
 //! Results do not depend on the number of launch threads.
 
-use crate::kit::*;
+use crate::native::*;
 use optik_api::*;
 
 #[test]
 fn launches_are_bit_identical_for_any_thread_count() {
+    let _launches = crate::shared();
     let kit = Kit::new();
     // A jittered field of non-opaque triangles; any-hit accumulates a commutative count.
     let mut v = Vec::new();
@@ -100,6 +101,7 @@ fn launches_are_bit_identical_for_any_thread_count() {
 
 #[test]
 fn launch_grids_cover_every_index_once() {
+    let _launches = crate::shared();
     let kit = Kit::new();
     let seen = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
     let s = seen.clone();

@@ -1,10 +1,11 @@
 //! Pipelines compile what their scene and programs use, report it, and skip the rest.
 
-use crate::kit::*;
+use crate::native::*;
 use optik_api::*;
 
 #[test]
 fn features_follow_the_scene_and_the_programs() {
+    let _launches = crate::shared();
     let kit = Kit::new();
     let gas = kit.triangles(
         &quad(-1.0, -1.0, 1.0, 1.0, 5.0),
@@ -114,6 +115,7 @@ fn features_follow_the_scene_and_the_programs() {
 
 #[test]
 fn accuracy_applies_to_pipelines_created_afterwards() {
+    let _launches = crate::shared();
     let kit = Kit::new();
     let m = kit.module(vec![("raygen__main", program(|_| {}))]);
     let rg = kit.raygen(m, "raygen__main");

@@ -125,6 +125,7 @@ fn later(after: Duration, f: impl FnOnce() + Send + 'static) -> std::thread::Joi
 
 #[test]
 fn runaway_programs_stop_on_a_deadline_a_token_and_an_interrupt() {
+    let _launches = crate::exclusive();
     let r = Runaway::new();
 
     let start = Instant::now();
@@ -206,6 +207,7 @@ fn raygen__main() {
 #[test]
 #[ignore = "a measurement, not a check: run with --ignored --nocapture, with and without OPTIK_JIT_STOP_CHECKS=0"]
 fn back_edge_check_cost() {
+    let _launches = crate::shared();
     let dev = CpuBackend::with_threads(1).map(CpuDevice::new).unwrap();
     let options = PipelineCompileOptions::default();
     let (module, _) = dev
