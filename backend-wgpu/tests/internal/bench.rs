@@ -1,8 +1,8 @@
 //! The benchmark entry points run and their numbers are sane (timing itself is for the GPU
 //! machine; lavapipe only checks that it works), and the traffic counters count what the
 //! layout says a ray reads.
-mod common;
-use common::*;
+
+use crate::common::*;
 use optik_api::*;
 use optik_wgpu::bench::{BenchConfig, TrafficCounts};
 use optik_wgpu::{WgpuBackend, WgpuDevice};

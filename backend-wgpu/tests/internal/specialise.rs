@@ -1,6 +1,6 @@
 //! DESIGN.md §6: the kernel holds only what the pipeline uses, and reports it.
-mod common;
-use common::*;
+
+use crate::common::*;
 use optik_api::*;
 
 /// Names that only the code of one feature defines.

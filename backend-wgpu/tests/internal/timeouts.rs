@@ -2,8 +2,8 @@
 //! deadline, the launch returns `ErrorKind::TimedOut` long before the program ends, and after
 //! the device is dropped a new one in the same process runs launches normally. (lavapipe
 //! cannot abort a running shader, so the program must end by itself.)
-mod common;
-use common::*;
+
+use crate::common::*;
 use optik_api::*;
 use std::time::{Duration, Instant};
 
