@@ -1,6 +1,7 @@
 //! Built-in primitives past the catalog: curves of every basis (the same straight tube;
-//! cubic B-splines within the stated tolerance, open ends unless end caps are on) and opacity micromaps above subdivision
-//! level 0 (micro-triangle states in OptiX's and Vulkan's order).
+//! cubic B-splines within the stated tolerance, open ends unless end caps are on), opacity
+//! micromaps above subdivision level 0 (micro-triangle states in OptiX's and Vulkan's order)
+//! and pipelines that disallow micromaps.
 
 use optik::*;
 use optik_conformance::kit::rig::*;
@@ -309,5 +310,64 @@ fn micro_triangle_states_follow_the_bird_curve() {
             2,
             "the two unknown corners ran any-hit: {out:?}"
         );
+    });
+}
+
+#[test]
+fn pipelines_that_disallow_micromaps_ignore_them() {
+    on_every_backend("prim: pipelines that disallow micromaps", |_, d| {
+        let array = d
+            .create_opacity_micromap_array(&OpacityMicromapArrayDesc {
+                micromaps: vec![],
+                data: vec![],
+            })
+            .unwrap();
+        let vb = buffer(d, &[[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+        let mut t = TriangleArray::new(BufferView::new(vb), 3, GeometryFlags::DISABLE_ANYHIT);
+        // One fully transparent triangle (special index -1, through an index buffer).
+        let index = buffer(d, &[-1i32]);
+        t.opacity_micromap = Some(TriangleOpacityMicromap {
+            array,
+            index_buffer: Some(BufferView::new(index)),
+            index_size_in_bytes: 4,
+            index_stride: 0,
+            base_index: 0,
+        });
+        let gas = d
+            .accel_build(&AccelBuildOptions::default(), &[BuildInput::Triangles(t)])
+            .unwrap();
+        // The array can go: structures keep their own copy of its states.
+        d.destroy_micromap_array(array).unwrap();
+        let m = module(d, PROGRAMS);
+        let g = groups(
+            d,
+            &[
+                raygen(m, "raygen__rays"),
+                miss(m, "miss__none"),
+                ProgramGroupDesc::HitGroup {
+                    closest_hit: Some(ProgramRef::new(m, "closesthit__hit")),
+                    any_hit: Some(ProgramRef::new(m, "anyhit__count")),
+                    intersection: None,
+                    builtin: BuiltinIntersector::Triangle,
+                },
+            ],
+        );
+        let table = sbt(d, &g, &[]);
+        let rays = [([0.25, 0.25, 1.0], [0.0, 0.0, -1.0])];
+        for (allow, hit) in [(Setting::Auto, false), (Setting::Value(false), true)] {
+            let options = PipelineCompileOptions {
+                allow_opacity_micromaps: allow,
+                ..Default::default()
+            };
+            let p = d
+                .create_pipeline(&options, &PipelineLinkOptions::default(), &g.all())
+                .unwrap_or_else(|e| panic!("{e}"));
+            let out = trace(d, p, &table, gas, RayFlags::NONE, 0, &rays);
+            assert_eq!(
+                (out[0][0], out[0][5]),
+                (if hit { 1 } else { 2 }, 0),
+                "allow_opacity_micromaps {allow:?}: hit {hit}, no any-hit"
+            );
+        }
     });
 }

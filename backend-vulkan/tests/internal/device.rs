@@ -117,63 +117,6 @@ fn the_pipeline_cache_is_kept_on_disk() {
 }
 
 #[test]
-fn textures_are_sampled_by_programs() {
-    let dev = device();
-    let src = r#"
-struct Params { handle: vec2<u32>, n: u32, pad: u32 }
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read_write> out: array<f32>;
-@group(0) @binding(2) var tex: texture_2d<f32>;
-@group(0) @binding(3) var samp: sampler;
-fn raygen__rg() {
-    let i = rt_launch_index().x;
-    let c = textureSampleLevel(tex, samp, vec2<f32>((f32(i) + 0.5) / 2.0, 0.5), 0.0);
-    out[i] = c.x;
-}
-"#;
-    let m = dev.module(src);
-    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
-    let p = dev.pipeline(&[rg], 0);
-    let tex = dev
-        .create_texture(&TextureDesc {
-            width: 2,
-            height: 1,
-            format: TextureFormat::R32Float,
-        })
-        .unwrap();
-    dev.write_texture(tex, bytemuck::cast_slice(&[0.25f32, 0.75]))
-        .unwrap();
-    let sbt = Table::new(rg).build(&dev);
-    let out = dev.create_buffer(8).unwrap();
-    let resources = [
-        Resource::buffer(1, out),
-        Resource::Texture {
-            binding: 2,
-            texture: tex,
-        },
-        Resource::Sampler {
-            binding: 3,
-            sampler: SamplerDesc::default(),
-        },
-    ];
-    dev.launch(
-        p,
-        &params(TraversableHandle::NULL, 2, 1),
-        &resources,
-        &sbt,
-        LaunchSize::new(2, 1, 1),
-    )
-    .unwrap();
-    let v: Vec<f32> = dev
-        .read_u32(out)
-        .iter()
-        .map(|b| f32::from_bits(*b))
-        .collect();
-    assert_eq!(v, vec![0.25, 0.75]);
-    dev.destroy_texture(tex).unwrap();
-}
-
-#[test]
 fn naming_a_device_that_does_not_exist_lists_the_devices() {
     let options = VulkanOptions {
         validation: false,

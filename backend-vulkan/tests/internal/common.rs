@@ -316,7 +316,6 @@ pub struct Basic {
     pub pipeline: Pipeline,
     pub rg: ProgramGroup,
     pub ms: ProgramGroup,
-    pub ch: ProgramGroup,
 }
 
 /// Compiles and links a [`Basic`] pipeline with `max_trace_depth` 1.
@@ -329,6 +328,5 @@ pub fn basic(dev: &TestDevice, programs: &str) -> Basic {
         pipeline: dev.pipeline(&[rg, ms, ch], 1),
         rg,
         ms,
-        ch,
     }
 }
