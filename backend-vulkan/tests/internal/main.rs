@@ -6,8 +6,10 @@
 //! cache (`device`), what the backend refuses and device loss (`errors`), nesting limits
 //! (`instances`), launches split into dispatches (`launches`), primitive-type culling (`rays`),
 //! records past the table for every primitive kind and triangle path (`sbt`), deadlines and
-//! cancellation (`timeouts`), and, until they move to optik-conformance's `tests/rules/`, the
-//! motion and micromap tests no other backend's tests had (`motion`, `micromaps`).
+//! cancellation (`timeouts`), stale motion pipelines refused and children refit under motion
+//! transforms (`motion`), and, until it moves to optik-conformance's `tests/rules/`, the
+//! micromap test no other backend's tests had (`micromaps`: every flag above subdivision
+//! level 0).
 //!
 //! The rules every backend keeps are tested once, on every backend, in optik-conformance (its
 //! catalog, `tests/misuse.rs` and `tests/rules/`; conformance/README.md, "Where the backend

@@ -8,5 +8,6 @@ mod call;
 mod exc;
 mod inst;
 mod launch;
+mod motion;
 mod prim;
 mod sbt;
