@@ -1,6 +1,5 @@
-//! Helpers for the end-to-end tests: a device, buffers from values, structures, pipelines
+//! Helpers of the tests in this binary: a device, buffers from values, structures, pipelines
 //! and shader binding tables in a few lines.
-#![allow(dead_code)]
 
 use optik_api::*;
 
@@ -256,10 +255,6 @@ impl Ray {
             tmax: 1e30,
         }
     }
-
-    pub fn interval(self, tmin: f32, tmax: f32) -> Ray {
-        Ray { tmin, tmax, ..self }
-    }
 }
 
 /// Per-trace settings of [`RAY_LIST`] launches.
@@ -341,31 +336,11 @@ impl Rec {
     pub fn missed(&self) -> bool {
         self.words[0] == 2
     }
-    /// Neither program ran (an invalid ray).
-    pub fn untouched(&self) -> bool {
-        self.words.iter().all(|&w| w == 0xAAAAAAAA)
-    }
     pub fn t(&self) -> f32 {
         f32::from_bits(self.words[1])
     }
     pub fn prim(&self) -> u32 {
         self.words[2]
-    }
-    pub fn hit_kind(&self) -> u32 {
-        self.words[3]
-    }
-    pub fn instance_id(&self) -> u32 {
-        self.words[4]
-    }
-    pub fn gas_index(&self) -> u32 {
-        self.words[5]
-    }
-    pub fn data(&self) -> u32 {
-        self.words[6]
-    }
-    pub fn barycentrics(&self) -> [f32; 2] {
-        let w = self.words[7];
-        [(w & 0xFFFF) as f32 / 65535.0, (w >> 16) as f32 / 65535.0]
     }
 }
 
