@@ -6,7 +6,7 @@
 //! `ERROR_INCOMPATIBLE_DRIVER` (file descriptors stay flat, and keeping the loader loaded does
 //! not help; other projects report corrupted subgroup state after fewer rounds). So optik
 //! never destroys an instance: devices come and go on the kept ones, and any number of them
-//! can be opened in turn (`tests/vulkan/device.rs` opens 40).
+//! can be opened in turn (`tests/internal/device.rs` opens 40).
 
 use crate::error::VkResultExt;
 use crate::probe;

@@ -2,7 +2,7 @@
 //!
 //! Only kernels generated with `KernelConfig::counters` (the benchmark's counting launch)
 //! contain any of this; pipelines made through the `Device` trait never do, which
-//! `tests/bench.rs` asserts. Each invocation counts in private variables (no memory
+//! `tests/internal/bench.rs` asserts. Each invocation counts in private variables (no memory
 //! traffic of its own while tracing) and adds its totals once, at the end of the entry
 //! point, to 64-bit counters (two `u32` words each, carry propagated) in one extra
 //! read-write binding after the scene chunks.
@@ -49,7 +49,7 @@ pub(crate) fn count(c: &KernelConfig<'_>, counter: Counter, amount: &str) -> Str
 
 /// Where the traversal is counted: a counter statement goes before every line equal to
 /// the anchor (leaf loops share theirs). Anchoring on the lines of the normal kernel keeps
-/// its text exactly as written; `counts_match_the_layout` in `tests/bench.rs` fails if an
+/// its text exactly as written; `counts_match_the_layout` in `tests/internal/bench.rs` fails if an
 /// anchor stops matching.
 const HOOKS: &[(&str, Counter, &str)] = &[
     (
