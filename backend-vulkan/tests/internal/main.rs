@@ -7,9 +7,7 @@
 //! (`instances`), launches split into dispatches (`launches`), primitive-type culling (`rays`),
 //! records past the table for every primitive kind and triangle path (`sbt`), deadlines and
 //! cancellation (`timeouts`), stale motion pipelines refused and children refit under motion
-//! transforms (`motion`), and, until it moves to optik-conformance's `tests/rules/`, the
-//! micromap test no other backend's tests had (`micromaps`: every flag above subdivision
-//! level 0).
+//! transforms (`motion`).
 //!
 //! The rules every backend keeps are tested once, on every backend, in optik-conformance (its
 //! catalog, `tests/misuse.rs` and `tests/rules/`; conformance/README.md, "Where the backend
@@ -23,7 +21,6 @@ mod device;
 mod errors;
 mod instances;
 mod launches;
-mod micromaps;
 mod motion;
 mod rays;
 mod sbt;

@@ -1,7 +1,8 @@
 //! Built-in primitives past the catalog: curves of every basis (the same straight tube;
 //! cubic B-splines within the stated tolerance, open ends unless end caps are on), opacity
-//! micromaps above subdivision level 0 (micro-triangle states in OptiX's and Vulkan's order)
-//! and pipelines that disallow micromaps.
+//! micromaps above subdivision level 0 (micro-triangle states in OptiX's and Vulkan's order;
+//! every state, both formats and the special indices under every opacity flag of rays,
+//! instances and geometries) and pipelines that disallow micromaps.
 
 use optik::*;
 use optik_conformance::kit::rig::*;
@@ -369,5 +370,237 @@ fn pipelines_that_disallow_micromaps_ignore_them() {
                 "allow_opacity_micromaps {allow:?}: hit {hit}, no any-hit"
             );
         }
+    });
+}
+
+/// Traces one ray per entry of a buffer (origin x, y at z = 5 straight down, ray flags as
+/// bits) into an instance structure; closest-hit records primitive and instance, any-hit
+/// counts its calls.
+const OPACITY_PROGRAMS: &str = r#"
+struct Params { handle: vec2<u32>, n: u32, pad0: u32, pad1: u32, pad2: u32, pad3: u32, pad4: u32 }
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read_write> out: array<u32>;
+@group(0) @binding(2) var<storage, read> rays: array<f32>;
+
+fn raygen__rg() {
+    let i = rt_launch_index().x;
+    if (i >= params.n) {
+        return;
+    }
+    var p: RtPayload;
+    p[0] = 0xFFFFu;
+    p[1] = 0u;
+    rt_trace(params.handle, vec3<f32>(rays[3u * i], rays[3u * i + 1u], 5.0), vec3<f32>(0.0, 0.0, -1.0),
+        0.0, 100.0, 0.0, 0xFFu, bitcast<u32>(rays[3u * i + 2u]), 0u, 1u, 0u, &p);
+    out[2u * i] = p[0];
+    out[2u * i + 1u] = p[1];
+}
+
+fn closesthit__ch() {
+    rt_set_payload(0u, rt_primitive_index() * 16u + rt_instance_id());
+}
+
+fn anyhit__ah() {
+    rt_set_payload(1u, rt_get_payload(1u) + 1u);
+}
+
+fn miss__ms() {
+}
+"#;
+
+/// Packs micromap states `bits` bits each, the lowest bits first.
+fn pack_states(states: &[u32], bits: u32) -> Vec<u8> {
+    let mut out = vec![0u8; (states.len() * bits as usize).div_ceil(8)];
+    for (i, s) in states.iter().enumerate() {
+        let bit = i * bits as usize;
+        out[bit / 8] |= (*s as u8) << (bit % 8);
+    }
+    out
+}
+
+/// The centroid of micro-triangle `index` at `level`, in barycentrics (u, v).
+fn centroid(index: u32, level: u32) -> (f32, f32) {
+    let c = optik_accel::micromap::micro_triangle(index, level);
+    (
+        ((c[0][0] + c[1][0] + c[2][0]) / 3.0) as f32,
+        ((c[0][1] + c[1][1] + c[2][1]) / 3.0) as f32,
+    )
+}
+
+#[test]
+fn micromap_states_decide_opacity_with_every_flag() {
+    use optik::semantics::opacity::{CandidateFate, MicromapState, resolve};
+    on_every_backend("prim: micromap states under every opacity flag", |_, d| {
+        // Level 2 (16 micro-triangles), every state four times. Micromap 0 is four-state,
+        // micromap 1 two-state (the states' low bit).
+        let states: Vec<u32> = (0..16).map(|i| (i * 7 + 3) % 4).collect();
+        let mut data = pack_states(&states, 2);
+        let two_state_at = data.len() as u32;
+        data.extend(pack_states(
+            &states.iter().map(|s| s & 1).collect::<Vec<_>>(),
+            1,
+        ));
+        let array = d
+            .create_opacity_micromap_array(&OpacityMicromapArrayDesc {
+                micromaps: vec![
+                    OpacityMicromapDesc {
+                        byte_offset: 0,
+                        subdivision_level: 2,
+                        format: OpacityMicromapFormat::FourState,
+                    },
+                    OpacityMicromapDesc {
+                        byte_offset: two_state_at,
+                        subdivision_level: 2,
+                        format: OpacityMicromapFormat::TwoState,
+                    },
+                ],
+                data,
+            })
+            .unwrap();
+        // Six unit triangles side by side (x = 2k): micromap 0, micromap 1, then the special
+        // indices -1..-4.
+        let indices: [i32; 6] = [0, 1, -1, -2, -3, -4];
+        let vertices: Vec<[f32; 3]> = (0..indices.len())
+            .flat_map(|k| {
+                let x = 2.0 * k as f32;
+                [[x, 0.0, 0.0], [x + 1.0, 0.0, 0.0], [x, 1.0, 0.0]]
+            })
+            .collect();
+        let vb = buffer(d, &vertices);
+        let ib = buffer(d, &indices);
+        let gas_of = |flags: GeometryFlags| {
+            let mut t = TriangleArray::new(BufferView::new(vb), vertices.len() as u32, flags);
+            t.opacity_micromap = Some(TriangleOpacityMicromap {
+                array,
+                index_buffer: Some(BufferView::new(ib)),
+                index_size_in_bytes: 4,
+                index_stride: 0,
+                base_index: 0,
+            });
+            d.accel_build(&AccelBuildOptions::default(), &[BuildInput::Triangles(t)])
+                .unwrap()
+        };
+        let geometries = [GeometryFlags::NONE, GeometryFlags::DISABLE_ANYHIT];
+        let instance_flags = [
+            InstanceFlags::NONE,
+            InstanceFlags::FORCE_OPACITY_MICROMAP_2_STATE,
+            InstanceFlags::DISABLE_OPACITY_MICROMAPS,
+            InstanceFlags::DISABLE_ANYHIT,
+            InstanceFlags::ENFORCE_ANYHIT,
+        ];
+        // Instance (g, f) at y = 2 (g * 5 + f), id g * 5 + f.
+        let mut instances = Vec::new();
+        for (g, geometry) in geometries.iter().enumerate() {
+            let child = d.traversable_handle(gas_of(*geometry)).unwrap();
+            for (f, flags) in instance_flags.iter().enumerate() {
+                let id = (g * instance_flags.len() + f) as u32;
+                let mut inst = Instance::new(child);
+                inst.transform[7] = 2.0 * id as f32;
+                inst.instance_id = id;
+                inst.flags = flags.0;
+                instances.push(inst);
+            }
+        }
+        let ias = d
+            .accel_build(
+                &AccelBuildOptions::default(),
+                &[BuildInput::Instances(InstanceArray {
+                    instances: BufferView::new(buffer(d, &instances)),
+                    num_instances: instances.len() as u32,
+                })],
+            )
+            .unwrap();
+        let ray_flags = [
+            RayFlags::NONE,
+            RayFlags::FORCE_OPACITY_MICROMAP_2_STATE,
+            RayFlags::ENFORCE_ANYHIT,
+            RayFlags::DISABLE_ANYHIT,
+            RayFlags::CULL_DISABLED_ANYHIT,
+            RayFlags::CULL_ENFORCED_ANYHIT,
+        ];
+        let m = module(d, OPACITY_PROGRAMS);
+        let g = groups(
+            d,
+            &[
+                raygen(m, "raygen__rg"),
+                miss(m, "miss__ms"),
+                ProgramGroupDesc::HitGroup {
+                    closest_hit: Some(ProgramRef::new(m, "closesthit__ch")),
+                    any_hit: Some(ProgramRef::new(m, "anyhit__ah")),
+                    intersection: None,
+                    builtin: BuiltinIntersector::Triangle,
+                },
+            ],
+        );
+        let p = pipeline(d, &g, 1);
+        assert!(d.pipeline_features(p).unwrap().opacity_micromaps);
+        let table = sbt(d, &g, &[]);
+        // Every ray flag × instance × triangle × micro-triangle, with the fate
+        // `semantics::opacity::resolve` gives it.
+        let mut rays: Vec<f32> = Vec::new();
+        let mut expected = Vec::new();
+        for rf in ray_flags {
+            for (g, geometry) in geometries.iter().enumerate() {
+                for (f, flags) in instance_flags.iter().enumerate() {
+                    let id = (g * instance_flags.len() + f) as u32;
+                    for (k, index) in indices.iter().enumerate() {
+                        for micro in 0..16 {
+                            let (u, v) = centroid(micro, 2);
+                            rays.extend_from_slice(&[
+                                2.0 * k as f32 + u,
+                                2.0 * id as f32 + v,
+                                f32::from_bits(rf.0),
+                            ]);
+                            let state = match index {
+                                0 => states[micro as usize],
+                                1 => states[micro as usize] & 1,
+                                special => (-special - 1) as u32,
+                            };
+                            let omm = (!flags.contains(InstanceFlags::DISABLE_OPACITY_MICROMAPS))
+                                .then(|| MicromapState::from_code(state));
+                            let fate = resolve(*geometry, *flags, rf, omm);
+                            expected.push((
+                                fate,
+                                k as u32 * 16 + id,
+                                format!(
+                                    "ray {rf:?}, geometry {geometry:?}, instance {flags:?}, micromap index {index}, micro-triangle {micro} (state {state})"
+                                ),
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+        let n = expected.len() as u32;
+        let out = d.create_buffer(u64::from(n) * 8).unwrap();
+        let ray_buffer = buffer(d, &rays);
+        d.launch(
+            p,
+            &params(d.traversable_handle(ias).unwrap(), &[n]),
+            &[Resource::buffer(1, out), Resource::buffer(2, ray_buffer)],
+            &table,
+            LaunchSize::new(n, 1, 1),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let out: Vec<u32> = read(d, out);
+        let mismatches: Vec<String> = expected
+            .iter()
+            .enumerate()
+            .filter_map(|(k, (fate, hit, what))| {
+                let got = (out[2 * k], out[2 * k + 1]);
+                let want = match fate {
+                    CandidateFate::Culled => (0xFFFF, 0),
+                    CandidateFate::Opaque => (*hit, 0),
+                    CandidateFate::NonOpaque => (*hit, 1),
+                };
+                (got != want).then(|| format!("{what}: got {got:?}, want {want:?} ({fate:?})"))
+            })
+            .collect();
+        assert!(
+            mismatches.is_empty(),
+            "{} of {n} rays differ:\n{}",
+            mismatches.len(),
+            mismatches[..mismatches.len().min(20)].join("\n")
+        );
     });
 }
