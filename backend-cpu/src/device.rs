@@ -296,7 +296,7 @@ impl CpuBackend {
         Ok(accel)
     }
 
-    fn scene_features(st: &State) -> Option<SceneFeatures> {
+    fn live_scene_features(st: &State) -> Option<SceneFeatures> {
         st.accels
             .iter()
             .map(|(_, a)| a.traversable.features())
@@ -616,9 +616,10 @@ impl optik_core::Backend for CpuBackend {
 
     fn create_pipeline(
         &self,
-        pipeline_options: &PipelineCompileOptions,
+        _pipeline_options: &PipelineCompileOptions,
         link_options: &PipelineLinkOptions,
         groups: &[ProgramGroup],
+        features: &FeatureSet,
     ) -> Result<Pipeline> {
         let mut st = self.state();
         for (what, depth) in [
@@ -647,16 +648,7 @@ impl optik_core::Backend for CpuBackend {
                     .map_err(|e| e.context(format!("groups[{i}]")))
             })
             .collect::<Result<Vec<_>>>()?;
-        let objects: Vec<Arc<GroupObject>> = group_objects.iter().map(|(_, g)| g.clone()).collect();
-        let programs = pipeline::program_features(&objects);
-        let scene = Self::scene_features(&st);
-        let features = optik_core::features::resolve(
-            pipeline_options,
-            link_options,
-            scene,
-            &programs,
-            self.props.max_trace_depth,
-        )?;
+        let features = *features;
         let bindings = pipeline_bindings(&group_objects)?;
         let accuracy = st.accuracy;
         let object = PipelineObject {
@@ -668,6 +660,25 @@ impl optik_core::Backend for CpuBackend {
             bindings,
         };
         Ok(st.pipelines.insert(Arc::new(object)))
+    }
+
+    fn program_features(&self, groups: &[ProgramGroup]) -> Result<optik_api::ProgramFeatures> {
+        let st = self.state();
+        let objects = groups
+            .iter()
+            .enumerate()
+            .map(|(i, g)| {
+                st.groups
+                    .get(*g)
+                    .cloned()
+                    .map_err(|e| e.context(format!("groups[{i}]")))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(pipeline::program_features(&objects))
+    }
+
+    fn scene_features(&self) -> Result<Option<SceneFeatures>> {
+        Ok(Self::live_scene_features(&self.state()))
     }
 
     fn pipeline_features(&self, pipeline: Pipeline) -> Result<FeatureSet> {

@@ -32,8 +32,6 @@ pub struct UserBuffer {
 pub struct Inner {
     /// The instance and device.
     pub ctx: Arc<Context>,
-    /// optik's properties of the device.
-    pub props: DeviceProperties,
     /// Device memory.
     pub alloc: Allocator,
     /// The command pool.
@@ -101,7 +99,6 @@ impl VulkanBackend {
         let cache = PipelineCache::open(&ctx, options.pipeline_cache, options.cache_dir.clone());
         let mut inner = Inner {
             ctx: ctx.clone(),
-            props: props.clone(),
             alloc: Allocator::default(),
             commands,
             buffers: HandleTable::new(id),
@@ -563,11 +560,20 @@ impl optik_core::Backend for VulkanBackend {
 
     fn create_pipeline(
         &self,
-        pipeline_options: &PipelineCompileOptions,
+        _pipeline_options: &PipelineCompileOptions,
         link_options: &PipelineLinkOptions,
         groups: &[ProgramGroup],
+        features: &FeatureSet,
     ) -> Result<Pipeline> {
-        self.with(|i| i.create_pipeline(pipeline_options, link_options, groups))
+        self.with(|i| i.create_pipeline(link_options, groups, features))
+    }
+
+    fn program_features(&self, groups: &[ProgramGroup]) -> Result<ProgramFeatures> {
+        self.with(|i| i.program_features(groups))
+    }
+
+    fn scene_features(&self) -> Result<Option<SceneFeatures>> {
+        self.with(|i| Ok(i.scene_features()))
     }
 
     fn pipeline_features(&self, pipeline: Pipeline) -> Result<FeatureSet> {

@@ -330,12 +330,21 @@ impl Inner {
         Ok(())
     }
 
-    pub fn create_pipeline(
-        &mut self,
-        options: &PipelineCompileOptions,
-        link: &PipelineLinkOptions,
+    /// What the programs of `groups` use (optik-core resolves the pipeline's features from it).
+    pub fn program_features(&self, groups: &[ProgramGroup]) -> Result<ProgramFeatures> {
+        let (descs, modules) = self.pipeline_programs(groups)?;
+        let desc_refs: Vec<&ProgramGroupDesc> = descs.iter().collect();
+        Ok(optik_core::features::program_features(&desc_refs, |p| {
+            modules.get(&p.module).map(|m| &**m)
+        }))
+    }
+
+    /// The descriptions of `groups` and the compiled modules of their programs.
+    #[allow(clippy::type_complexity)]
+    fn pipeline_programs(
+        &self,
         groups: &[ProgramGroup],
-    ) -> Result<Pipeline> {
+    ) -> Result<(Vec<ProgramGroupDesc>, HashMap<Module, Arc<CompiledModule>>)> {
         let mut descs = Vec::with_capacity(groups.len());
         for (i, g) in groups.iter().enumerate() {
             descs.push(
@@ -356,18 +365,19 @@ impl Inner {
                 modules.insert(p.module, m.compiled.clone());
             }
         }
+        Ok((descs, modules))
+    }
+
+    pub fn create_pipeline(
+        &mut self,
+        link: &PipelineLinkOptions,
+        groups: &[ProgramGroup],
+        features: &FeatureSet,
+    ) -> Result<Pipeline> {
+        let features = *features;
+        let (descs, modules) = self.pipeline_programs(groups)?;
         let module_of = |p: &ProgramRef| modules.get(&p.module).cloned();
         let desc_refs: Vec<&ProgramGroupDesc> = descs.iter().collect();
-        let program_features = optik_core::features::program_features(&desc_refs, |p| {
-            modules.get(&p.module).map(|m| &**m)
-        });
-        let features = optik_core::features::resolve(
-            options,
-            link,
-            self.scene_features(),
-            &program_features,
-            self.props.max_trace_depth,
-        )?;
         let scene = self.scene_features().unwrap_or_default();
         let device = DeviceSide {
             triangles: match self.accuracy.triangle {

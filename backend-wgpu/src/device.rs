@@ -639,9 +639,10 @@ impl optik_core::Backend for WgpuBackend {
 
     fn create_pipeline(
         &self,
-        pipeline_options: &PipelineCompileOptions,
+        _pipeline_options: &PipelineCompileOptions,
         link_options: &PipelineLinkOptions,
         groups: &[ProgramGroup],
+        features: &FeatureSet,
     ) -> Result<Pipeline> {
         let mut s = self.lock()?;
         let mut unique: Vec<ProgramGroup> = Vec::new();
@@ -656,17 +657,33 @@ impl optik_core::Backend for WgpuBackend {
             .map(|g| Ok((*g, s.groups.get(*g)?)))
             .collect::<Result<_>>()?;
         let mut p = pipeline::link(
-            pipeline_options,
             link_options,
             &pairs,
-            s.scene_features(),
+            *features,
             s.accuracy,
-            self.properties.max_trace_depth,
             self.id.0 & 0xFFFF,
         )?;
         // Compile now, so that errors surface at link time.
         p.variant(&self.gpu, s.sizes(), false)?;
         Ok(s.pipelines.insert(p))
+    }
+
+    fn program_features(&self, groups: &[ProgramGroup]) -> Result<optik_api::ProgramFeatures> {
+        let s = self.lock()?;
+        let objects = groups
+            .iter()
+            .enumerate()
+            .map(|(i, g)| {
+                s.groups
+                    .get(*g)
+                    .map_err(|e| e.context(format!("groups[{i}]")))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(pipeline::program_features(&objects))
+    }
+
+    fn scene_features(&self) -> Result<Option<SceneFeatures>> {
+        Ok(self.lock()?.scene_features())
     }
 
     fn pipeline_features(&self, pipeline: Pipeline) -> Result<FeatureSet> {

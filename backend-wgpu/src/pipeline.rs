@@ -11,8 +11,8 @@ use crate::program::instance::{
 };
 use crate::program::{GroupObject, ModuleSource};
 use optik_api::{
-    Accuracy, Error, ExceptionFlags, FeatureSet, Handle, Module, PipelineLinkOptions, ProgramGroup,
-    ProgramGroupDesc, ProgramKind, RawHandle, Result,
+    Accuracy, Error, ExceptionFlags, FeatureSet, Handle, Module, PipelineLinkOptions,
+    ProgramFeatures, ProgramGroup, ProgramGroupDesc, ProgramKind, RawHandle, Result,
 };
 use optik_core::frontend::{self, BindingInfo, BindingKind, CompiledModule};
 use std::collections::HashMap;
@@ -51,14 +51,27 @@ pub(crate) struct PipelineObject {
     pub device: optik_api::DeviceId,
 }
 
-/// Links a pipeline over `groups` (handle and object), for a scene of `scene` features.
+/// What the programs of `groups` use (the front end's analysis of their modules).
+pub(crate) fn program_features(groups: &[&GroupObject]) -> ProgramFeatures {
+    let descs: Vec<&ProgramGroupDesc> = groups.iter().map(|g| &g.desc).collect();
+    optik_core::features::program_features(&descs, |p| {
+        groups.iter().find_map(|g| {
+            g.desc
+                .programs()
+                .into_iter()
+                .zip(g.sources.iter())
+                .find(|((_, q), _)| q.module == p.module)
+                .map(|(_, s)| &s.compiled)
+        })
+    })
+}
+
+/// Links a pipeline over `groups` (handle and object) with the `features` optik-core resolved.
 pub(crate) fn link(
-    options: &optik_api::PipelineCompileOptions,
     link: &PipelineLinkOptions,
     groups: &[(ProgramGroup, &GroupObject)],
-    scene: Option<optik_api::SceneFeatures>,
+    features: FeatureSet,
     accuracy: Accuracy,
-    max_trace_depth_limit: u32,
     device16: u32,
 ) -> Result<PipelineObject> {
     // optik-core has checked that the groups include a raygen group.
@@ -71,20 +84,6 @@ pub(crate) fn link(
             }
         }
     }
-    let descs: Vec<&ProgramGroupDesc> = groups.iter().map(|(_, g)| &g.desc).collect();
-    let program_features = optik_core::features::program_features(&descs, |p| {
-        sources
-            .iter()
-            .find(|(m, _)| *m == p.module)
-            .map(|(_, s)| &s.compiled)
-    });
-    let features = optik_core::features::resolve(
-        options,
-        link,
-        scene,
-        &program_features,
-        max_trace_depth_limit,
-    )?;
     if sources.len() > 7 {
         return Err(Error::unsupported(format!(
             "the pipeline's programs come from {} modules; the wgpu backend links at most 7 into one kernel (put programs in fewer modules)",

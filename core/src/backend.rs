@@ -5,8 +5,9 @@ use optik_api::{
     Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BuildInput,
     DeviceId, DeviceProperties, FeatureSet, GroupRegion, LaunchOptions, LaunchSize, MicromapArray,
     Module, ModuleCompileOptions, OpacityMicromapArrayDesc, Pipeline, PipelineCompileOptions,
-    PipelineLinkOptions, ProgramGroup, ProgramGroupDesc, ProgramSource, Resource, Result,
-    ShaderBindingTable, Texture, TextureDesc, TransformDesc, TraversableHandle,
+    PipelineLinkOptions, ProgramFeatures, ProgramGroup, ProgramGroupDesc, ProgramSource, Resource,
+    Result, SceneFeatures, ShaderBindingTable, Texture, TextureDesc, TransformDesc,
+    TraversableHandle,
 };
 
 /// A backend's device: the calls of [`optik_api::Device`] without the checks
@@ -117,13 +118,24 @@ pub trait Backend: Send + Sync + 'static {
     /// Frees a program group.
     fn destroy_program_group(&self, group: ProgramGroup) -> Result<()>;
     /// Links a pipeline; `groups` is not empty, every group is alive and one is a raygen
-    /// group.
+    /// group, and `features` is what [`crate::Device`] resolved for it
+    /// ([`crate::features::resolve`] over [`Backend::program_features`] and
+    /// [`Backend::scene_features`]).
     fn create_pipeline(
         &self,
         pipeline_options: &PipelineCompileOptions,
         link_options: &PipelineLinkOptions,
         groups: &[ProgramGroup],
+        features: &FeatureSet,
     ) -> Result<Pipeline>;
+    /// What the programs of `groups` use: their modules' front-end analysis
+    /// ([`crate::features::program_features`]), and for programs that are not WGSL what
+    /// they declare. The groups are checked here (a destroyed group is an error naming its
+    /// index).
+    fn program_features(&self, groups: &[ProgramGroup]) -> Result<ProgramFeatures>;
+    /// The union of the features of every live acceleration structure and transform;
+    /// `None` when there is none. What `Auto` pipeline options resolve against.
+    fn scene_features(&self) -> Result<Option<SceneFeatures>>;
     /// The features the pipeline was compiled with.
     fn pipeline_features(&self, pipeline: Pipeline) -> Result<FeatureSet>;
     /// The `@group(0)` bindings the pipeline's programs use (a binding may be listed once

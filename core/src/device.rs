@@ -1,7 +1,7 @@
 //! [`Device<B>`]: `optik_api::Device` for every backend, checking each call once.
 
 use crate::Backend;
-use crate::validate;
+use crate::{features, validate};
 use optik_api::{
     Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BuildFlags,
     BuildInput, BuildOperation, DeviceId, DeviceProperties, Error, FeatureSet, GroupRegion,
@@ -310,8 +310,17 @@ impl<B: Backend> optik_api::Device for Device<B> {
                 "create_pipeline: none of the groups is a raygen group; launches start in a raygen program",
             ));
         }
+        let programs = self.backend.program_features(groups)?;
+        let scene = self.backend.scene_features()?;
+        let features = features::resolve(
+            pipeline_options,
+            link_options,
+            scene,
+            &programs,
+            self.backend.properties().max_trace_depth,
+        )?;
         self.backend
-            .create_pipeline(pipeline_options, link_options, groups)
+            .create_pipeline(pipeline_options, link_options, groups, &features)
     }
 
     fn pipeline_features(&self, pipeline: Pipeline) -> Result<FeatureSet> {

@@ -15,7 +15,8 @@
 //!   expected ([`Device`] calls them before any backend method);
 //! - [`HandleTable`]: the checked handle tables backends keep their objects in;
 //! - [`sbt`]: the reader of the user's SBT record headers;
-//! - [`features`]: feature resolution, from options, scene and programs;
+//! - [`features`]: feature resolution, from options, scene and programs ([`Device`] resolves
+//!   every pipeline's features and hands them to the backend);
 //! - [`unwind`]: the exception-unwinding pass on naga IR of the GPU backends.
 //!
 //! What stays in the backends: their objects in their own tables and locks, the records
