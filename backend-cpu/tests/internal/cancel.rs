@@ -45,13 +45,21 @@ struct Runaway {
 
 impl Runaway {
     fn new() -> Runaway {
-        let dev = CpuBackend::with_threads(2).map(CpuDevice::new).unwrap();
+        Runaway::of(2, "runaway.wgsl", RUNAWAY, 64)
+    }
+
+    /// A device of `threads` threads with a pipeline of `source`'s `raygen__main` alone and
+    /// an output buffer of `out_words` words at binding 1.
+    fn of(threads: usize, name: &str, source: &str, out_words: u64) -> Runaway {
+        let dev = CpuBackend::with_threads(threads)
+            .map(CpuDevice::new)
+            .unwrap();
         let options = PipelineCompileOptions::default();
         let (module, _) = dev
             .create_module(
                 &ModuleCompileOptions::default(),
                 &options,
-                &ProgramSource::new("runaway.wgsl", RUNAWAY),
+                &ProgramSource::new(name, source),
             )
             .unwrap();
         let groups = dev
@@ -80,7 +88,7 @@ impl Runaway {
             hitgroup: None,
             callables: None,
         };
-        let out = dev.create_buffer(64 * 4).unwrap();
+        let out = dev.create_buffer(out_words * 4).unwrap();
         Runaway {
             dev,
             pipeline,
@@ -208,42 +216,12 @@ fn raygen__main() {
 #[ignore = "a measurement, not a check: run with --ignored --nocapture, with and without OPTIK_JIT_STOP_CHECKS=0"]
 fn back_edge_check_cost() {
     let _launches = crate::shared();
-    let dev = CpuBackend::with_threads(1).map(CpuDevice::new).unwrap();
-    let options = PipelineCompileOptions::default();
-    let (module, _) = dev
-        .create_module(
-            &ModuleCompileOptions::default(),
-            &options,
-            &ProgramSource::new("hot.wgsl", HOT_LOOP),
-        )
-        .unwrap();
-    let groups = dev
-        .create_program_groups(&[ProgramGroupDesc::Raygen(ProgramRef::new(
-            module,
-            "raygen__main",
-        ))])
-        .unwrap();
-    let pipeline = dev
-        .create_pipeline(&options, &PipelineLinkOptions::default(), &groups)
-        .unwrap();
-    let sbt_buffer = dev.create_buffer(32).unwrap();
-    dev.write_buffer(
-        sbt_buffer,
-        0,
-        &dev.sbt_record_pack_header(groups[0]).unwrap(),
-    )
-    .unwrap();
-    let sbt = ShaderBindingTable {
-        raygen: SbtRecord {
-            buffer: sbt_buffer,
-            offset: 0,
-        },
-        exception: None,
-        miss: None,
-        hitgroup: None,
-        callables: None,
-    };
-    let out = dev.create_buffer(1024 * 4).unwrap();
+    let Runaway {
+        dev,
+        pipeline,
+        sbt,
+        out,
+    } = Runaway::of(1, "hot.wgsl", HOT_LOOP, 1024);
     let params: [u32; 4] = [1000, 0, 0, 0];
     let mut best = f64::INFINITY;
     for _ in 0..15 {
