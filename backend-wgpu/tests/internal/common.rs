@@ -132,27 +132,36 @@ impl SbtBuilder {
 
 /// A table with one record per group: raygen, misses, hits (with data), callables.
 pub fn sbt(dev: &dyn Device, g: &Groups, hit_data: &[Vec<u32>]) -> ShaderBindingTable {
+    sbt_with(dev, g, |region, i| match region {
+        GroupRegion::HitGroup => hit_data.get(i).cloned().unwrap_or_default(),
+        _ => Vec::new(),
+    })
+}
+
+/// A table with one record per group, in the order raygen, misses, hits, callables,
+/// exception; `data(region, i)` is the data of the region's `i`-th record.
+fn sbt_with(
+    dev: &dyn Device,
+    g: &Groups,
+    data: impl Fn(GroupRegion, usize) -> Vec<u32>,
+) -> ShaderBindingTable {
     let mut b = SbtBuilder::new();
-    let raygen = b.record(dev, g.raygen, &[]);
-    let miss0 = b.bytes.len() as u64;
-    for m in &g.miss {
-        b.record(dev, *m, &[]);
-    }
-    let hit0 = b.bytes.len() as u64;
-    for (i, h) in g.hit.iter().enumerate() {
-        b.record(
-            dev,
-            *h,
-            hit_data.get(i).map(|v| v.as_slice()).unwrap_or(&[]),
-        );
-    }
-    let call0 = b.bytes.len() as u64;
-    for c in &g.callables {
-        b.record(dev, *c, &[]);
-    }
-    let exc = g.exception.map(|e| b.record(dev, e, &[]));
+    let raygen = b.record(dev, g.raygen, &data(GroupRegion::Raygen, 0));
+    let mut region_of = |groups: &[ProgramGroup], region: GroupRegion| {
+        let offset = b.bytes.len() as u64;
+        for (i, h) in groups.iter().enumerate() {
+            b.record(dev, *h, &data(region, i));
+        }
+        (offset, groups.len())
+    };
+    let miss = region_of(&g.miss, GroupRegion::Miss);
+    let hit = region_of(&g.hit, GroupRegion::HitGroup);
+    let call = region_of(&g.callables, GroupRegion::Callables);
+    let exc = g
+        .exception
+        .map(|e| b.record(dev, e, &data(GroupRegion::Exception, 0)));
     let buf = b.finish(dev);
-    let region = |offset, count: usize| {
+    let region = |(offset, count): (u64, usize)| {
         (count > 0).then_some(SbtRegion {
             buffer: buf,
             offset,
@@ -169,9 +178,9 @@ pub fn sbt(dev: &dyn Device, g: &Groups, hit_data: &[Vec<u32>]) -> ShaderBinding
             buffer: buf,
             offset,
         }),
-        miss: region(miss0, g.miss.len()),
-        hitgroup: region(hit0, g.hit.len()),
-        callables: region(call0, g.callables.len()),
+        miss: region(miss),
+        hitgroup: region(hit),
+        callables: region(call),
     }
 }
 
@@ -406,41 +415,11 @@ pub fn ray_list_groups(
 
 /// An SBT whose records carry their index in the first data word (miss records 100 + i).
 pub fn numbered_sbt(dev: &dyn Device, g: &Groups) -> ShaderBindingTable {
-    let mut b = SbtBuilder::new();
-    let raygen = b.record(dev, g.raygen, &[]);
-    let miss0 = b.bytes.len() as u64;
-    for (i, m) in g.miss.iter().enumerate() {
-        b.record(dev, *m, &[100 + i as u32]);
-    }
-    let hit0 = b.bytes.len() as u64;
-    for (i, h) in g.hit.iter().enumerate() {
-        b.record(dev, *h, &[i as u32]);
-    }
-    let call0 = b.bytes.len() as u64;
-    for (i, c) in g.callables.iter().enumerate() {
-        b.record(dev, *c, &[200 + i as u32]);
-    }
-    let exc = g.exception.map(|e| b.record(dev, e, &[300]));
-    let buf = b.finish(dev);
-    let region = |offset, count: usize| {
-        (count > 0).then_some(SbtRegion {
-            buffer: buf,
-            offset,
-            stride: STRIDE,
-            count: count as u32,
-        })
-    };
-    ShaderBindingTable {
-        raygen: SbtRecord {
-            buffer: buf,
-            offset: raygen,
-        },
-        exception: exc.map(|offset| SbtRecord {
-            buffer: buf,
-            offset,
-        }),
-        miss: region(miss0, g.miss.len()),
-        hitgroup: region(hit0, g.hit.len()),
-        callables: region(call0, g.callables.len()),
-    }
+    sbt_with(dev, g, |region, i| match region {
+        GroupRegion::Raygen => Vec::new(),
+        GroupRegion::Miss => vec![100 + i as u32],
+        GroupRegion::HitGroup => vec![i as u32],
+        GroupRegion::Callables => vec![200 + i as u32],
+        GroupRegion::Exception => vec![300],
+    })
 }
