@@ -31,6 +31,9 @@ pub struct RenderFeatures {
     pub masks: bool,
     /// Emitter kinds present (`area`, `point`, `spot`, `directional`, `constant`, `envmap`).
     pub emitters: BTreeSet<&'static str>,
+    /// The primitive types that carry area emitters: their light table entries are sampled
+    /// as triangles or as spheres (the visible cap), and only those samplers are compiled.
+    pub area_on: BTreeSet<Primitive>,
     /// The scene has an environment (constant or envmap).
     pub environment: bool,
     /// The scene places shape groups through instances.
@@ -53,7 +56,6 @@ impl RenderFeatures {
     /// albedo and normal to the payload.
     pub fn of(scene: &Scene, aovs: bool) -> RenderFeatures {
         let mut f = RenderFeatures::default();
-        let mut area = false;
         for (_, shape) in scene.placed_shapes() {
             let (material, emission, primitive) = match shape {
                 ShapeRef::Mesh(m) => (m.material, m.emission.is_some(), Primitive::Triangles),
@@ -62,13 +64,18 @@ impl RenderFeatures {
                     (s.material, s.emission.is_some(), Primitive::Spheres)
                 }
             };
-            area |= emission;
+            if emission {
+                f.area_on.insert(primitive);
+            }
             if let Some(b) = scene.materials.get(material as usize) {
                 let masked = matches!(b, crate::scene::Bsdf::Mask { .. });
                 if let Ok(e) = material::encode(b, &scene.images, "") {
-                    f.bsdf_kinds.insert(e.kind);
+                    let back = e.back.as_ref().map(|b| b.kind);
+                    f.bsdf_kinds
+                        .extend([Some(e.kind), back].into_iter().flatten());
                     f.hit_groups.insert(HitGroupKey {
                         kind: e.kind,
+                        back,
                         primitive,
                         masked,
                     });
@@ -79,7 +86,7 @@ impl RenderFeatures {
                 f.masks |= masked;
             }
         }
-        if area {
+        if !f.area_on.is_empty() {
             f.emitters.insert("area");
         }
         for e in &scene.emitters {
@@ -125,15 +132,17 @@ impl RenderFeatures {
     /// on every primitive type, masked and not, both texture kinds, masks, every emitter kind
     /// and the environment, instancing, spheres, shadow rays and the most payload registers.
     /// The benchmark mode's unspecialised pipeline; it renders the same image in expectation,
-    /// only slower.
+    /// only slower. The scene's own hit groups stay (its twosided pairs of BSDFs: every pair
+    /// of kinds would be 64 more programs per primitive type).
     pub fn with_every_effect(&self) -> RenderFeatures {
         let bsdf_kinds: BTreeSet<BsdfKind> = BsdfKind::all().into_iter().collect();
-        let mut hit_groups = BTreeSet::new();
+        let mut hit_groups = self.hit_groups.clone();
         for &kind in &bsdf_kinds {
             for primitive in [Primitive::Triangles, Primitive::Spheres] {
                 for masked in [false, true] {
                     hit_groups.insert(HitGroupKey {
                         kind,
+                        back: None,
                         primitive,
                         masked,
                     });
@@ -147,6 +156,9 @@ impl RenderFeatures {
             bitmap: true,
             masks: true,
             emitters: EMITTER_KINDS.iter().copied().collect(),
+            area_on: [Primitive::Triangles, Primitive::Spheres]
+                .into_iter()
+                .collect(),
             environment: true,
             instancing: true,
             spheres: true,
@@ -168,7 +180,11 @@ impl RenderFeatures {
         }
         for g in &self.hit_groups {
             for name in [
-                Some(crate::programs::closest_hit_name(g.kind, g.primitive)),
+                Some(crate::programs::closest_hit_name(
+                    g.kind,
+                    g.back,
+                    g.primitive,
+                )),
                 g.masked.then(|| crate::programs::any_hit_name(g.primitive)),
             ]
             .into_iter()
@@ -220,6 +236,18 @@ impl RenderFeatures {
         s += &format!(
             "emitters: {}\n",
             list(self.emitters.iter().copied().collect())
+        );
+        s += &format!(
+            "area emitters on: {}\n",
+            list(
+                self.area_on
+                    .iter()
+                    .map(|p| match p {
+                        Primitive::Triangles => "triangles",
+                        Primitive::Spheres => "spheres",
+                    })
+                    .collect()
+            )
         );
         s += &format!("environment: {}\n", self.environment);
         s += &format!("instancing: {}\n", self.instancing);

@@ -13,8 +13,11 @@ pub const SBT_OPACITY: usize = 10;
 pub const SBT_MATERIAL: usize = SBT_OPACITY + 13;
 /// Where the material's precomputed table (roughplastic's transmittance) starts.
 pub const SBT_EXTRA: usize = SBT_MATERIAL + MAT_PARAMS;
+/// Where the back side's material starts (a twosided material with two different BSDFs):
+/// parameters, then its table.
+pub const SBT_BACK: usize = SBT_EXTRA + MAT_EXTRA;
 /// Words of SBT record data.
-pub const RECORD_DATA_WORDS: usize = SBT_EXTRA + MAT_EXTRA;
+pub const RECORD_DATA_WORDS: usize = SBT_BACK + MAT_PARAMS + MAT_EXTRA;
 /// Floats per light table entry (scene.wgsl's LIGHT_WORDS).
 pub const LIGHT_WORDS: usize = 32;
 /// Floats per sphere table entry: centre, radius, world-to-local rotation rows, spare.
@@ -33,8 +36,10 @@ pub enum Primitive {
 /// any-hit program when the material is masked.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct HitGroupKey {
-    /// The BSDF kind shading hits.
+    /// The BSDF kind shading hits (on the front side when `back` is set).
     pub kind: BsdfKind,
+    /// The kind shading hits on the back side: a twosided material with two different BSDFs.
+    pub back: Option<BsdfKind>,
     /// The primitive type.
     pub primitive: Primitive,
     /// Whether an opacity mask's any-hit program runs.
@@ -109,6 +114,14 @@ pub struct Tables {
     pub env_pdf: f32,
     /// The light table entry of the environment map (`u32::MAX`: none).
     pub env_light: u32,
+}
+
+/// Writes a material's parameters and then its table at the start of `words`.
+fn write_material(words: &mut [u32], material: &material::Encoded) {
+    let values = material.params.iter().chain(&material.extra);
+    for (word, v) in words.iter_mut().zip(values) {
+        *word = v.to_bits();
+    }
 }
 
 impl Tables {
@@ -197,21 +210,23 @@ impl Tables {
         Ok(Some(self.gases.len() as u32 - 1))
     }
 
-    /// The record words shared by meshes and spheres: emission and material.
+    /// The record words shared by meshes and spheres (emission and material) and the hit group
+    /// that shades the shape.
     fn record(
         &mut self,
         scene: &Scene,
         material: u32,
         emission: &Option<Texture>,
+        primitive: Primitive,
         what: &str,
-    ) -> Result<([u32; RECORD_DATA_WORDS], BsdfKind, bool), RenderError> {
+    ) -> Result<([u32; RECORD_DATA_WORDS], HitGroupKey), RenderError> {
         let bsdf = scene.materials.get(material as usize).ok_or_else(|| {
             RenderError::Invalid(format!(
                 "{what}: material {material} of {}",
                 scene.materials.len()
             ))
         })?;
-        let enc = material::encode(bsdf, &scene.images, what)?;
+        let mut enc = material::encode(bsdf, &scene.images, what)?;
         let opacity = material::opacity(bsdf, what)?;
         let emission = match emission {
             None => Vec3::ZERO,
@@ -229,13 +244,20 @@ impl Tables {
         for (i, v) in opacity.iter().flatten().enumerate() {
             data[SBT_OPACITY + i] = v.to_bits();
         }
-        for (i, v) in enc.params.iter().enumerate() {
-            data[SBT_MATERIAL + i] = v.to_bits();
-        }
-        for (i, v) in enc.extra.iter().enumerate() {
-            data[SBT_EXTRA + i] = v.to_bits();
-        }
-        Ok((data, enc.kind, opacity.is_some()))
+        let back = enc.back.take().map(|mut back| {
+            back.place_table(SBT_BACK + MAT_PARAMS);
+            write_material(&mut data[SBT_BACK..], &back);
+            back.kind
+        });
+        enc.place_table(SBT_EXTRA);
+        write_material(&mut data[SBT_MATERIAL..], &enc);
+        let group = HitGroupKey {
+            kind: enc.kind,
+            back,
+            primitive,
+            masked: opacity.is_some(),
+        };
+        Ok((data, group))
     }
 
     /// The texel table: a directory of four floats per image (first texel, width, height,
@@ -296,7 +318,13 @@ impl Tables {
                 mesh.uvs.len()
             )));
         }
-        let (mut data, kind, masked) = self.record(scene, mesh.material, &mesh.emission, &what)?;
+        let (mut data, group) = self.record(
+            scene,
+            mesh.material,
+            &mesh.emission,
+            Primitive::Triangles,
+            &what,
+        )?;
         let vertex_base = (self.positions.len() / 3) as u32;
         let triangle_base = (self.indices.len() / 3) as u32;
         for p in &mesh.positions {
@@ -329,11 +357,7 @@ impl Tables {
         // Face normals come from the winding, as Mitsuba computes them.
         data[4] = u32::from(mesh.flip_normals);
         self.records.push(Record {
-            group: HitGroupKey {
-                kind,
-                primitive: Primitive::Triangles,
-                masked,
-            },
+            group,
             geometry: Geometry::Triangles {
                 vertex_base,
                 vertex_count: nv as u32,
@@ -353,8 +377,13 @@ impl Tables {
                 sphere.center, sphere.radius
             )));
         }
-        let (mut data, kind, masked) =
-            self.record(scene, sphere.material, &sphere.emission, &what)?;
+        let (mut data, group) = self.record(
+            scene,
+            sphere.material,
+            &sphere.emission,
+            Primitive::Spheres,
+            &what,
+        )?;
         let index = (self.spheres.len() / SPHERE_WORDS) as u32;
         let mut e = [0.0f32; SPHERE_WORDS];
         e[0..3].copy_from_slice(&sphere.center.to_array());
@@ -368,11 +397,7 @@ impl Tables {
         data[0] = index;
         data[4] = u32::from(sphere.flip_normals);
         self.records.push(Record {
-            group: HitGroupKey {
-                kind,
-                primitive: Primitive::Spheres,
-                masked,
-            },
+            group,
             geometry: Geometry::Sphere(index),
             data,
         });

@@ -18,9 +18,12 @@ const TEX_B: usize = 13;
 const SCALARS: usize = 26;
 const MICROFACET: usize = 33;
 const TWOSIDED: usize = 39;
+/// roughplastic's scalar naming the record data word where its table starts.
+const TABLE_AT: usize = SCALARS + 5;
 
 /// A BSDF kind: one closest-hit program per kind present in a scene. `twosided` is not a kind:
-/// it is a flag on the kind it wraps (Mitsuba's `twosided` only mirrors directions).
+/// with one nested BSDF it is a flag on the kind it wraps (Mitsuba's `twosided` only mirrors
+/// directions); with two different ones, the hit group shades with a pair of kinds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum BsdfKind {
     /// Mitsuba's `diffuse`.
@@ -157,6 +160,19 @@ pub struct Encoded {
     pub params: [f32; MAT_PARAMS],
     /// Its precomputed table (zeros where the kind has none).
     pub extra: [f32; MAT_EXTRA],
+    /// The back side's BSDF of a twosided material with two different ones (Mitsuba's
+    /// `twosided` with two children): hits from below are shaded by it.
+    pub back: Option<Box<Encoded>>,
+}
+
+impl Encoded {
+    /// Says where this material's table lies: `at` is the word of the record data (or of the
+    /// probe's material buffer) where `extra` is written. Only roughplastic reads a table.
+    pub fn place_table(&mut self, at: usize) {
+        if self.kind == BsdfKind::RoughPlastic {
+            self.params[TABLE_AT] = at as f32;
+        }
+    }
 }
 
 /// Encodes `bsdf` for the WGSL BSDF code; `images` are the scene's bitmaps (plastics weigh
@@ -166,6 +182,7 @@ pub fn encode(bsdf: &Bsdf, images: &[Image], what: &str) -> Result<Encoded, Rend
         kind: BsdfKind::Diffuse,
         params: [0.0; MAT_PARAMS],
         extra: [0.0; MAT_EXTRA],
+        back: None,
     };
     let p = &mut e.params;
     e.kind = match bsdf {
@@ -177,29 +194,29 @@ pub fn encode(bsdf: &Bsdf, images: &[Image], what: &str) -> Result<Encoded, Rend
         // inner BSDF.
         Bsdf::Mask { inner, .. } => return encode(inner, images, what),
         Bsdf::TwoSided { front, back } => {
-            if front != back {
-                return Err(RenderError::Unsupported(format!(
-                    "{what}: twosided with two different nested BSDFs (supported: one nested \
-                     BSDF, used on both sides)"
-                )));
-            }
-            if matches!(
-                **front,
-                Bsdf::TwoSided { .. }
-                    | Bsdf::Dielectric { .. }
-                    | Bsdf::ThinDielectric { .. }
-                    | Bsdf::RoughDielectric { .. }
-                    | Bsdf::Mask { .. }
-            ) {
-                // Mitsuba refuses transmissive children ("Only materials without a
-                // transmission component can be nested").
-                return Err(RenderError::Invalid(format!(
-                    "{what}: twosided around {}: expected a BSDF without transmission",
-                    bsdf_name(front)
-                )));
+            for side in [front, back] {
+                if matches!(
+                    **side,
+                    Bsdf::TwoSided { .. }
+                        | Bsdf::Dielectric { .. }
+                        | Bsdf::ThinDielectric { .. }
+                        | Bsdf::RoughDielectric { .. }
+                        | Bsdf::Mask { .. }
+                ) {
+                    // Mitsuba refuses transmissive children ("Only materials without a
+                    // transmission component can be nested").
+                    return Err(RenderError::Invalid(format!(
+                        "{what}: twosided around {}: expected a BSDF without transmission",
+                        bsdf_name(side)
+                    )));
+                }
             }
             let mut inner = encode(front, images, what)?;
-            inner.params[TWOSIDED] = 1.0;
+            if front == back {
+                inner.params[TWOSIDED] = 1.0;
+            } else {
+                inner.back = Some(Box::new(encode(back, images, what)?));
+            }
             return Ok(inner);
         }
         Bsdf::Conductor {

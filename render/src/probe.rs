@@ -6,7 +6,7 @@
 
 use crate::error::{Context, RenderError};
 use crate::gpu::{Owned, Std140};
-use crate::material;
+use crate::material::{self, MAT_PARAMS};
 use crate::programs;
 use crate::scene::Bsdf;
 use optik::{
@@ -135,14 +135,17 @@ fn run(
     if count == 0 {
         return Ok(Vec::new());
     }
-    let enc = material::encode(bsdf, &[], "probed BSDF")?;
+    let mut enc = material::encode(bsdf, &[], "probed BSDF")?;
     let mut owned = Owned::new(device);
     let pipeline_options = PipelineCompileOptions::default();
     let (module, _) = device
         .create_module(
             &ModuleCompileOptions::default(),
             &pipeline_options,
-            &ProgramSource::new("optik-render/probe.wgsl", programs::probe_module(enc.kind)),
+            &ProgramSource::new(
+                "optik-render/probe.wgsl",
+                programs::probe_module(enc.kind, enc.back.as_ref().map(|b| b.kind)),
+            ),
         )
         .during("compiling the BSDF probe")?;
     let module = owned.module(module);
@@ -160,7 +163,14 @@ fn run(
     let sbt_buffer = owned.upload(&header, "the probe's SBT")?;
     let out = owned.zeroed((count * out_words * 4) as u64, "probe results")?;
     let inp = owned.upload(bytemuck::cast_slice(input), "probe queries")?;
-    let material: Vec<f32> = enc.params.iter().chain(&enc.extra).copied().collect();
+    // Front parameters and table, then the back side's of a twosided pair (probe.wgsl's
+    // back_material).
+    enc.place_table(MAT_PARAMS);
+    let mut material: Vec<f32> = enc.params.iter().chain(&enc.extra).copied().collect();
+    if let Some(mut back) = enc.back.take() {
+        back.place_table(programs::PROBE_BACK + MAT_PARAMS);
+        material.extend(back.params.iter().chain(&back.extra));
+    }
     let mat = owned.upload(bytemuck::cast_slice(&material), "probe material")?;
     // The shared Params block, with only probe_count used.
     let mut p = Std140::default();

@@ -21,6 +21,10 @@ const NO_ENVMAP: &str = "fn env_eval(b: u32, d: vec3<f32>) -> vec3<f32> {\n    r
 /// Stands in for texture.wgsl where no bitmap exists: never called (no texture has kind 2 or 3).
 const NO_TEXTURE: &str = "fn tex_bitmap(image: u32, uv: vec2<f32>, bilinear: bool, wrap: u32) -> vec4<f32> {\n    return vec4<f32>(0.0);\n}\n";
 const TWOSIDED: &str = include_str!("wgsl/twosided.wgsl");
+const TWOSIDED_PAIR: &str = include_str!("wgsl/twosided_pair.wgsl");
+
+/// Where the probe's material buffer holds a twosided pair's back side (probe.wgsl).
+pub const PROBE_BACK: usize = crate::material::MAT_PARAMS + crate::material::MAT_EXTRA;
 
 /// The name suffix of a primitive type's hit programs.
 fn suffix(primitive: Primitive) -> &'static str {
@@ -30,9 +34,31 @@ fn suffix(primitive: Primitive) -> &'static str {
     }
 }
 
-/// The closest-hit program's name for `kind` on `primitive`.
-pub fn closest_hit_name(kind: BsdfKind, primitive: Primitive) -> String {
-    format!("closesthit__{}{}", kind.name(), suffix(primitive))
+/// The name of what shades a hit group: its kind's, or for a twosided material with two
+/// different BSDFs `twosided_<front>_<back>` (the pair's functions, twosided_pair.wgsl; `__`
+/// is reserved for program prefixes).
+pub fn shading_name(kind: BsdfKind, back: Option<BsdfKind>) -> String {
+    match back {
+        None => kind.name().to_string(),
+        Some(back) => format!("twosided_{}_{}", kind.name(), back.name()),
+    }
+}
+
+/// The closest-hit program's name for `kind` (and the back side's `back`) on `primitive`.
+pub fn closest_hit_name(kind: BsdfKind, back: Option<BsdfKind>, primitive: Primitive) -> String {
+    format!(
+        "closesthit__{}{}",
+        shading_name(kind, back),
+        suffix(primitive)
+    )
+}
+
+/// A twosided pair's functions (twosided_pair.wgsl).
+fn pair_functions(front: BsdfKind, back: BsdfKind) -> String {
+    TWOSIDED_PAIR
+        .replace("PAIR", &shading_name(front, Some(back)))
+        .replace("FRONT", front.name())
+        .replace("BACK", back.name())
 }
 
 /// The mask's any-hit program's name on `primitive`.
@@ -50,6 +76,7 @@ pub fn path_module(features: &RenderFeatures) -> String {
     s += &format!("const MASKS: bool = {};\n", features.masks);
     let envmap = features.emitters.contains("envmap");
     s += &format!("const ENVMAP: bool = {envmap};\n");
+    s += &light_samplers(features);
     s += if features.bitmap { TEXTURE } else { NO_TEXTURE };
     s += SCENE;
     s += if envmap { ENVMAP } else { NO_ENVMAP };
@@ -60,10 +87,16 @@ pub fn path_module(features: &RenderFeatures) -> String {
     }
     let mut masked = BTreeSet::new();
     let mut shaded = BTreeSet::new();
+    let mut pairs = BTreeSet::new();
     for g in &features.hit_groups {
+        if let Some(back) = g.back
+            && pairs.insert((g.kind, back))
+        {
+            s += &pair_functions(g.kind, back);
+        }
         // A masked and an opaque material of one kind share the closest-hit program.
-        if shaded.insert((g.kind, g.primitive)) {
-            s += &instantiate_hit(g.kind, g.primitive);
+        if shaded.insert((g.kind, g.back, g.primitive)) {
+            s += &instantiate_hit(g.kind, g.back, g.primitive);
         }
         if g.masked {
             masked.insert(g.primitive);
@@ -83,6 +116,25 @@ pub fn path_module(features: &RenderFeatures) -> String {
     s
 }
 
+/// The light sampler's switches: `sample_light` (scene.wgsl) compiles the sampling code of
+/// the light kinds present only. Every closest-hit program that estimates direct light calls
+/// it, and drivers inline every call, so an unused sampler costs compile time once per BSDF
+/// kind (on lavapipe, minutes for the sphere scenes).
+fn light_samplers(features: &RenderFeatures) -> String {
+    let has = |name: &str| features.emitters.contains(name);
+    [
+        ("TRIANGLE", features.area_on.contains(&Primitive::Triangles)),
+        ("SPHERE", features.area_on.contains(&Primitive::Spheres)),
+        ("POINT", has("point")),
+        ("SPOT", has("spot")),
+        ("DIRECTIONAL", has("directional")),
+        ("CONSTANT", has("constant")),
+    ]
+    .iter()
+    .map(|(kind, on)| format!("const SAMPLE_{kind}: bool = {on};\n"))
+    .collect()
+}
+
 /// A hit program template for one primitive type.
 fn instantiate_prim(template: &str, primitive: Primitive) -> String {
     let prim = match primitive {
@@ -94,23 +146,32 @@ fn instantiate_prim(template: &str, primitive: Primitive) -> String {
         .replace("PRIM", prim)
 }
 
-/// hit.wgsl for one kind on one primitive type.
-fn instantiate_hit(kind: BsdfKind, primitive: Primitive) -> String {
-    let smooth = if kind.smooth() { "NEE" } else { "false" };
+/// hit.wgsl for one kind (or twosided pair) on one primitive type.
+fn instantiate_hit(kind: BsdfKind, back: Option<BsdfKind>, primitive: Primitive) -> String {
+    let smooth = kind.smooth() || back.is_some_and(BsdfKind::smooth);
+    let smooth = if smooth { "NEE" } else { "false" };
     instantiate_prim(HIT, primitive)
-        .replace("KIND", kind.name())
+        .replace("KIND", &shading_name(kind, back))
         .replace("SMOOTH", smooth)
 }
 
-/// The probe module of one BSDF kind: its functions and the probe's ray generation programs.
-pub fn probe_module(kind: BsdfKind) -> String {
+/// The probe module of one BSDF kind (or, with `back`, of a twosided pair): its functions and
+/// the probe's ray generation programs.
+pub fn probe_module(kind: BsdfKind, back: Option<BsdfKind>) -> String {
+    let kinds: BTreeSet<BsdfKind> = [Some(kind), back].into_iter().flatten().collect();
     let mut s = String::new();
     s += COMMON;
     s += NO_TEXTURE;
-    s += &shared([kind].into_iter());
-    s += kind.wgsl();
-    s += &TWOSIDED.replace("KIND", kind.name());
-    s += &PROBE.replace("KIND", kind.name());
+    s += &format!("const PROBE_BACK: u32 = {PROBE_BACK}u;\n");
+    s += &shared(kinds.iter().copied());
+    for k in &kinds {
+        s += k.wgsl();
+        s += &TWOSIDED.replace("KIND", k.name());
+    }
+    if let Some(back) = back {
+        s += &pair_functions(kind, back);
+    }
+    s += &PROBE.replace("KIND", &shading_name(kind, back));
     s
 }
 

@@ -353,7 +353,7 @@ impl<'a> Renderer<'a> {
             descs.push(ProgramGroupDesc::HitGroup {
                 closest_hit: Some(ProgramRef::new(
                     module,
-                    programs::closest_hit_name(g.kind, g.primitive),
+                    programs::closest_hit_name(g.kind, g.back, g.primitive),
                 )),
                 any_hit: g
                     .masked

@@ -50,7 +50,7 @@ fn block_mean(f: &Frame, x0: u32, y0: u32, n: u32) -> Vec3 {
     s / (n * n) as f32
 }
 
-fn estimate(f: &Frame) -> Estimate {
+pub(super) fn estimate(f: &Frame) -> Estimate {
     Estimate::new(
         f.width,
         f.height,
@@ -67,7 +67,7 @@ fn estimate(f: &Frame) -> Estimate {
     .unwrap()
 }
 
-fn with_variance(spp: u32) -> RenderOptions {
+pub(super) fn with_variance(spp: u32) -> RenderOptions {
     RenderOptions {
         spp: Some(spp),
         want_variance: true,

@@ -36,6 +36,28 @@ fn spp_for(kind: BackendKind, cpu_spp: u32, wgpu_spp: Option<u32>) -> u32 {
     }
 }
 
+/// lavapipe, where CI runs the GPU backends, compiles each pipeline with LLVM inside a
+/// coroutine (llvmpipe's compute shaders), which grows faster than linearly with the shader:
+/// the wgpu megakernel of a scene with nine BSDF kinds took over three minutes on one core.
+/// These tests check images statistically, not speed, so before the first device opens this
+/// binary asks llvmpipe for its fast-compiling settings (no LLVM optimisation passes, 4-wide
+/// vectors), unless the environment already chose: about three times faster to compile on
+/// the sphere scenes. Every test calls this first; `Once` makes the others wait, so no thread
+/// reads the environment while it is written.
+fn fast_lavapipe_compiles() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        for (key, value) in [("GALLIVM_PERF", "nopt"), ("LP_NATIVE_VECTOR_WIDTH", "128")] {
+            if std::env::var_os(key).is_none() {
+                // SAFETY: no other thread of this process reads or writes the environment
+                // meanwhile: every test enters this `Once` before anything else, and libtest
+                // read its own variables before it started the tests.
+                unsafe { std::env::set_var(key, value) };
+            }
+        }
+    });
+}
+
 /// Loads `scene`, renders it on `kind` at `spp` after `edit` and returns optik's estimate.
 fn render_scene(
     scene: &str,
@@ -43,6 +65,7 @@ fn render_scene(
     spp: u32,
     edit: impl FnOnce(&mut optik_render::scene::Scene),
 ) -> Estimate {
+    fast_lavapipe_compiles();
     let path = validation_dir().join("scenes").join(format!("{scene}.xml"));
     let mut loaded = optik_render::scene::load(&path, &[])
         .unwrap_or_else(|e| panic!("loading {}: {e}", path.display()));
@@ -100,18 +123,15 @@ fn check(scene: &str, kind: BackendKind, cpu_spp: u32, wgpu_spp: Option<u32>) {
 }
 
 /// One test per scene and backend: `scene!(name, cpu_spp)`, or `scene!(name, cpu_spp, wgpu:
-/// wgpu_spp)`, or `scene!(name, cpu_spp, slow_wgpu: "why wgpu's test is left to --ignored")`.
+/// wgpu_spp)`.
 macro_rules! scene {
     ($name:ident, $spp:expr, wgpu: $wgpu:expr) => {
-        scene!(@tests $name, $spp, Some($wgpu), []);
-    };
-    ($name:ident, $spp:expr, slow_wgpu: $why:literal) => {
-        scene!(@tests $name, $spp, None, [#[ignore = $why]]);
+        scene!(@tests $name, $spp, Some($wgpu));
     };
     ($name:ident, $spp:expr) => {
-        scene!(@tests $name, $spp, None, []);
+        scene!(@tests $name, $spp, None);
     };
-    (@tests $name:ident, $spp:expr, $wgpu:expr, [$(#[$wgpu_attr:meta])*]) => {
+    (@tests $name:ident, $spp:expr, $wgpu:expr) => {
         mod $name {
             use super::*;
             #[test]
@@ -119,7 +139,6 @@ macro_rules! scene {
                 check(stringify!($name), BackendKind::Cpu, $spp, $wgpu);
             }
             #[test]
-            $(#[$wgpu_attr])*
             fn wgpu() {
                 check(stringify!($name), BackendKind::Wgpu, $spp, $wgpu);
             }
@@ -134,10 +153,10 @@ macro_rules! scene {
 scene!(cbox, 128);
 scene!(cbox_smooth, 128, wgpu: 32);
 scene!(cbox_rough, 128, wgpu: 16);
-scene!(spheres_area, 64, slow_wgpu: "wgpu on lavapipe compiles this scene's kernel for minutes (llvmpipe, nine BSDF programs: about 4 min) before it renders; it passes on an NVIDIA H200 (2026-12-02); run it with `cargo test -p optik-render --test mitsuba -- --ignored`");
-scene!(spheres_point, 64, slow_wgpu: "wgpu on lavapipe compiles this scene's kernel for minutes (llvmpipe, nine BSDF programs: about 4 min) before it renders; it passes on an NVIDIA H200 (2026-12-02); run it with `cargo test -p optik-render --test mitsuba -- --ignored`");
-scene!(spheres_constant, 64, slow_wgpu: "wgpu on lavapipe compiles this scene's kernel for minutes (llvmpipe, nine BSDF programs: about 4 min) before it renders; it passes on an NVIDIA H200 (2026-12-02); run it with `cargo test -p optik-render --test mitsuba -- --ignored`");
-scene!(spheres_envmap, 64, slow_wgpu: "wgpu on lavapipe compiles this scene's kernel for minutes (llvmpipe, nine BSDF programs: about 4 min) before it renders; it passes on an NVIDIA H200 (2026-12-02); run it with `cargo test -p optik-render --test mitsuba -- --ignored`");
+scene!(spheres_area, 64);
+scene!(spheres_point, 64);
+scene!(spheres_constant, 64);
+scene!(spheres_envmap, 64);
 // Spheres and instances make the wgpu backend's software traversal a larger shader: on
 // lavapipe it compiles for about 40 s, so these scenes render fewer samples.
 scene!(textured_diffuse, 32);
@@ -217,7 +236,6 @@ mod breakfast_room {
         check_breakfast_room(BackendKind::Cpu, 64);
     }
     #[test]
-    #[ignore = "wgpu on lavapipe takes over 10 minutes on the Breakfast Room (270k triangles); it passes on an NVIDIA H200 (2026-12-02); run it with `cargo test -p optik-render --test mitsuba -- --ignored`"]
     fn wgpu() {
         check_breakfast_room(BackendKind::Wgpu, 64);
     }

@@ -60,7 +60,7 @@ fn the_plan_is_what_the_renderer_builds_and_the_device_compiles() {
     let plan = all.plan();
     for kind in BsdfKind::all() {
         for primitive in [Primitive::Triangles, Primitive::Spheres] {
-            let name = programs::closest_hit_name(kind, primitive);
+            let name = programs::closest_hit_name(kind, None, primitive);
             assert!(plan.programs.contains(&name), "{name}: {:?}", plan.programs);
         }
     }

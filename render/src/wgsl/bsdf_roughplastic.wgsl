@@ -2,14 +2,16 @@
 // (isotropic Beckmann or GGX) weighted by specular_reflectance (texture B). The transmittance
 // through the coating per cosine is a 64-entry table (mat_extra, computed by roughplastic.rs as
 // Mitsuba computes it). Scalars: eta, 1/eta², specular sampling weight, nonlinear, internal
-// reflectance; microfacet at MP_MICROFACET.
+// reflectance, where the table starts (a record holds two tables when a twosided material has
+// a different BSDF on each side); microfacet at MP_MICROFACET.
 
 // Mitsuba's lerp_gather over the transmittance table.
-fn roughplastic_transmittance(cos_theta: f32) -> f32 {
+fn roughplastic_transmittance(m: MatParams, cos_theta: f32) -> f32 {
     let x = cos_theta * 63.0;
     let i = min(u32(x), 62u);
-    let v0 = mat_extra(i);
-    let v1 = mat_extra(i + 1u);
+    let table = u32(m[MP_SCALARS + 5u]);
+    let v0 = mat_extra(table + i);
+    let v1 = mat_extra(table + i + 1u);
     return mix(v0, v1, x - f32(i));
 }
 
@@ -35,8 +37,8 @@ fn bsdf_roughplastic_eval(m: MatParams, wi: vec3<f32>, wo: vec3<f32>, uv: vec2<f
     let g1_wi = mf_smith_g1(d, wi, h);
     let g = g1_wi * mf_smith_g1(d, wo, h);
     var value = tex_rgb(m, MP_TEX_B, uv) * (f * dv * g / (4.0 * ci));
-    let t_i = roughplastic_transmittance(ci);
-    let t_o = roughplastic_transmittance(co);
+    let t_i = roughplastic_transmittance(m, ci);
+    let t_o = roughplastic_transmittance(m, co);
     var diff = tex_rgb(m, MP_TEX_A, uv);
     let internal = m[s + 4u];
     if m[s + 3u] != 0.0 {
@@ -60,7 +62,7 @@ fn bsdf_roughplastic_sample(m: MatParams, wi: vec3<f32>, uv: vec2<f32>, u1: f32,
     if wi.z <= 0.0 {
         return bsdf_sample_none();
     }
-    let t_i = roughplastic_transmittance(wi.z);
+    let t_i = roughplastic_transmittance(m, wi.z);
     var wo: vec3<f32>;
     if u1 < roughplastic_prob_specular(m, t_i) {
         let d = mf_from(m, MP_MICROFACET);

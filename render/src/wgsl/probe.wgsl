@@ -13,9 +13,18 @@ fn probe_material() -> MatParams {
     return m;
 }
 
-// The material's precomputed table, after its parameters.
+// Word `i` of the probed material: its precomputed table follows its parameters.
 fn mat_extra(i: u32) -> f32 {
-    return probe_mat[MAT_PARAMS_LEN + i];
+    return probe_mat[i];
+}
+
+// A twosided pair's back side: parameters and table after the front's (probe.rs).
+fn back_material() -> MatParams {
+    var m: MatParams;
+    for (var i = 0u; i < MAT_PARAMS_LEN; i++) {
+        m[i] = probe_mat[PROBE_BACK + i];
+    }
+    return m;
 }
 
 fn probe_v3(b: u32) -> vec3<f32> {

@@ -89,6 +89,8 @@ fn lv3(base: u32) -> vec3<f32> {
     return vec3<f32>(lights[base], lights[base + 1u], lights[base + 2u]);
 }
 
+// One light from the table by its power CDF, then a point or direction on it. Only the kinds
+// the scene has are compiled (the SAMPLE_* constants, programs.rs).
 fn sample_light(x: vec3<f32>, u_sel: f32, u: vec2<f32>) -> LightSample {
     var lo = 0u;
     var hi = params.light_count - 1u;
@@ -104,7 +106,7 @@ fn sample_light(x: vec3<f32>, u_sel: f32, u: vec2<f32>) -> LightSample {
     let kind = u32(lights[b]);
     let le = lv3(b + 2u);
     let pdf0 = lights[b + 5u];
-    if kind == LIGHT_TRIANGLE {
+    if SAMPLE_TRIANGLE && kind == LIGHT_TRIANGLE {
         let p0 = lv3(b + 6u);
         let e1 = lv3(b + 9u);
         let e2 = lv3(b + 12u);
@@ -121,7 +123,7 @@ fn sample_light(x: vec3<f32>, u_sel: f32, u: vec2<f32>) -> LightSample {
         let pdf = pdf0 * dist2 / cos_l;
         return LightSample(dir, le / pdf, pdf, rt_offset_ray(y, n), false);
     }
-    if kind == LIGHT_POINT {
+    if SAMPLE_POINT && kind == LIGHT_POINT {
         let p = lv3(b + 6u);
         let v = p - x;
         let dist2 = dot(v, v);
@@ -130,16 +132,16 @@ fn sample_light(x: vec3<f32>, u_sel: f32, u: vec2<f32>) -> LightSample {
         }
         return LightSample(v * inverseSqrt(dist2), le / (dist2 * pdf0), pdf0, p, true);
     }
-    if kind == LIGHT_DIRECTIONAL {
+    if SAMPLE_DIRECTIONAL && kind == LIGHT_DIRECTIONAL {
         // Towards the light; the target lies beyond the scene's bounding sphere.
         let dir = -lv3(b + 6u);
         let far = lights[b + 9u];
         return LightSample(dir, le / pdf0, pdf0, x + dir * far, true);
     }
-    if kind == LIGHT_SPHERE {
+    if SAMPLE_SPHERE && kind == LIGHT_SPHERE {
         return sample_sphere_light(b, x, le, pdf0, u);
     }
-    if kind == LIGHT_SPOT {
+    if SAMPLE_SPOT && kind == LIGHT_SPOT {
         // Mitsuba's spot: intensity times its falloff (1 inside beam_width, linear in the
         // angle down to 0 at cutoff_angle) in the light's frame.
         let p = lv3(b + 6u);
@@ -165,6 +167,9 @@ fn sample_light(x: vec3<f32>, u_sel: f32, u: vec2<f32>) -> LightSample {
     }
     if ENVMAP && kind == LIGHT_ENVMAP {
         return sample_env(b, x, u);
+    }
+    if !SAMPLE_CONSTANT {
+        return light_none();
     }
     // Constant: uniform directions over the sphere (Mitsuba's constant emitter).
     let z = 1.0 - 2.0 * u.x;
@@ -240,9 +245,11 @@ fn sample_sphere_light(b: u32, x: vec3<f32>, le: vec3<f32>, sel: f32, u: vec2<f3
 // SBT record data words: vertex base (a sphere: its index), triangle base, normal base, uv
 // base (NONE: absent), flip, emitter pdf (meshes: selection / area; spheres: selection),
 // emitted radiance rgb, pad, a mask's opacity texture (13 floats), then the material's
-// parameters and its precomputed table (geometry.rs's layout).
+// parameters and its precomputed table, then those of the back side's BSDF when a twosided
+// material has two (geometry.rs's layout).
 const SBT_OPACITY: u32 = 10u;
 const SBT_MATERIAL: u32 = 23u;
+const SBT_BACK: u32 = 127u;
 
 struct Hit {
     p: vec3<f32>,
@@ -385,10 +392,21 @@ fn sbt_material() -> MatParams {
     return m;
 }
 
-// The material's precomputed table (roughplastic's transmittance), read where needed rather
-// than copied with the parameters.
+// The back side's material of a twosided material with two different BSDFs: parameters and
+// table after the front's.
+fn back_material() -> MatParams {
+    var m: MatParams;
+    for (var i = 0u; i < MAT_PARAMS_LEN; i++) {
+        m[i] = rt_sbt_data_f32(SBT_BACK + i);
+    }
+    return m;
+}
+
+// Word `i` of the record's data: the materials' precomputed tables (roughplastic's
+// transmittance, which names where its table starts), read where needed rather than copied
+// with the parameters.
 fn mat_extra(i: u32) -> f32 {
-    return rt_sbt_data_f32(SBT_MATERIAL + MAT_PARAMS_LEN + i);
+    return rt_sbt_data_f32(i);
 }
 
 // Emission seen along d at the hit (Mitsuba's area emitter: front side only) and the
