@@ -1,7 +1,7 @@
 //! Curve bases as Bézier control points.
 //!
 //! Every round curve segment is stored with its control points in the input's basis. Both
-//! the bounds (here) and the CPU intersector (backend-cpu/src/traverse/curve.rs) first convert a segment to
+//! the bounds (here) and the CPU intersector (backend-cpu/src/traversal/curve.rs) first convert a segment to
 //! Bézier form, whose control polygon holds the curve (the convex hull property): centre
 //! and radius alike, since OptiX interpolates the radius with the same basis as the centre.
 

@@ -11,7 +11,7 @@ use optik_accel::decode::BufferBytes;
 use optik_api::semantics::opacity::CandidateFate;
 use optik_api::*;
 use optik_cpu::accel::{Gas, MicromapArrayData, MicromapLookup, SceneTable, Traversable};
-use optik_cpu::traverse::{
+use optik_cpu::traversal::{
     self, Candidate, CustomPrimitive, Handler, Path, PreparedRay, Spec, Specialised, TraceConfig,
     TraceRay,
 };
@@ -205,7 +205,7 @@ fn trace_all<S: Spec>(
                 tmax: f32::INFINITY,
                 hit: u32::MAX,
             };
-            traverse::trace::<S, _>(scene, root, &r, &CONFIG, &mut h);
+            traversal::trace::<S, _>(scene, root, &r, &CONFIG, &mut h);
             h.hit
         })
         .collect()
@@ -265,7 +265,7 @@ fn cwbvh_trace(bvh: &obvhs::cwbvh::CwBvh, tris: &[[[f32; 3]; 3]], o: [f32; 3], d
                 lo[k] = a - pad;
                 hi[k] = b + pad;
             }
-            let e = traverse::slab_entry(&ray, &lo, &hi, 0.0, tmax);
+            let e = traversal::slab_entry(&ray, &lo, &hi, 0.0, tmax);
             if is_internal {
                 if let Some(e) = e {
                     inner[count] = (n.child_base_idx + internal_before, e);
@@ -276,7 +276,7 @@ fn cwbvh_trace(bvh: &obvhs::cwbvh::CwBvh, tris: &[[[f32; 3]; 3]], o: [f32; 3], d
                 let first = n.primitive_base_idx + (meta & 0x1F) as u32;
                 let prims = (meta >> 5).count_ones();
                 for s in first..first + prims {
-                    if let Some(h) = traverse::watertight(&ray, &tris[s as usize], 0.0, tmax) {
+                    if let Some(h) = traversal::watertight(&ray, &tris[s as usize], 0.0, tmax) {
                         tmax = h.t;
                         hit = bvh.primitive_indices[s as usize];
                     }

@@ -15,7 +15,7 @@ use crate::pipeline::{
 };
 use crate::program::abi::{Bindings, BoundBuffer, BoundResource, BoundTexture};
 use crate::sbt::{self, RecordBytes};
-use crate::traverse::TraceConfig;
+use crate::traversal::TraceConfig;
 use optik_accel::decode::BufferBytes;
 use optik_api::{
     Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BuildInput,

@@ -3,19 +3,24 @@
 //! Module layout (the same names in every backend, DESIGN.md §1):
 //! - `accel`: the CPU's encoding of optik-accel's structures: 4-wide nodes and triangle
 //!   blocks;
-//! - `traverse`: our own robust traversal and intersection;
+//! - `traversal`: our own robust traversal and intersection;
 //! - `program`: WGSL programs JIT-compiled with Cranelift (feature `jit`);
-//! - `pipeline`, `sbt`, `launch`, `device`: the OptiX objects, the launch loop on rayon
-//!   threads and [`CpuDevice`].
+//! - `pipeline`, `sbt`: the OptiX objects;
+//! - `launch`: the launch loop on rayon threads;
+//! - `device_api`: the device API programs call (payload registers, attributes, traces,
+//!   callables), with the fate of candidates (any-hit and intersection programs) and
+//!   exceptions in its `candidates` and `exceptions` modules;
+//! - `device`: [`CpuDevice`].
 //!
 //! docs/cpu-backend.md records the decisions: BVH layout and build presets, handle
 //! encoding, payload and exception semantics, the curve tolerance, specialisation.
 
 pub mod accel;
 pub mod program;
-pub mod traverse;
+pub mod traversal;
 
 mod device;
+mod device_api;
 mod jit_glue;
 mod launch;
 pub mod pipeline;

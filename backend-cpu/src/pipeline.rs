@@ -2,7 +2,7 @@
 //! program is JIT-compiled WGSL or a native Rust closure, called the same way.
 
 use crate::program::abi::{Bindings, DeviceCalls};
-use crate::traverse::{Spec, Specialised, TraceRay};
+use crate::traversal::{Spec, Specialised, TraceRay};
 use optik_api::features::ProgramFeatures;
 use optik_api::{
     Accuracy, BoxTest, Error, FeatureSet, PipelineLinkOptions, ProgramGroupDesc, ProgramKind,
@@ -452,10 +452,10 @@ pub(crate) fn with_payload_registers(
 
 /// Traverses for one pipeline: a [`Spec`] chosen from the pipeline's features.
 pub(crate) type TraceFn =
-    for<'a, 'l> fn(&'a mut crate::launch::Invocation<'l>, &'a TraceRay, TraversableHandle);
+    for<'a, 'l> fn(&'a mut crate::device_api::Invocation<'l>, &'a TraceRay, TraversableHandle);
 
 fn trace_fn<S: Spec>() -> TraceFn {
-    crate::launch::trace_with::<S>
+    crate::device_api::trace_with::<S>
 }
 
 fn select_c<const M: bool, const I: bool, const A: bool, const W: bool>(c: bool) -> TraceFn {

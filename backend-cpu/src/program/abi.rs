@@ -5,7 +5,7 @@
 //! current ray, hit and launch index. The JIT lowers each prelude stub (`rt_*`) to a call
 //! of the matching [`DeviceCalls`] method (through `extern "C-unwind"` trampolines), or to a
 //! load from the runtime's [`DeviceState`] when it offers one; the runtime
-//! (`launch` and `traverse`) implements the trait. Tests implement it too, which is how the
+//! (`device_api` and `traversal`) implements the trait. Tests implement it too, which is how the
 //! JIT is tested without traversal and traversal without the JIT.
 //!
 //! Terminators: `rt_ignore_intersection`, `rt_terminate_ray` and `rt_throw_exception` end

@@ -6,7 +6,7 @@
 //! 2. the shared WGSL of `optik_api::wgsl`, only the parts the features need;
 //! 3. the state of the current program (ray, hit, payload registers, SBT record) as
 //!    private globals, which trace and callable calls save and restore around the callee;
-//! 4. the device API (`state`), the traversal (`traverse`), the trace, callable, exception
+//! 4. the device API (`device_api`), the traversal (`traversal`), the trace, callable, exception
 //!    and program dispatch functions (`dispatch`);
 //! 5. the user's modules lowered by `crate::program::instance`;
 //! 6. the entry point.
@@ -16,9 +16,9 @@
 //! exception code is written at all.
 
 pub(crate) mod counters;
+mod device_api;
 mod dispatch;
-mod state;
-mod traverse;
+mod traversal;
 
 use crate::program::instance::Lowered;
 use optik_api::wgsl::{self, SnippetOptions};
@@ -133,9 +133,9 @@ pub(crate) fn generate(c: &KernelConfig<'_>) -> String {
     out.push_str("// optik wgpu megakernel (generated; see docs/wgpu-backend.md)\n\n");
     bindings(c, &mut out);
     snippets(c, &mut out);
-    state::write(c, &mut out);
+    device_api::write(c, &mut out);
     if c.traces() {
-        traverse::write(c, &mut out);
+        traversal::write(c, &mut out);
     }
     dispatch::write(c, &mut out);
     for (i, m) in c.lowered.module_wgsl.iter().enumerate() {

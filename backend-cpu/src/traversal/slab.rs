@@ -187,8 +187,8 @@ mod tests {
     fn widening_constant_is_at_least_two_gamma_three() {
         let eps = 2.0f64.powi(-24);
         let gamma3 = 3.0 * eps / (1.0 - 3.0 * eps);
-        assert!(crate::traverse::SLAB_WIDENING as f64 >= 1.0 + 2.0 * gamma3);
-        assert!((crate::traverse::SLAB_WIDENING as f64) < 1.0 + 4.0 * gamma3);
+        assert!(crate::traversal::SLAB_WIDENING as f64 >= 1.0 + 2.0 * gamma3);
+        assert!((crate::traversal::SLAB_WIDENING as f64) < 1.0 + 4.0 * gamma3);
     }
 
     #[test]

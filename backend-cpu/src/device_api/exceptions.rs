@@ -1,0 +1,27 @@
+//! Exceptions (DESIGN.md §4): an exception runs the pipeline's exception program, when the
+//! SBT has one, and ends the launch index: every program on the stack returns (see
+//! `DeviceCalls::unwinding`) and later device calls do nothing.
+
+use super::{Invocation, View};
+use optik_api::ProgramKind;
+
+impl Invocation<'_> {
+    /// Raises an exception: runs the exception program, then ends the launch index.
+    pub(super) fn raise(&mut self, exception_code: i32) {
+        if self.ending {
+            return;
+        }
+        if let Some(rec) = &self.shared.sbt.exception
+            && let Some(p) = rec.programs.main
+        {
+            let view = View {
+                kind: ProgramKind::Exception,
+                record: Some(rec),
+                exception_code,
+                ..*self.view()
+            };
+            self.run(p, view);
+        }
+        self.ending = true;
+    }
+}

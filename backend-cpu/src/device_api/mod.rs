@@ -1,0 +1,847 @@
+//! The device API: one [`Invocation`] per launch index answers the calls of the programs it
+//! runs (payload registers, attributes, the ray and hit getters, traces and callables), decides
+//! the fate of the candidates its traces find (`candidates`: any-hit and intersection
+//! programs) and raises exceptions (`exceptions`).
+//!
+//! Semantics kept here (DESIGN.md §4, written down in docs/cpu-backend.md):
+//! - Payload registers are copied in at `rt_trace` and out when it returns; callables get
+//!   their argument array the same way. Registers past the caller's array read 0.
+//! - An invalid ray misses without running any program and leaves the payload alone; with
+//!   `ExceptionFlags::DEBUG` the exception program runs (`INVALID_RAY`).
+//! - `rt_trace` beyond `max_trace_depth` does nothing, or raises `TRACE_DEPTH_EXCEEDED` when
+//!   the pipeline checks `TRACE_DEPTH`. Callables nested beyond the link options' depths do
+//!   nothing, or raise `STACK_OVERFLOW`.
+//! - An exception runs the exception program (when the SBT has one) and ends the launch
+//!   index: every program on the stack returns (see `DeviceCalls::unwinding`) and further
+//!   device calls do nothing.
+//! - A hit whose SBT record index lies past the hit group records is a hit without programs
+//!   (as the Vulkan backend's null records), or raises `INVALID_HIT_SBT` under debug
+//!   exceptions; a miss index past the miss records runs nothing (or raises
+//!   `INVALID_MISS_SBT`).
+//!
+//! Cost: nothing here allocates. What a running program sees (its [`View`] and the
+//! [`DeviceState`] compiled programs read instead of calling getters) and what a trace keeps
+//! ([`TraceState`], the payload registers) live in the stack frames of the calls that run
+//! programs and trace; the invocation points at the innermost ones, and views point at the
+//! hit and the instance path they show, so nesting copies little more than the payload
+//! words in use.
+
+mod candidates;
+mod exceptions;
+
+use crate::launch::LaunchShared;
+use crate::pipeline::Callable;
+use crate::program::abi::{DeviceCalls, DeviceState};
+use crate::sbt::Record;
+use crate::traversal::{self, Candidate, HitData, Path, Spec, TraceRay};
+use optik_api::semantics::exception as code;
+use optik_api::semantics::opacity::CandidateFate;
+use optik_api::semantics::{self, facing, sbt_index};
+use optik_api::{ExceptionFlags, IDENTITY_3X4, ProgramKind, RayFlags, TraversableHandle};
+use std::sync::atomic::AtomicU32;
+
+/// Most payload (and callable argument) registers.
+const MAX_PAYLOAD: usize = 32;
+
+/// The ray a program sees.
+#[derive(Clone, Copy, Debug)]
+struct RayState {
+    origin: [f32; 3],
+    direction: [f32; 3],
+    tmin: f32,
+    /// The current end: the committed (or candidate) distance in hit programs.
+    tmax: f32,
+    time: f32,
+    flags: u32,
+    mask: u32,
+}
+
+/// The primitive a program sees (the instances above it are its [`Path`]).
+#[derive(Clone, Copy, Debug)]
+struct HitState {
+    t: f32,
+    primitive_index: u32,
+    sbt_gas_index: u32,
+    hit_kind: u32,
+    attributes: [u32; 8],
+    data: Option<HitData>,
+}
+
+impl HitState {
+    fn at(info: &crate::accel::PrimitiveInfo) -> HitState {
+        HitState {
+            t: 0.0,
+            primitive_index: info.primitive_index,
+            sbt_gas_index: info.sbt_gas_index,
+            hit_kind: 0,
+            attributes: [0; 8],
+            data: None,
+        }
+    }
+
+    /// A built-in primitive's hit.
+    #[inline(always)]
+    fn of(c: &Candidate<'_>) -> HitState {
+        let mut attributes = [0; 8];
+        match c.data {
+            HitData::Triangle { barycentrics, .. } => {
+                attributes[0] = barycentrics[0].to_bits();
+                attributes[1] = barycentrics[1].to_bits();
+            }
+            HitData::Curve { u } => attributes[0] = u.to_bits(),
+            HitData::Sphere { .. } => {}
+        }
+        HitState {
+            t: c.t,
+            primitive_index: c.info.primitive_index,
+            sbt_gas_index: c.info.sbt_gas_index,
+            hit_kind: c.hit_kind,
+            attributes,
+            data: Some(c.data),
+        }
+    }
+}
+
+/// What the running program sees.
+#[derive(Clone, Copy)]
+struct View<'l> {
+    kind: ProgramKind,
+    record: Option<&'l Record<'l>>,
+    ray: RayState,
+    /// The primitive, or null: a hit kept by a caller of the program's `run` (the committed
+    /// hit of the trace, the candidate of an any-hit, the primitive of an intersection), so
+    /// views stay small to copy.
+    hit: *const HitState,
+    /// The instances above `hit`, kept the same way; null when there are none (pipelines
+    /// without instancing): identity transforms, instance id and index 0, the object-space
+    /// ray is the ray.
+    path: *const Path,
+    exception_code: i32,
+}
+
+impl View<'_> {
+    const EMPTY: View<'static> = View {
+        kind: ProgramKind::Raygen,
+        record: None,
+        ray: RayState {
+            origin: [0.0; 3],
+            direction: [0.0; 3],
+            tmin: 0.0,
+            tmax: 0.0,
+            time: 0.0,
+            flags: 0,
+            mask: 0,
+        },
+        hit: std::ptr::null(),
+        path: std::ptr::null(),
+        exception_code: 0,
+    };
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum AnyHitOutcome {
+    Accept,
+    Ignore,
+    Terminate,
+}
+
+/// An intersection program's candidate.
+#[derive(Clone, Copy)]
+struct IntersectionContext<'l> {
+    base: HitState,
+    /// As `View::path`; points into the traversal's stack for the program's run.
+    path: *const Path,
+    record: &'l Record<'l>,
+    fate: CandidateFate,
+}
+
+/// The state of one `rt_trace`, in the stack frame of [`Invocation::trace`].
+struct TraceState<'l> {
+    ray: RayState,
+    sbt_offset: u32,
+    sbt_stride: u32,
+    committed: Option<(HitState, &'l Record<'l>)>,
+    /// The instances above the committed hit, when the pipeline has instancing (else the
+    /// committed hit has none). Only read when `committed_has_path`.
+    committed_path: std::mem::MaybeUninit<Path>,
+    committed_has_path: bool,
+    terminated: bool,
+    any_hit: AnyHitOutcome,
+    intersection: Option<IntersectionContext<'l>>,
+    /// The running intersection program must return.
+    intersection_exit: bool,
+}
+
+/// One launch index: the device API for its programs, and the candidate handler of its
+/// traces.
+pub(crate) struct Invocation<'l> {
+    shared: &'l LaunchShared<'l>,
+    index: [u32; 3],
+    /// Traces in progress.
+    depth: u32,
+    direct_depth: u32,
+    continuation_depth: u32,
+    /// An exception ended this launch index.
+    ending: bool,
+    /// What the innermost running program sees (null before the raygen starts); in the
+    /// stack frame of its `run`.
+    view: *mut View<'l>,
+    /// Its values as memory (only the fields of `present` are written); next to `view`.
+    state: *mut DeviceState,
+    /// The innermost trace (null outside traces).
+    trace: *mut TraceState<'l>,
+    /// The payload registers of the innermost trace or callable call (null outside them).
+    payload: *mut u32,
+    payload_len: usize,
+}
+
+/// Traces for a pipeline compiled as `S`.
+pub(crate) fn trace_with<S: Spec>(
+    inv: &mut Invocation<'_>,
+    ray: &TraceRay,
+    root: TraversableHandle,
+) {
+    let shared = inv.shared;
+    traversal::trace::<S, _>(shared.scene, root, ray, &shared.config, inv);
+}
+
+impl<'l> Invocation<'l> {
+    /// Runs launch index `index`: its ray generation program `raygen`, and everything that
+    /// calls.
+    pub(crate) fn run_raygen(shared: &'l LaunchShared<'l>, index: [u32; 3], raygen: Callable<'l>) {
+        let view = View {
+            kind: ProgramKind::Raygen,
+            record: Some(&shared.sbt.raygen),
+            ..View::EMPTY
+        };
+        Invocation::new(shared, index).run(raygen, view);
+    }
+
+    fn new(shared: &'l LaunchShared<'l>, index: [u32; 3]) -> Invocation<'l> {
+        Invocation {
+            shared,
+            index,
+            depth: 0,
+            direct_depth: 0,
+            continuation_depth: 0,
+            ending: false,
+            view: std::ptr::null_mut(),
+            state: std::ptr::null_mut(),
+            trace: std::ptr::null_mut(),
+            payload: std::ptr::null_mut(),
+            payload_len: 0,
+        }
+    }
+
+    fn exceptions(&self) -> ExceptionFlags {
+        self.shared.features.exceptions
+    }
+
+    /// What the running program sees.
+    #[inline]
+    fn view(&self) -> &View<'l> {
+        if self.view.is_null() {
+            &View::EMPTY
+        } else {
+            // SAFETY: `view` points into the stack frame of the `run` call of the running
+            // program, which outlives every device call the program makes.
+            unsafe { &*self.view }
+        }
+    }
+
+    /// The innermost trace. Only called while one runs (from the traversal's handler
+    /// calls, or from programs it runs).
+    #[inline]
+    fn tr(&self) -> &TraceState<'l> {
+        debug_assert!(!self.trace.is_null());
+        // SAFETY: `trace` points into the stack frame of the `trace` call in progress.
+        unsafe { &*self.trace }
+    }
+
+    #[inline]
+    fn tr_mut(&mut self) -> &mut TraceState<'l> {
+        debug_assert!(!self.trace.is_null());
+        // SAFETY: as in `tr`; `&mut self` makes this the only reference.
+        unsafe { &mut *self.trace }
+    }
+
+    /// Runs a program with `view`; the caller's view comes back after.
+    #[inline]
+    fn run(&mut self, program: Callable<'l>, view: View<'l>) {
+        // An empty program (a miss program that leaves the payload alone) has no effect.
+        if !program.does_nothing() {
+            self.run_program(program, view);
+        }
+    }
+
+    fn run_program(&mut self, program: Callable<'l>, mut view: View<'l>) {
+        // Compiled code reads the state through a raw pointer: only written fields are read.
+        let mut state = std::mem::MaybeUninit::<DeviceState>::uninit();
+        let saved = (
+            std::mem::replace(&mut self.view, &mut view),
+            std::mem::replace(&mut self.state, state.as_mut_ptr()),
+        );
+        self.fill_state(program.state_bits());
+        let bindings = self.shared.bindings;
+        let state = self.state;
+        program.call(bindings, self, state);
+        (self.view, self.state) = saved;
+    }
+
+    /// Writes the values of `bits` for the running program into its `DeviceState`: the
+    /// same answers the `DeviceCalls` methods give, read as memory by compiled code.
+    #[inline]
+    fn fill_state(&mut self, bits: u32) {
+        type S = DeviceState;
+        // SAFETY (every write below): `state` is the running program's state, set by `run`;
+        // nothing else refers to it, and the fields are plain data written through the
+        // pointer (never read before they are written).
+        let s = self.state;
+        unsafe { (*s).present = bits & !S::PAYLOAD };
+        if bits == 0 {
+            return;
+        }
+        if bits & S::LAUNCH_INDEX != 0 {
+            unsafe { (*s).launch_index = self.launch_index() };
+        }
+        if bits & S::LAUNCH_DIMENSIONS != 0 {
+            unsafe { (*s).launch_dimensions = self.launch_dimensions() };
+        }
+        if bits & S::WORLD_RAY != 0 {
+            unsafe {
+                (*s).world_ray_origin = self.world_ray_origin();
+                (*s).world_ray_direction = self.world_ray_direction();
+            }
+        }
+        if bits & S::OBJECT_RAY != 0 {
+            unsafe {
+                (*s).object_ray_origin = self.object_ray_origin();
+                (*s).object_ray_direction = self.object_ray_direction();
+            }
+        }
+        if bits & S::RAY != 0 {
+            unsafe {
+                (*s).ray_tmin = self.ray_tmin();
+                (*s).ray_tmax = self.ray_tmax();
+                (*s).ray_time = self.ray_time();
+                (*s).ray_flags = self.ray_flags();
+                (*s).ray_mask = self.ray_mask();
+            }
+        }
+        if bits & S::PRIMITIVE != 0 {
+            unsafe {
+                (*s).primitive_index = self.primitive_index();
+                (*s).sbt_gas_index = self.sbt_gas_index();
+                (*s).instance_id = self.instance_id();
+                (*s).instance_index = self.instance_index();
+            }
+        }
+        if bits & S::HIT != 0 {
+            unsafe {
+                (*s).hit_kind = self.hit_kind();
+                (*s).triangle_barycentrics = self.triangle_barycentrics();
+            }
+        }
+        if bits & S::TRANSFORMS != 0 {
+            unsafe {
+                (*s).object_to_world = self.object_to_world();
+                (*s).world_to_object = self.world_to_object();
+            }
+        }
+        if bits & S::TRACE_DEPTH != 0 {
+            unsafe { (*s).remaining_trace_depth = self.remaining_trace_depth() };
+        }
+        // Writes in place are right only while they are not dropped (before an exception
+        // ends the index; no program starts after that).
+        if bits & S::PAYLOAD != 0 && !self.payload.is_null() && !self.ending {
+            unsafe {
+                (*s).present |= S::PAYLOAD;
+                (*s).payload = self.payload;
+                (*s).payload_len = self.payload_len as u32;
+            }
+        }
+    }
+    /// After traversal: the closest-hit or miss program.
+    fn finish_trace(&mut self, world: RayState, miss_index: u32) {
+        let tr = self.tr();
+        let path: *const Path = if tr.committed_has_path {
+            tr.committed_path.as_ptr()
+        } else {
+            std::ptr::null()
+        };
+        match &tr.committed {
+            &Some((ref hit, record)) => {
+                if RayFlags(world.flags).contains(RayFlags::DISABLE_CLOSESTHIT) {
+                    return;
+                }
+                if let Some(ch) = record.programs.main {
+                    let ray = RayState {
+                        tmax: hit.t,
+                        ..world
+                    };
+                    let hit: *const HitState = hit;
+                    self.run(
+                        ch,
+                        View {
+                            kind: ProgramKind::ClosestHit,
+                            record: Some(record),
+                            ray,
+                            hit,
+                            path,
+                            exception_code: 0,
+                        },
+                    );
+                }
+            }
+            None => {
+                let shared = self.shared;
+                match shared
+                    .sbt
+                    .miss
+                    .get(sbt_index::miss_record_index(miss_index) as usize)
+                {
+                    Some(record) => {
+                        if let Some(ms) = record.programs.main {
+                            self.run(
+                                ms,
+                                View {
+                                    kind: ProgramKind::Miss,
+                                    record: Some(record),
+                                    ray: world,
+                                    hit: std::ptr::null(),
+                                    path: std::ptr::null(),
+                                    exception_code: 0,
+                                },
+                            );
+                        }
+                    }
+                    None => {
+                        if self.exceptions().contains(ExceptionFlags::DEBUG) {
+                            self.raise(code::INVALID_MISS_SBT);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// `rt_direct_call` and `rt_continuation_call`.
+    fn call_callable(&mut self, index: u32, args: &mut [u32], continuation: bool) {
+        if self.ending {
+            return;
+        }
+        let shared = self.shared;
+        let record = shared.sbt.callables.get(index as usize);
+        let program = record.and_then(|r| {
+            if continuation {
+                r.programs.continuation
+            } else {
+                r.programs.direct
+            }
+        });
+        let (Some(record), Some(program)) = (record, program) else {
+            if self.exceptions().contains(ExceptionFlags::DEBUG) {
+                self.raise(code::CALLABLE_INVALID_SBT);
+            }
+            return;
+        };
+        let (depth, limit) = if continuation {
+            (
+                self.continuation_depth,
+                shared.link.max_continuation_callable_depth,
+            )
+        } else {
+            (self.direct_depth, shared.link.max_direct_callable_depth)
+        };
+        if depth >= limit {
+            if self.exceptions().contains(ExceptionFlags::STACK_OVERFLOW) {
+                self.raise(code::STACK_OVERFLOW);
+            }
+            return;
+        }
+        let n = args.len().min(MAX_PAYLOAD);
+        let mut registers = [0u32; MAX_PAYLOAD];
+        registers[..n].copy_from_slice(&args[..n]);
+        let saved = (self.payload, self.payload_len);
+        (self.payload, self.payload_len) = (registers.as_mut_ptr(), n);
+        let kind = if continuation {
+            ProgramKind::ContinuationCallable
+        } else {
+            ProgramKind::DirectCallable
+        };
+        if continuation {
+            self.continuation_depth += 1;
+        } else {
+            self.direct_depth += 1;
+        }
+        let view = View {
+            kind,
+            record: Some(record),
+            ..*self.view()
+        };
+        self.run(program, view);
+        if continuation {
+            self.continuation_depth -= 1;
+        } else {
+            self.direct_depth -= 1;
+        }
+        (self.payload, self.payload_len) = saved;
+        if !self.ending {
+            args[..n].copy_from_slice(&registers[..n]);
+        }
+    }
+
+    #[inline]
+    fn hit(&self) -> Option<&HitState> {
+        // SAFETY: a view's hit is kept alive by the caller of the program's `run` for as
+        // long as the program runs (see `View::hit`).
+        unsafe { self.view().hit.as_ref() }
+    }
+
+    /// The instances above the hit the running program sees, if any.
+    #[inline]
+    fn path(&self) -> Option<&Path> {
+        // SAFETY: as for the hit (see `View::path`).
+        unsafe { self.view().path.as_ref() }
+    }
+}
+
+impl DeviceCalls for Invocation<'_> {
+    #[inline]
+    fn launch_index(&self) -> [u32; 3] {
+        self.index
+    }
+
+    #[inline]
+    fn launch_dimensions(&self) -> [u32; 3] {
+        self.shared.size
+    }
+
+    fn trace(
+        &mut self,
+        handle: [u32; 2],
+        origin: [f32; 3],
+        direction: [f32; 3],
+        tmin: f32,
+        tmax: f32,
+        time: f32,
+        mask: u32,
+        flags: u32,
+        sbt_offset: u32,
+        sbt_stride: u32,
+        miss_index: u32,
+        payload: &mut [u32],
+    ) {
+        if self.ending {
+            return;
+        }
+        let features = self.shared.features;
+        if self.depth >= features.max_trace_depth {
+            if features.exceptions.contains(ExceptionFlags::TRACE_DEPTH) {
+                self.raise(code::TRACE_DEPTH_EXCEEDED);
+            }
+            return;
+        }
+        if semantics::ray::check(origin, direction, tmin, tmax).is_err() {
+            if features.exceptions.contains(ExceptionFlags::DEBUG) {
+                self.raise(code::INVALID_RAY);
+            }
+            return;
+        }
+        let time = if features.motion { time } else { 0.0 };
+        let world = RayState {
+            origin,
+            direction,
+            tmin,
+            tmax,
+            time,
+            flags,
+            mask,
+        };
+        let n = payload.len().min(MAX_PAYLOAD);
+        // Registers past `n` are never read (accesses check `payload_len`), so only the
+        // caller's words are copied in, one by one (a handful: no `memcpy` call).
+        let mut registers = [const { std::mem::MaybeUninit::<u32>::uninit() }; MAX_PAYLOAD];
+        for (r, &p) in registers.iter_mut().zip(&payload[..n]) {
+            r.write(p);
+        }
+        let mut state = TraceState {
+            ray: world,
+            sbt_offset,
+            sbt_stride,
+            committed: None,
+            committed_path: std::mem::MaybeUninit::uninit(),
+            committed_has_path: false,
+            terminated: false,
+            any_hit: AnyHitOutcome::Accept,
+            intersection: None,
+            intersection_exit: false,
+        };
+        let saved_trace = std::mem::replace(&mut self.trace, &mut state);
+        let saved_payload = (self.payload, self.payload_len);
+        (self.payload, self.payload_len) = (registers.as_mut_ptr().cast::<u32>(), n);
+        self.depth += 1;
+        let ray = TraceRay {
+            origin,
+            direction,
+            tmin,
+            tmax,
+            time,
+            mask,
+            flags: RayFlags(flags),
+        };
+        (self.shared.trace)(self, &ray, TraversableHandle::from_words(handle));
+        if !self.ending {
+            self.finish_trace(world, miss_index);
+        }
+        self.depth -= 1;
+        self.trace = saved_trace;
+        (self.payload, self.payload_len) = saved_payload;
+        if !self.ending {
+            for (p, r) in payload[..n].iter_mut().zip(&registers) {
+                // SAFETY: the first `n` registers were written above (and maybe by programs).
+                *p = unsafe { r.assume_init() };
+            }
+        }
+    }
+
+    fn get_payload(&self, i: u32) -> u32 {
+        if (i as usize) < self.payload_len {
+            // SAFETY: `payload` holds `payload_len` registers of the call in progress.
+            unsafe { *self.payload.add(i as usize) }
+        } else {
+            0
+        }
+    }
+
+    fn set_payload(&mut self, i: u32, v: u32) {
+        if (i as usize) < self.payload_len && !self.ending {
+            // SAFETY: as in `get_payload`.
+            unsafe { *self.payload.add(i as usize) = v };
+        }
+    }
+
+    fn get_attribute(&self, i: u32) -> u32 {
+        self.hit()
+            .and_then(|h| h.attributes.get(i as usize).copied())
+            .unwrap_or(0)
+    }
+
+    fn report_intersection(&mut self, t: f32, hit_kind: u32, attributes: &[u32; 8]) -> bool {
+        if self.ending
+            || self.view().kind != ProgramKind::Intersection
+            || self.trace.is_null()
+            || self.tr().intersection_exit
+        {
+            return false;
+        }
+        let Some(ctx) = self.tr().intersection else {
+            return false;
+        };
+        let ray = self.tr().ray;
+        if !semantics::ray::reported_t_accepted(t, ray.tmin, ray.tmax) {
+            return false;
+        }
+        let hit = HitState {
+            t,
+            hit_kind: facing::custom_hit_kind(hit_kind),
+            attributes: *attributes,
+            ..ctx.base
+        };
+        let mut terminate = false;
+        if self.shared.features.any_hit
+            && ctx.fate == CandidateFate::NonOpaque
+            && let Some(ah) = ctx.record.programs.any_hit
+        {
+            match self.any_hit(ah, ctx.record, &hit, ctx.path) {
+                None | Some(AnyHitOutcome::Ignore) => return false,
+                Some(AnyHitOutcome::Terminate) => terminate = true,
+                Some(AnyHitOutcome::Accept) => {}
+            }
+        }
+        self.commit(hit, ctx.path, ctx.record, terminate);
+        let tr = self.tr_mut();
+        tr.intersection_exit = tr.terminated;
+        // The intersection program now sees the new end of the interval, through the
+        // methods and through its state.
+        // SAFETY: `view` and `state` are the intersection program's (it is running).
+        unsafe {
+            (*self.view).ray.tmax = t;
+            (*self.state).ray_tmax = t;
+        }
+        true
+    }
+
+    fn ignore_intersection(&mut self) {
+        if self.view().kind == ProgramKind::AnyHit {
+            self.tr_mut().any_hit = AnyHitOutcome::Ignore;
+        }
+    }
+
+    fn terminate_ray(&mut self) {
+        if self.view().kind == ProgramKind::AnyHit {
+            self.tr_mut().any_hit = AnyHitOutcome::Terminate;
+        }
+    }
+
+    #[inline]
+    fn world_ray_origin(&self) -> [f32; 3] {
+        self.view().ray.origin
+    }
+
+    #[inline]
+    fn world_ray_direction(&self) -> [f32; 3] {
+        self.view().ray.direction
+    }
+
+    #[inline]
+    fn object_ray_origin(&self) -> [f32; 3] {
+        self.path()
+            .map_or(self.view().ray.origin, |p| p.object_origin)
+    }
+
+    #[inline]
+    fn object_ray_direction(&self) -> [f32; 3] {
+        self.path()
+            .map_or(self.view().ray.direction, |p| p.object_direction)
+    }
+
+    #[inline]
+    fn ray_tmin(&self) -> f32 {
+        self.view().ray.tmin
+    }
+
+    #[inline]
+    fn ray_tmax(&self) -> f32 {
+        self.view().ray.tmax
+    }
+
+    #[inline]
+    fn ray_time(&self) -> f32 {
+        self.view().ray.time
+    }
+
+    #[inline]
+    fn ray_flags(&self) -> u32 {
+        self.view().ray.flags
+    }
+
+    #[inline]
+    fn ray_mask(&self) -> u32 {
+        self.view().ray.mask
+    }
+
+    #[inline]
+    fn primitive_index(&self) -> u32 {
+        self.hit().map_or(0, |h| h.primitive_index)
+    }
+
+    #[inline]
+    fn sbt_gas_index(&self) -> u32 {
+        self.hit().map_or(0, |h| h.sbt_gas_index)
+    }
+
+    #[inline]
+    fn instance_id(&self) -> u32 {
+        self.path().map_or(0, |p| p.instance_id)
+    }
+
+    #[inline]
+    fn instance_index(&self) -> u32 {
+        self.path().map_or(0, |p| p.instance_index)
+    }
+
+    #[inline]
+    fn hit_kind(&self) -> u32 {
+        self.hit().map_or(0, |h| h.hit_kind)
+    }
+
+    fn is_front_face_hit(&self) -> bool {
+        self.hit()
+            .is_some_and(|h| facing::hit_kind_is_front(h.hit_kind))
+    }
+
+    #[inline]
+    fn triangle_barycentrics(&self) -> [f32; 2] {
+        match self.hit().and_then(|h| h.data) {
+            Some(HitData::Triangle { barycentrics, .. }) => barycentrics,
+            _ => [0.0; 2],
+        }
+    }
+
+    fn triangle_vertices(&self) -> [[f32; 3]; 3] {
+        match self.hit().and_then(|h| h.data) {
+            Some(HitData::Triangle { vertices, .. }) => vertices,
+            _ => [[0.0; 3]; 3],
+        }
+    }
+
+    fn sphere(&self) -> [f32; 4] {
+        match self.hit().and_then(|h| h.data) {
+            Some(HitData::Sphere { sphere }) => sphere,
+            _ => [0.0; 4],
+        }
+    }
+
+    fn curve_parameter(&self) -> f32 {
+        match self.hit().and_then(|h| h.data) {
+            Some(HitData::Curve { u }) => u,
+            _ => 0.0,
+        }
+    }
+
+    #[inline]
+    fn object_to_world(&self) -> [f32; 12] {
+        self.path().map_or(IDENTITY_3X4, |p| p.object_to_world)
+    }
+
+    #[inline]
+    fn world_to_object(&self) -> [f32; 12] {
+        self.path().map_or(IDENTITY_3X4, |p| p.world_to_object)
+    }
+
+    fn sbt_data_u32(&self, i: u32) -> u32 {
+        self.view().record.map_or(0, |r| r.data_u32(i))
+    }
+
+    fn direct_call(&mut self, index: u32, args: &mut [u32]) {
+        self.call_callable(index, args, false);
+    }
+
+    fn continuation_call(&mut self, index: u32, args: &mut [u32]) {
+        self.call_callable(index, args, true);
+    }
+
+    fn throw_exception(&mut self, user_code: u32) {
+        if self.exceptions().contains(ExceptionFlags::USER) {
+            self.raise(code::user_code(user_code));
+        }
+    }
+
+    fn exception_code(&self) -> i32 {
+        self.view().exception_code
+    }
+
+    #[inline]
+    fn remaining_trace_depth(&self) -> u32 {
+        self.shared
+            .features
+            .max_trace_depth
+            .saturating_sub(self.depth)
+    }
+
+    fn unwinding(&self) -> bool {
+        self.ending
+            || (self.view().kind == ProgramKind::Intersection
+                && !self.trace.is_null()
+                && self.tr().intersection_exit)
+    }
+
+    fn stop_flag(&self) -> *const AtomicU32 {
+        self.shared.stop
+    }
+
+    fn state(&self) -> *const DeviceState {
+        self.state
+    }
+}
