@@ -29,10 +29,10 @@ pub struct InFlight {
     sbt: Arc<TranslatedSbt>,
 }
 
-/// Bytes of per-launch-index state (prelude.rs: one `vec4<u32>`).
+/// Bytes of per-launch-index state (device_api.rs: one `vec4<u32>`).
 const STATE_BYTES: u64 = 16;
 
-/// Bytes of one dispatch's constants (prelude.rs `_OptikLaunch`).
+/// Bytes of one dispatch's constants (device_api.rs `_OptikLaunch`).
 const CONSTANT_BYTES: u64 = 48;
 
 /// One `vkCmdTraceRaysKHR` of a launch: where its tile starts in the user's launch and its

@@ -22,7 +22,7 @@
 use crate::device::Inner;
 use crate::memory::{Allocator, GpuBuffer, Location};
 use crate::pipeline::{GroupHandles, PipelineObject};
-use crate::program::prelude::SBT_DATA_WORDS;
+use crate::program::device_api::SBT_DATA_WORDS;
 use ash::vk;
 use optik_accel::decode::BufferBytes;
 use optik_api::*;
@@ -479,7 +479,11 @@ fn callable_table(callables: &[(GroupHandles, Vec<u8>)]) -> Vec<u32> {
     let mut data: Vec<u32> = Vec::new();
     let start = 2 * callables.len() as u32;
     for (handles, bytes) in callables {
-        header.push(handles.direct_id.unwrap_or(crate::program::prelude::NONE));
+        header.push(
+            handles
+                .direct_id
+                .unwrap_or(crate::program::device_api::NONE),
+        );
         header.push(start + data.len() as u32);
         data.extend(
             bytes.chunks(4).map(|c| {

@@ -8,7 +8,7 @@
 //! Device functions (`rt_*`) go through the `DeviceCalls` trait object the runtime passed to
 //! [`ProgramFn::call`](super::ProgramFn::call); the context holds it as a raw fat pointer
 //! that only Rust reads. A panic inside a `DeviceCalls` method unwinds through the program
-//! to the caller on Linux, where programs have unwind tables (`unwind.rs`); elsewhere it
+//! to the caller on Linux, where programs have unwind tables (`unwind_tables.rs`); elsewhere it
 //! is caught in the trampoline, parked in the context and resumed when the program
 //! returns (the trampolines answer zeros until then).
 
@@ -78,7 +78,7 @@ const _: () = assert!(std::mem::offset_of!(CallContext<'static>, state) == 16);
 const _: () = assert!(std::mem::offset_of!(CallContext<'static>, stop) == 24);
 
 /// Runs `f` on the context's `DeviceCalls`. On Linux compiled code has unwind tables
-/// (`unwind.rs`), so a panic in `f` unwinds through it to the caller of `ProgramFn::call`.
+/// (`unwind_tables.rs`), so a panic in `f` unwinds through it to the caller of `ProgramFn::call`.
 ///
 /// # Safety
 /// `ctx` is the live context of the current program call.

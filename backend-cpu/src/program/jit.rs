@@ -51,7 +51,7 @@ pub struct CompileStats {
 }
 
 /// A program's entry point. `C-unwind`: a panic in a `DeviceCalls` method unwinds through the
-/// program (on Linux, see `unwind.rs`).
+/// program (on Linux, see `unwind_tables.rs`).
 type EntryFn = unsafe extern "C-unwind" fn(*mut CallContext<'_>);
 
 /// The compiled programs of one module and the memory holding their code.
@@ -63,7 +63,7 @@ pub(crate) struct Inner {
     stats: CompileStats,
     /// The unwind tables of the code; dropped (deregistered) before the code is freed.
     #[cfg(target_os = "linux")]
-    unwind: Option<super::unwind::UnwindRegistration>,
+    unwind: Option<super::unwind_tables::UnwindRegistration>,
     /// Owns the executable memory; only touched again to free it.
     code: Mutex<Option<JITModule>>,
 }
@@ -502,7 +502,7 @@ fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner
     }
     #[cfg(target_os = "linux")]
     let unwind = Some(
-        super::unwind::UnwindRegistration::new(&*isa, &frames).map_err(|e| {
+        super::unwind_tables::UnwindRegistration::new(&*isa, &frames).map_err(|e| {
             Error::backend(format!("the CPU JIT could not register unwind tables: {e}"))
         })?,
     );

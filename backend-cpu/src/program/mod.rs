@@ -28,7 +28,7 @@
 //!
 //! Layout: `lower/` turns naga IR into Cranelift IR, `jit.rs` drives Cranelift and calls
 //! programs, `host.rs` holds what compiled code calls out to, `math_ref.rs` the built-ins
-//! computed in Rust, `texture.rs` the sampler, `cache.rs` the caches, `unwind.rs` the
+//! computed in Rust, `texture.rs` the sampler, `cache.rs` the caches, `unwind_tables.rs` the
 //! unwind tables that let panics in `DeviceCalls` pass through programs.
 
 pub mod abi;
@@ -45,7 +45,7 @@ pub mod math_ref;
 #[cfg(feature = "jit")]
 pub mod texture;
 #[cfg(all(feature = "jit", target_os = "linux"))]
-mod unwind;
+mod unwind_tables;
 
 #[cfg(feature = "jit")]
 pub use jit::{CompileStats, DiskCache, JitModule, JitOptions, PreparedBindings, ProgramFn};

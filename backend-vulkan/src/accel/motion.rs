@@ -11,7 +11,7 @@
 //! ([`bound_static`], [`bound_matrix_motion`], [`bound_srt_motion`]).
 //!
 //! The path's transforms below its Vulkan instance form its **motion chain**, written to the
-//! data table ([`chain_words`]); optik's stages compose it at the ray's time (prelude.rs:
+//! data table ([`chain_words`]); optik's stages compose it at the ray's time (device_api.rs:
 //! `_optik_chain`, with the shared WGSL of `optik_api::wgsl::MOTION`) to carry the ray into
 //! the geometry's space, and the object-space device functions apply it on top of Vulkan's
 //! built-ins.

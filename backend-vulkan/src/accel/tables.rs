@@ -1,5 +1,5 @@
 //! The tables behind the device functions Vulkan lacks, shared by every launch of a device
-//! and bound at `@group(1)` (prelude.rs), each record two `vec4<u32>`:
+//! and bound at `@group(1)` (device_api.rs), each record two `vec4<u32>`:
 //! - instances: per Vulkan instance (its custom index) `[OptiX instance id, instance index,
 //!   first geometry record, instance flags of the path]` and `[motion chain or NONE, 0, 0, 0]`
 //!   (the flags are OptiX's bits, combined along the path; the motion chain is the path's
@@ -20,7 +20,7 @@ use crate::memory::{Allocator, GpuBuffer, Location};
 use ash::vk;
 use optik_api::Result;
 
-pub use crate::program::prelude::NONE;
+pub use crate::program::device_api::NONE;
 
 /// A table record: two `vec4<u32>`.
 pub type Record = [u32; 8];

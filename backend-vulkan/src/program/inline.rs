@@ -5,7 +5,7 @@
 //! called record's program and data from the callable table of the launch (`@group(1)
 //! @binding(5)`, sbt.rs) and switches over the module's direct callables. Inside, the
 //! device functions of a callable read the inlined call's arguments and record
-//! (prelude.rs).
+//! (device_api.rs).
 //!
 //! WGSL has no recursion, so a direct callable that calls direct callables (through any
 //! helper) gets one copy per nesting level: level `k`'s copies call the dispatcher of level
@@ -14,7 +14,7 @@
 //! (naga gives every function's source span).
 
 use super::config::LoweringConfig;
-use super::prelude::raise_if;
+use super::device_api::raise_if;
 use naga::{Block, Function, Handle, Statement};
 use optik_api::ExceptionFlags;
 use optik_core::frontend::CompiledModule;

@@ -5,11 +5,11 @@
 //! null callable.
 //!
 //! Each stage reads its primitive from the data table (tables.rs) at the ray's time, in the
-//! object space of its geometry (prelude.rs: `_optik_obj_origin`, which follows motion
+//! object space of its geometry (device_api.rs: `_optik_obj_origin`, which follows motion
 //! chains). Only what the pipeline's configuration needs is written.
 
 use super::config::{LoweringConfig, TriangleMode};
-use super::prelude::raise_if;
+use super::device_api::raise_if;
 use optik_api::ExceptionFlags;
 use optik_api::wgsl::{self, SnippetOptions};
 

@@ -2,20 +2,20 @@
 //! docs/vulkan-backend.md §4).
 //!
 //! For each pipeline, each module's source is compiled again with the Vulkan prelude
-//! ([`prelude`]) in place of the API's stand-ins and one compute wrapper per stage the pipeline
+//! ([`device_api`]) in place of the API's stand-ins and one compute wrapper per stage the pipeline
 //! needs. naga parses and validates it; when the pipeline checks exceptions, an IR pass
-//! ([`unwind`]) makes user functions return after calls that raised. naga writes SPIR-V 1.4,
+//! ([`exceptions`]) makes user functions return after calls that raised. naga writes SPIR-V 1.4,
 //! one module per stage, and the post-pass ([`postpass`]) turns each wrapper into its ray
 //! tracing stage with the intrinsics' real bodies.
 
 pub mod config;
+pub mod device_api;
 mod emulation;
+mod exceptions;
 pub mod inline;
 pub mod internal;
 pub mod intrinsic;
 pub mod postpass;
-pub mod prelude;
-mod unwind;
 
 pub use config::{HitContext, LoweringConfig, StageRole, TriangleMode, VkStage};
 
@@ -85,7 +85,7 @@ pub fn vulkan_source(
     if !source.ends_with('\n') {
         source.push('\n');
     }
-    source.push_str(&prelude::prelude(config));
+    source.push_str(&device_api::prelude(config));
     if config.inline_calls {
         source.push_str(&match callables {
             Some((module, list)) => inline::inline_source(config, Some(module), list),
@@ -93,7 +93,7 @@ pub fn vulkan_source(
         });
     }
     for (i, role) in roles.iter().enumerate() {
-        source.push_str(&prelude::wrapper(
+        source.push_str(&device_api::wrapper(
             &format!("_optik_entry_{i}"),
             role,
             config,
@@ -118,11 +118,11 @@ pub fn lower_stages(
     };
     let mut module = naga::front::wgsl::parse_str(&source)
         .map_err(|e| internal("parse", e.emit_to_string(&source)))?;
-    let mut raising = unwind::ENDING_REPORTS.to_vec();
+    let mut raising = exceptions::ENDING_REPORTS.to_vec();
     if config.unwinds() {
-        raising.extend_from_slice(unwind::RAISING);
+        raising.extend_from_slice(exceptions::RAISING);
     }
-    unwind::insert_unwinding(&mut module, &raising).map_err(|e| internal("unwinding", e))?;
+    exceptions::insert_unwinding(&mut module, &raising).map_err(|e| internal("unwinding", e))?;
     // The watertight triangle test's exact fallback uses f64 (when the device has it).
     let mut capabilities = naga::valid::Capabilities::default();
     capabilities.set(

@@ -13,8 +13,8 @@
 //!    `RayQueryKHR` goes when nothing queries rays (pitfall 2).
 
 use super::config::VkStage;
+use super::device_api::SBT_DATA_WORDS;
 use super::intrinsic::Intrinsic;
-use super::prelude::SBT_DATA_WORDS;
 use rspirv::binary::Assemble;
 use rspirv::dr::{self, Builder, Instruction, Operand};
 use rspirv::spirv::{BuiltIn, Capability, Decoration, ExecutionModel, Op, StorageClass, Word};

@@ -56,7 +56,7 @@ pub const NONE: u32 = 0xFFFF_FFFF;
 /// The prelude for a pipeline with settings `c`.
 pub fn prelude(c: &LoweringConfig) -> String {
     let mut s = String::new();
-    s.push_str("\n// ---- optik Vulkan prelude (backend-vulkan/src/program/prelude.rs) ----\n");
+    s.push_str("\n// ---- optik Vulkan prelude (backend-vulkan/src/program/device_api.rs) ----\n");
     s.push_str("alias RtHandle = vec2<u32>;\n");
     s.push_str(&format!(
         "alias RtPayload = array<u32, {}>;\n",
@@ -171,7 +171,7 @@ struct _OptikLaunch {
 // as several (launch.rs), each seeing its own LaunchIdKHR and LaunchSizeKHR.
 @group(1) @binding(0) var<uniform> _optik_launch: _OptikLaunch;
 // Per launch index state of the dispatch running (see the module documentation of
-// prelude.rs), indexed by the dispatch's own launch id: dispatches reuse it in turn.
+// device_api.rs), indexed by the dispatch's own launch id: dispatches reuse it in turn.
 @group(1) @binding(1) var<storage, read_write> _optik_state: array<vec4<u32>>;
 // Two vec4 per Vulkan instance (its custom index): [OptiX instance id, instance index, first
 // record of its geometry acceleration structure, instance flags of the path], [motion chain
@@ -307,7 +307,7 @@ fn state_functions(c: &LoweringConfig) -> String {
         ));
     } else {
         s.push_str("fn _optik_unwinding() -> bool {\n    return false;\n}\n");
-        // Set when a report ended the ray: the intersection program returns (unwind.rs).
+        // Set when a report ended the ray: the intersection program returns (exceptions.rs).
         s.push_str("var<private> _optik_unwound: bool;\n");
     }
     s
@@ -418,7 +418,7 @@ fn device_functions(c: &LoweringConfig) -> String {
             F::GetAttribute => "if _optik_ctx == _OPTIK_CTX_TRIANGLES && i >= 2u {\n        return 0u;\n    }\n    return _optik_attribute_get(min(i, 7u));".into(),
             // OptiX keeps 7 bits of a reported hit kind; Vulkan reserves 128..255 too.
             // A report accepted under TERMINATE_ON_FIRST_HIT (Vulkan's bit 4 as optik's) ends
-            // the ray: the program unwinds (unwind.rs), as the CPU backend's does.
+            // the ray: the program unwinds (exceptions.rs), as the CPU backend's does.
             F::ReportIntersection => "let accepted = _optik_report_intersection(t, hit_kind & 0x7Fu, attributes);\n    if accepted && (_optik_ray_flags() & 4u) != 0u {\n        _optik_unwound = true;\n    }\n    return accepted;".into(),
             F::IgnoreIntersection => "_optik_ignore_intersection();".into(),
             F::TerminateRay => "_optik_terminate_ray();".into(),
