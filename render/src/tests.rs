@@ -391,6 +391,14 @@ fn features_follow_the_scene() {
 
 #[test]
 fn the_light_sampler_compiles_only_the_kinds_present() {
+    const SAMPLERS: [&str; 6] = [
+        "TRIANGLE",
+        "SPHERE",
+        "POINT",
+        "SPOT",
+        "DIRECTIONAL",
+        "CONSTANT",
+    ];
     let sampler_of = |scene: &Scene| {
         let f = crate::features::RenderFeatures::of(scene, false);
         let module = crate::programs::path_module(&f);
@@ -402,18 +410,7 @@ fn the_light_sampler_compiles_only_the_kinds_present() {
                 _ => panic!("path_module declares SAMPLE_{kind} once, true or false"),
             }
         };
-        (
-            f,
-            [
-                "TRIANGLE",
-                "SPHERE",
-                "POINT",
-                "SPOT",
-                "DIRECTIONAL",
-                "CONSTANT",
-            ]
-            .map(on),
-        )
+        (f, SAMPLERS.map(on))
     };
     // The Cornell box: one emitting mesh.
     let mut scene = cornell(Vec3::ZERO);
@@ -430,14 +427,7 @@ fn the_light_sampler_compiles_only_the_kinds_present() {
     // Every effect compiles every sampler.
     let every = crate::features::RenderFeatures::of(&scene, false).with_every_effect();
     let module = crate::programs::path_module(&every);
-    for kind in [
-        "TRIANGLE",
-        "SPHERE",
-        "POINT",
-        "SPOT",
-        "DIRECTIONAL",
-        "CONSTANT",
-    ] {
+    for kind in SAMPLERS {
         assert!(
             module.contains(&format!("const SAMPLE_{kind}: bool = true;")),
             "{kind}"
