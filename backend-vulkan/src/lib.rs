@@ -8,9 +8,10 @@
 //! emulated, and `docs/vulkan-backend.md` lists every decision.
 //!
 //! Module layout (the same names in every backend): `accel`, `program` (with
-//! `program::device_api`, the device API as the Vulkan prelude's WGSL, and
-//! `program::exceptions`, the unwinding that ends a launch index), `pipeline`, `sbt`,
-//! `launch`; plus `context` (instance and device), `probe` (what each device offers),
+//! `program::device_api`, the device API as the Vulkan prelude's WGSL,
+//! `program::traversal`, what optik's stages add to the driver's traversal: motion and
+//! opacity, and `program::exceptions`, the unwinding that ends a launch index), `pipeline`,
+//! `sbt`, `launch`; plus `context` (instance and device), `probe` (what each device offers),
 //! `memory`, `buffer`, `texture`, `commands`, `cache` (the on-disk pipeline cache) and
 //! `validation` (the validation layer's messages).
 

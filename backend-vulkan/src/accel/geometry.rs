@@ -503,7 +503,7 @@ pub fn decode_gas(
                     // The keys' boxes as given: intersection programs run only when the ray
                     // meets the box (at its time), as on the CPU backend; the driver's test
                     // of the padded (and, in hardware, quantised) box lets more rays through
-                    // (emulation.rs, `_optik_vanished`).
+                    // (program/traversal.rs, `_optik_vanished`).
                     b.push_boxes(all, records > 1, record, None, |p| BoxItem {
                         bbox: per_key
                             .iter()

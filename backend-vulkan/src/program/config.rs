@@ -97,7 +97,7 @@ impl LoweringConfig {
     }
 
     /// Whether user intersection programs run behind optik's own test of the primitive's box
-    /// (emulation.rs): whenever the pipeline intersects custom primitives.
+    /// (traversal.rs): whenever the pipeline intersects custom primitives.
     pub fn box_guard(&self) -> bool {
         self.intersects(optik_api::PrimitiveTypeFlags::CUSTOM)
     }

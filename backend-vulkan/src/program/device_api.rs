@@ -24,7 +24,7 @@
 //! Vulkan, read the current ray's time, flags and mask there.
 //!
 //! Emulation, each compiled in only when the pipeline needs it ([`LoweringConfig`]; its WGSL
-//! is in emulation.rs, optik's own stages in internal.rs, inlined direct calls in
+//! is in traversal.rs, optik's own stages in internal.rs, inlined direct calls in
 //! inline.rs): optik's triangle stage reads the ray's face-culling flags from Vulkan's (both
 //! faces as `SkipTrianglesKHR`) or the state word, and with micromaps the 2-state flag from
 //! the state; motion interpolates primitives at the ray's time and composes the motion chain
@@ -34,8 +34,8 @@
 //! micromap state can change a candidate's opacity after the driver's culling.
 
 use super::config::{HitContext, LoweringConfig, StageRole, stage_code};
-use super::emulation;
 use super::intrinsic::Intrinsic;
+use super::traversal;
 use optik_api::{ExceptionFlags, ProgramKind};
 use optik_core::frontend::{OFFSET_RAY_BODY, PRELUDE_CONSTANTS, PRELUDE_EXCEPTION_CODES};
 
@@ -137,8 +137,8 @@ pub fn prelude(c: &LoweringConfig) -> String {
             ),
     );
     s.push_str(&state_functions(c));
-    s.push_str(&emulation::motion_functions(c));
-    s.push_str(&emulation::opacity_functions(c));
+    s.push_str(&traversal::motion_functions(c));
+    s.push_str(&traversal::opacity_functions(c));
     s.push_str(&device_functions(c));
     s
 }

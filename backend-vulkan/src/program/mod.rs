@@ -10,12 +10,12 @@
 
 pub mod config;
 pub mod device_api;
-mod emulation;
 mod exceptions;
 pub mod inline;
 pub mod internal;
 pub mod intrinsic;
 pub mod postpass;
+mod traversal;
 
 pub use config::{HitContext, LoweringConfig, StageRole, TriangleMode, VkStage};
 

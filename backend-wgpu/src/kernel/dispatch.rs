@@ -1,5 +1,5 @@
-//! Trace, callable and exception functions, the `switch` over program groups at every
-//! place that runs programs, and the entry point.
+//! Trace and callable functions, the `switch` over program groups at every place that runs
+//! programs, and the entry point (exceptions: `exceptions`).
 //!
 //! A trace at depth d saves the caller's view (ray, hit, registers, record), runs the
 //! traversal, then the closest-hit or miss program of depth d + 1, copies the payload
@@ -15,7 +15,7 @@ use optik_api::ExceptionFlags;
 
 pub(super) fn write(c: &KernelConfig<'_>, out: &mut String) {
     if !c.features.exceptions.is_empty() {
-        raise(c, out);
+        super::exceptions::write(c, out);
     }
     for &d in &c.lowered.traces {
         trace(c, d, true, out);
@@ -61,7 +61,7 @@ pub(super) fn write(c: &KernelConfig<'_>, out: &mut String) {
 }
 
 /// `switch _optik_group(record) { case g: { program(); } ... }`.
-fn switch(c: &KernelConfig<'_>, site: Site, indent: &str) -> String {
+pub(super) fn switch(c: &KernelConfig<'_>, site: Site, indent: &str) -> String {
     let mut s = format!("{indent}switch _optik_group(record) {{\n");
     if let Some(entries) = c.lowered.dispatch.get(&site) {
         for (group, name) in entries {
@@ -72,28 +72,6 @@ fn switch(c: &KernelConfig<'_>, site: Site, indent: &str) -> String {
     }
     s.push_str(&format!("{indent}    default: {{}}\n{indent}}}\n"));
     s
-}
-
-fn raise(c: &KernelConfig<'_>, out: &mut String) {
-    out.push_str(
-        r#"
-// Raises an exception: runs the exception program (if the SBT has its record), then makes
-// every program on the way back return at once.
-fn _optik_raise(code: i32) {
-    if _optik_unwind == 3u {
-        return;
-    }
-    _optik_exception = code;
-    let record = _optik_launch.sbt0.y;
-    if record != _OPTIK_NONE {
-        let saved = _optik_record;
-        _optik_record = record;
-"#,
-    );
-    out.push_str(&switch(c, Site::Exception, "        "));
-    out.push_str(
-        "        _optik_record = saved;\n    }\n    _optik_unwind = 3u;\n    _optik_done = true;\n}\n\n",
-    );
 }
 
 /// `_optik_trace_{d}_fn`, or with `closest_hit` false the copy for call sites whose flags

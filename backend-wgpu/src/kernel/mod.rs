@@ -6,8 +6,8 @@
 //! 2. the shared WGSL of `optik_api::wgsl`, only the parts the features need;
 //! 3. the state of the current program (ray, hit, payload registers, SBT record) as
 //!    private globals, which trace and callable calls save and restore around the callee;
-//! 4. the device API (`device_api`), the traversal (`traversal`), the trace, callable, exception
-//!    and program dispatch functions (`dispatch`);
+//! 4. the device API (`device_api`), the traversal (`traversal`), `_optik_raise`
+//!    (`exceptions`), and the trace, callable and program dispatch functions (`dispatch`);
 //! 5. the user's modules lowered by `crate::program::instance`;
 //! 6. the entry point.
 //!
@@ -18,6 +18,7 @@
 pub(crate) mod counters;
 mod device_api;
 mod dispatch;
+mod exceptions;
 mod traversal;
 
 use crate::program::instance::Lowered;

@@ -1,4 +1,5 @@
-//! The prelude's WGSL for what optik emulates on Vulkan (device_api.rs includes it): where
+//! Traversal as optik's stages see it on Vulkan: the prelude's WGSL for what optik emulates
+//! there (device_api.rs includes it): where
 //! primitives are at the ray's time and the object space of paths through motion transforms
 //! (accel/motion.rs), and opacity decided by optik's stages (`optik_api::semantics::opacity`)
 //! where micromaps take it from the driver. Each piece is written only when the pipeline's
