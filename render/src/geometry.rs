@@ -3,7 +3,7 @@
 //! them when the scene has spheres or instances) and the light table.
 
 use crate::error::RenderError;
-use crate::material::{self, BsdfKind, MAT_EXTRA, MAT_PARAMS};
+use crate::material::{self, BsdfKind, MATERIAL_WORDS};
 use crate::scene::{Emitter, Mesh, Scene, Sphere, Texture};
 use glam::{Mat3, Mat4, Vec3};
 
@@ -11,13 +11,8 @@ use glam::{Mat3, Mat4, Vec3};
 pub const SBT_OPACITY: usize = 10;
 /// Where the material parameters start in the record data.
 pub const SBT_MATERIAL: usize = SBT_OPACITY + 13;
-/// Where the material's precomputed table (roughplastic's transmittance) starts.
-pub const SBT_EXTRA: usize = SBT_MATERIAL + MAT_PARAMS;
-/// Where the back side's material starts (a twosided material with two different BSDFs):
-/// parameters, then its table.
-pub const SBT_BACK: usize = SBT_EXTRA + MAT_EXTRA;
-/// Words of SBT record data.
-pub const RECORD_DATA_WORDS: usize = SBT_BACK + MAT_PARAMS + MAT_EXTRA;
+/// Words of SBT record data: room for a twosided pair's two materials (`Encoded::words`).
+pub const RECORD_DATA_WORDS: usize = SBT_MATERIAL + 2 * MATERIAL_WORDS;
 /// Floats per light table entry (scene.wgsl's LIGHT_WORDS).
 pub const LIGHT_WORDS: usize = 32;
 /// Floats per sphere table entry: centre, radius, world-to-local rotation rows, spare.
@@ -114,14 +109,6 @@ pub struct Tables {
     pub env_pdf: f32,
     /// The light table entry of the environment map (`u32::MAX`: none).
     pub env_light: u32,
-}
-
-/// Writes a material's parameters and then its table at the start of `words`.
-fn write_material(words: &mut [u32], material: &material::Encoded) {
-    let values = material.params.iter().chain(&material.extra);
-    for (word, v) in words.iter_mut().zip(values) {
-        *word = v.to_bits();
-    }
 }
 
 impl Tables {
@@ -226,7 +213,7 @@ impl Tables {
                 scene.materials.len()
             ))
         })?;
-        let mut enc = material::encode(bsdf, &scene.images, what)?;
+        let enc = material::encode(bsdf, &scene.images, what)?;
         let opacity = material::opacity(bsdf, what)?;
         let emission = match emission {
             None => Vec3::ZERO,
@@ -244,16 +231,12 @@ impl Tables {
         for (i, v) in opacity.iter().flatten().enumerate() {
             data[SBT_OPACITY + i] = v.to_bits();
         }
-        let back = enc.back.take().map(|mut back| {
-            back.place_table(SBT_BACK + MAT_PARAMS);
-            write_material(&mut data[SBT_BACK..], &back);
-            back.kind
-        });
-        enc.place_table(SBT_EXTRA);
-        write_material(&mut data[SBT_MATERIAL..], &enc);
+        for (word, v) in data[SBT_MATERIAL..].iter_mut().zip(enc.words(SBT_MATERIAL)) {
+            *word = v.to_bits();
+        }
         let group = HitGroupKey {
             kind: enc.kind,
-            back,
+            back: enc.back.as_ref().map(|b| b.kind),
             primitive,
             masked: opacity.is_some(),
         };

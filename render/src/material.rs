@@ -10,6 +10,9 @@ use glam::{Mat3, Vec3};
 pub const MAT_PARAMS: usize = 40;
 /// Floats of precomputed table per SBT record, after the parameters.
 pub const MAT_EXTRA: usize = crate::roughplastic::TABLE_RES;
+/// Words one material takes where the WGSL reads it: its parameters, then its table. A
+/// twosided pair's back side follows its front at this offset.
+pub const MATERIAL_WORDS: usize = MAT_PARAMS + MAT_EXTRA;
 
 // Parameter layout (common.wgsl repeats it): two texture slots of 13 floats, kind-specific
 // scalars, the microfacet distribution, and the two-sided flag.
@@ -166,12 +169,22 @@ pub struct Encoded {
 }
 
 impl Encoded {
-    /// Says where this material's table lies: `at` is the word of the record data (or of the
-    /// probe's material buffer) where `extra` is written. Only roughplastic reads a table.
-    pub fn place_table(&mut self, at: usize) {
-        if self.kind == BsdfKind::RoughPlastic {
-            self.params[TABLE_AT] = at as f32;
+    /// The words the WGSL reads for this material when they are written from word `at` on (of
+    /// the SBT record data, or of the probe's material buffer): parameters and table, then for
+    /// a twosided pair the back side's, [`MATERIAL_WORDS`] further on. A roughplastic is told
+    /// where its own table lies (the only kind that reads one).
+    pub fn words(&self, at: usize) -> Vec<f32> {
+        let sides = [Some(self), self.back.as_deref()].into_iter().flatten();
+        let mut words = Vec::with_capacity(2 * MATERIAL_WORDS);
+        for (i, side) in sides.enumerate() {
+            let mut params = side.params;
+            if side.kind == BsdfKind::RoughPlastic {
+                params[TABLE_AT] = (at + i * MATERIAL_WORDS + MAT_PARAMS) as f32;
+            }
+            words.extend(params);
+            words.extend(side.extra);
         }
+        words
     }
 }
 

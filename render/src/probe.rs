@@ -6,7 +6,7 @@
 
 use crate::error::{Context, RenderError};
 use crate::gpu::{Owned, Std140};
-use crate::material::{self, MAT_PARAMS};
+use crate::material;
 use crate::programs;
 use crate::scene::Bsdf;
 use optik::{
@@ -135,7 +135,7 @@ fn run(
     if count == 0 {
         return Ok(Vec::new());
     }
-    let mut enc = material::encode(bsdf, &[], "probed BSDF")?;
+    let enc = material::encode(bsdf, &[], "probed BSDF")?;
     let mut owned = Owned::new(device);
     let pipeline_options = PipelineCompileOptions::default();
     let (module, _) = device
@@ -163,14 +163,7 @@ fn run(
     let sbt_buffer = owned.upload(&header, "the probe's SBT")?;
     let out = owned.zeroed((count * out_words * 4) as u64, "probe results")?;
     let inp = owned.upload(bytemuck::cast_slice(input), "probe queries")?;
-    // Front parameters and table, then the back side's of a twosided pair (probe.wgsl's
-    // back_material).
-    enc.place_table(MAT_PARAMS);
-    let mut material: Vec<f32> = enc.params.iter().chain(&enc.extra).copied().collect();
-    if let Some(mut back) = enc.back.take() {
-        back.place_table(programs::PROBE_BACK + MAT_PARAMS);
-        material.extend(back.params.iter().chain(&back.extra));
-    }
+    let material = enc.words(0);
     let mat = owned.upload(bytemuck::cast_slice(&material), "probe material")?;
     // The shared Params block, with only probe_count used.
     let mut p = Std140::default();

@@ -23,9 +23,6 @@ const NO_TEXTURE: &str = "fn tex_bitmap(image: u32, uv: vec2<f32>, bilinear: boo
 const TWOSIDED: &str = include_str!("wgsl/twosided.wgsl");
 const TWOSIDED_PAIR: &str = include_str!("wgsl/twosided_pair.wgsl");
 
-/// Where the probe's material buffer holds a twosided pair's back side (probe.wgsl).
-pub const PROBE_BACK: usize = crate::material::MAT_PARAMS + crate::material::MAT_EXTRA;
-
 /// The name suffix of a primitive type's hit programs.
 fn suffix(primitive: Primitive) -> &'static str {
     match primitive {
@@ -76,6 +73,7 @@ pub fn path_module(features: &RenderFeatures) -> String {
     s += &format!("const MASKS: bool = {};\n", features.masks);
     let envmap = features.emitters.contains("envmap");
     s += &format!("const ENVMAP: bool = {envmap};\n");
+    s += &material_words();
     s += &light_samplers(features);
     s += if features.bitmap { TEXTURE } else { NO_TEXTURE };
     s += SCENE;
@@ -114,6 +112,15 @@ pub fn path_module(features: &RenderFeatures) -> String {
         _ => INTEGRATOR_PATH,
     };
     s
+}
+
+/// `MATERIAL_WORDS`, where a twosided pair's back material follows its front
+/// (`material::Encoded::words`, read by scene.wgsl's and probe.wgsl's `back_material`).
+fn material_words() -> String {
+    format!(
+        "const MATERIAL_WORDS: u32 = {}u;\n",
+        crate::material::MATERIAL_WORDS
+    )
 }
 
 /// The light sampler's switches: `sample_light` (scene.wgsl) compiles the sampling code of
@@ -162,7 +169,7 @@ pub fn probe_module(kind: BsdfKind, back: Option<BsdfKind>) -> String {
     let mut s = String::new();
     s += COMMON;
     s += NO_TEXTURE;
-    s += &format!("const PROBE_BACK: u32 = {PROBE_BACK}u;\n");
+    s += &material_words();
     s += &shared(kinds.iter().copied());
     for k in &kinds {
         s += k.wgsl();

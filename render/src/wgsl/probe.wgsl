@@ -18,11 +18,12 @@ fn mat_extra(i: u32) -> f32 {
     return probe_mat[i];
 }
 
-// A twosided pair's back side: parameters and table after the front's (probe.rs).
+// A twosided pair's back side: parameters and table after the front's
+// (material::Encoded::words).
 fn back_material() -> MatParams {
     var m: MatParams;
     for (var i = 0u; i < MAT_PARAMS_LEN; i++) {
-        m[i] = probe_mat[PROBE_BACK + i];
+        m[i] = probe_mat[MATERIAL_WORDS + i];
     }
     return m;
 }

@@ -249,7 +249,6 @@ fn sample_sphere_light(b: u32, x: vec3<f32>, le: vec3<f32>, sel: f32, u: vec2<f3
 // material has two (geometry.rs's layout).
 const SBT_OPACITY: u32 = 10u;
 const SBT_MATERIAL: u32 = 23u;
-const SBT_BACK: u32 = 127u;
 
 struct Hit {
     p: vec3<f32>,
@@ -397,7 +396,7 @@ fn sbt_material() -> MatParams {
 fn back_material() -> MatParams {
     var m: MatParams;
     for (var i = 0u; i < MAT_PARAMS_LEN; i++) {
-        m[i] = rt_sbt_data_f32(SBT_BACK + i);
+        m[i] = rt_sbt_data_f32(SBT_MATERIAL + MATERIAL_WORDS + i);
     }
     return m;
 }
