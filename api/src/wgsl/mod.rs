@@ -6,7 +6,7 @@
 //! Two families of snippets, each plain WGSL of pure functions:
 //! - the built-in intersectors [`SPHERE`] and [`CURVE`];
 //! - the software traversal pieces: [`RAY`], [`SLAB`], [`TRIANGLE`], [`MOTION`], [`BVH4`],
-//!   [`MICROMAP`].
+//!   [`MICROMAP`], [`OPACITY`].
 //!
 //! Every module-scope name in them, and in the WGSL the backends generate around the user's
 //! programs, starts with [`INTERNAL_PREFIX`] (`_optik_name` for functions and variables,
@@ -58,6 +58,9 @@ pub const MOTION: &str = include_str!("motion.wgsl");
 pub const BVH4: &str = include_str!("bvh4.wgsl");
 /// Opacity micromap micro-triangle indexing and state lookup.
 pub const MICROMAP: &str = include_str!("micromap.wgsl");
+/// A candidate's fate from its geometry, instance and ray flags and micromap state
+/// (`_optik_fate`, `semantics::opacity::resolve`).
+pub const OPACITY: &str = include_str!("opacity.wgsl");
 
 /// Which optional lines of the snippets to keep.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -140,7 +143,9 @@ mod tests {
                 let mut src = String::from(
                     "@group(0) @binding(0) var<storage, read> data: array<vec4<u32>>;\nfn _optik_fetch(i: u32) -> vec4<u32> { return data[i]; }\n",
                 );
-                for s in [RAY, SLAB, TRIANGLE, SPHERE, CURVE, MOTION, BVH4, MICROMAP] {
+                for s in [
+                    RAY, SLAB, TRIANGLE, SPHERE, CURVE, MOTION, BVH4, MICROMAP, OPACITY,
+                ] {
                     src.push_str(&specialise(s, options));
                 }
                 validate(&src, f64_fallback);

@@ -365,41 +365,15 @@ pub fn opacity_functions(c: &LoweringConfig) -> String {
         "\nfn _optik_current_ray_flags() -> u32 {\n    let f = _optik_ray_flags();\n    return select(f, f | 48u, (f & 256u) != 0u);\n}\n"
     });
     if c.micromaps {
-        s.push_str(FATE);
+        s.push_str(optik_api::wgsl::OPACITY);
+        s.push_str(OPACITY_CULLED);
     }
     s
 }
 
-/// `optik_api::semantics::opacity::resolve` in WGSL.
-const FATE: &str = r#"
-// The fate of a candidate: 0 culled, 1 opaque, 2 non-opaque; `state` is its micromap state
-// (0..3), or 4 without one.
-fn _optik_fate(geometry: u32, instance: u32, ray: u32, state: u32) -> u32 {
-    let force_2_state = (ray & 1024u) != 0u || (instance & 16u) != 0u;
-    var opaque = (geometry & 1u) != 0u;
-    if state < 4u && (instance & 32u) == 0u {
-        if state == 0u || (state == 2u && force_2_state) {
-            return 0u;
-        }
-        opaque = state == 1u || (state == 3u && force_2_state);
-    }
-    if (instance & 4u) != 0u {
-        opaque = true;
-    } else if (instance & 8u) != 0u {
-        opaque = false;
-    }
-    if (ray & 1u) != 0u {
-        opaque = true;
-    } else if (ray & 2u) != 0u {
-        opaque = false;
-    }
-    if (opaque && (ray & 64u) != 0u) || (!opaque && (ray & 128u) != 0u) {
-        return 0u;
-    }
-    return select(2u, 1u, opaque);
-}
-
-// Whether the hit's candidate is culled by opacity (primitives without micromaps).
+/// Whether the hit's candidate is culled by opacity (primitives without micromaps), by the
+/// shared `_optik_fate`.
+const OPACITY_CULLED: &str = r#"
 fn _optik_opacity_culled() -> bool {
     let inst = _optik_instances[_optik_instance_record()].w;
     let geometry = (_optik_geometry_record().w >> 16u) & 0xFFu;

@@ -213,6 +213,7 @@ fn snippets(c: &KernelConfig<'_>, out: &mut String) {
     }
     add(out, wgsl::SLAB);
     add(out, wgsl::BVH4);
+    add(out, wgsl::OPACITY);
     if c.triangles() {
         // Only the chosen triangle test.
         let unused = match c.accuracy.triangle {

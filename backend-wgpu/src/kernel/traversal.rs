@@ -76,33 +76,6 @@ fn level_struct(c: &KernelConfig<'_>, out: &mut String) {
 fn rules(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
         r#"
-// optik_api::semantics::opacity::resolve: 0 culled, 1 opaque, 2 non-opaque. `omm` is a
-// micromap state 0..3 or _OPTIK_NONE.
-fn _optik_fate(geom: u32, inst: u32, ray: u32, omm: u32) -> u32 {
-    let force2 = (ray & 1024u) != 0u || (inst & 16u) != 0u;
-    var opaque = (geom & 1u) != 0u;
-    if omm != _OPTIK_NONE && (inst & 32u) == 0u {
-        if omm == 0u || (omm == 2u && force2) {
-            return 0u;
-        }
-        opaque = omm == 1u || (omm == 3u && force2);
-    }
-    if (inst & 4u) != 0u {
-        opaque = true;
-    } else if (inst & 8u) != 0u {
-        opaque = false;
-    }
-    if (ray & 1u) != 0u {
-        opaque = true;
-    } else if (ray & 2u) != 0u {
-        opaque = false;
-    }
-    if (opaque && (ray & 64u) != 0u) || (!opaque && (ray & 128u) != 0u) {
-        return 0u;
-    }
-    return select(2u, 1u, opaque);
-}
-
 // Pushing order of four children: keys descending (misses carry +inf and come first).
 struct _OptikSorted {
     keys: vec4<f32>,
