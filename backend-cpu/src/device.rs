@@ -1,15 +1,19 @@
 //! [`CpuBackend`]: the CPU backend's `optik_core::Backend` ([`CpuDevice`] is the device
 //! users hold: optik-core's checks in front of it).
 //!
-//! All objects live in one table set behind a mutex. Launches run synchronously inside
-//! `launch` (OptiX allows a launch to finish before it returns), so `synchronize` has
-//! nothing to wait for and a launch's buffers cannot change under it; other calls on the
-//! device wait while a launch runs.
+//! optik-core owns the objects (the associated types: buffer memory, textures, built
+//! traversables, compiled modules, groups and pipelines) and lends them to each call under
+//! its lock; the backend's own lock holds what is no object: the accuracy setting and the
+//! scene table that resolves traversable handles during traversal. Launches run
+//! synchronously inside `launch` (OptiX allows a launch to finish before it returns), so
+//! `synchronize` has nothing to wait for and a launch's buffers cannot change under it;
+//! other calls on the device wait while a launch runs.
 
 use crate::accel::{
     self, Gas, Ias, MicromapArrayData, MicromapLookup, SceneTable, Transform, Traversable, handle,
 };
 use crate::launch::{self, LaunchShared};
+use crate::objects::{AccelObject, AccelOrigin, BufferData, TextureData};
 use crate::pipeline::{
     self, GroupObject, ModuleObject, NativeModuleDesc, PipelineObject, PreparedModules,
 };
@@ -19,14 +23,14 @@ use crate::traversal::TraceConfig;
 use optik_accel::decode::BufferBytes;
 use optik_api::{
     Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BuildInput,
-    DeviceId, DeviceProperties, Error, ErrorKind, ExceptionFlags, FeatureSet, GroupRegion, Handle,
+    DeviceId, DeviceProperties, Error, ExceptionFlags, FeatureSet, GroupRegion, Handle,
     LaunchOptions, LaunchSize, LaunchWatch, MicromapArray, Module, ModuleCompileOptions,
     OpacityMicromapArrayDesc, Pipeline, PipelineCompileOptions, PipelineLinkOptions, ProgramGroup,
-    ProgramGroupDesc, ProgramSource, Resource, Result, SceneFeatures, ShaderBindingTable, Texture,
+    ProgramGroupDesc, ProgramSource, Resource, Result, SceneFeatures, ShaderBindingTable,
     TextureDesc, TransformDesc, TraversableHandle,
 };
-use optik_core::HandleTable;
 use optik_core::frontend::BindingInfo;
+use optik_core::{HandleTable, Objects};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 /// Deepest nesting of callables a pipeline may link with (each level is a native stack
@@ -36,88 +40,11 @@ pub const MAX_CALLABLE_DEPTH: u32 = 64;
 /// callables on the stack.
 const THREAD_STACK_BYTES: usize = 64 << 20;
 
-/// 16-byte aligned bytes: what programs read `vec4<f32>`s and the like out of.
-#[repr(C, align(16))]
-#[derive(Clone, Copy)]
-struct Chunk([u8; 16]);
-
-/// A buffer's memory.
-struct BufferData {
-    chunks: Vec<Chunk>,
-    size: usize,
-}
-
-impl BufferData {
-    fn zeroed(size: u64) -> Result<BufferData> {
-        let size = usize::try_from(size).map_err(|_| {
-            Error::new(
-                ErrorKind::OutOfMemory,
-                "buffer size exceeds the address space",
-            )
-        })?;
-        let mut chunks = Vec::new();
-        chunks.try_reserve_exact(size.div_ceil(16)).map_err(|_| {
-            Error::new(
-                ErrorKind::OutOfMemory,
-                format!("cannot allocate a buffer of {size} bytes"),
-            )
-        })?;
-        chunks.resize(size.div_ceil(16), Chunk([0; 16]));
-        Ok(BufferData { chunks, size })
-    }
-
-    fn bytes(&self) -> &[u8] {
-        &bytemuck_chunks(&self.chunks)[..self.size]
-    }
-
-    fn bytes_mut(&mut self) -> &mut [u8] {
-        let size = self.size;
-        &mut bytemuck_chunks_mut(&mut self.chunks)[..size]
-    }
-}
-
-fn bytemuck_chunks(c: &[Chunk]) -> &[u8] {
-    // SAFETY: `Chunk` is 16 plain bytes without padding.
-    unsafe { std::slice::from_raw_parts(c.as_ptr() as *const u8, c.len() * 16) }
-}
-
-fn bytemuck_chunks_mut(c: &mut [Chunk]) -> &mut [u8] {
-    // SAFETY: as above; the borrow is unique.
-    unsafe { std::slice::from_raw_parts_mut(c.as_mut_ptr() as *mut u8, c.len() * 16) }
-}
-
-/// A texture's texels.
-struct TextureData {
-    desc: TextureDesc,
-    texels: BufferData,
-}
-
-/// What an acceleration structure object was made from.
-enum AccelOrigin {
-    /// Built from inputs (kept for updates).
-    Build {
-        options: AccelBuildOptions,
-        inputs: Vec<BuildInput>,
-    },
-    /// A transform.
-    Transform,
-}
-
-struct AccelObject {
-    traversable: Arc<Traversable>,
-    origin: AccelOrigin,
-    size: u64,
-}
-
+/// What the backend keeps that is no object.
 struct State {
-    buffers: HandleTable<Buffer, BufferData>,
-    textures: HandleTable<Texture, TextureData>,
-    accels: HandleTable<Accel, AccelObject>,
+    /// Traversable handle → traversable, by the structure's handle slot: what instances and
+    /// traces resolve handles through.
     scene: SceneTable,
-    micromaps: HandleTable<MicromapArray, Arc<MicromapArrayData>>,
-    modules: HandleTable<Module, ModuleObject>,
-    groups: HandleTable<ProgramGroup, Arc<GroupObject>>,
-    pipelines: HandleTable<Pipeline, Arc<PipelineObject>>,
     accuracy: Accuracy,
 }
 
@@ -219,14 +146,7 @@ impl CpuBackend {
             id,
             props,
             state: Mutex::new(State {
-                buffers: HandleTable::new(id),
-                textures: HandleTable::new(id),
-                accels: HandleTable::new(id),
                 scene: SceneTable::new(id),
-                micromaps: HandleTable::new(id),
-                modules: HandleTable::new(id),
-                groups: HandleTable::new(id),
-                pipelines: HandleTable::new(id),
                 accuracy: Accuracy::default(),
             }),
             pool: Mutex::new(Arc::new(pool)),
@@ -248,59 +168,62 @@ impl CpuBackend {
             .current_num_threads()
     }
 
-    /// A module of Rust programs, usable in program groups like a compiled WGSL module.
-    pub fn create_native_module(&self, desc: NativeModuleDesc) -> Result<Module> {
-        let module = ModuleObject::native(desc)?;
-        Ok(self.state().modules.insert(module))
-    }
-
-    /// The accuracy a pipeline was created with (the device's setting at its creation).
-    pub fn pipeline_accuracy(&self, pipeline: Pipeline) -> Result<Accuracy> {
-        Ok(self.state().pipelines.get(pipeline)?.accuracy)
-    }
-
-    /// The built traversable behind `accel`, for tools and tests (the layout `accel`
-    /// documents).
-    pub fn traversable(&self, accel: Accel) -> Result<Arc<Traversable>> {
-        Ok(self.state().accels.get(accel)?.traversable.clone())
-    }
-
     fn state(&self) -> MutexGuard<'_, State> {
         // A panic inside a call never leaves the tables half-updated (objects are inserted
         // whole), so a poisoned lock is safe to keep using.
         self.state.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    fn insert_accel(
+    /// Makes `traversable` the structure `handle` (about to be inserted) stands for in the
+    /// scene table.
+    fn enter(
         &self,
         st: &mut State,
+        handle: Accel,
         traversable: Traversable,
         origin: AccelOrigin,
         size: u64,
-    ) -> Result<Accel> {
-        let traversable = Arc::new(traversable);
-        let accel = st.accels.insert(AccelObject {
-            traversable: traversable.clone(),
-            origin,
-            size,
-        });
-        let raw = accel.raw();
+    ) -> Result<AccelObject> {
+        let raw = handle.raw();
         if raw.slot >= handle::MAX_SLOTS {
-            st.accels.remove(accel)?;
             return Err(Error::limit(format!(
                 "this device holds at most {} acceleration structures and transforms",
                 handle::MAX_SLOTS
             )));
         }
-        st.scene.set(raw.slot, raw.generation, traversable);
-        Ok(accel)
+        let traversable = Arc::new(traversable);
+        st.scene.set(raw.slot, raw.generation, traversable.clone());
+        Ok(AccelObject {
+            traversable,
+            origin,
+            size,
+        })
+    }
+}
+
+/// What the CPU device offers beyond the API, on the objects optik-core keeps.
+pub trait CpuDeviceExt {
+    /// A module of Rust programs, usable in program groups like a compiled WGSL module.
+    fn create_native_module(&self, desc: NativeModuleDesc) -> Result<Module>;
+    /// The accuracy a pipeline was created with (the device's setting at its creation).
+    fn pipeline_accuracy(&self, pipeline: Pipeline) -> Result<Accuracy>;
+    /// The built traversable behind `accel`, for tools and tests (the layout `accel`
+    /// documents).
+    fn traversable(&self, accel: Accel) -> Result<Arc<Traversable>>;
+}
+
+impl CpuDeviceExt for CpuDevice {
+    fn create_native_module(&self, desc: NativeModuleDesc) -> Result<Module> {
+        let module = ModuleObject::native(desc)?;
+        Ok(self.objects().modules.insert(module))
     }
 
-    fn live_scene_features(st: &State) -> Option<SceneFeatures> {
-        st.accels
-            .iter()
-            .map(|(_, a)| a.traversable.features())
-            .reduce(SceneFeatures::union)
+    fn pipeline_accuracy(&self, pipeline: Pipeline) -> Result<Accuracy> {
+        Ok(self.objects().pipelines.get(pipeline)?.accuracy)
+    }
+
+    fn traversable(&self, accel: Accel) -> Result<Arc<Traversable>> {
+        Ok(self.objects().accels.get(accel)?.traversable.clone())
     }
 }
 
@@ -336,6 +259,14 @@ fn pipeline_bindings(groups: &[(ProgramGroup, Arc<GroupObject>)]) -> Result<Vec<
 }
 
 impl optik_core::Backend for CpuBackend {
+    type Buffer = BufferData;
+    type Texture = TextureData;
+    type Accel = AccelObject;
+    type MicromapArray = Arc<MicromapArrayData>;
+    type Module = ModuleObject;
+    type ProgramGroup = Arc<GroupObject>;
+    type Pipeline = Arc<PipelineObject>;
+
     fn id(&self) -> DeviceId {
         self.id
     }
@@ -352,7 +283,7 @@ impl optik_core::Backend for CpuBackend {
         self.state().accuracy
     }
 
-    fn set_accuracy(&self, accuracy: Accuracy) -> Result<()> {
+    fn set_accuracy(&self, _objects: &Objects<Self>, accuracy: Accuracy) -> Result<()> {
         if accuracy.triangle == optik_api::TriangleTest::Driver {
             return Err(Error::unsupported(
                 "TriangleTest::Driver is the Vulkan driver's own triangle test; the cpu backend intersects triangles itself: choose TriangleTest::Watertight or TriangleTest::MollerTrumbore",
@@ -362,59 +293,52 @@ impl optik_core::Backend for CpuBackend {
         Ok(())
     }
 
-    fn create_buffer(&self, size: u64) -> Result<Buffer> {
-        let data = BufferData::zeroed(size)?;
-        Ok(self.state().buffers.insert(data))
+    fn create_buffer(&self, size: u64) -> Result<BufferData> {
+        BufferData::zeroed(size)
     }
 
-    fn write_buffer(&self, buffer: Buffer, offset: u64, data: &[u8]) -> Result<()> {
-        let mut st = self.state();
-        let b = st.buffers.get_mut(buffer)?;
-        b.bytes_mut()[offset as usize..offset as usize + data.len()].copy_from_slice(data);
+    fn write_buffer(&self, buffer: &mut BufferData, offset: u64, data: &[u8]) -> Result<()> {
+        buffer.bytes_mut()[offset as usize..offset as usize + data.len()].copy_from_slice(data);
         Ok(())
     }
 
-    fn read_buffer(&self, buffer: Buffer, offset: u64, out: &mut [u8]) -> Result<()> {
-        let st = self.state();
-        let b = st.buffers.get(buffer)?;
-        out.copy_from_slice(&b.bytes()[offset as usize..offset as usize + out.len()]);
+    fn read_buffer(&self, buffer: &mut BufferData, offset: u64, out: &mut [u8]) -> Result<()> {
+        out.copy_from_slice(&buffer.bytes()[offset as usize..offset as usize + out.len()]);
         Ok(())
     }
 
-    fn buffer_size(&self, buffer: Buffer) -> Result<u64> {
-        Ok(self.state().buffers.get(buffer)?.size as u64)
+    fn buffer_size(&self, buffer: &BufferData) -> u64 {
+        buffer.size as u64
     }
 
-    fn destroy_buffer(&self, buffer: Buffer) -> Result<()> {
-        self.state().buffers.remove(buffer).map(drop)
+    fn destroy_buffer(&self, _buffer: BufferData) -> Result<()> {
+        Ok(())
     }
 
-    fn create_texture(&self, desc: &TextureDesc) -> Result<Texture> {
+    fn create_texture(&self, desc: &TextureDesc) -> Result<TextureData> {
         let bytes = desc.width as u64 * desc.height as u64 * desc.format.texel_size() as u64;
-        let texels = BufferData::zeroed(bytes)?;
-        Ok(self.state().textures.insert(TextureData {
+        Ok(TextureData {
             desc: *desc,
-            texels,
-        }))
+            texels: BufferData::zeroed(bytes)?,
+        })
     }
 
-    fn write_texture(&self, texture: Texture, data: &[u8]) -> Result<()> {
-        let mut st = self.state();
-        let t = st.textures.get_mut(texture)?;
-        t.texels.bytes_mut().copy_from_slice(data);
+    fn write_texture(&self, texture: &mut TextureData, data: &[u8]) -> Result<()> {
+        texture.texels.bytes_mut().copy_from_slice(data);
         Ok(())
     }
 
-    fn texture_desc(&self, texture: Texture) -> Result<TextureDesc> {
-        Ok(self.state().textures.get(texture)?.desc)
+    fn texture_desc(&self, texture: &TextureData) -> TextureDesc {
+        texture.desc
     }
 
-    fn destroy_texture(&self, texture: Texture) -> Result<()> {
-        self.state().textures.remove(texture).map(drop)
+    fn destroy_texture(&self, _texture: TextureData) -> Result<()> {
+        Ok(())
     }
 
     fn accel_memory_usage(
         &self,
+        _objects: &mut Objects<Self>,
         _options: &AccelBuildOptions,
         inputs: &[BuildInput],
         keys: usize,
@@ -424,15 +348,16 @@ impl optik_core::Backend for CpuBackend {
 
     fn accel_build(
         &self,
+        objects: &mut Objects<Self>,
+        handle: Accel,
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
         keys: usize,
-    ) -> Result<Accel> {
-        let mut guard = self.state();
-        let st = &mut *guard;
+    ) -> Result<AccelObject> {
+        let mut st = self.state();
         let data = Inputs {
-            buffers: &st.buffers,
-            micromaps: &st.micromaps,
+            buffers: &objects.buffers,
+            micromaps: &objects.micromaps,
         };
         let traversable = match &inputs[0] {
             BuildInput::Instances(ia) => Traversable::Instances(Ias::build(
@@ -451,19 +376,19 @@ impl optik_core::Backend for CpuBackend {
             options: *options,
             inputs: inputs.to_vec(),
         };
-        self.insert_accel(st, traversable, origin, size)
+        self.enter(&mut st, handle, traversable, origin, size)
     }
 
     fn accel_update(
         &self,
+        objects: &mut Objects<Self>,
         accel: Accel,
         _options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<()> {
         // Refits keep the build's options (optik-core checked that the update's agree).
-        let mut guard = self.state();
-        let st = &mut *guard;
-        let object = st.accels.get(accel)?;
+        let mut st = self.state();
+        let object = objects.accels.get(accel)?;
         let AccelOrigin::Build {
             options: built_with,
             ..
@@ -474,8 +399,8 @@ impl optik_core::Backend for CpuBackend {
         let built_with = *built_with;
         let mut traversable = (*object.traversable).clone();
         let data = Inputs {
-            buffers: &st.buffers,
-            micromaps: &st.micromaps,
+            buffers: &objects.buffers,
+            micromaps: &objects.micromaps,
         };
         match (&mut traversable, &inputs[0]) {
             (Traversable::Instances(ias), BuildInput::Instances(ia)) => {
@@ -489,7 +414,7 @@ impl optik_core::Backend for CpuBackend {
             }
         }
         let traversable = Arc::new(traversable);
-        let object = st.accels.get_mut(accel)?;
+        let object = objects.accels.get_mut(accel)?;
         object.traversable = traversable.clone();
         object.origin = AccelOrigin::Build {
             options: built_with,
@@ -500,10 +425,13 @@ impl optik_core::Backend for CpuBackend {
         Ok(())
     }
 
-    fn accel_compact(&self, accel: Accel) -> Result<Accel> {
-        let mut guard = self.state();
-        let st = &mut *guard;
-        let object = st.accels.get(accel)?;
+    fn accel_compact(
+        &self,
+        objects: &mut Objects<Self>,
+        accel: Accel,
+        handle: Accel,
+    ) -> Result<AccelObject> {
+        let object = objects.accels.get(accel)?;
         let AccelOrigin::Build { options, inputs } = &object.origin else {
             return Err(Error::backend("accel_compact was given a transform"));
         };
@@ -513,56 +441,69 @@ impl optik_core::Backend for CpuBackend {
             options: *options,
             inputs: inputs.clone(),
         };
-        self.insert_accel(st, compacted, origin, size)
+        self.enter(&mut self.state(), handle, compacted, origin, size)
     }
 
     fn accel_build_record(
         &self,
-        accel: Accel,
-    ) -> Result<Option<(AccelBuildOptions, Vec<BuildInput>)>> {
-        Ok(match &self.state().accels.get(accel)?.origin {
+        accel: &AccelObject,
+    ) -> Option<(AccelBuildOptions, Vec<BuildInput>)> {
+        match &accel.origin {
             AccelOrigin::Build { options, inputs } => Some((*options, inputs.clone())),
             AccelOrigin::Transform => None,
-        })
+        }
     }
 
-    fn accel_size(&self, accel: Accel) -> Result<u64> {
-        Ok(self.state().accels.get(accel)?.size)
+    fn accel_size(&self, accel: &AccelObject) -> u64 {
+        accel.size
     }
 
-    fn create_transform(&self, desc: &TransformDesc) -> Result<Accel> {
-        let mut guard = self.state();
-        let st = &mut *guard;
+    fn accel_features(&self, accel: &AccelObject) -> SceneFeatures {
+        accel.traversable.features()
+    }
+
+    fn create_transform(
+        &self,
+        _objects: &mut Objects<Self>,
+        handle: Accel,
+        desc: &TransformDesc,
+    ) -> Result<AccelObject> {
+        let mut st = self.state();
         let t = Transform::new(desc, &st.scene, self.props.max_traversable_graph_depth)?;
         let size = t.size_in_bytes();
-        self.insert_accel(st, Traversable::Transform(t), AccelOrigin::Transform, size)
+        self.enter(
+            &mut st,
+            handle,
+            Traversable::Transform(t),
+            AccelOrigin::Transform,
+            size,
+        )
     }
 
     fn create_opacity_micromap_array(
         &self,
         desc: &OpacityMicromapArrayDesc,
-    ) -> Result<MicromapArray> {
-        Ok(self
-            .state()
-            .micromaps
-            .insert(Arc::new(MicromapArrayData::new(desc))))
+    ) -> Result<Arc<MicromapArrayData>> {
+        Ok(Arc::new(MicromapArrayData::new(desc)))
     }
 
-    fn traversable_handle(&self, accel: Accel) -> Result<TraversableHandle> {
-        self.state().accels.get(accel)?;
+    fn traversable_handle(&self, accel: Accel, _object: &AccelObject) -> Result<TraversableHandle> {
         let raw = accel.raw();
         Ok(handle::encode(self.id, raw.slot, raw.generation))
     }
 
-    fn destroy_accel(&self, accel: Accel) -> Result<()> {
-        let mut st = self.state();
-        st.accels.remove(accel)?;
-        st.scene.remove(accel.raw().slot);
+    fn destroy_accel(
+        &self,
+        _objects: &mut Objects<Self>,
+        accel: Accel,
+        _object: AccelObject,
+    ) -> Result<()> {
+        self.state().scene.remove(accel.raw().slot);
         Ok(())
     }
 
-    fn destroy_micromap_array(&self, array: MicromapArray) -> Result<()> {
-        self.state().micromaps.remove(array).map(drop)
+    fn destroy_micromap_array(&self, _array: Arc<MicromapArrayData>) -> Result<()> {
+        Ok(())
     }
 
     fn create_module(
@@ -570,58 +511,52 @@ impl optik_core::Backend for CpuBackend {
         module_options: &ModuleCompileOptions,
         pipeline_options: &PipelineCompileOptions,
         source: &ProgramSource,
-    ) -> Result<(Module, String)> {
+    ) -> Result<(ModuleObject, String)> {
         let payload_len = pipeline_options.num_payload_values.or(32);
         let compiled = Arc::new(optik_core::frontend::compile(source, payload_len)?);
-        let (module, log) = crate::jit_glue::compile(compiled, module_options)?;
-        Ok((self.state().modules.insert(module), log))
+        crate::jit_glue::compile(compiled, module_options)
     }
 
-    fn module_programs(&self, module: Module) -> Result<Vec<String>> {
-        Ok(self
-            .state()
-            .modules
-            .get(module)?
-            .programs
-            .keys()
-            .cloned()
-            .collect())
+    fn module_programs(&self, module: &ModuleObject) -> Vec<String> {
+        module.programs.keys().cloned().collect()
     }
 
-    fn destroy_module(&self, module: Module) -> Result<()> {
-        self.state().modules.remove(module).map(drop)
+    fn destroy_module(&self, _module: ModuleObject) -> Result<()> {
+        Ok(())
     }
 
-    fn create_program_groups(&self, descs: &[ProgramGroupDesc]) -> Result<Vec<ProgramGroup>> {
-        let mut st = self.state();
-        let mut objects = Vec::with_capacity(descs.len());
-        for (i, desc) in descs.iter().enumerate() {
-            let modules = &st.modules;
-            let module = |m: Module| modules.get(m).map(|o| (o.compiled.clone(), o.native));
-            let program = |p: &optik_api::ProgramRef| {
-                Ok(modules.get(p.module)?.programs.get(&p.entry).cloned())
-            };
-            objects.push(Arc::new(GroupObject::new(i, desc, &module, &program)?));
-        }
-        Ok(objects.into_iter().map(|g| st.groups.insert(g)).collect())
+    fn create_program_groups(
+        &self,
+        objects: &Objects<Self>,
+        descs: &[ProgramGroupDesc],
+    ) -> Result<Vec<Arc<GroupObject>>> {
+        let modules = &objects.modules;
+        let module = |m: Module| modules.get(m).map(|o| (o.compiled.clone(), o.native));
+        let program =
+            |p: &optik_api::ProgramRef| Ok(modules.get(p.module)?.programs.get(&p.entry).cloned());
+        descs
+            .iter()
+            .enumerate()
+            .map(|(i, desc)| GroupObject::new(i, desc, &module, &program).map(Arc::new))
+            .collect()
     }
 
-    fn group_region(&self, group: ProgramGroup) -> Result<GroupRegion> {
-        Ok(self.state().groups.get(group)?.desc.region())
+    fn group_region(&self, group: &Arc<GroupObject>) -> GroupRegion {
+        group.desc.region()
     }
 
-    fn destroy_program_group(&self, group: ProgramGroup) -> Result<()> {
-        self.state().groups.remove(group).map(drop)
+    fn destroy_program_group(&self, _group: Arc<GroupObject>) -> Result<()> {
+        Ok(())
     }
 
     fn create_pipeline(
         &self,
+        objects: &Objects<Self>,
         _pipeline_options: &PipelineCompileOptions,
         link_options: &PipelineLinkOptions,
         groups: &[ProgramGroup],
         features: &FeatureSet,
-    ) -> Result<Pipeline> {
-        let mut st = self.state();
+    ) -> Result<Arc<PipelineObject>> {
         for (what, depth) in [
             (
                 "max_direct_callable_depth",
@@ -638,63 +573,49 @@ impl optik_core::Backend for CpuBackend {
                 )));
             }
         }
-        let group_objects = groups
+        let group_objects: Vec<(ProgramGroup, Arc<GroupObject>)> = groups
             .iter()
-            .enumerate()
-            .map(|(i, g)| {
-                st.groups
-                    .get(*g)
-                    .map(|o| (*g, o.clone()))
-                    .map_err(|e| e.context(format!("groups[{i}]")))
-            })
-            .collect::<Result<Vec<_>>>()?;
+            .copied()
+            .zip(objects.groups_of(groups)?.into_iter().cloned())
+            .collect();
         let features = *features;
         let bindings = pipeline_bindings(&group_objects)?;
-        let accuracy = st.accuracy;
-        let object = PipelineObject {
+        let accuracy = self.state().accuracy;
+        Ok(Arc::new(PipelineObject {
             trace: pipeline::select_trace(&features, accuracy),
             groups: pipeline::with_payload_registers(group_objects, features.num_payload_values),
             features,
             link: *link_options,
             accuracy,
             bindings,
-        };
-        Ok(st.pipelines.insert(Arc::new(object)))
+        }))
     }
 
-    fn program_features(&self, groups: &[ProgramGroup]) -> Result<optik_api::ProgramFeatures> {
-        let st = self.state();
-        let objects = groups
-            .iter()
-            .enumerate()
-            .map(|(i, g)| {
-                st.groups
-                    .get(*g)
-                    .cloned()
-                    .map_err(|e| e.context(format!("groups[{i}]")))
-            })
-            .collect::<Result<Vec<_>>>()?;
+    fn program_features(
+        &self,
+        objects: &Objects<Self>,
+        groups: &[ProgramGroup],
+    ) -> Result<optik_api::ProgramFeatures> {
+        let objects: Vec<Arc<GroupObject>> =
+            objects.groups_of(groups)?.into_iter().cloned().collect();
         Ok(pipeline::program_features(&objects))
     }
 
-    fn scene_features(&self) -> Result<Option<SceneFeatures>> {
-        Ok(Self::live_scene_features(&self.state()))
+    fn pipeline_features(&self, pipeline: &Arc<PipelineObject>) -> FeatureSet {
+        pipeline.features
     }
 
-    fn pipeline_features(&self, pipeline: Pipeline) -> Result<FeatureSet> {
-        Ok(self.state().pipelines.get(pipeline)?.features)
+    fn pipeline_bindings(&self, pipeline: &Arc<PipelineObject>) -> Vec<BindingInfo> {
+        pipeline.bindings.clone()
     }
 
-    fn pipeline_bindings(&self, pipeline: Pipeline) -> Result<Vec<BindingInfo>> {
-        Ok(self.state().pipelines.get(pipeline)?.bindings.clone())
-    }
-
-    fn destroy_pipeline(&self, pipeline: Pipeline) -> Result<()> {
-        self.state().pipelines.remove(pipeline).map(drop)
+    fn destroy_pipeline(&self, _pipeline: Arc<PipelineObject>) -> Result<()> {
+        Ok(())
     }
 
     fn launch(
         &self,
+        objects: &mut Objects<Self>,
         pipeline: Pipeline,
         params: &[u8],
         resources: &[Resource],
@@ -703,9 +624,8 @@ impl optik_core::Backend for CpuBackend {
         options: &LaunchOptions,
     ) -> Result<()> {
         let pool = self.pool.lock().unwrap_or_else(|e| e.into_inner()).clone();
-        let mut guard = self.state();
-        let st = &mut *guard;
-        let pipeline = st.pipelines.get(pipeline)?.clone();
+        let st = self.state();
+        let pipeline = objects.pipelines.get(pipeline)?.clone();
         if size.is_empty() {
             return Ok(());
         }
@@ -723,13 +643,12 @@ impl optik_core::Backend for CpuBackend {
             ptr: params_copy.chunks.as_mut_ptr() as *mut u8,
             len: params.len(),
         });
-        let State {
+        let Objects {
             buffers,
             textures,
-            scene,
             micromaps,
             ..
-        } = st;
+        } = objects;
         for r in resources {
             bound[r.binding() as usize] = match r {
                 Resource::Buffer {
@@ -740,9 +659,9 @@ impl optik_core::Backend for CpuBackend {
                 } => {
                     let b = buffers.get_mut(*buffer)?;
                     let len = size.unwrap_or(b.size as u64 - offset) as usize;
-                    // SAFETY: the range was checked above; the buffer outlives the launch
-                    // (the state lock is held) and no reference to its bytes exists while
-                    // programs use the pointer.
+                    // SAFETY: the range was checked by optik-core; the buffer outlives the
+                    // launch (the object lock is held) and no reference to its bytes exists
+                    // while programs use the pointer.
                     let ptr = unsafe { (b.chunks.as_mut_ptr() as *mut u8).add(*offset as usize) };
                     BoundResource::Buffer(BoundBuffer { ptr, len })
                 }
@@ -774,7 +693,7 @@ impl optik_core::Backend for CpuBackend {
         let features = pipeline.features;
         let shared = LaunchShared {
             sbt: resolved,
-            scene,
+            scene: &st.scene,
             bindings: &bindings,
             size: [size.width, size.height, size.depth],
             config: TraceConfig {
@@ -828,8 +747,8 @@ fn miss__main() {
 
     /// The `RtPayload` length each program of `pipeline` was compiled with.
     fn compiled_registers(dev: &CpuDevice, pipeline: Pipeline) -> Vec<u32> {
-        let st = dev.state();
-        let p = st.pipelines.get(pipeline).unwrap();
+        let objects = dev.objects();
+        let p = objects.pipelines.get(pipeline).unwrap();
         p.groups
             .iter()
             .filter_map(|(_, g)| match &g.programs.main {
@@ -873,8 +792,8 @@ fn miss__main() {
         // Matching counts keep the module's code.
         let p = pipeline(&dev, Setting::Value(6), Setting::Value(6));
         assert_eq!(compiled_registers(&dev, p), [6, 6]);
-        let st = dev.state();
-        let groups = &st.pipelines.get(p).unwrap().groups;
+        let objects = dev.objects();
+        let groups = &objects.pipelines.get(p).unwrap().groups;
         let modules: Vec<&crate::program::JitModule> = groups
             .iter()
             .filter_map(|(_, g)| match &g.programs.main {

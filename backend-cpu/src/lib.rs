@@ -23,10 +23,11 @@ mod device;
 mod device_api;
 mod jit_glue;
 mod launch;
+pub mod objects;
 pub mod pipeline;
 mod sbt;
 
-pub use device::{CpuBackend, CpuDevice, MAX_CALLABLE_DEPTH, cpu_name};
+pub use device::{CpuBackend, CpuDevice, CpuDeviceExt, MAX_CALLABLE_DEPTH, cpu_name};
 pub use pipeline::{NativeModuleDesc, NativeProgram};
 
 /// Opens a CPU device with one launch thread per core.

@@ -203,13 +203,13 @@ impl Callable<'_> {
 }
 
 /// A module: its programs by name.
-pub(crate) struct ModuleObject {
+pub struct ModuleObject {
     /// The front end's result, for WGSL modules.
-    pub compiled: Option<Arc<CompiledModule>>,
+    pub(crate) compiled: Option<Arc<CompiledModule>>,
     /// Programs by full name.
-    pub programs: HashMap<String, (ProgramKind, ProgramCode)>,
+    pub(crate) programs: HashMap<String, (ProgramKind, ProgramCode)>,
     /// Declared features of a native module.
-    pub native: Option<NativeFeatures>,
+    pub(crate) native: Option<NativeFeatures>,
 }
 
 /// What a native module declares about its programs.
@@ -271,18 +271,18 @@ pub(crate) type ProgramLookup<'a> =
 
 /// A program group.
 #[derive(Clone)]
-pub(crate) struct GroupObject {
-    pub desc: ProgramGroupDesc,
-    pub programs: GroupPrograms,
+pub struct GroupObject {
+    pub(crate) desc: ProgramGroupDesc,
+    pub(crate) programs: GroupPrograms,
     /// The WGSL modules its programs come from (for feature and binding analysis).
-    pub modules: Vec<(optik_api::Module, Arc<CompiledModule>)>,
+    pub(crate) modules: Vec<(optik_api::Module, Arc<CompiledModule>)>,
     /// Declared features of the native modules its programs come from.
-    pub native: Vec<NativeFeatures>,
+    pub(crate) native: Vec<NativeFeatures>,
 }
 
 impl GroupObject {
     /// Resolves a group description's programs against the modules.
-    pub fn new(
+    pub(crate) fn new(
         index: usize,
         desc: &ProgramGroupDesc,
         module: ModuleLookup<'_>,
@@ -500,13 +500,13 @@ pub(crate) fn select_trace(features: &FeatureSet, accuracy: Accuracy) -> TraceFn
 }
 
 /// A linked pipeline.
-pub(crate) struct PipelineObject {
+pub struct PipelineObject {
     /// Its groups by handle.
-    pub groups: Vec<(optik_api::ProgramGroup, Arc<GroupObject>)>,
-    pub features: FeatureSet,
-    pub link: PipelineLinkOptions,
-    pub accuracy: Accuracy,
-    pub trace: TraceFn,
+    pub(crate) groups: Vec<(optik_api::ProgramGroup, Arc<GroupObject>)>,
+    pub(crate) features: FeatureSet,
+    pub(crate) link: PipelineLinkOptions,
+    pub(crate) accuracy: Accuracy,
+    pub(crate) trace: TraceFn,
     /// `@group(0)` bindings of its WGSL modules, for launch validation.
-    pub bindings: Vec<BindingInfo>,
+    pub(crate) bindings: Vec<BindingInfo>,
 }

@@ -1,7 +1,7 @@
 //! User buffers: created zero-filled, written and read with byte ranges checked, through
 //! staging buffers where they live in device-local memory.
 
-use crate::device::{Inner, UserBuffer};
+use crate::device::{Buffers, Inner, UserBuffer};
 use crate::memory::{GpuBuffer, Location};
 use ash::vk;
 use optik_accel::decode::BufferBytes;
@@ -26,7 +26,7 @@ impl Inner {
         }
     }
 
-    pub fn create_buffer(&mut self, size: u64) -> Result<Buffer> {
+    pub fn create_buffer(&mut self, size: u64) -> Result<UserBuffer> {
         let location = self.user_location();
         let gpu = GpuBuffer::new(&self.ctx, &mut self.alloc, size, user_usage(), location, 16)?;
         if gpu.mapped().is_none() {
@@ -46,20 +46,17 @@ impl Inner {
             }
         }
         let generation = self.generation();
-        Ok(self.buffers.insert(UserBuffer { gpu, generation }))
+        Ok(UserBuffer { gpu, generation })
     }
 
-    pub fn write_buffer(&mut self, buffer: Buffer, offset: u64, data: &[u8]) -> Result<()> {
-        self.buffers.get(buffer)?;
+    pub fn write_buffer(&mut self, b: &mut UserBuffer, offset: u64, data: &[u8]) -> Result<()> {
         if data.is_empty() {
             return Ok(());
         }
         // Launches read the buffer in the order they were made, as OptiX's stream orders
         // copies after launches.
         self.wait_launches()?;
-        let generation = self.generation();
-        let b = self.buffers.get_mut(buffer)?;
-        b.generation = generation;
+        b.generation = self.generation();
         if b.gpu.mapped().is_some() {
             return b.gpu.write(offset, data);
         }
@@ -67,27 +64,17 @@ impl Inner {
         self.upload(target, offset, data)
     }
 
-    pub fn read_buffer(&mut self, buffer: Buffer, offset: u64, out: &mut [u8]) -> Result<()> {
-        self.buffers.get(buffer)?;
+    pub fn read_buffer(&mut self, b: &UserBuffer, offset: u64, out: &mut [u8]) -> Result<()> {
         self.wait_launches()?;
         if out.is_empty() {
             return Ok(());
         }
-        let b = self.buffers.get(buffer)?;
         if let Some(bytes) = b.gpu.bytes() {
             out.copy_from_slice(&bytes[offset as usize..offset as usize + out.len()]);
             return Ok(());
         }
         let source = b.gpu.buffer;
         self.download(source, offset, out)
-    }
-
-    pub fn destroy_buffer(&mut self, buffer: Buffer) -> Result<()> {
-        self.buffers.get(buffer)?;
-        self.wait_launches()?;
-        let b = self.buffers.remove(buffer)?;
-        b.gpu.destroy(&self.ctx, &mut self.alloc);
-        Ok(())
     }
 
     /// Copies `data` into `target` at `offset` through a staging buffer, and waits.
@@ -161,16 +148,17 @@ impl Inner {
         result
     }
 
-    /// Copies of `buffers` that are not host-visible, for [`Inner::snapshot_view`]. Waits for
-    /// launches first, so the bytes are current.
+    /// Copies of `buffers` (in `table`) that are not host-visible, for [`snapshot_view`].
+    /// Waits for launches first, so the bytes are current.
     pub fn download_for_snapshot(
         &mut self,
+        table: &Buffers,
         buffers: &[Buffer],
     ) -> Result<HashMap<Buffer, Vec<u8>>> {
         self.wait_launches()?;
         let mut downloaded: HashMap<Buffer, Vec<u8>> = HashMap::new();
         for &b in buffers {
-            let obj = self.buffers.get(b)?;
+            let obj = table.get(b)?;
             if obj.gpu.mapped().is_none() && !downloaded.contains_key(&b) {
                 let (source, size) = (obj.gpu.buffer, obj.gpu.size);
                 let mut bytes = vec![0u8; size as usize];
@@ -180,26 +168,26 @@ impl Inner {
         }
         Ok(downloaded)
     }
+}
 
-    /// The bytes of `buffers` on the host: mapped memory where it is host-visible, the
-    /// downloaded copies elsewhere.
-    pub fn snapshot_view(
-        &self,
-        downloaded: HashMap<Buffer, Vec<u8>>,
-        buffers: &[Buffer],
-    ) -> Result<Snapshot<'_>> {
-        let mut views: HashMap<Buffer, Cow<'_, [u8]>> = downloaded
-            .into_iter()
-            .map(|(b, v)| (b, Cow::Owned(v)))
-            .collect();
-        for &b in buffers {
-            if let std::collections::hash_map::Entry::Vacant(e) = views.entry(b) {
-                let obj = self.buffers.get(b)?;
-                e.insert(Cow::Borrowed(obj.gpu.bytes().unwrap_or(&[])));
-            }
+/// The bytes of `buffers` (in `table`) on the host: mapped memory where it is host-visible,
+/// the downloaded copies elsewhere.
+pub fn snapshot_view<'a>(
+    table: &'a Buffers,
+    downloaded: HashMap<Buffer, Vec<u8>>,
+    buffers: &[Buffer],
+) -> Result<Snapshot<'a>> {
+    let mut views: HashMap<Buffer, Cow<'a, [u8]>> = downloaded
+        .into_iter()
+        .map(|(b, v)| (b, Cow::Owned(v)))
+        .collect();
+    for &b in buffers {
+        if let std::collections::hash_map::Entry::Vacant(e) = views.entry(b) {
+            let obj = table.get(b)?;
+            e.insert(Cow::Borrowed(obj.gpu.bytes().unwrap_or(&[])));
         }
-        Ok(Snapshot { views })
     }
+    Ok(Snapshot { views })
 }
 
 /// Buffer bytes on the host, for `optik_accel::decode`.

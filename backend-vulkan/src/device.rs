@@ -1,8 +1,14 @@
 //! [`VulkanBackend`]: this backend's `optik_core::Backend` ([`VulkanDevice`] is the device
 //! users hold: optik-core's checks in front of it), and the state behind its lock.
 //!
-//! The trait methods lock the state and call the `impl Inner` methods of the modules named
-//! as in every backend (`accel`, `pipeline`, `sbt`, `launch`), plus `buffer` and `texture`.
+//! optik-core owns the objects (buffers, textures, acceleration structures, micromap arrays,
+//! modules, program groups, pipelines: the trait's associated types, in its
+//! `optik_core::Objects`) and lends them to each call, locked. [`Inner`] holds what is no
+//! object: the Vulkan context, memory, commands, samplers, the scene tables and the empty
+//! top level, launches in flight, the pipeline cache and the accuracy. Its lock is always
+//! taken after core's. The trait methods lock it and call the `impl Inner` methods of the
+//! modules named as in every backend (`accel`, `pipeline`, `sbt`, `launch`), plus `buffer`
+//! and `texture`, passing the tables they read.
 
 use crate::accel::{AccelObject, Proxy, SceneTables, Tlas};
 use crate::cache::PipelineCache;
@@ -28,7 +34,39 @@ pub struct UserBuffer {
     pub generation: u64,
 }
 
-/// Everything a device owns, behind its lock.
+/// The objects of a Vulkan device, owned by optik-core.
+pub type Objects = optik_core::Objects<VulkanBackend>;
+/// The user buffers of [`Objects`].
+pub type Buffers = HandleTable<Buffer, UserBuffer>;
+/// The acceleration structures and transforms of [`Objects`].
+pub type Accels = HandleTable<Accel, AccelObject>;
+
+/// An object core handed back to be freed while the device could not free it (it was lost,
+/// or waiting for the launches that may use it failed): kept until the device is dropped,
+/// which waits for its work and then frees it.
+pub enum Unfreed {
+    /// A user buffer.
+    Buffer(UserBuffer),
+    /// A texture.
+    Texture(TextureObject),
+    /// An acceleration structure or transform.
+    Accel(AccelObject),
+    /// A pipeline.
+    Pipeline(PipelineObject),
+}
+
+impl Unfreed {
+    fn destroy(self, ctx: &Context, alloc: &mut Allocator) {
+        match self {
+            Unfreed::Buffer(b) => b.gpu.destroy(ctx, alloc),
+            Unfreed::Texture(t) => t.destroy(ctx, alloc),
+            Unfreed::Accel(a) => a.destroy(ctx, alloc),
+            Unfreed::Pipeline(p) => p.destroy(ctx, alloc),
+        }
+    }
+}
+
+/// What a device holds besides its objects (which optik-core owns), behind its lock.
 pub struct Inner {
     /// The instance and device.
     pub ctx: Arc<Context>,
@@ -36,21 +74,10 @@ pub struct Inner {
     pub alloc: Allocator,
     /// The command pool.
     pub commands: Commands,
-    /// User buffers.
-    pub buffers: HandleTable<Buffer, UserBuffer>,
-    /// Textures.
-    pub textures: HandleTable<Texture, TextureObject>,
     /// Samplers, one per description.
     pub samplers: HashMap<SamplerDesc, vk::Sampler>,
-    /// Compiled modules.
-    pub modules: HandleTable<Module, ModuleObject>,
-    /// Program groups.
-    pub groups: HandleTable<ProgramGroup, GroupObject>,
-    /// Pipelines.
-    pub pipelines: HandleTable<Pipeline, PipelineObject>,
-    /// Acceleration structures and transforms.
-    pub accels: HandleTable<Accel, AccelObject>,
-    /// Traversable handle (a TLAS device address) → its object.
+    /// Traversable handle (a TLAS device address) → the handle of its object in core's
+    /// table (instances and transforms name children by traversable handle).
     pub by_handle: HashMap<u64, Accel>,
     /// The instance, geometry and data tables programs read.
     pub tables: SceneTables,
@@ -66,13 +93,13 @@ pub struct Inner {
     /// The accuracy setting: the triangle test of structures built and pipelines created
     /// from now on (DESIGN.md §5).
     pub accuracy: Accuracy,
-    /// Opacity micromap arrays (their states, copied into the structures that use them).
-    pub micromap_arrays: HandleTable<MicromapArray, Arc<OpacityMicromapArrayDesc>>,
     /// The proxy bottom levels of paths through motion transforms, by address (owned by
     /// their transforms, accel/transform.rs).
     pub proxies: HashMap<u64, Proxy>,
     /// Proxies replaced while top levels above them are refreshed, freed afterwards.
     pub retired_proxies: Vec<u64>,
+    /// Objects destroyed while they could not be freed, freed with the device.
+    pub unfreed: Vec<Unfreed>,
 }
 
 /// The Vulkan device users hold: optik-core's checks in front of [`VulkanBackend`], whose own
@@ -101,13 +128,7 @@ impl VulkanBackend {
             ctx: ctx.clone(),
             alloc: Allocator::default(),
             commands,
-            buffers: HandleTable::new(id),
-            textures: HandleTable::new(id),
             samplers: HashMap::new(),
-            modules: HandleTable::new(id),
-            groups: HandleTable::new(id),
-            pipelines: HandleTable::new(id),
-            accels: HandleTable::new(id),
             by_handle: HashMap::new(),
             tables: SceneTables::default(),
             empty_tlas: None,
@@ -115,9 +136,9 @@ impl VulkanBackend {
             cache,
             next_generation: 1,
             accuracy: Accuracy::ROBUST,
-            micromap_arrays: HandleTable::new(id),
             proxies: HashMap::new(),
             retired_proxies: Vec::new(),
+            unfreed: Vec::new(),
         };
         inner.create_empty_tlas()?;
         Ok(VulkanBackend {
@@ -189,6 +210,24 @@ impl VulkanBackend {
         self.lost.lock().unwrap_or_else(|p| p.into_inner()).clone()
     }
 
+    /// Runs `free` on an object core has taken out of its table. Core's handle is gone
+    /// either way, so an object the device cannot free now (lost: `free` does not run) is
+    /// kept in [`Inner::unfreed`] and freed with the device, as `free` does when its wait
+    /// for launches fails.
+    fn freeing<T>(
+        &self,
+        object: T,
+        keep: fn(T) -> Unfreed,
+        free: impl FnOnce(&mut Inner, T) -> Result<()>,
+    ) -> Result<()> {
+        let mut object = Some(object);
+        let r = self.with(|i| object.take().map_or(Ok(()), |o| free(i, o)));
+        if let Some(o) = object {
+            self.lock().keep(keep(o));
+        }
+        r
+    }
+
     /// Makes the device behave as lost (`VK_ERROR_DEVICE_LOST`), as after a driver reset:
     /// every later call fails with `ErrorKind::DeviceLost`. The Vulkan device itself stays
     /// intact, so dropping it frees everything. For testing how applications handle device
@@ -246,7 +285,7 @@ impl Inner {
     /// padded for it: only `BoxTest::Conservative` describes them. Switching between native
     /// triangles (`TriangleTest::Driver`) and optik's triangle stage changes how structures
     /// are built, so it is refused while triangle structures built the other way are alive.
-    pub fn set_accuracy(&mut self, accuracy: Accuracy) -> Result<()> {
+    pub fn set_accuracy(&mut self, accels: &Accels, accuracy: Accuracy) -> Result<()> {
         if accuracy.box_test != BoxTest::Conservative {
             return Err(Error::unsupported(format!(
                 "BoxTest::{:?}: the Vulkan backend's box tests are the driver's, over boxes it pads so that no triangle a ray touches is missed (BoxTest::Conservative); an unpadded box test cannot be chosen",
@@ -255,11 +294,7 @@ impl Inner {
         }
         let emulate = accuracy.triangle != TriangleTest::Driver;
         if emulate != self.emulates_triangles() {
-            let built_the_other_way = self
-                .accels
-                .iter()
-                .filter(|(_, a)| a.has_triangles())
-                .count();
+            let built_the_other_way = accels.iter().filter(|(_, a)| a.has_triangles()).count();
             if built_the_other_way > 0 {
                 return Err(Error::invalid(format!(
                     "set_accuracy({:?}): {built_the_other_way} live acceleration structure(s) hold triangles built for {}; the Vulkan backend builds triangles differently for TriangleTest::Driver (native triangles) and the other tests (optik's triangle stage), so destroy them first or set the accuracy before building",
@@ -273,6 +308,26 @@ impl Inner {
             }
         }
         self.accuracy = accuracy;
+        Ok(())
+    }
+
+    /// Keeps an object that cannot be freed now until the device is dropped; a structure's
+    /// traversable handle stops naming it at once.
+    pub fn keep(&mut self, object: Unfreed) {
+        if let Unfreed::Accel(a) = &object {
+            self.by_handle.remove(&a.handle());
+        }
+        self.unfreed.push(object);
+    }
+
+    /// Frees a buffer, texture or pipeline after the launches that may use it (kept for the
+    /// device's drop when the wait fails).
+    pub fn free(&mut self, object: Unfreed) -> Result<()> {
+        if let Err(e) = self.wait_launches() {
+            self.keep(object);
+            return Err(e);
+        }
+        object.destroy(&self.ctx, &mut self.alloc);
         Ok(())
     }
 
@@ -351,6 +406,8 @@ impl Inner {
 }
 
 impl Drop for VulkanBackend {
+    /// Frees what is no object; optik-core has handed the objects back first
+    /// ([`optik_core::Backend::release`]).
     fn drop(&mut self) {
         let mut inner = self.lock();
         let _ = inner.wait_launches();
@@ -362,20 +419,30 @@ impl Drop for VulkanBackend {
 }
 
 impl Inner {
-    /// Frees every object (device destruction).
+    /// Frees the objects core hands back when the device is dropped, in the order that
+    /// frees users before what they use: pipelines, structures, buffers, textures.
+    fn free_objects(&mut self, mut objects: Objects) {
+        let ctx = self.ctx.clone();
+        for (_, p) in objects.pipelines.drain() {
+            p.destroy(&ctx, &mut self.alloc);
+        }
+        for (_, a) in objects.accels.drain() {
+            a.destroy(&ctx, &mut self.alloc);
+        }
+        for (_, b) in objects.buffers.drain() {
+            b.gpu.destroy(&ctx, &mut self.alloc);
+        }
+        for (_, t) in objects.textures.drain() {
+            t.destroy(&ctx, &mut self.alloc);
+        }
+    }
+
+    /// Frees everything that is no object (device destruction), and the objects that could
+    /// not be freed when they were destroyed.
     fn destroy_everything(&mut self) {
         let ctx = self.ctx.clone();
-        let pipelines: Vec<Pipeline> = self.pipelines.iter().map(|(h, _)| h).collect();
-        for p in pipelines {
-            if let Ok(obj) = self.pipelines.remove(p) {
-                obj.destroy(&ctx, &mut self.alloc);
-            }
-        }
-        let accels: Vec<Accel> = self.accels.iter().map(|(h, _)| h).collect();
-        for a in accels {
-            if let Ok(obj) = self.accels.remove(a) {
-                obj.destroy(&ctx, &mut self.alloc);
-            }
+        for o in std::mem::take(&mut self.unfreed) {
+            o.destroy(&ctx, &mut self.alloc);
         }
         for (_, p) in std::mem::take(&mut self.proxies) {
             p.structure.destroy(&ctx, &mut self.alloc);
@@ -384,18 +451,6 @@ impl Inner {
             t.destroy(&ctx, &mut self.alloc);
         }
         self.tables.destroy(&ctx, &mut self.alloc);
-        let buffers: Vec<Buffer> = self.buffers.iter().map(|(h, _)| h).collect();
-        for b in buffers {
-            if let Ok(obj) = self.buffers.remove(b) {
-                obj.gpu.destroy(&ctx, &mut self.alloc);
-            }
-        }
-        let textures: Vec<Texture> = self.textures.iter().map(|(h, _)| h).collect();
-        for t in textures {
-            if let Ok(obj) = self.textures.remove(t) {
-                obj.destroy(&ctx, &mut self.alloc);
-            }
-        }
         for (_, s) in self.samplers.drain() {
             // SAFETY: idle device.
             unsafe { ctx.device.destroy_sampler(s, None) };
@@ -407,8 +462,20 @@ impl Inner {
 }
 
 impl optik_core::Backend for VulkanBackend {
+    type Buffer = UserBuffer;
+    type Texture = TextureObject;
+    type Accel = AccelObject;
+    type MicromapArray = Arc<OpacityMicromapArrayDesc>;
+    type Module = ModuleObject;
+    type ProgramGroup = GroupObject;
+    type Pipeline = PipelineObject;
+
     fn id(&self) -> DeviceId {
         self.id
+    }
+
+    fn alive(&self) -> Result<()> {
+        self.lost_error().map_or(Ok(()), Err)
     }
 
     fn kind(&self) -> BackendKind {
@@ -423,110 +490,140 @@ impl optik_core::Backend for VulkanBackend {
         self.lock().accuracy
     }
 
-    fn set_accuracy(&self, accuracy: Accuracy) -> Result<()> {
-        self.with(|i| i.set_accuracy(accuracy))
+    fn set_accuracy(&self, objects: &Objects, accuracy: Accuracy) -> Result<()> {
+        self.with(|i| i.set_accuracy(&objects.accels, accuracy))
     }
 
-    fn create_buffer(&self, size: u64) -> Result<Buffer> {
+    fn create_buffer(&self, size: u64) -> Result<UserBuffer> {
         self.with(|i| i.create_buffer(size))
     }
 
-    fn write_buffer(&self, buffer: Buffer, offset: u64, data: &[u8]) -> Result<()> {
+    fn write_buffer(&self, buffer: &mut UserBuffer, offset: u64, data: &[u8]) -> Result<()> {
         self.with(|i| i.write_buffer(buffer, offset, data))
     }
 
-    fn read_buffer(&self, buffer: Buffer, offset: u64, out: &mut [u8]) -> Result<()> {
+    fn read_buffer(&self, buffer: &mut UserBuffer, offset: u64, out: &mut [u8]) -> Result<()> {
         self.with(|i| i.read_buffer(buffer, offset, out))
     }
 
-    fn buffer_size(&self, buffer: Buffer) -> Result<u64> {
-        self.with(|i| Ok(i.buffers.get(buffer)?.gpu.size))
+    fn buffer_size(&self, buffer: &UserBuffer) -> u64 {
+        buffer.gpu.size
     }
 
-    fn destroy_buffer(&self, buffer: Buffer) -> Result<()> {
-        self.with(|i| i.destroy_buffer(buffer))
+    fn destroy_buffer(&self, buffer: UserBuffer) -> Result<()> {
+        self.freeing(buffer, Unfreed::Buffer, |i, b| i.free(Unfreed::Buffer(b)))
     }
 
-    fn create_texture(&self, desc: &TextureDesc) -> Result<Texture> {
+    fn create_texture(&self, desc: &TextureDesc) -> Result<TextureObject> {
         self.with(|i| i.create_texture(desc))
     }
 
-    fn write_texture(&self, texture: Texture, data: &[u8]) -> Result<()> {
+    fn texture_desc(&self, texture: &TextureObject) -> TextureDesc {
+        texture.desc
+    }
+
+    fn write_texture(&self, texture: &mut TextureObject, data: &[u8]) -> Result<()> {
         self.with(|i| i.write_texture(texture, data))
     }
 
-    fn texture_desc(&self, texture: Texture) -> Result<TextureDesc> {
-        self.with(|i| Ok(i.textures.get(texture)?.desc))
-    }
-
-    fn destroy_texture(&self, texture: Texture) -> Result<()> {
-        self.with(|i| i.destroy_texture(texture))
+    fn destroy_texture(&self, texture: TextureObject) -> Result<()> {
+        self.freeing(texture, Unfreed::Texture, |i, t| {
+            i.free(Unfreed::Texture(t))
+        })
     }
 
     fn accel_memory_usage(
         &self,
+        objects: &mut Objects,
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
         _keys: usize,
     ) -> Result<AccelBufferSizes> {
-        self.with(|i| i.accel_memory_usage(options, inputs))
+        self.with(|i| i.accel_memory_usage(objects, options, inputs))
     }
 
     fn accel_build(
         &self,
+        objects: &mut Objects,
+        handle: Accel,
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
         _keys: usize,
-    ) -> Result<Accel> {
-        self.with(|i| i.accel_build(options, inputs))
-    }
-
-    fn accel_update(
-        &self,
-        accel: Accel,
-        options: &AccelBuildOptions,
-        inputs: &[BuildInput],
-    ) -> Result<()> {
-        self.with(|i| i.accel_update(accel, options, inputs))
-    }
-
-    fn accel_compact(&self, accel: Accel) -> Result<Accel> {
-        self.with(|i| i.accel_compact(accel))
+    ) -> Result<AccelObject> {
+        self.with(|i| i.accel_build(objects, handle, options, inputs))
     }
 
     fn accel_build_record(
         &self,
+        accel: &AccelObject,
+    ) -> Option<(AccelBuildOptions, Vec<BuildInput>)> {
+        accel.build_record()
+    }
+
+    fn accel_update(
+        &self,
+        objects: &mut Objects,
         accel: Accel,
-    ) -> Result<Option<(AccelBuildOptions, Vec<BuildInput>)>> {
-        self.with(|i| i.accel_build_record(accel))
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<()> {
+        self.with(|i| i.accel_update(objects, accel, options, inputs))
     }
 
-    fn accel_size(&self, accel: Accel) -> Result<u64> {
-        self.with(|i| Ok(i.accels.get(accel)?.size()))
+    fn accel_compact(
+        &self,
+        objects: &mut Objects,
+        accel: Accel,
+        handle: Accel,
+    ) -> Result<AccelObject> {
+        self.with(|i| i.accel_compact(&objects.accels, accel, handle))
     }
 
-    fn create_transform(&self, desc: &TransformDesc) -> Result<Accel> {
-        self.with(|i| i.create_transform(desc))
+    fn accel_size(&self, accel: &AccelObject) -> u64 {
+        accel.size()
+    }
+
+    fn accel_features(&self, accel: &AccelObject) -> SceneFeatures {
+        accel.features()
+    }
+
+    fn create_transform(
+        &self,
+        objects: &mut Objects,
+        handle: Accel,
+        desc: &TransformDesc,
+    ) -> Result<AccelObject> {
+        self.with(|i| i.create_transform(&objects.accels, handle, desc))
     }
 
     fn create_opacity_micromap_array(
         &self,
         desc: &OpacityMicromapArrayDesc,
-    ) -> Result<MicromapArray> {
-        self.with(|i| Ok(i.micromap_arrays.insert(Arc::new(desc.clone()))))
+    ) -> Result<Arc<OpacityMicromapArrayDesc>> {
+        self.with(|_| Ok(Arc::new(desc.clone())))
     }
 
-    fn traversable_handle(&self, accel: Accel) -> Result<TraversableHandle> {
-        self.with(|i| Ok(TraversableHandle(i.accels.get(accel)?.handle())))
+    fn traversable_handle(&self, _handle: Accel, accel: &AccelObject) -> Result<TraversableHandle> {
+        self.with(|_| Ok(TraversableHandle(accel.handle())))
     }
 
-    fn destroy_accel(&self, accel: Accel) -> Result<()> {
-        self.with(|i| i.destroy_accel(accel))
+    fn destroy_accel(
+        &self,
+        objects: &mut Objects,
+        handle: Accel,
+        accel: AccelObject,
+    ) -> Result<()> {
+        self.freeing(accel, Unfreed::Accel, |i, a| {
+            i.destroy_accel(&mut objects.accels, handle, a)
+        })
     }
 
-    fn destroy_micromap_array(&self, array: MicromapArray) -> Result<()> {
+    fn destroy_micromap_array(&self, array: Arc<OpacityMicromapArrayDesc>) -> Result<()> {
         // Structures built with it keep their own copy of its states.
-        self.with(|i| i.micromap_arrays.remove(array).map(|_| ()))
+        self.with(|_| {
+            drop(array);
+            Ok(())
+        })
     }
 
     fn create_module(
@@ -534,65 +631,91 @@ impl optik_core::Backend for VulkanBackend {
         module_options: &ModuleCompileOptions,
         pipeline_options: &PipelineCompileOptions,
         source: &ProgramSource,
-    ) -> Result<(Module, String)> {
-        self.with(|i| i.create_module(module_options, pipeline_options, source))
+    ) -> Result<(ModuleObject, String)> {
+        // Compiling needs nothing of the state, so other calls need not wait for it.
+        if let Some(e) = self.lost_error() {
+            return Err(e);
+        }
+        crate::pipeline::create_module(module_options, pipeline_options, source)
     }
 
-    fn module_programs(&self, module: Module) -> Result<Vec<String>> {
-        self.with(|i| i.module_programs(module))
+    fn module_programs(&self, module: &ModuleObject) -> Vec<String> {
+        module.programs()
     }
 
-    fn destroy_module(&self, module: Module) -> Result<()> {
-        self.with(|i| i.modules.remove(module).map(|_| ()))
+    fn destroy_module(&self, module: ModuleObject) -> Result<()> {
+        // Host data only; `with` is there so that a lost device still says so.
+        self.with(|_| {
+            drop(module);
+            Ok(())
+        })
     }
 
-    fn create_program_groups(&self, descs: &[ProgramGroupDesc]) -> Result<Vec<ProgramGroup>> {
-        self.with(|i| i.create_program_groups(descs))
+    fn create_program_groups(
+        &self,
+        _objects: &Objects,
+        descs: &[ProgramGroupDesc],
+    ) -> Result<Vec<GroupObject>> {
+        // optik-core has checked that every program exists with the kind its group uses.
+        self.with(|_| {
+            Ok(descs
+                .iter()
+                .map(|d| GroupObject { desc: d.clone() })
+                .collect())
+        })
     }
 
-    fn group_region(&self, group: ProgramGroup) -> Result<GroupRegion> {
-        self.with(|i| Ok(i.groups.get(group)?.desc.region()))
+    fn group_region(&self, group: &GroupObject) -> GroupRegion {
+        group.desc.region()
     }
 
-    fn destroy_program_group(&self, group: ProgramGroup) -> Result<()> {
-        self.with(|i| i.groups.remove(group).map(|_| ()))
+    fn destroy_program_group(&self, group: GroupObject) -> Result<()> {
+        // Host data only; `with` is there so that a lost device still says so.
+        self.with(|_| {
+            drop(group);
+            Ok(())
+        })
     }
 
     fn create_pipeline(
         &self,
+        objects: &Objects,
         _pipeline_options: &PipelineCompileOptions,
         link_options: &PipelineLinkOptions,
         groups: &[ProgramGroup],
         features: &FeatureSet,
-    ) -> Result<Pipeline> {
-        self.with(|i| i.create_pipeline(link_options, groups, features))
+    ) -> Result<PipelineObject> {
+        self.with(|i| i.create_pipeline(objects, link_options, groups, features))
     }
 
-    fn program_features(&self, groups: &[ProgramGroup]) -> Result<ProgramFeatures> {
-        self.with(|i| i.program_features(groups))
+    fn program_features(
+        &self,
+        objects: &Objects,
+        groups: &[ProgramGroup],
+    ) -> Result<ProgramFeatures> {
+        self.with(|_| crate::pipeline::program_features(objects, groups))
     }
 
-    fn scene_features(&self) -> Result<Option<SceneFeatures>> {
-        self.with(|i| Ok(i.scene_features()))
-    }
-
-    fn pipeline_features(&self, pipeline: Pipeline) -> Result<FeatureSet> {
-        self.with(|i| Ok(i.pipelines.get(pipeline)?.features))
-    }
-
-    fn destroy_pipeline(&self, pipeline: Pipeline) -> Result<()> {
-        self.with(|i| i.destroy_pipeline(pipeline))
+    fn pipeline_features(&self, pipeline: &PipelineObject) -> FeatureSet {
+        pipeline.features
     }
 
     fn pipeline_bindings(
         &self,
-        pipeline: Pipeline,
-    ) -> Result<Vec<optik_core::frontend::BindingInfo>> {
-        self.with(|i| Ok(i.pipelines.get(pipeline)?.bindings.clone()))
+        pipeline: &PipelineObject,
+    ) -> Vec<optik_core::frontend::BindingInfo> {
+        pipeline.bindings.clone()
+    }
+
+    fn destroy_pipeline(&self, pipeline: PipelineObject) -> Result<()> {
+        self.freeing(pipeline, Unfreed::Pipeline, |i, p| {
+            i.free(Unfreed::Pipeline(p))
+        })
     }
 
     fn launch(
         &self,
+        objects: &mut Objects,
         pipeline: Pipeline,
         params: &[u8],
         resources: &[Resource],
@@ -601,7 +724,7 @@ impl optik_core::Backend for VulkanBackend {
         options: &optik_api::LaunchOptions,
     ) -> Result<()> {
         let watch = optik_api::LaunchWatch::new(options)?;
-        self.with(|i| i.launch(pipeline, params, resources, sbt, size))?;
+        self.with(|i| i.launch(objects, pipeline, params, resources, sbt, size))?;
         if options.deadline.is_some() || options.cancel.is_some() {
             self.with(|i| i.wait_watched(&watch))?;
         }
@@ -614,5 +737,15 @@ impl optik_core::Backend for VulkanBackend {
 
     fn take_diagnostics(&self) -> Vec<String> {
         self.take_validation_messages()
+    }
+
+    /// Waits for every launch, then frees the objects; [`VulkanBackend`]'s `Drop` frees
+    /// the rest.
+    fn release(&self, objects: Objects) {
+        let mut inner = self.lock();
+        let _ = inner.wait_launches();
+        // SAFETY: nothing is pending after the wait (or the device is lost).
+        let _ = unsafe { inner.ctx.device.device_wait_idle() };
+        inner.free_objects(objects);
     }
 }

@@ -9,8 +9,9 @@
 //! size, so `rt_launch_index` and `rt_launch_dimensions` are the user's; the state buffer is
 //! sized for one tile and reused, with a barrier between tiles.
 
+use crate::accel::scene_features;
 use crate::commands::Submission;
-use crate::device::Inner;
+use crate::device::{Accels, Inner, Objects};
 use crate::error::VkResultExt;
 use crate::memory::{GpuBuffer, Location};
 use crate::program::LoweringConfig;
@@ -145,6 +146,7 @@ impl Inner {
 
     pub fn launch(
         &mut self,
+        objects: &mut Objects,
         pipeline: Pipeline,
         params: &[u8],
         resources: &[Resource],
@@ -153,7 +155,7 @@ impl Inner {
     ) -> Result<()> {
         // optik-core checked the pipeline, the size, the SBT's layout and the bindings; the
         // limits below are this device's own (launches past one dispatch are split, below).
-        let p = self.pipelines.get(pipeline)?;
+        let p = objects.pipelines.get(pipeline)?;
         if params.len() as u64 > self.ctx.info.max_uniform_buffer_range as u64 {
             return Err(Error::limit(format!(
                 "params is {} bytes; this device's uniform buffers (maxUniformBufferRange) hold {}; put large data in a storage buffer",
@@ -170,7 +172,7 @@ impl Inner {
                 size,
             } = r
             {
-                let total = self.buffers.get(*buffer)?.gpu.size;
+                let total = objects.buffers.get(*buffer)?.gpu.size;
                 let bound = size.unwrap_or(total.saturating_sub(*offset));
                 if bound > self.ctx.info.max_storage_buffer_range as u64 {
                     return Err(Error::limit(format!(
@@ -188,13 +190,12 @@ impl Inner {
                     )));
                 }
                 Resource::Texture { texture, .. } => {
-                    self.textures.get(*texture)?;
+                    objects.textures.get(*texture)?;
                 }
                 _ => {}
             }
         }
-        self.check_pipeline_serves_scene(&p.config)?;
-        let p = self.pipelines.get(pipeline)?;
+        self.check_pipeline_serves_scene(&objects.accels, &p.config)?;
         let uses_state = p.config.uses_state();
         let bindings = p.bindings.clone();
         if size.is_empty() {
@@ -227,7 +228,7 @@ impl Inner {
             )));
         }
         let dispatches = plan_dispatches(dims, tile);
-        let sbt = self.translate_sbt(pipeline, table)?;
+        let sbt = self.translate_sbt(objects, pipeline, table)?;
         let max_range = self.ctx.info.max_storage_buffer_range as u64;
         if let Some(bytes) = self.tables.sizes().into_iter().find(|b| *b > max_range) {
             return Err(Error::limit(format!(
@@ -238,6 +239,7 @@ impl Inner {
 
         let mut held: Vec<GpuBuffer> = Vec::new();
         let result = self.record_launch(
+            objects,
             pipeline,
             params,
             resources,
@@ -268,7 +270,7 @@ impl Inner {
                         })
                     {
                         let g = self.generation();
-                        if let Ok(b) = self.buffers.get_mut(*buffer) {
+                        if let Ok(b) = objects.buffers.get_mut(*buffer) {
                             b.generation = g;
                         }
                     }
@@ -293,8 +295,8 @@ impl Inner {
     /// Checks that a pipeline was compiled for what the live scene holds: the scene's
     /// triangles built for its triangle test, its motion and its micromaps (a pipeline
     /// created before them lacks the code that reads them).
-    fn check_pipeline_serves_scene(&self, config: &LoweringConfig) -> Result<()> {
-        let Some(scene) = self.scene_features() else {
+    fn check_pipeline_serves_scene(&self, accels: &Accels, config: &LoweringConfig) -> Result<()> {
+        let Some(scene) = scene_features(accels) else {
             return Ok(());
         };
         let recreate = "create the pipeline again (pipelines are compiled for the structures alive when they are created)";
@@ -331,6 +333,7 @@ impl Inner {
     #[allow(clippy::too_many_arguments)]
     fn record_launch(
         &mut self,
+        objects: &Objects,
         pipeline: Pipeline,
         params: &[u8],
         resources: &[Resource],
@@ -424,7 +427,7 @@ impl Inner {
                             b.binding
                         )));
                     };
-                    let obj = self.buffers.get(*buffer)?;
+                    let obj = objects.buffers.get(*buffer)?;
                     let range = size.unwrap_or(obj.gpu.size - offset).max(4);
                     buffer_infos.push((
                         b.binding,
@@ -445,7 +448,7 @@ impl Inner {
                             b.binding
                         )));
                     };
-                    let view = self.textures.get(*texture)?.view;
+                    let view = objects.textures.get(*texture)?.view;
                     image_infos.push((
                         b.binding,
                         vk::DescriptorImageInfo {
@@ -520,7 +523,7 @@ impl Inner {
         let pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
             .or_vk("vkCreateDescriptorPool")?;
         let recorded = (|| {
-            let p = self.pipelines.get(pipeline)?;
+            let p = objects.pipelines.get(pipeline)?;
             let (vk_pipeline, layout, set_layouts, stack) =
                 (p.pipeline, p.layout, p.set_layouts, p.stack_size);
             let mut layouts = vec![set_layouts[0]];

@@ -14,6 +14,12 @@
 //! `sbt`, `launch`; plus `context` (instance and device), `probe` (what each device offers),
 //! `memory`, `buffer`, `texture`, `commands`, `cache` (the on-disk pipeline cache) and
 //! `validation` (the validation layer's messages).
+//!
+//! [`VulkanDevice`] is optik-core's device over [`VulkanBackend`]: core checks every call and
+//! owns the objects (buffers, textures, acceleration structures, micromap arrays, modules,
+//! program groups, pipelines: the backend's associated types), lending them to the backend
+//! for each call; the backend keeps under its own lock only what is no object (the Vulkan
+//! device, memory, commands, samplers, scene tables, launches in flight, pipeline cache).
 
 mod accel;
 mod buffer;

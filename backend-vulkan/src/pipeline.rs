@@ -11,7 +11,8 @@
 //! and null continuation. The stack size is set per launch from the groups' stack sizes and
 //! the pipeline's depths, as OptiX's `optixUtilComputeStackSizes` does.
 
-use crate::device::Inner;
+use crate::accel::scene_features;
+use crate::device::{Inner, Objects};
 use crate::error::VkResultExt;
 use crate::memory::Allocator;
 use crate::program::{
@@ -281,104 +282,92 @@ fn lowering_config(
     }
 }
 
-impl Inner {
-    pub fn create_module(
-        &mut self,
-        _options: &ModuleCompileOptions,
-        pipeline_options: &PipelineCompileOptions,
-        source: &ProgramSource,
-    ) -> Result<(Module, String)> {
-        // optik-core has checked the register count.
-        let payload = pipeline_options.num_payload_values.or(32);
-        let compiled = optik_core::frontend::compile(source, payload)?;
-        let mut log = format!(
-            "{}: {} program(s)",
-            compiled.file_name,
-            compiled.programs.len()
-        );
-        for p in &compiled.programs {
-            log.push_str(&format!("\n  {} `{}` (line {})", p.kind, p.name, p.line));
-        }
-        let module = self.modules.insert(ModuleObject {
-            compiled: Arc::new(compiled),
-        });
-        Ok((module, log))
-    }
-
-    /// The names of a module's programs.
-    pub fn module_programs(&self, module: Module) -> Result<Vec<String>> {
-        let m = self.modules.get(module)?;
-        Ok(m.compiled.programs.iter().map(|p| p.name.clone()).collect())
-    }
-
-    pub fn create_program_groups(
-        &mut self,
-        descs: &[ProgramGroupDesc],
-    ) -> Result<Vec<ProgramGroup>> {
-        // optik-core has checked that every program exists with the kind its group uses.
-        Ok(descs
+impl ModuleObject {
+    /// The names of its programs.
+    pub fn programs(&self) -> Vec<String> {
+        self.compiled
+            .programs
             .iter()
-            .map(|d| self.groups.insert(GroupObject { desc: d.clone() }))
-            .collect())
+            .map(|p| p.name.clone())
+            .collect()
     }
+}
 
-    pub fn destroy_pipeline(&mut self, pipeline: Pipeline) -> Result<()> {
-        self.pipelines.get(pipeline)?;
-        self.wait_launches()?;
-        let p = self.pipelines.remove(pipeline)?;
-        p.destroy(&self.ctx, &mut self.alloc);
-        Ok(())
+/// Compiles a module with the front end (its SPIR-V is written per pipeline).
+pub fn create_module(
+    _options: &ModuleCompileOptions,
+    pipeline_options: &PipelineCompileOptions,
+    source: &ProgramSource,
+) -> Result<(ModuleObject, String)> {
+    // optik-core has checked the register count.
+    let payload = pipeline_options.num_payload_values.or(32);
+    let compiled = optik_core::frontend::compile(source, payload)?;
+    let mut log = format!(
+        "{}: {} program(s)",
+        compiled.file_name,
+        compiled.programs.len()
+    );
+    for p in &compiled.programs {
+        log.push_str(&format!("\n  {} `{}` (line {})", p.kind, p.name, p.line));
     }
+    let module = ModuleObject {
+        compiled: Arc::new(compiled),
+    };
+    Ok((module, log))
+}
 
-    /// What the programs of `groups` use (optik-core resolves the pipeline's features from it).
-    pub fn program_features(&self, groups: &[ProgramGroup]) -> Result<ProgramFeatures> {
-        let (descs, modules) = self.pipeline_programs(groups)?;
-        let desc_refs: Vec<&ProgramGroupDesc> = descs.iter().collect();
-        Ok(optik_core::features::program_features(&desc_refs, |p| {
-            modules.get(&p.module).map(|m| &**m)
-        }))
+/// What the programs of `groups` use (optik-core resolves the pipeline's features from it).
+pub fn program_features(objects: &Objects, groups: &[ProgramGroup]) -> Result<ProgramFeatures> {
+    let (descs, modules) = pipeline_programs(objects, groups)?;
+    let desc_refs: Vec<&ProgramGroupDesc> = descs.iter().collect();
+    Ok(optik_core::features::program_features(&desc_refs, |p| {
+        modules.get(&p.module).map(|m| &**m)
+    }))
+}
+
+/// The descriptions of `groups` and the compiled modules of their programs.
+#[allow(clippy::type_complexity)]
+fn pipeline_programs(
+    objects: &Objects,
+    groups: &[ProgramGroup],
+) -> Result<(Vec<ProgramGroupDesc>, HashMap<Module, Arc<CompiledModule>>)> {
+    let mut descs = Vec::with_capacity(groups.len());
+    for (i, g) in groups.iter().enumerate() {
+        descs.push(
+            objects
+                .groups
+                .get(*g)
+                .map_err(|e| e.context(format!("groups[{i}]")))?
+                .desc
+                .clone(),
+        );
     }
-
-    /// The descriptions of `groups` and the compiled modules of their programs.
-    #[allow(clippy::type_complexity)]
-    fn pipeline_programs(
-        &self,
-        groups: &[ProgramGroup],
-    ) -> Result<(Vec<ProgramGroupDesc>, HashMap<Module, Arc<CompiledModule>>)> {
-        let mut descs = Vec::with_capacity(groups.len());
-        for (i, g) in groups.iter().enumerate() {
-            descs.push(
-                self.groups
-                    .get(*g)
-                    .map_err(|e| e.context(format!("groups[{i}]")))?
-                    .desc
-                    .clone(),
-            );
+    let mut modules: HashMap<Module, Arc<CompiledModule>> = HashMap::new();
+    for d in &descs {
+        for (_, p) in d.programs() {
+            let m = objects
+                .modules
+                .get(p.module)
+                .map_err(|e| e.context(format!("program `{}`", p.entry)))?;
+            modules.insert(p.module, m.compiled.clone());
         }
-        let mut modules: HashMap<Module, Arc<CompiledModule>> = HashMap::new();
-        for d in &descs {
-            for (_, p) in d.programs() {
-                let m = self
-                    .modules
-                    .get(p.module)
-                    .map_err(|e| e.context(format!("program `{}`", p.entry)))?;
-                modules.insert(p.module, m.compiled.clone());
-            }
-        }
-        Ok((descs, modules))
     }
+    Ok((descs, modules))
+}
 
+impl Inner {
     pub fn create_pipeline(
         &mut self,
+        objects: &Objects,
         link: &PipelineLinkOptions,
         groups: &[ProgramGroup],
         features: &FeatureSet,
-    ) -> Result<Pipeline> {
+    ) -> Result<PipelineObject> {
         let features = *features;
-        let (descs, modules) = self.pipeline_programs(groups)?;
+        let (descs, modules) = pipeline_programs(objects, groups)?;
         let module_of = |p: &ProgramRef| modules.get(&p.module).cloned();
         let desc_refs: Vec<&ProgramGroupDesc> = descs.iter().collect();
-        let scene = self.scene_features().unwrap_or_default();
+        let scene = scene_features(&objects.accels).unwrap_or_default();
         let device = DeviceSide {
             triangles: match self.accuracy.triangle {
                 TriangleTest::Driver => TriangleMode::Native,
@@ -498,7 +487,7 @@ impl Inner {
         config: LoweringConfig,
         bindings: Vec<BindingInfo>,
         recursion: u32,
-    ) -> Result<Pipeline> {
+    ) -> Result<PipelineObject> {
         let ctx = self.ctx.clone();
         let device = &ctx.device;
         let mut shader_modules = Vec::with_capacity(stages.len());
@@ -675,7 +664,7 @@ impl Inner {
             stack_size,
             sbt_cache: Vec::new(),
         };
-        Ok(self.pipelines.insert(object))
+        Ok(object)
     }
 
     /// Vulkan's skip flags for the primitive types the pipeline does not intersect (DESIGN.md

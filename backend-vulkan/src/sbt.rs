@@ -19,7 +19,8 @@
 //! Translations are cached per pipeline and keyed by the table, the buffers' generations and
 //! the scene's reach, so a launch loop over an unchanged table reads nothing back.
 
-use crate::device::Inner;
+use crate::buffer::snapshot_view;
+use crate::device::{Inner, Objects};
 use crate::memory::{Allocator, GpuBuffer, Location};
 use crate::pipeline::{GroupHandles, PipelineObject};
 use crate::program::device_api::SBT_DATA_WORDS;
@@ -156,6 +157,7 @@ impl Inner {
     /// The Vulkan table for a launch of `pipeline` with `table`: cached, or translated now.
     pub fn translate_sbt(
         &mut self,
+        objects: &mut Objects,
         pipeline: Pipeline,
         table: &ShaderBindingTable,
     ) -> Result<Arc<TranslatedSbt>> {
@@ -171,9 +173,9 @@ impl Inner {
         buffers.dedup();
         let mut generations = Vec::with_capacity(buffers.len());
         for b in &buffers {
-            generations.push((*b, self.buffers.get(*b)?.generation));
+            generations.push((*b, objects.buffers.get(*b)?.generation));
         }
-        let hit_reach = self
+        let hit_reach = objects
             .accels
             .iter()
             .map(|(_, a)| a.sbt_reach())
@@ -184,7 +186,7 @@ impl Inner {
             generations,
             hit_reach,
         };
-        if let Some(t) = self
+        if let Some(t) = objects
             .pipelines
             .get(pipeline)?
             .sbt_cache
@@ -198,11 +200,11 @@ impl Inner {
         let max_stride = self.ctx.info.max_shader_group_stride as u64;
         let handle_size = self.ctx.info.shader_group_handle_size as u64;
         let regions = {
-            let downloaded = self.download_for_snapshot(&snapshot_buffers)?;
-            let snapshot = self.snapshot_view(downloaded, &snapshot_buffers)?;
+            let downloaded = self.download_for_snapshot(&objects.buffers, &snapshot_buffers)?;
+            let snapshot = snapshot_view(&objects.buffers, downloaded, &snapshot_buffers)?;
             let reader = Reader {
                 bytes: &snapshot,
-                pipeline: self.pipelines.get(pipeline)?,
+                pipeline: objects.pipelines.get(pipeline)?,
                 device: pipeline.raw().device,
             };
             read_regions(
@@ -214,7 +216,7 @@ impl Inner {
         };
         let (regions, callable_words) = regions;
         let translated = self.lay_out(key, regions, callable_words, table)?;
-        let p = self.pipelines.get_mut(pipeline)?;
+        let p = objects.pipelines.get_mut(pipeline)?;
         let translated = Arc::new(translated);
         p.sbt_cache.insert(0, translated.clone());
         let evicted: Vec<Arc<TranslatedSbt>> = if p.sbt_cache.len() > CACHE_ENTRIES {

@@ -3,9 +3,7 @@
 use crate::device::Inner;
 use crate::error::VkResultExt;
 use ash::vk;
-use optik_api::{
-    AddressMode, Error, FilterMode, Result, SamplerDesc, Texture, TextureDesc, TextureFormat,
-};
+use optik_api::{AddressMode, Error, FilterMode, Result, SamplerDesc, TextureDesc, TextureFormat};
 
 /// A 2D image in shader-read layout, with its own memory.
 pub struct TextureObject {
@@ -77,7 +75,7 @@ fn transition(
 }
 
 impl Inner {
-    pub fn create_texture(&mut self, desc: &TextureDesc) -> Result<Texture> {
+    pub fn create_texture(&mut self, desc: &TextureDesc) -> Result<TextureObject> {
         let format = vk_format(desc.format);
         let ctx = self.ctx.clone();
         let info = vk::ImageCreateInfo::default()
@@ -181,14 +179,11 @@ impl Inner {
             obj.destroy(&ctx, &mut self.alloc);
             return Err(e);
         }
-        Ok(self.textures.insert(obj))
+        Ok(obj)
     }
 
-    pub fn write_texture(&mut self, texture: Texture, data: &[u8]) -> Result<()> {
-        let (image, desc) = {
-            let t = self.textures.get(texture)?;
-            (t.image, t.desc)
-        };
+    pub fn write_texture(&mut self, texture: &TextureObject, data: &[u8]) -> Result<()> {
+        let (image, desc) = (texture.image, texture.desc);
         self.wait_launches()?;
         self.upload_with(data, |device, cmd, src| {
             transition(
@@ -227,14 +222,6 @@ impl Inner {
                 vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
             );
         })
-    }
-
-    pub fn destroy_texture(&mut self, texture: Texture) -> Result<()> {
-        self.textures.get(texture)?;
-        self.wait_launches()?;
-        let t = self.textures.remove(texture)?;
-        t.destroy(&self.ctx, &mut self.alloc);
-        Ok(())
     }
 
     /// The sampler for `desc`, created once.

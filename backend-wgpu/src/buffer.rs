@@ -10,9 +10,12 @@ use crate::memory::Tracked;
 use optik_api::{Error, Result};
 
 /// One user buffer.
-pub(crate) struct BufferObject {
-    pub gpu: wgpu::Buffer,
-    pub size: u64,
+///
+/// (Public only as `WgpuBackend`'s `optik_core::Backend::Buffer`, the type optik-core's
+/// device keeps; its insides stay private to this crate.)
+pub struct BufferObject {
+    pub(crate) gpu: wgpu::Buffer,
+    pub(crate) size: u64,
     host: Vec<u8>,
     /// Whether `host` equals the GPU contents (false after a launch that may write).
     host_valid: bool,
@@ -29,7 +32,7 @@ impl Drop for BufferObject {
 
 impl BufferObject {
     /// A zero-filled buffer of `size` bytes.
-    pub fn create(gpu: &Gpu, size: u64) -> Result<BufferObject> {
+    pub(crate) fn create(gpu: &Gpu, size: u64) -> Result<BufferObject> {
         // wgpu copies and maps in 4-byte units; a zero-sized binding is invalid.
         let gpu_size = size.max(4).div_ceil(4) * 4;
         let buffer = gpu.scoped(&format!("creating a buffer of {size} bytes"), || {
@@ -60,7 +63,7 @@ impl BufferObject {
     }
 
     /// Writes `data` at `offset` (range already checked).
-    pub fn write(&mut self, gpu: &Gpu, offset: u64, data: &[u8]) -> Result<()> {
+    pub(crate) fn write(&mut self, gpu: &Gpu, offset: u64, data: &[u8]) -> Result<()> {
         if data.is_empty() {
             return Ok(());
         }
@@ -86,7 +89,7 @@ impl BufferObject {
     }
 
     /// Reads `out.len()` bytes at `offset` (range already checked), after earlier launches.
-    pub fn read(&self, gpu: &Gpu, offset: u64, out: &mut [u8]) -> Result<()> {
+    pub(crate) fn read(&self, gpu: &Gpu, offset: u64, out: &mut [u8]) -> Result<()> {
         if self.host_valid {
             // Nothing on the GPU may have written it; launches still run in order.
             out.copy_from_slice(&self.host[offset as usize..offset as usize + out.len()]);
@@ -98,12 +101,12 @@ impl BufferObject {
     }
 
     /// Marks the host copy stale: a launch bound the buffer for writing.
-    pub fn mark_written_by_gpu(&mut self) {
+    pub(crate) fn mark_written_by_gpu(&mut self) {
         self.host_valid = false;
     }
 
     /// The whole contents, read back from the GPU first when the host copy is stale.
-    pub fn bytes(&mut self, gpu: &Gpu) -> Result<&[u8]> {
+    pub(crate) fn bytes(&mut self, gpu: &Gpu) -> Result<&[u8]> {
         if !self.host_valid {
             self.refresh(gpu)?;
         }
@@ -111,7 +114,7 @@ impl BufferObject {
     }
 
     /// The host copy, when it is current.
-    pub fn host_bytes(&self) -> Option<&[u8]> {
+    pub(crate) fn host_bytes(&self) -> Option<&[u8]> {
         self.host_valid.then_some(&self.host[..])
     }
 
@@ -124,10 +127,13 @@ impl BufferObject {
 }
 
 /// One user texture.
-pub(crate) struct TextureObject {
-    pub texture: wgpu::Texture,
-    pub view: wgpu::TextureView,
-    pub desc: optik_api::TextureDesc,
+///
+/// (Public only as `WgpuBackend`'s `optik_core::Backend::Texture`, the type optik-core's
+/// device keeps; its insides stay private to this crate.)
+pub struct TextureObject {
+    pub(crate) texture: wgpu::Texture,
+    pub(crate) view: wgpu::TextureView,
+    pub(crate) desc: optik_api::TextureDesc,
     _tracked: Tracked,
 }
 
@@ -140,7 +146,7 @@ impl Drop for TextureObject {
 
 impl TextureObject {
     /// A zero-filled texture.
-    pub fn create(gpu: &Gpu, desc: &optik_api::TextureDesc) -> Result<TextureObject> {
+    pub(crate) fn create(gpu: &Gpu, desc: &optik_api::TextureDesc) -> Result<TextureObject> {
         let texture = gpu.scoped(
             &format!("creating a {}x{} texture", desc.width, desc.height),
             || {
@@ -171,7 +177,7 @@ impl TextureObject {
     }
 
     /// Writes all texels (size already checked).
-    pub fn write(&self, gpu: &Gpu, data: &[u8]) -> Result<()> {
+    pub(crate) fn write(&self, gpu: &Gpu, data: &[u8]) -> Result<()> {
         gpu.queue.write_texture(
             self.texture.as_image_copy(),
             data,

@@ -1,9 +1,23 @@
 //! [`WgpuBackend`]: the wgpu backend's `optik_core::Backend` ([`WgpuDevice`] is the device
-//! users hold: optik-core's checks in front of it).
+//! users hold: optik-core's checks in front of it), and [`WgpuDeviceExt`], the wgpu calls
+//! beyond the API that read the device's objects.
 //!
-//! All state sits behind one lock; handles and the adapter's own limits are checked before
-//! anything is changed, so a failed call leaves the device as it was. Dropping the device
-//! drops every wgpu object it owns.
+//! optik-core's `Device` owns the objects: buffers, textures, acceleration structures and
+//! transforms, micromap arrays, modules, program groups and pipelines live in its
+//! `Objects` tables as this backend's types (`BufferObject`, `AccelObject`, ...) and are
+//! lent to each call under core's lock. The backend's own lock holds only what belongs to
+//! no single object: the accuracy setting, the [`Scene`] (the arena holding every
+//! structure's words and the GPU handle table that traversal resolves handles with, which
+//! every build, kernel variant and launch shares) and the sampler cache. Core holds its
+//! lock across each backend call and the backend never calls back into core, so this lock
+//! is always taken second and the two cannot deadlock.
+//!
+//! Handles and the adapter's own limits are checked before anything is changed, so a
+//! failed creation, update or launch leaves the device as it was: a structure enters the
+//! scene (under the handle core will give it) only once nothing can fail any more. On a lost
+//! device every call fails with `ErrorKind::DeviceLost` before core looks at its arguments
+//! (`Backend::alive`), so objects stay in core's tables until the device is dropped. Dropping the device drops every object (core hands them back) before the
+//! scene they were stored in.
 
 use crate::accel::geometry;
 use crate::accel::instances::{self, ChildInfo};
@@ -18,18 +32,22 @@ use optik_accel::{MicromapArrayData, MicromapLookup};
 use optik_api::{
     Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BufferView,
     BuildInput, BuildOperation, DeviceId, DeviceProperties, Error, FeatureSet, GroupRegion, Handle,
-    LaunchSize, MicromapArray, Module, ModuleCompileOptions, OpacityMicromapArrayDesc, Pipeline,
+    LaunchSize, MicromapArray, ModuleCompileOptions, OpacityMicromapArrayDesc, Pipeline,
     PipelineCompileOptions, PipelineLinkOptions, ProgramGroup, ProgramGroupDesc, ProgramRef,
-    ProgramSource, Resource, Result, SceneFeatures, ShaderBindingTable, Texture, TextureDesc,
-    TransformDesc, TraversableHandle,
+    ProgramSource, Resource, Result, SceneFeatures, ShaderBindingTable, TextureDesc, TransformDesc,
+    TraversableHandle,
 };
-use optik_core::HandleTable;
 use optik_core::frontend::BindingInfo;
+use optik_core::{HandleTable, Objects};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 /// The wgpu device users hold: optik-core's checks in front of [`WgpuBackend`], whose own
-/// methods (kernel source, memory tracker, limits) it dereferences to.
+/// methods (memory tracker, limits) it dereferences to; calls that read its objects come
+/// with [`WgpuDeviceExt`].
 pub type WgpuDevice = optik_core::Device<WgpuBackend>;
+
+/// The objects of a wgpu device, as optik-core keeps them.
+pub(crate) type WgpuObjects = Objects<WgpuBackend>;
 
 /// The wgpu backend: optik pipelines run as compute megakernels.
 pub struct WgpuBackend {
@@ -39,20 +57,14 @@ pub struct WgpuBackend {
     state: Mutex<State>,
 }
 
+/// What the backend keeps beside the objects: state that many objects share.
 pub(crate) struct State {
     pub accuracy: Accuracy,
-    pub buffers: HandleTable<Buffer, BufferObject>,
-    pub textures: HandleTable<Texture, TextureObject>,
-    pub accels: HandleTable<Accel, AccelObject>,
-    pub micromaps: HandleTable<MicromapArray, Arc<MicromapArrayData>>,
-    pub modules: HandleTable<Module, ModuleObject>,
-    pub groups: HandleTable<ProgramGroup, GroupObject>,
-    pub pipelines: HandleTable<Pipeline, PipelineObject>,
     pub scene: Scene,
     pub samplers: Vec<(optik_api::SamplerDesc, wgpu::Sampler)>,
 }
 
-/// Options of [`WgpuDevice::with_options`].
+/// Options of [`WgpuBackend::with_options`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct WgpuOptions {
     /// Caps the bytes optik puts in one storage binding below the adapter's
@@ -105,13 +117,6 @@ impl WgpuBackend {
             properties,
             state: Mutex::new(State {
                 accuracy: Accuracy::default(),
-                buffers: HandleTable::new(id),
-                textures: HandleTable::new(id),
-                accels: HandleTable::new(id),
-                micromaps: HandleTable::new(id),
-                modules: HandleTable::new(id),
-                groups: HandleTable::new(id),
-                pipelines: HandleTable::new(id),
                 scene,
                 samplers: Vec::new(),
             }),
@@ -123,20 +128,19 @@ impl WgpuBackend {
         &self.gpu
     }
 
+    /// The backend's own state, after reporting a lost device: what every call that goes
+    /// on to use the GPU takes.
     pub(crate) fn lock(&self) -> Result<MutexGuard<'_, State>> {
         self.gpu.check()?;
+        self.state()
+    }
+
+    /// The backend's own state, even on a lost device: destroying must still free what an
+    /// object held in the scene.
+    fn state(&self) -> Result<MutexGuard<'_, State>> {
         self.state
             .lock()
             .map_err(|_| Error::backend("the device's state lock was poisoned by a panic"))
-    }
-
-    /// The WGSL of the kernel a launch of `pipeline` would run now (for inspection and
-    /// tests of specialisation).
-    pub fn kernel_source(&self, pipeline: Pipeline) -> Result<String> {
-        let mut s = self.lock()?;
-        let sizes = s.sizes();
-        let p = s.pipelines.get_mut(pipeline)?;
-        Ok(p.variant(&self.gpu, sizes, false)?.source.clone())
     }
 
     /// The device's accounting of its live GPU allocations; the tracker stays readable
@@ -159,7 +163,37 @@ impl WgpuBackend {
     }
 }
 
-/// Buffer bytes for decoding build inputs (after [`State::refresh`]).
+mod sealed {
+    /// Keeps [`super::WgpuDeviceExt`] implemented by [`super::WgpuDevice`] alone, so that
+    /// methods can be added to it without breaking anyone.
+    pub trait Sealed {}
+
+    impl Sealed for super::WgpuDevice {}
+}
+
+/// The calls a wgpu device offers beyond `optik_api::Device` that read its objects.
+///
+/// optik-core's device owns the objects, so these live on [`WgpuDevice`] (which can lock
+/// them) rather than on [`WgpuBackend`]; bring the trait into scope with
+/// `use optik_wgpu::WgpuDeviceExt;`. Sealed: only [`WgpuDevice`] implements it.
+pub trait WgpuDeviceExt: sealed::Sealed {
+    /// The WGSL of the kernel a launch of `pipeline` would run now (for inspection and
+    /// tests of specialisation): the variant for the scene alive now, compiled here if no
+    /// launch has needed it yet.
+    fn kernel_source(&self, pipeline: Pipeline) -> Result<String>;
+}
+
+impl WgpuDeviceExt for WgpuDevice {
+    fn kernel_source(&self, pipeline: Pipeline) -> Result<String> {
+        let backend = self.backend();
+        let mut objects = self.objects();
+        let sizes = scene_sizes(&objects.accels, &backend.lock()?.scene);
+        let p = objects.pipelines.get_mut(pipeline)?;
+        Ok(p.variant(&backend.gpu, sizes, false)?.source.clone())
+    }
+}
+
+/// Buffer bytes for decoding build inputs (after [`refresh`]).
 struct HostBytes<'a>(&'a HandleTable<Buffer, BufferObject>);
 
 impl BufferBytes for HostBytes<'_> {
@@ -214,151 +248,163 @@ fn input_buffers(inputs: &[BuildInput]) -> Vec<Buffer> {
     buffers
 }
 
-impl State {
-    fn size_of(&self, b: Buffer) -> Result<u64> {
-        Ok(self.buffers.get(b)?.size)
+/// Makes the host copies of `list` current: structures are built on the host from them.
+fn refresh(
+    buffers: &mut HandleTable<Buffer, BufferObject>,
+    gpu: &Gpu,
+    list: &[Buffer],
+) -> Result<()> {
+    for b in list {
+        buffers.get_mut(*b)?.bytes(gpu)?;
     }
+    Ok(())
+}
 
-    /// Makes the host copies of `buffers` current.
-    fn refresh(&mut self, gpu: &Gpu, buffers: &[Buffer]) -> Result<()> {
-        for b in buffers {
-            self.buffers.get_mut(*b)?.bytes(gpu)?;
-        }
-        Ok(())
+/// The scene sizes a kernel must be compiled for now: the deepest stack and instance
+/// nesting of any live structure, and the arena's chunking.
+pub(crate) fn scene_sizes(accels: &HandleTable<Accel, AccelObject>, scene: &Scene) -> Sizes {
+    let stack = accels
+        .iter()
+        .map(|(_, a)| a.stack_need)
+        .max()
+        .unwrap_or(0)
+        .max(1);
+    let levels = accels
+        .iter()
+        .map(|(_, a)| a.levels)
+        .max()
+        .unwrap_or(1)
+        .max(1);
+    Sizes {
+        chunks: scene.arena.chunks().len() as u32,
+        chunk_shift: scene.arena.chunk_shift(),
+        stack: stack.div_ceil(8) * 8,
+        levels,
     }
+}
 
-    /// The scene sizes a kernel must be compiled for now.
-    pub fn sizes(&self) -> Sizes {
-        let stack = self
-            .accels
-            .iter()
-            .map(|(_, a)| a.stack_need)
-            .max()
-            .unwrap_or(0)
-            .max(1);
-        let levels = self
-            .accels
-            .iter()
-            .map(|(_, a)| a.levels)
-            .max()
-            .unwrap_or(1)
-            .max(1);
-        Sizes {
-            chunks: self.scene.arena.chunks().len() as u32,
-            chunk_shift: self.scene.arena.chunk_shift(),
-            stack: stack.div_ceil(8) * 8,
-            levels,
-        }
+/// What a parent (instance or transform) needs of the child that the traversable `handle`
+/// names; `None` for the null handle.
+fn child(
+    accels: &HandleTable<Accel, AccelObject>,
+    scene: &Scene,
+    device: DeviceId,
+    handle: u64,
+) -> Result<Option<ChildInfo>> {
+    match scene.resolve(device, handle)? {
+        None => Ok(None),
+        Some(h) => Ok(Some(accels.get(h)?.child_info(h))),
     }
+}
 
-    /// The union of the features of every live structure (`None` when there is none).
-    pub fn scene_features(&self) -> Option<SceneFeatures> {
-        self.accels
-            .iter()
-            .map(|(_, a)| a.features)
-            .reduce(|a, b| a.union(b))
-    }
-
-    fn child(&self, device: DeviceId, handle: u64) -> Result<Option<ChildInfo>> {
-        match self.scene.resolve(device, handle)? {
-            None => Ok(None),
-            Some(h) => Ok(Some(self.accels.get(h)?.child_info(h))),
-        }
-    }
-
-    /// Encodes a structure from `inputs` (validated): its words and metadata.
-    fn encode(
-        &mut self,
-        gpu: &Gpu,
-        device: DeviceId,
-        options: &AccelBuildOptions,
-        inputs: &[BuildInput],
-        previous: Option<&Refit>,
-    ) -> Result<(Vec<[u32; 4]>, AccelObject)> {
-        self.refresh(gpu, &input_buffers(inputs))?;
-        let bytes = HostBytes(&self.buffers);
-        if let BuildInput::Instances(ia) = &inputs[0] {
-            let topology = match previous {
-                Some(Refit::Instances(t)) => Some(t),
-                _ => None,
-            };
-            let built = instances::build_instances(
-                options,
-                ia,
-                &bytes,
-                &|h| self.child(device, h),
-                topology,
-            )?;
-            let object = AccelObject {
-                region: (0, built.words.len() as u64),
-                bounds: built.bounds,
-                stack_need: built.stack_need,
-                levels: built.levels,
-                features: built.features,
-                options: *options,
-                inputs: inputs.to_vec(),
-                refit: built.refit.map(Refit::Instances).unwrap_or(Refit::None),
-                kind_word: accel::layout::kind_word(accel::layout::kind::IAS, 0, 0),
-            };
-            return Ok((built.words, object));
-        }
-        let micromaps = Micromaps(&self.micromaps);
-        let built = match previous {
-            Some(Refit::Geometry(state)) => {
-                geometry::update(options, inputs, &bytes, &micromaps, state)?
-            }
-            _ => geometry::build(options, inputs, &bytes, &micromaps)?,
+/// Encodes a structure from `inputs` (validated): its words and metadata.
+fn encode(
+    objects: &mut WgpuObjects,
+    scene: &Scene,
+    gpu: &Gpu,
+    device: DeviceId,
+    options: &AccelBuildOptions,
+    inputs: &[BuildInput],
+    previous: Option<&Refit>,
+) -> Result<(Vec<[u32; 4]>, AccelObject)> {
+    refresh(&mut objects.buffers, gpu, &input_buffers(inputs))?;
+    let objects = &*objects;
+    let bytes = HostBytes(&objects.buffers);
+    if let BuildInput::Instances(ia) = &inputs[0] {
+        let topology = match previous {
+            Some(Refit::Instances(t)) => Some(t),
+            _ => None,
         };
+        let built = instances::build_instances(
+            options,
+            ia,
+            &bytes,
+            &|h| child(&objects.accels, scene, device, h),
+            topology,
+        )?;
         let object = AccelObject {
             region: (0, built.words.len() as u64),
             bounds: built.bounds,
             stack_need: built.stack_need,
-            levels: 1,
-            features: SceneFeatures::of_geometry(options, inputs),
+            levels: built.levels,
+            features: built.features,
             options: *options,
             inputs: inputs.to_vec(),
-            refit: built
-                .refit
-                .map(|r| Refit::Geometry(Box::new(r)))
-                .unwrap_or(Refit::None),
-            kind_word: built.words[0][0],
+            refit: built.refit.map(Refit::Instances).unwrap_or(Refit::None),
+            kind_word: accel::layout::kind_word(accel::layout::kind::IAS, 0, 0),
         };
-        Ok((built.words, object))
+        return Ok((built.words, object));
     }
+    let micromaps = Micromaps(&objects.micromaps);
+    let built = match previous {
+        Some(Refit::Geometry(state)) => {
+            geometry::update(options, inputs, &bytes, &micromaps, state)?
+        }
+        _ => geometry::build(options, inputs, &bytes, &micromaps)?,
+    };
+    let object = AccelObject {
+        region: (0, built.words.len() as u64),
+        bounds: built.bounds,
+        stack_need: built.stack_need,
+        levels: 1,
+        features: SceneFeatures::of_geometry(options, inputs),
+        options: *options,
+        inputs: inputs.to_vec(),
+        refit: built
+            .refit
+            .map(|r| Refit::Geometry(Box::new(r)))
+            .unwrap_or(Refit::None),
+        kind_word: built.words[0][0],
+    };
+    Ok((built.words, object))
+}
 
-    /// Stores encoded words in the arena and registers the object.
-    fn store(
-        &mut self,
-        gpu: &Gpu,
-        props: &DeviceProperties,
-        words: &[[u32; 4]],
-        mut object: AccelObject,
-    ) -> Result<Accel> {
-        let depth = object.features.depth + 1;
-        if depth > props.max_traversable_graph_depth {
-            return Err(Error::limit(format!(
-                "this structure would make a traversable graph {depth} levels deep (instances and transforms over geometry); this device allows {}",
-                props.max_traversable_graph_depth
-            )));
-        }
-        let n = words.len() as u64;
-        let at = self.scene.arena.alloc(gpu, n)?;
-        self.scene.arena.write(gpu, at, words);
-        if let Err(e) = gpu.check() {
-            self.scene.arena.free(at, n);
-            return Err(e);
-        }
-        object.region = (at, n);
-        let handle = self.accels.insert(object);
-        let object = self.accels.get(handle)?;
-        self.scene.register(handle, object);
-        Ok(handle)
+/// Stores encoded words in the arena and registers the object in the scene under
+/// `handle`, the handle core will insert it with; the object comes back for core to keep.
+fn store(
+    scene: &mut Scene,
+    gpu: &Gpu,
+    props: &DeviceProperties,
+    handle: Accel,
+    words: &[[u32; 4]],
+    mut object: AccelObject,
+) -> Result<AccelObject> {
+    let depth = object.features.depth + 1;
+    if depth > props.max_traversable_graph_depth {
+        return Err(Error::limit(format!(
+            "this structure would make a traversable graph {depth} levels deep (instances and transforms over geometry); this device allows {}",
+            props.max_traversable_graph_depth
+        )));
     }
+    let n = words.len() as u64;
+    let at = scene.arena.alloc(gpu, n)?;
+    scene.arena.write(gpu, at, words);
+    if let Err(e) = gpu.check() {
+        scene.arena.free(at, n);
+        return Err(e);
+    }
+    object.region = (at, n);
+    // Registered last: core inserts the object under `handle` once this returns Ok, so the
+    // scene never names a slot the table leaves empty.
+    scene.register(handle, &object);
+    Ok(object)
 }
 
 impl optik_core::Backend for WgpuBackend {
+    type Buffer = BufferObject;
+    type Texture = TextureObject;
+    type Accel = AccelObject;
+    type MicromapArray = Arc<MicromapArrayData>;
+    type Module = ModuleObject;
+    type ProgramGroup = GroupObject;
+    type Pipeline = PipelineObject;
+
     fn id(&self) -> DeviceId {
         self.id
+    }
+
+    fn alive(&self) -> Result<()> {
+        self.gpu.check()
     }
 
     fn kind(&self) -> BackendKind {
@@ -373,7 +419,7 @@ impl optik_core::Backend for WgpuBackend {
         self.state.lock().map(|s| s.accuracy).unwrap_or_default()
     }
 
-    fn set_accuracy(&self, accuracy: Accuracy) -> Result<()> {
+    fn set_accuracy(&self, _objects: &WgpuObjects, accuracy: Accuracy) -> Result<()> {
         if accuracy.triangle == optik_api::TriangleTest::Driver {
             return Err(Error::unsupported(
                 "TriangleTest::Driver is the Vulkan driver's own triangle test; the wgpu backend intersects triangles itself: choose TriangleTest::Watertight or TriangleTest::MollerTrumbore",
@@ -383,52 +429,52 @@ impl optik_core::Backend for WgpuBackend {
         Ok(())
     }
 
-    fn create_buffer(&self, size: u64) -> Result<Buffer> {
-        let mut s = self.lock()?;
-        let b = BufferObject::create(&self.gpu, size)?;
-        Ok(s.buffers.insert(b))
+    fn create_buffer(&self, size: u64) -> Result<BufferObject> {
+        self.gpu.check()?;
+        BufferObject::create(&self.gpu, size)
     }
 
-    fn write_buffer(&self, buffer: Buffer, offset: u64, data: &[u8]) -> Result<()> {
-        let mut s = self.lock()?;
-        s.buffers.get_mut(buffer)?.write(&self.gpu, offset, data)
+    fn write_buffer(&self, buffer: &mut BufferObject, offset: u64, data: &[u8]) -> Result<()> {
+        self.gpu.check()?;
+        buffer.write(&self.gpu, offset, data)
     }
 
-    fn read_buffer(&self, buffer: Buffer, offset: u64, out: &mut [u8]) -> Result<()> {
-        let s = self.lock()?;
-        s.buffers.get(buffer)?.read(&self.gpu, offset, out)
+    fn read_buffer(&self, buffer: &mut BufferObject, offset: u64, out: &mut [u8]) -> Result<()> {
+        self.gpu.check()?;
+        buffer.read(&self.gpu, offset, out)
     }
 
-    fn buffer_size(&self, buffer: Buffer) -> Result<u64> {
-        self.lock()?.size_of(buffer)
+    fn buffer_size(&self, buffer: &BufferObject) -> u64 {
+        buffer.size
     }
 
-    fn destroy_buffer(&self, buffer: Buffer) -> Result<()> {
-        self.lock()?.buffers.remove(buffer).map(drop)
+    fn destroy_buffer(&self, buffer: BufferObject) -> Result<()> {
+        drop(buffer);
+        self.gpu.check()
     }
 
-    fn create_texture(&self, desc: &TextureDesc) -> Result<Texture> {
-        let mut s = self.lock()?;
-        let t = TextureObject::create(&self.gpu, desc)?;
-        Ok(s.textures.insert(t))
+    fn create_texture(&self, desc: &TextureDesc) -> Result<TextureObject> {
+        self.gpu.check()?;
+        TextureObject::create(&self.gpu, desc)
     }
 
-    fn write_texture(&self, texture: Texture, data: &[u8]) -> Result<()> {
-        let s = self.lock()?;
-        let t = s.textures.get(texture)?;
-        t.write(&self.gpu, data)
+    fn write_texture(&self, texture: &mut TextureObject, data: &[u8]) -> Result<()> {
+        self.gpu.check()?;
+        texture.write(&self.gpu, data)
     }
 
-    fn texture_desc(&self, texture: Texture) -> Result<TextureDesc> {
-        Ok(self.lock()?.textures.get(texture)?.desc)
+    fn texture_desc(&self, texture: &TextureObject) -> TextureDesc {
+        texture.desc
     }
 
-    fn destroy_texture(&self, texture: Texture) -> Result<()> {
-        self.lock()?.textures.remove(texture).map(drop)
+    fn destroy_texture(&self, texture: TextureObject) -> Result<()> {
+        drop(texture);
+        self.gpu.check()
     }
 
     fn accel_memory_usage(
         &self,
+        _objects: &mut WgpuObjects,
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
         keys: usize,
@@ -462,32 +508,49 @@ impl optik_core::Backend for WgpuBackend {
 
     fn accel_build(
         &self,
+        objects: &mut WgpuObjects,
+        handle: Accel,
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
         _keys: usize,
-    ) -> Result<Accel> {
+    ) -> Result<AccelObject> {
         let mut s = self.lock()?;
-        let (words, object) = s.encode(&self.gpu, self.id, options, inputs, None)?;
-        s.store(&self.gpu, &self.properties, &words, object)
+        let (words, object) = encode(objects, &s.scene, &self.gpu, self.id, options, inputs, None)?;
+        store(
+            &mut s.scene,
+            &self.gpu,
+            &self.properties,
+            handle,
+            &words,
+            object,
+        )
     }
 
     fn accel_update(
         &self,
+        objects: &mut WgpuObjects,
         accel: Accel,
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<()> {
-        let mut s = self.lock()?;
+        let s = self.lock()?;
         let (built_options, refit, region) = {
-            let a = s.accels.get(accel)?;
+            let a = objects.accels.get(accel)?;
             (a.options, a.refit.clone(), a.region)
         };
         let build_like = AccelBuildOptions {
             operation: BuildOperation::Build,
             ..*options
         };
-        let (words, mut object) =
-            s.encode(&self.gpu, self.id, &build_like, inputs, Some(&refit))?;
+        let (words, mut object) = encode(
+            objects,
+            &s.scene,
+            &self.gpu,
+            self.id,
+            &build_like,
+            inputs,
+            Some(&refit),
+        )?;
         if words.len() as u64 != region.1 {
             return Err(Error::backend(format!(
                 "an update changed the structure's size from {} to {} vec4s",
@@ -498,14 +561,19 @@ impl optik_core::Backend for WgpuBackend {
         s.scene.arena.write(&self.gpu, region.0, &words);
         object.region = region;
         object.options = built_options;
-        *s.accels.get_mut(accel)? = object;
+        *objects.accels.get_mut(accel)? = object;
         self.gpu.check()
     }
 
-    fn accel_compact(&self, accel: Accel) -> Result<Accel> {
+    fn accel_compact(
+        &self,
+        objects: &mut WgpuObjects,
+        accel: Accel,
+        handle: Accel,
+    ) -> Result<AccelObject> {
         let mut s = self.lock()?;
-        let a = s.accels.get(accel)?;
-        let copy = AccelObject {
+        let a = objects.accels.get(accel)?;
+        let mut copy = AccelObject {
             region: a.region,
             bounds: a.bounds,
             stack_need: a.stack_need,
@@ -520,34 +588,41 @@ impl optik_core::Backend for WgpuBackend {
         let (from, n) = a.region;
         let to = s.scene.arena.alloc(&self.gpu, n)?;
         s.scene.arena.copy(&self.gpu, from, to, n);
-        let mut copy = copy;
+        // Core inserts the copy only on Ok: a failed copy must give its words back and
+        // stay out of the scene.
+        if let Err(e) = self.gpu.check() {
+            s.scene.arena.free(to, n);
+            return Err(e);
+        }
         copy.region = (to, n);
-        let st = &mut *s;
-        let handle = st.accels.insert(copy);
-        let object = st.accels.get(handle)?;
-        st.scene.register(handle, object);
-        self.gpu.check()?;
-        Ok(handle)
+        s.scene.register(handle, &copy);
+        Ok(copy)
     }
 
     fn accel_build_record(
         &self,
-        accel: Accel,
-    ) -> Result<Option<(AccelBuildOptions, Vec<BuildInput>)>> {
-        let s = self.lock()?;
-        let a = s.accels.get(accel)?;
+        accel: &AccelObject,
+    ) -> Option<(AccelBuildOptions, Vec<BuildInput>)> {
         // Transforms are stored without inputs.
-        Ok((!a.inputs.is_empty()).then(|| (a.options, a.inputs.clone())))
+        (!accel.inputs.is_empty()).then(|| (accel.options, accel.inputs.clone()))
     }
 
-    fn accel_size(&self, accel: Accel) -> Result<u64> {
-        Ok(self.lock()?.accels.get(accel)?.region.1 * accel::arena::VEC4_BYTES)
+    fn accel_size(&self, accel: &AccelObject) -> u64 {
+        accel.region.1 * accel::arena::VEC4_BYTES
     }
 
-    fn create_transform(&self, desc: &TransformDesc) -> Result<Accel> {
+    fn accel_features(&self, accel: &AccelObject) -> SceneFeatures {
+        accel.features
+    }
+
+    fn create_transform(
+        &self,
+        objects: &mut WgpuObjects,
+        handle: Accel,
+        desc: &TransformDesc,
+    ) -> Result<AccelObject> {
         let mut s = self.lock()?;
-        let child = s
-            .child(self.id, desc.child().0)
+        let child = child(&objects.accels, &s.scene, self.id, desc.child().0)
             .map_err(|e| e.context("transform child"))?;
         let built = instances::build_transform(desc, child);
         let object = AccelObject {
@@ -561,32 +636,47 @@ impl optik_core::Backend for WgpuBackend {
             refit: Refit::None,
             kind_word: built.words[0][0],
         };
-        s.store(&self.gpu, &self.properties, &built.words, object)
+        store(
+            &mut s.scene,
+            &self.gpu,
+            &self.properties,
+            handle,
+            &built.words,
+            object,
+        )
     }
 
     fn create_opacity_micromap_array(
         &self,
         desc: &OpacityMicromapArrayDesc,
-    ) -> Result<MicromapArray> {
-        let mut s = self.lock()?;
-        Ok(s.micromaps.insert(Arc::new(MicromapArrayData::new(desc))))
+    ) -> Result<Arc<MicromapArrayData>> {
+        self.gpu.check()?;
+        Ok(Arc::new(MicromapArrayData::new(desc)))
     }
 
-    fn traversable_handle(&self, accel: Accel) -> Result<TraversableHandle> {
-        self.lock()?.accels.get(accel)?;
-        Ok(accel::handle_of(self.id, accel))
+    fn traversable_handle(&self, handle: Accel, _accel: &AccelObject) -> Result<TraversableHandle> {
+        self.gpu.check()?;
+        Ok(accel::handle_of(self.id, handle))
     }
 
-    fn destroy_accel(&self, accel: Accel) -> Result<()> {
-        let mut s = self.lock()?;
-        let a = s.accels.remove(accel)?;
-        s.scene.arena.free(a.region.0, a.region.1);
-        s.scene.unregister(accel.raw().slot);
-        Ok(())
+    fn destroy_accel(
+        &self,
+        _objects: &mut WgpuObjects,
+        handle: Accel,
+        accel: AccelObject,
+    ) -> Result<()> {
+        // Core has taken the object out of its table already: free its words and forget
+        // its handle before reporting a lost device, or the scene would name a dead slot.
+        let mut s = self.state()?;
+        s.scene.arena.free(accel.region.0, accel.region.1);
+        s.scene.unregister(handle.raw().slot);
+        drop(s);
+        self.gpu.check()
     }
 
-    fn destroy_micromap_array(&self, array: MicromapArray) -> Result<()> {
-        self.lock()?.micromaps.remove(array).map(drop)
+    fn destroy_micromap_array(&self, array: Arc<MicromapArrayData>) -> Result<()> {
+        drop(array);
+        self.gpu.check()
     }
 
     fn create_module(
@@ -594,67 +684,73 @@ impl optik_core::Backend for WgpuBackend {
         module_options: &ModuleCompileOptions,
         pipeline_options: &PipelineCompileOptions,
         source: &ProgramSource,
-    ) -> Result<(Module, String)> {
+    ) -> Result<(ModuleObject, String)> {
         let (m, log) = ModuleObject::create(module_options, pipeline_options, source)?;
-        Ok((self.lock()?.modules.insert(m), log))
+        self.gpu.check()?;
+        Ok((m, log))
     }
 
-    fn module_programs(&self, module: Module) -> Result<Vec<String>> {
-        let s = self.lock()?;
-        let m = s.modules.get(module)?;
-        Ok(m.source
+    fn module_programs(&self, module: &ModuleObject) -> Vec<String> {
+        module
+            .source
             .compiled
             .programs
             .iter()
             .map(|p| p.name.clone())
-            .collect())
+            .collect()
     }
 
-    fn destroy_module(&self, module: Module) -> Result<()> {
-        self.lock()?.modules.remove(module).map(drop)
+    fn destroy_module(&self, module: ModuleObject) -> Result<()> {
+        drop(module);
+        self.gpu.check()
     }
 
-    fn create_program_groups(&self, descs: &[ProgramGroupDesc]) -> Result<Vec<ProgramGroup>> {
-        let mut s = self.lock()?;
-        let objects: Vec<GroupObject> = descs
+    fn create_program_groups(
+        &self,
+        objects: &WgpuObjects,
+        descs: &[ProgramGroupDesc],
+    ) -> Result<Vec<GroupObject>> {
+        self.gpu.check()?;
+        descs
             .iter()
             .enumerate()
             .map(|(i, d)| {
                 let module_of = |p: &ProgramRef| -> Result<Arc<ModuleSource>> {
-                    Ok(s.modules.get(p.module)?.source.clone())
+                    Ok(objects.modules.get(p.module)?.source.clone())
                 };
                 GroupObject::create(d, &module_of).map_err(|e| e.context(format!("descs[{i}]")))
             })
-            .collect::<Result<_>>()?;
-        Ok(objects.into_iter().map(|g| s.groups.insert(g)).collect())
+            .collect()
     }
 
-    fn group_region(&self, group: ProgramGroup) -> Result<GroupRegion> {
-        Ok(self.lock()?.groups.get(group)?.desc.region())
+    fn group_region(&self, group: &GroupObject) -> GroupRegion {
+        group.desc.region()
     }
 
-    fn destroy_program_group(&self, group: ProgramGroup) -> Result<()> {
-        self.lock()?.groups.remove(group).map(drop)
+    fn destroy_program_group(&self, group: GroupObject) -> Result<()> {
+        drop(group);
+        self.gpu.check()
     }
 
     fn create_pipeline(
         &self,
+        objects: &WgpuObjects,
         _pipeline_options: &PipelineCompileOptions,
         link_options: &PipelineLinkOptions,
         groups: &[ProgramGroup],
         features: &FeatureSet,
-    ) -> Result<Pipeline> {
-        let mut s = self.lock()?;
+    ) -> Result<PipelineObject> {
+        let s = self.lock()?;
         let mut unique: Vec<ProgramGroup> = Vec::new();
         for g in groups {
-            s.groups.get(*g)?;
+            objects.groups.get(*g)?;
             if !unique.contains(g) {
                 unique.push(*g);
             }
         }
         let pairs: Vec<(ProgramGroup, &GroupObject)> = unique
             .iter()
-            .map(|g| Ok((*g, s.groups.get(*g)?)))
+            .map(|g| Ok((*g, objects.groups.get(*g)?)))
             .collect::<Result<_>>()?;
         let mut p = pipeline::link(
             link_options,
@@ -664,47 +760,39 @@ impl optik_core::Backend for WgpuBackend {
             self.id.0 & 0xFFFF,
         )?;
         // Compile now, so that errors surface at link time.
-        p.variant(&self.gpu, s.sizes(), false)?;
-        Ok(s.pipelines.insert(p))
+        p.variant(&self.gpu, scene_sizes(&objects.accels, &s.scene), false)?;
+        Ok(p)
     }
 
-    fn program_features(&self, groups: &[ProgramGroup]) -> Result<optik_api::ProgramFeatures> {
-        let s = self.lock()?;
-        let objects = groups
-            .iter()
-            .enumerate()
-            .map(|(i, g)| {
-                s.groups
-                    .get(*g)
-                    .map_err(|e| e.context(format!("groups[{i}]")))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        Ok(pipeline::program_features(&objects))
+    fn program_features(
+        &self,
+        objects: &WgpuObjects,
+        groups: &[ProgramGroup],
+    ) -> Result<optik_api::ProgramFeatures> {
+        self.gpu.check()?;
+        Ok(pipeline::program_features(&objects.groups_of(groups)?))
     }
 
-    fn scene_features(&self) -> Result<Option<SceneFeatures>> {
-        Ok(self.lock()?.scene_features())
+    fn pipeline_features(&self, pipeline: &PipelineObject) -> FeatureSet {
+        pipeline.features
     }
 
-    fn pipeline_features(&self, pipeline: Pipeline) -> Result<FeatureSet> {
-        Ok(self.lock()?.pipelines.get(pipeline)?.features)
-    }
-
-    fn pipeline_bindings(&self, pipeline: Pipeline) -> Result<Vec<BindingInfo>> {
-        let s = self.lock()?;
-        let p = s.pipelines.get(pipeline)?;
-        Ok(p.bindings
+    fn pipeline_bindings(&self, pipeline: &PipelineObject) -> Vec<BindingInfo> {
+        pipeline
+            .bindings
             .iter()
             .flat_map(|(_, b)| b.iter().cloned())
-            .collect())
+            .collect()
     }
 
-    fn destroy_pipeline(&self, pipeline: Pipeline) -> Result<()> {
-        self.lock()?.pipelines.remove(pipeline).map(drop)
+    fn destroy_pipeline(&self, pipeline: PipelineObject) -> Result<()> {
+        drop(pipeline);
+        self.gpu.check()
     }
 
     fn launch(
         &self,
+        objects: &mut WgpuObjects,
         pipeline: Pipeline,
         params: &[u8],
         resources: &[Resource],
@@ -715,6 +803,7 @@ impl optik_core::Backend for WgpuBackend {
         let watch = optik_api::LaunchWatch::new(options)?;
         crate::launch::launch(
             self,
+            objects,
             pipeline,
             params,
             resources,

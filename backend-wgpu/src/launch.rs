@@ -5,7 +5,7 @@
 //! so it never exceeds the per-dimension workgroup limit below 2³¹ invocations; the kernel
 //! turns the workgroup position back into a launch index and drops the padding.
 
-use crate::device::WgpuBackend;
+use crate::device::{WgpuBackend, WgpuObjects, scene_sizes};
 use crate::kernel::WORKGROUP_SIZE;
 use optik_api::{
     AddressMode, Error, FilterMode, LaunchSize, Pipeline, Resource, Result, SamplerDesc,
@@ -24,10 +24,12 @@ pub(crate) struct Observe<'a> {
     pub counters: Option<&'a wgpu::Buffer>,
 }
 
-/// Runs a launch; when `observe.timed`, waits for it and returns its GPU time in seconds
-/// (when the adapter offers timestamp queries).
+/// Runs a launch of `pipeline` (in `objects`); when `observe.timed`, waits for it and
+/// returns its GPU time in seconds (when the adapter offers timestamp queries).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn launch(
     dev: &WgpuBackend,
+    objects: &mut WgpuObjects,
     pipeline: Pipeline,
     params: &[u8],
     resources: &[Resource],
@@ -38,7 +40,7 @@ pub(crate) fn launch(
     let gpu = dev.gpu();
     let mut s = dev.lock()?;
     // optik-core checked the pipeline, the size, the SBT's layout and the bindings.
-    s.pipelines.get(pipeline)?;
+    objects.pipelines.get(pipeline)?;
     if size.is_empty() {
         return Ok(None);
     }
@@ -54,19 +56,16 @@ pub(crate) fn launch(
             )));
         }
     }
-    let sizes = s.sizes();
-    let variant = {
-        let state = &mut *s;
-        state
+    let sizes = scene_sizes(&objects.accels, &s.scene);
+    let variant =
+        objects
             .pipelines
             .get_mut(pipeline)?
-            .variant(gpu, sizes, observe.counters.is_some())?
-    };
+            .variant(gpu, sizes, observe.counters.is_some())?;
     // The SBT, from the host copies of its buffers (read back if a launch wrote them).
     let packed = {
-        let state = &mut *s;
-        let p = state.pipelines.get(pipeline)?;
-        let buffers = &mut state.buffers;
+        let p = objects.pipelines.get(pipeline)?;
+        let buffers = &mut objects.buffers;
         crate::sbt::pack(sbt, p, &mut |b| {
             Ok(buffers.get_mut(b)?.bytes(gpu)?.to_vec())
         })?
@@ -143,7 +142,7 @@ pub(crate) fn launch(
     }
     let handles = s.scene.table_buffer(gpu)?.clone();
     let chunks: Vec<wgpu::Buffer> = s.scene.arena.chunks().to_vec();
-    let p = s.pipelines.get(pipeline)?;
+    let p = objects.pipelines.get(pipeline)?;
     let mut written = Vec::new();
     let mut user_entries: Vec<wgpu::BindGroupEntry<'_>> = Vec::new();
     for (offset, bindings) in &p.bindings {
@@ -164,7 +163,7 @@ pub(crate) fn launch(
                             size,
                             ..
                         } => {
-                            let obj = s.buffers.get(*buffer)?;
+                            let obj = objects.buffers.get(*buffer)?;
                             if let BindingKind::StorageBuffer {
                                 read_only: false, ..
                             } = b.kind
@@ -184,9 +183,9 @@ pub(crate) fn launch(
                                 size: std::num::NonZeroU64::new(bound.max(4)),
                             })
                         }
-                        Resource::Texture { texture, .. } => {
-                            wgpu::BindingResource::TextureView(&s.textures.get(*texture)?.view)
-                        }
+                        Resource::Texture { texture, .. } => wgpu::BindingResource::TextureView(
+                            &objects.textures.get(*texture)?.view,
+                        ),
                         Resource::Sampler { sampler, .. } => {
                             let found = s
                                 .samplers
@@ -295,7 +294,7 @@ pub(crate) fn launch(
     })?;
     drop(user_entries);
     for b in written {
-        s.buffers.get_mut(b)?.mark_written_by_gpu();
+        objects.buffers.get_mut(b)?.mark_written_by_gpu();
     }
     drop(s);
     match resolve {

@@ -8,8 +8,10 @@
 //! - `kernel`: the generated WGSL (state, device API, traversal, dispatch, entry point),
 //!   specialised to the pipeline's features;
 //! - `pipeline`, `sbt`, `launch`: the OptiX objects over wgpu compute;
+//! - `device`: the backend ([`WgpuBackend`]) behind optik-core's checks ([`WgpuDevice`],
+//!   which owns the objects), and [`WgpuDeviceExt`], the wgpu calls that read them;
 //! - `memory`: the accounting of live GPU allocations ([`MemoryTracker`]);
-//! - [`bench`]: a timing entry point for the GPU machine.
+//! - [`bench`](mod@bench): a timing entry point for the GPU machine.
 
 mod accel;
 pub mod bench;
@@ -24,7 +26,7 @@ mod probe;
 mod program;
 mod sbt;
 
-pub use device::{WgpuBackend, WgpuDevice, WgpuOptions};
+pub use device::{WgpuBackend, WgpuDevice, WgpuDeviceExt, WgpuOptions};
 pub use gpu::ADAPTER_ENV;
 pub use memory::MemoryTracker;
 pub use probe::{AdapterReport, probe};

@@ -33,22 +33,25 @@ pub(crate) struct Variant {
 }
 
 /// A linked pipeline.
-pub(crate) struct PipelineObject {
-    pub features: FeatureSet,
-    pub accuracy: Accuracy,
-    pub link: PipelineLinkOptions,
-    pub groups: Vec<PipelineGroup>,
+///
+/// (Public only as `WgpuBackend`'s `optik_core::Backend::Pipeline`, the type optik-core's
+/// device keeps; its insides stay private to this crate.)
+pub struct PipelineObject {
+    pub(crate) features: FeatureSet,
+    pub(crate) accuracy: Accuracy,
+    pub(crate) link: PipelineLinkOptions,
+    pub(crate) groups: Vec<PipelineGroup>,
     /// A group's index in `groups` from its handle.
-    pub group_index: HashMap<RawHandle, u32>,
-    pub lowered: Lowered,
+    pub(crate) group_index: HashMap<RawHandle, u32>,
+    pub(crate) lowered: Lowered,
     /// Per module: its bindings (numbers as the user wrote them) and their offset.
-    pub bindings: Vec<(u32, Vec<BindingInfo>)>,
+    pub(crate) bindings: Vec<(u32, Vec<BindingInfo>)>,
     /// Compiled kernels by scene sizes and whether they are the instrumented (counting) one.
-    pub variants: HashMap<(Sizes, bool), Arc<Variant>>,
+    pub(crate) variants: HashMap<(Sizes, bool), Arc<Variant>>,
     /// Low 16 bits of the device id.
-    pub device16: u32,
+    pub(crate) device16: u32,
     /// The device whose groups the pipeline links (what SBT headers must name).
-    pub device: optik_api::DeviceId,
+    pub(crate) device: optik_api::DeviceId,
 }
 
 /// What the programs of `groups` use (the front end's analysis of their modules).
@@ -178,7 +181,12 @@ pub(crate) fn link(
 impl PipelineObject {
     /// The kernel for `sizes`, compiled on first use; with `counters`, the instrumented
     /// kernel of the traffic benchmark (`kernel::counters`).
-    pub fn variant(&mut self, gpu: &Gpu, sizes: Sizes, counters: bool) -> Result<Arc<Variant>> {
+    pub(crate) fn variant(
+        &mut self,
+        gpu: &Gpu,
+        sizes: Sizes,
+        counters: bool,
+    ) -> Result<Arc<Variant>> {
         if let Some(v) = self.variants.get(&(sizes, counters)) {
             return Ok(v.clone());
         }

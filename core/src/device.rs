@@ -1,6 +1,7 @@
-//! [`Device<B>`]: `optik_api::Device` for every backend, checking each call once.
+//! [`Device<B>`]: `optik_api::Device` for every backend, checking each call once and owning
+//! the objects.
 
-use crate::Backend;
+use crate::{Backend, Objects};
 use crate::{features, validate};
 use optik_api::{
     Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BuildFlags,
@@ -10,22 +11,29 @@ use optik_api::{
     ProgramGroupDesc, ProgramKind, ProgramSource, Resource, Result, SbtHeader, ShaderBindingTable,
     Texture, TextureDesc, TransformDesc, TraversableHandle,
 };
+use std::sync::{Mutex, MutexGuard};
 
 /// Most payload registers a module or pipeline may ask for (OptiX's 32).
 const MAX_PAYLOAD_VALUES: u32 = 32;
 
-/// An optik device: the backend `B` behind the checks every backend shares.
+/// An optik device: the backend `B` behind the checks every backend shares, and the
+/// objects it made.
 ///
+/// Every call locks the objects once, checks its arguments against them and calls the
+/// backend under the same lock, so what was checked still holds when the backend acts. On a
+/// lost device every call fails with the backend's `DeviceLost` error first.
 /// Dereferences to `B` for what a backend offers beyond the API (the CPU device's thread
-/// count, the wgpu device's kernel source, the Vulkan device's validation log).
+/// count, the wgpu device's memory tracker, the Vulkan device's validation log).
 pub struct Device<B: Backend> {
     backend: B,
+    objects: Mutex<Objects<B>>,
 }
 
 impl<B: Backend> Device<B> {
     /// The device of `backend`.
     pub fn new(backend: B) -> Self {
-        Self { backend }
+        let objects = Mutex::new(Objects::new(backend.id()));
+        Self { backend, objects }
     }
 
     /// The backend behind the checks.
@@ -33,27 +41,39 @@ impl<B: Backend> Device<B> {
         &self.backend
     }
 
-    fn sizes(&self) -> impl Fn(Buffer) -> Result<u64> + '_ {
-        |b| self.backend.buffer_size(b)
+    /// The device's objects, locked: for a backend's own extensions (calls beyond the API
+    /// that read or add objects, such as the CPU backend's native modules). Every other
+    /// call on the device waits while the guard lives.
+    pub fn objects(&self) -> MutexGuard<'_, Objects<B>> {
+        // A panic inside a call never leaves a table half-updated (objects are inserted
+        // and removed whole), so a poisoned lock is safe to keep using.
+        self.objects.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     /// The build record of `accel`, refusing transforms in `call`.
-    fn built(&self, accel: Accel, call: &str) -> Result<(AccelBuildOptions, Vec<BuildInput>)> {
-        self.backend.accel_build_record(accel)?.ok_or_else(|| {
-            Error::invalid(format!(
-                "{call} takes an acceleration structure, and this is a transform; transforms are not {}, create a new one instead",
-                if call == "accel_update" {
-                    "updated"
-                } else {
-                    "compacted"
-                }
-            ))
-        })
+    fn built(
+        &self,
+        objects: &Objects<B>,
+        accel: Accel,
+        call: &str,
+    ) -> Result<(AccelBuildOptions, Vec<BuildInput>)> {
+        self.backend
+            .accel_build_record(objects.accels.get(accel)?)
+            .ok_or_else(|| {
+                Error::invalid(format!(
+                    "{call} takes an acceleration structure, and this is a transform; transforms are not {}, create a new one instead",
+                    if call == "accel_update" {
+                        "updated"
+                    } else {
+                        "compacted"
+                    }
+                ))
+            })
     }
 
     /// Checks that every program a group names exists in its module with the kind the
     /// group uses it as.
-    fn check_group(&self, i: usize, desc: &ProgramGroupDesc) -> Result<()> {
+    fn check_group(&self, objects: &Objects<B>, i: usize, desc: &ProgramGroupDesc) -> Result<()> {
         for (kind, program) in desc.programs() {
             let context = || {
                 format!(
@@ -62,9 +82,10 @@ impl<B: Backend> Device<B> {
                     program.entry
                 )
             };
-            let names = self
-                .backend
-                .module_programs(program.module)
+            let names = objects
+                .modules
+                .get(program.module)
+                .map(|m| self.backend.module_programs(m))
                 .map_err(|e| e.context(context()))?;
             if !names.contains(&program.entry) {
                 let mut same: Vec<&str> = names
@@ -102,6 +123,32 @@ impl<B: Backend> Device<B> {
         }
         Ok(())
     }
+
+    /// The union of the features of every live acceleration structure and transform;
+    /// `None` when there is none. What `Auto` pipeline options resolve against.
+    fn scene_features(&self, objects: &Objects<B>) -> Option<optik_api::SceneFeatures> {
+        objects
+            .accels
+            .iter()
+            .map(|(_, a)| self.backend.accel_features(a))
+            .reduce(optik_api::SceneFeatures::union)
+    }
+}
+
+/// The size of each buffer, for the checks.
+fn sizes<'a, B: Backend>(
+    backend: &'a B,
+    objects: &'a Objects<B>,
+) -> impl Fn(Buffer) -> Result<u64> + 'a {
+    |b| objects.buffers.get(b).map(|o| backend.buffer_size(o))
+}
+
+impl<B: Backend> Drop for Device<B> {
+    fn drop(&mut self) {
+        let objects = self.objects.get_mut().unwrap_or_else(|e| e.into_inner());
+        let objects = std::mem::replace(objects, Objects::new(self.backend.id()));
+        self.backend.release(objects);
+    }
 }
 
 impl<B: Backend> std::ops::Deref for Device<B> {
@@ -130,57 +177,75 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn set_accuracy(&self, accuracy: Accuracy) -> Result<()> {
-        self.backend.set_accuracy(accuracy)
+        self.backend.alive()?;
+        self.backend.set_accuracy(&self.objects(), accuracy)
     }
 
     fn create_buffer(&self, size: u64) -> Result<Buffer> {
+        self.backend.alive()?;
         validate::buffer_create(size, self.backend.properties())?;
-        self.backend.create_buffer(size)
+        let buffer = self.backend.create_buffer(size)?;
+        Ok(self.objects().buffers.insert(buffer))
     }
 
     fn write_buffer(&self, buffer: Buffer, offset: u64, data: &[u8]) -> Result<()> {
+        self.backend.alive()?;
+        let mut objects = self.objects();
         validate::buffer_range(
             "write_buffer",
             buffer,
             offset,
             data.len() as u64,
-            &self.sizes(),
+            &sizes(&self.backend, &objects),
         )?;
-        self.backend.write_buffer(buffer, offset, data)
+        let b = objects.buffers.get_mut(buffer)?;
+        self.backend.write_buffer(b, offset, data)
     }
 
     fn read_buffer(&self, buffer: Buffer, offset: u64, out: &mut [u8]) -> Result<()> {
+        self.backend.alive()?;
+        let mut objects = self.objects();
         validate::buffer_range(
             "read_buffer",
             buffer,
             offset,
             out.len() as u64,
-            &self.sizes(),
+            &sizes(&self.backend, &objects),
         )?;
-        self.backend.read_buffer(buffer, offset, out)
+        let b = objects.buffers.get_mut(buffer)?;
+        self.backend.read_buffer(b, offset, out)
     }
 
     fn buffer_size(&self, buffer: Buffer) -> Result<u64> {
-        self.backend.buffer_size(buffer)
+        self.backend.alive()?;
+        sizes(&self.backend, &self.objects())(buffer)
     }
 
     fn destroy_buffer(&self, buffer: Buffer) -> Result<()> {
-        self.backend.destroy_buffer(buffer)
+        self.backend.alive()?;
+        let b = self.objects().buffers.remove(buffer)?;
+        self.backend.destroy_buffer(b)
     }
 
     fn create_texture(&self, desc: &TextureDesc) -> Result<Texture> {
+        self.backend.alive()?;
         validate::texture(desc)?;
-        self.backend.create_texture(desc)
+        let texture = self.backend.create_texture(desc)?;
+        Ok(self.objects().textures.insert(texture))
     }
 
     fn write_texture(&self, texture: Texture, data: &[u8]) -> Result<()> {
-        let desc = self.backend.texture_desc(texture)?;
-        validate::texture_data(&desc, data)?;
-        self.backend.write_texture(texture, data)
+        self.backend.alive()?;
+        let mut objects = self.objects();
+        let t = objects.textures.get_mut(texture)?;
+        validate::texture_data(&self.backend.texture_desc(t), data)?;
+        self.backend.write_texture(t, data)
     }
 
     fn destroy_texture(&self, texture: Texture) -> Result<()> {
-        self.backend.destroy_texture(texture)
+        self.backend.alive()?;
+        let t = self.objects().textures.remove(texture)?;
+        self.backend.destroy_texture(t)
     }
 
     fn accel_memory_usage(
@@ -188,20 +253,37 @@ impl<B: Backend> optik_api::Device for Device<B> {
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<AccelBufferSizes> {
-        let keys =
-            validate::build_inputs(options, inputs, self.backend.properties(), &self.sizes())?;
-        self.backend.accel_memory_usage(options, inputs, keys)
+        self.backend.alive()?;
+        let mut objects = self.objects();
+        let keys = validate::build_inputs(
+            options,
+            inputs,
+            self.backend.properties(),
+            &sizes(&self.backend, &objects),
+        )?;
+        self.backend
+            .accel_memory_usage(&mut objects, options, inputs, keys)
     }
 
     fn accel_build(&self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<Accel> {
-        let keys =
-            validate::build_inputs(options, inputs, self.backend.properties(), &self.sizes())?;
+        self.backend.alive()?;
+        let mut objects = self.objects();
+        let keys = validate::build_inputs(
+            options,
+            inputs,
+            self.backend.properties(),
+            &sizes(&self.backend, &objects),
+        )?;
         if options.operation != BuildOperation::Build {
             return Err(Error::invalid(
                 "accel_build needs build_options.operation = Build; refit an existing structure with accel_update",
             ));
         }
-        self.backend.accel_build(options, inputs, keys)
+        let handle = objects.accels.next_handle();
+        let accel = self
+            .backend
+            .accel_build(&mut objects, handle, options, inputs, keys)?;
+        Ok(objects.accels.insert(accel))
     }
 
     fn accel_update(
@@ -210,48 +292,75 @@ impl<B: Backend> optik_api::Device for Device<B> {
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<()> {
-        let (built_with, built_inputs) = self.built(accel, "accel_update")?;
+        self.backend.alive()?;
+        let mut objects = self.objects();
+        let (built_with, built_inputs) = self.built(&objects, accel, "accel_update")?;
         validate::update(&built_with, &built_inputs, options, inputs)?;
-        validate::build_inputs(options, inputs, self.backend.properties(), &self.sizes())?;
-        self.backend.accel_update(accel, options, inputs)
+        validate::build_inputs(
+            options,
+            inputs,
+            self.backend.properties(),
+            &sizes(&self.backend, &objects),
+        )?;
+        self.backend
+            .accel_update(&mut objects, accel, options, inputs)
     }
 
     fn accel_compact(&self, accel: Accel) -> Result<Accel> {
-        let (built_with, _) = self.built(accel, "accel_compact")?;
+        self.backend.alive()?;
+        let mut objects = self.objects();
+        let (built_with, _) = self.built(&objects, accel, "accel_compact")?;
         if !built_with.flags.contains(BuildFlags::ALLOW_COMPACTION) {
             return Err(Error::invalid(
                 "accel_compact: the acceleration structure was built without BuildFlags::ALLOW_COMPACTION; rebuild it with that flag",
             ));
         }
-        self.backend.accel_compact(accel)
+        let handle = objects.accels.next_handle();
+        let compacted = self.backend.accel_compact(&mut objects, accel, handle)?;
+        Ok(objects.accels.insert(compacted))
     }
 
     fn accel_size(&self, accel: Accel) -> Result<u64> {
-        self.backend.accel_size(accel)
+        self.backend.alive()?;
+        Ok(self.backend.accel_size(self.objects().accels.get(accel)?))
     }
 
     fn create_transform(&self, desc: &TransformDesc) -> Result<Accel> {
+        self.backend.alive()?;
         validate::transform(desc)?;
-        self.backend.create_transform(desc)
+        let mut objects = self.objects();
+        let handle = objects.accels.next_handle();
+        let transform = self.backend.create_transform(&mut objects, handle, desc)?;
+        Ok(objects.accels.insert(transform))
     }
 
     fn create_opacity_micromap_array(
         &self,
         desc: &OpacityMicromapArrayDesc,
     ) -> Result<MicromapArray> {
+        self.backend.alive()?;
         validate::micromap_array(desc)?;
-        self.backend.create_opacity_micromap_array(desc)
+        let array = self.backend.create_opacity_micromap_array(desc)?;
+        Ok(self.objects().micromaps.insert(array))
     }
 
     fn traversable_handle(&self, accel: Accel) -> Result<TraversableHandle> {
-        self.backend.traversable_handle(accel)
+        self.backend.alive()?;
+        let objects = self.objects();
+        self.backend
+            .traversable_handle(accel, objects.accels.get(accel)?)
     }
 
     fn destroy_accel(&self, accel: Accel) -> Result<()> {
-        self.backend.destroy_accel(accel)
+        self.backend.alive()?;
+        let mut objects = self.objects();
+        let object = objects.accels.remove(accel)?;
+        self.backend.destroy_accel(&mut objects, accel, object)
     }
 
     fn destroy_micromap_array(&self, array: MicromapArray) -> Result<()> {
+        self.backend.alive()?;
+        let array = self.objects().micromaps.remove(array)?;
         self.backend.destroy_micromap_array(array)
     }
 
@@ -261,28 +370,42 @@ impl<B: Backend> optik_api::Device for Device<B> {
         pipeline_options: &PipelineCompileOptions,
         source: &ProgramSource,
     ) -> Result<(Module, String)> {
+        self.backend.alive()?;
         let payload = pipeline_options.num_payload_values.or(MAX_PAYLOAD_VALUES);
         if payload > MAX_PAYLOAD_VALUES {
             return Err(Error::limit(format!(
                 "pipeline_options.num_payload_values is {payload}; at most {MAX_PAYLOAD_VALUES} payload registers exist"
             )));
         }
-        self.backend
-            .create_module(module_options, pipeline_options, source)
+        // Compiling takes long and needs no other object: the lock is taken to insert.
+        let (module, log) = self
+            .backend
+            .create_module(module_options, pipeline_options, source)?;
+        Ok((self.objects().modules.insert(module), log))
     }
 
     fn destroy_module(&self, module: Module) -> Result<()> {
+        self.backend.alive()?;
+        let module = self.objects().modules.remove(module)?;
         self.backend.destroy_module(module)
     }
 
     fn create_program_groups(&self, descs: &[ProgramGroupDesc]) -> Result<Vec<ProgramGroup>> {
+        self.backend.alive()?;
+        let mut objects = self.objects();
         for (i, desc) in descs.iter().enumerate() {
-            self.check_group(i, desc)?;
+            self.check_group(&objects, i, desc)?;
         }
-        self.backend.create_program_groups(descs)
+        let groups = self.backend.create_program_groups(&objects, descs)?;
+        Ok(groups
+            .into_iter()
+            .map(|g| objects.groups.insert(g))
+            .collect())
     }
 
     fn destroy_program_group(&self, group: ProgramGroup) -> Result<()> {
+        self.backend.alive()?;
+        let group = self.objects().groups.remove(group)?;
         self.backend.destroy_program_group(group)
     }
 
@@ -292,47 +415,57 @@ impl<B: Backend> optik_api::Device for Device<B> {
         link_options: &PipelineLinkOptions,
         groups: &[ProgramGroup],
     ) -> Result<Pipeline> {
+        self.backend.alive()?;
         if groups.is_empty() {
             return Err(Error::invalid(
                 "create_pipeline needs at least one program group (a raygen group)",
             ));
         }
-        let mut raygen = false;
-        for (i, g) in groups.iter().enumerate() {
-            let region = self
-                .backend
-                .group_region(*g)
-                .map_err(|e| e.context(format!("groups[{i}]")))?;
-            raygen |= region == GroupRegion::Raygen;
-        }
-        if !raygen {
+        let mut objects = self.objects();
+        let live = objects.groups_of(groups)?;
+        if !live
+            .iter()
+            .any(|g| self.backend.group_region(g) == GroupRegion::Raygen)
+        {
             return Err(Error::invalid(
                 "create_pipeline: none of the groups is a raygen group; launches start in a raygen program",
             ));
         }
-        let programs = self.backend.program_features(groups)?;
-        let scene = self.backend.scene_features()?;
+        let programs = self.backend.program_features(&objects, groups)?;
         let features = features::resolve(
             pipeline_options,
             link_options,
-            scene,
+            self.scene_features(&objects),
             &programs,
             self.backend.properties().max_trace_depth,
         )?;
-        self.backend
-            .create_pipeline(pipeline_options, link_options, groups, &features)
+        let pipeline = self.backend.create_pipeline(
+            &objects,
+            pipeline_options,
+            link_options,
+            groups,
+            &features,
+        )?;
+        Ok(objects.pipelines.insert(pipeline))
     }
 
     fn pipeline_features(&self, pipeline: Pipeline) -> Result<FeatureSet> {
-        self.backend.pipeline_features(pipeline)
+        self.backend.alive()?;
+        Ok(self
+            .backend
+            .pipeline_features(self.objects().pipelines.get(pipeline)?))
     }
 
     fn destroy_pipeline(&self, pipeline: Pipeline) -> Result<()> {
+        self.backend.alive()?;
+        let pipeline = self.objects().pipelines.remove(pipeline)?;
         self.backend.destroy_pipeline(pipeline)
     }
 
     fn sbt_record_pack_header(&self, group: ProgramGroup) -> Result<[u8; 32]> {
-        Ok(SbtHeader::pack(group, self.backend.group_region(group)?))
+        self.backend.alive()?;
+        let region = self.backend.group_region(self.objects().groups.get(group)?);
+        Ok(SbtHeader::pack(group, region))
     }
 
     fn launch_with(
@@ -344,11 +477,16 @@ impl<B: Backend> optik_api::Device for Device<B> {
         size: LaunchSize,
         options: &LaunchOptions,
     ) -> Result<()> {
-        let bindings = self.backend.pipeline_bindings(pipeline)?;
+        self.backend.alive()?;
+        let mut objects = self.objects();
+        let bindings = self
+            .backend
+            .pipeline_bindings(objects.pipelines.get(pipeline)?);
         let props = self.backend.properties();
+        let sizes = sizes(&self.backend, &objects);
         validate::launch_size(size, props)?;
-        validate::sbt(sbt, props, &self.sizes())?;
-        validate::launch_bindings(params, resources, &bindings, &self.sizes())?;
+        validate::sbt(sbt, props, &sizes)?;
+        validate::launch_bindings(params, resources, &bindings, &sizes)?;
         for r in resources {
             match r {
                 Resource::Buffer {
@@ -358,26 +496,33 @@ impl<B: Backend> optik_api::Device for Device<B> {
                     size,
                 } => {
                     let what = format!("resource at binding {binding}");
-                    let total = self
-                        .backend
-                        .buffer_size(*buffer)
-                        .map_err(|e| e.context(&what))?;
+                    let total = sizes(*buffer).map_err(|e| e.context(&what))?;
                     let len = size.unwrap_or(total.saturating_sub(*offset));
-                    validate::buffer_range(&what, *buffer, *offset, len, &self.sizes())?;
+                    validate::buffer_range(&what, *buffer, *offset, len, &sizes)?;
                 }
                 Resource::Texture { binding, texture } => {
-                    self.backend
-                        .texture_desc(*texture)
+                    objects
+                        .textures
+                        .get(*texture)
                         .map_err(|e| e.context(format!("resource at binding {binding}")))?;
                 }
                 Resource::Sampler { .. } => {}
             }
         }
-        self.backend
-            .launch(pipeline, params, resources, sbt, size, options)
+        drop(sizes);
+        self.backend.launch(
+            &mut objects,
+            pipeline,
+            params,
+            resources,
+            sbt,
+            size,
+            options,
+        )
     }
 
     fn synchronize(&self) -> Result<()> {
+        self.backend.alive()?;
         self.backend.synchronize()
     }
 

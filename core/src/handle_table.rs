@@ -53,6 +53,41 @@ impl<H: Handle, T> HandleTable<H, T> {
         })
     }
 
+    /// The handle the next [`HandleTable::insert`] returns: backends that index their own
+    /// data by handle (a traversable handle made from the slot) learn it before the object
+    /// exists, and nothing is inserted if they fail.
+    pub fn next_handle(&self) -> H {
+        let (slot, generation) = match self.free.last() {
+            Some(&slot) => (slot, self.slots[slot as usize].generation),
+            None => (self.slots.len() as u32, 0),
+        };
+        H::from_raw(RawHandle {
+            device: self.device,
+            slot,
+            generation,
+        })
+    }
+
+    /// Removes every object, live ones first to last (a device hands them back to its
+    /// backend when it is dropped).
+    pub fn drain(&mut self) -> Vec<(H, T)> {
+        let device = self.device;
+        let mut out = Vec::new();
+        for (i, s) in self.slots.iter_mut().enumerate() {
+            if let Some(v) = s.value.take() {
+                let handle = H::from_raw(RawHandle {
+                    device,
+                    slot: i as u32,
+                    generation: s.generation,
+                });
+                s.generation = s.generation.wrapping_add(1);
+                self.free.push(i as u32);
+                out.push((handle, v));
+            }
+        }
+        out
+    }
+
     /// Checks that `handle` is this device's and alive.
     fn check(&self, handle: H) -> Result<usize> {
         let raw = handle.raw();
@@ -158,11 +193,17 @@ mod tests {
         let stale = a.get(h).unwrap_err();
         assert!(stale.message().contains("destroyed"), "{}", stale.message());
         // The slot is reused with a new generation; the old handle stays invalid.
+        let next = a.next_handle();
         let h2 = a.insert(9);
+        assert_eq!(next, h2);
         assert_eq!(h2.raw().slot, h.raw().slot);
         assert!(a.get(h).is_err());
         assert_eq!(*a.get(h2).unwrap(), 9);
         assert_eq!(a.len(), 1);
+        assert_eq!(a.next_handle(), a.insert(3));
+        let drained: Vec<u32> = a.drain().into_iter().map(|(_, v)| v).collect();
+        assert_eq!(drained, [9, 3]);
+        assert!(a.is_empty() && a.get(h2).is_err());
         let _ = b.insert(1);
     }
 }

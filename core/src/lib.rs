@@ -13,21 +13,25 @@
 //! - [`frontend`]: the WGSL program front end (prelude, parse, checks, reflection);
 //! - [`validate`]: the checks of user input, each naming what was wrong and what was
 //!   expected ([`Device`] calls them before any backend method);
-//! - [`HandleTable`]: the checked handle tables backends keep their objects in;
+//! - [`Objects`]: every object of a device, one checked [`HandleTable`] per kind, owned by
+//!   [`Device`] under one lock; a backend's objects are its [`Backend`]'s associated types;
 //! - [`sbt`]: the reader of the user's SBT record headers;
 //! - [`features`]: feature resolution, from options, scene and programs ([`Device`] resolves
 //!   every pipeline's features and hands them to the backend);
 //! - [`unwind`]: the exception-unwinding pass on naga IR of the GPU backends.
 //!
-//! What stays in the backends: their objects in their own tables and locks, the records
-//! they read (through [`sbt::resolve_record_header`]), and the limits only a backend knows
-//! (a driver's uniform range, a GPU's workgroup counts).
+//! What stays in the backends: what their objects are (the associated types), state that
+//! is no object (the CPU scene table, the wgpu arena, the Vulkan command pool and
+//! samplers, each under the backend's own lock, always taken after [`Device`]'s), the
+//! records they read (through [`sbt::resolve_record_header`]), and the limits only a
+//! backend knows (a driver's uniform range, a GPU's workgroup counts).
 
 mod backend;
 mod device;
 pub mod features;
 pub mod frontend;
 mod handle_table;
+mod objects;
 pub mod sbt;
 pub mod unwind;
 pub mod validate;
@@ -35,6 +39,7 @@ pub mod validate;
 pub use backend::Backend;
 pub use device::Device;
 pub use handle_table::HandleTable;
+pub use objects::Objects;
 
 /// naga, re-exported so backends lower the same IR version the front end produces.
 pub use naga;

@@ -2,6 +2,7 @@
 
 use crate::native::*;
 use optik_api::*;
+use optik_cpu::CpuDeviceExt;
 
 #[test]
 fn features_follow_the_scene_and_the_programs() {

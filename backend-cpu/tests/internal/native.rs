@@ -4,7 +4,7 @@
 
 use optik_api::*;
 use optik_cpu::program::abi::{Bindings, DeviceCalls};
-use optik_cpu::{CpuBackend, CpuDevice, NativeModuleDesc, NativeProgram};
+use optik_cpu::{CpuBackend, CpuDevice, CpuDeviceExt, NativeModuleDesc, NativeProgram};
 use std::sync::{Arc, Mutex};
 
 /// A device with helpers.

@@ -24,7 +24,8 @@ pub mod vkas;
 pub use tables::SceneTables;
 pub use transform::{Proxy, Transform};
 
-use crate::device::Inner;
+use crate::buffer::snapshot_view;
+use crate::device::{Accels, Buffers, Inner, Objects, Unfreed};
 use crate::memory::{Allocator, GpuBuffer, Location};
 use ash::vk;
 use flatten::{FlatInstance, vk_flags};
@@ -159,6 +160,15 @@ impl AccelObject {
             AccelObject::Gas(_) => Vec::new(),
             AccelObject::Ias(i) => i.children.iter().flatten().copied().collect(),
             AccelObject::Transform(t) => t.child.into_iter().collect(),
+        }
+    }
+
+    /// The options and inputs of its last build or update; `None` for a transform.
+    pub fn build_record(&self) -> Option<(AccelBuildOptions, Vec<BuildInput>)> {
+        match self {
+            AccelObject::Gas(g) => Some((g.options, g.inputs.clone())),
+            AccelObject::Ias(i) => Some((i.options, i.inputs.clone())),
+            AccelObject::Transform(_) => None,
         }
     }
 
@@ -336,6 +346,14 @@ fn rebase_record(r: &tables::Record, rebase: impl Fn(u32) -> u32) -> tables::Rec
     out
 }
 
+/// The union of every live structure's features (pipelines serve all of them).
+pub fn scene_features(accels: &Accels) -> Option<SceneFeatures> {
+    accels
+        .iter()
+        .map(|(_, a)| a.features())
+        .reduce(SceneFeatures::union)
+}
+
 impl Inner {
     /// The acceleration structure with no instances (null handles, continuation calls).
     pub fn create_empty_tlas(&mut self) -> Result<()> {
@@ -345,14 +363,6 @@ impl Inner {
         )?;
         self.empty_tlas = Some(tlas);
         Ok(())
-    }
-
-    /// The union of every live structure's features (pipelines serve all of them).
-    pub fn scene_features(&self) -> Option<SceneFeatures> {
-        self.accels
-            .iter()
-            .map(|(_, a)| a.features())
-            .reduce(SceneFeatures::union)
     }
 
     fn instance_entries(flat: &[FlatInstance]) -> Vec<tables::Record> {
@@ -471,9 +481,14 @@ impl Inner {
     }
 
     /// Builds `accel`'s top level again over `flat` (same count).
-    fn rebuild_tlas(&mut self, accel: Accel, flat: &[FlatInstance]) -> Result<()> {
+    fn rebuild_tlas(
+        &mut self,
+        accels: &mut Accels,
+        accel: Accel,
+        flat: &[FlatInstance],
+    ) -> Result<()> {
         let (structure, address, count, table_start, flags) = {
-            let t = self.accels.get(accel)?.tlas();
+            let t = accels.get(accel)?.tlas();
             (
                 t.structure.accel,
                 t.instances.address,
@@ -493,7 +508,7 @@ impl Inner {
             .write(table_start, &Self::instance_entries(flat));
         self.tables.touch();
         Self::write_instances(
-            &self.accels.get(accel)?.tlas().instances,
+            &accels.get(accel)?.tlas().instances,
             &Self::vk_instances(flat, table_start),
         )?;
         self.build_as(
@@ -504,7 +519,7 @@ impl Inner {
             BuildTarget::Rebuild(structure),
         )?;
         let reach = flat.iter().map(FlatInstance::sbt_reach).max().unwrap_or(0);
-        match self.accels.get_mut(accel)? {
+        match accels.get_mut(accel)? {
             AccelObject::Gas(g) => g.wrapper.sbt_reach = reach,
             AccelObject::Ias(i) => i.tlas.sbt_reach = reach,
             AccelObject::Transform(t) => t.tlas.sbt_reach = reach,
@@ -514,7 +529,7 @@ impl Inner {
 
     /// The flat list of an instance structure's instances over its children as they are now.
     fn flatten_instances(
-        &self,
+        accels: &Accels,
         instances: &[Instance],
         children: &[Option<Accel>],
         previous: Option<(&[u32], &[FlatInstance])>,
@@ -523,11 +538,11 @@ impl Inner {
         let mut counts = Vec::with_capacity(instances.len());
         let mut at = 0usize;
         for (i, (inst, child)) in instances.iter().zip(children).enumerate() {
-            let live = child.filter(|c| self.accels.get(*c).is_ok());
-            let entries = match child.map(|c| self.accels.get(c)) {
+            let live = child.filter(|c| accels.get(*c).is_ok());
+            let entries = match child.map(|c| accels.get(c)) {
                 Some(Ok(_)) => {
                     let child_flat = match live {
-                        Some(c) => self.flat_of(c)?,
+                        Some(c) => transform::flat_of(accels, c)?,
                         None => Vec::new(),
                     };
                     flatten::through_instance(inst, i as u32, &child_flat)
@@ -553,12 +568,11 @@ impl Inner {
     }
 
     /// Builds every top level that contains `changed` again, upwards.
-    fn refresh_dependents(&mut self, changed: Accel) -> Result<()> {
+    fn refresh_dependents(&mut self, accels: &mut Accels, changed: Accel) -> Result<()> {
         let mut queue = vec![changed];
         let mut done = HashSet::new();
         while let Some(x) = queue.pop() {
-            let parents: Vec<Accel> = self
-                .accels
+            let parents: Vec<Accel> = accels
                 .iter()
                 .filter(|(_, o)| o.children().contains(&x))
                 .map(|(h, _)| h)
@@ -567,7 +581,7 @@ impl Inner {
                 if !done.insert(p) {
                     continue;
                 }
-                self.refresh(p)?;
+                self.refresh(accels, p)?;
                 queue.push(p);
             }
         }
@@ -577,10 +591,11 @@ impl Inner {
     }
 
     /// Builds an instance structure's or transform's top level again from its children.
-    fn refresh(&mut self, accel: Accel) -> Result<()> {
-        let flat = match self.accels.get(accel)? {
+    fn refresh(&mut self, accels: &mut Accels, accel: Accel) -> Result<()> {
+        let flat = match accels.get(accel)? {
             AccelObject::Ias(ias) => {
-                let (flat, counts) = self.flatten_instances(
+                let (flat, counts) = Self::flatten_instances(
+                    accels,
                     &ias.instances,
                     &ias.children,
                     Some((&ias.counts, &ias.flat)),
@@ -590,11 +605,11 @@ impl Inner {
                 }
                 flat
             }
-            AccelObject::Transform(_) => return self.refresh_transform(accel),
+            AccelObject::Transform(_) => return self.refresh_transform(accels, accel),
             AccelObject::Gas(_) => return Ok(()),
         };
-        self.rebuild_tlas(accel, &flat)?;
-        match self.accels.get_mut(accel)? {
+        self.rebuild_tlas(accels, accel, &flat)?;
+        match accels.get_mut(accel)? {
             AccelObject::Ias(i) => i.flat = flat,
             AccelObject::Transform(t) => t.flat = flat,
             AccelObject::Gas(_) => {}
@@ -609,7 +624,12 @@ impl Inner {
     }
 
     /// What native Vulkan triangles cannot carry (optik-core has checked the rest).
-    fn check_buildable(&self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<()> {
+    fn check_buildable(
+        &self,
+        objects: &Objects,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<()> {
         let keys = options
             .motion
             .filter(|m| m.num_keys >= 2)
@@ -626,7 +646,8 @@ impl Inner {
                 if !emulated {
                     return Err(native_triangles_cannot("an opacity micromap", i));
                 }
-                self.micromap_arrays
+                objects
+                    .micromaps
                     .get(omm.array)
                     .map_err(|e| e.context(format!("build_inputs[{i}].opacity_micromap.array")))?;
             }
@@ -641,11 +662,16 @@ impl Inner {
         Ok(())
     }
 
-    fn decode(&mut self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<DecodedGas> {
+    fn decode(
+        &mut self,
+        objects: &Objects,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<DecodedGas> {
         let buffers: Vec<Buffer> = inputs.iter().flat_map(input_buffers).collect();
-        let downloaded = self.download_for_snapshot(&buffers)?;
-        let snapshot = self.snapshot_view(downloaded, &buffers)?;
-        let arrays = &self.micromap_arrays;
+        let downloaded = self.download_for_snapshot(&objects.buffers, &buffers)?;
+        let snapshot = snapshot_view(&objects.buffers, downloaded, &buffers)?;
+        let arrays = &objects.micromaps;
         let lookup = |a: MicromapArray| arrays.get(a).cloned();
         geometry::decode_gas(
             options,
@@ -658,12 +684,13 @@ impl Inner {
 
     fn decode_instances(
         &mut self,
+        buffers: &Buffers,
         ia: &InstanceArray,
     ) -> Result<(Vec<Instance>, Vec<Option<Accel>>)> {
-        let downloaded = self.download_for_snapshot(&[ia.instances.buffer])?;
+        let downloaded = self.download_for_snapshot(buffers, &[ia.instances.buffer])?;
         let instances = optik_accel::decode::instances(
             ia,
-            &self.snapshot_view(downloaded, &[ia.instances.buffer])?,
+            &snapshot_view(buffers, downloaded, &[ia.instances.buffer])?,
         )?;
         let mut children = Vec::with_capacity(instances.len());
         for (i, inst) in instances.iter().enumerate() {
@@ -684,10 +711,11 @@ impl Inner {
 
     pub fn accel_memory_usage(
         &mut self,
+        objects: &Objects,
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<AccelBufferSizes> {
-        self.check_buildable(options, inputs)?;
+        self.check_buildable(objects, options, inputs)?;
         let tlas_sizes = |me: &Self, n: u32| {
             me.build_sizes(
                 vk::AccelerationStructureTypeKHR::TOP_LEVEL,
@@ -697,8 +725,8 @@ impl Inner {
             )
         };
         if let BuildInput::Instances(ia) = &inputs[0] {
-            let (instances, children) = self.decode_instances(ia)?;
-            let (flat, _) = self.flatten_instances(&instances, &children, None)?;
+            let (instances, children) = self.decode_instances(&objects.buffers, ia)?;
+            let (flat, _) = Self::flatten_instances(&objects.accels, &instances, &children, None)?;
             let (size, build, update) = tlas_sizes(self, flat.len() as u32);
             return Ok(AccelBufferSizes {
                 output_size_in_bytes: size,
@@ -707,7 +735,7 @@ impl Inner {
             });
         }
         geometry::gas_kind(inputs)?;
-        let decoded = self.decode(options, inputs)?;
+        let decoded = self.decode(objects, options, inputs)?;
         let mut sizes = AccelBufferSizes::default();
         for (holds, _) in parts_of(&decoded) {
             let geoms = part_geometries(&decoded, &holds, 0);
@@ -725,18 +753,20 @@ impl Inner {
         Ok(sizes)
     }
 
+    /// Builds a structure that core stores under `handle`.
     pub fn accel_build(
         &mut self,
+        objects: &Objects,
+        handle: Accel,
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
-    ) -> Result<Accel> {
-        self.check_buildable(options, inputs)?;
+    ) -> Result<AccelObject> {
+        self.check_buildable(objects, options, inputs)?;
         let accel = match &inputs[0] {
-            BuildInput::Instances(ia) => self.build_ias(options, inputs, ia)?,
-            _ => self.build_gas(options, inputs)?,
+            BuildInput::Instances(ia) => self.build_ias(objects, options, inputs, ia)?,
+            _ => self.build_gas(objects, options, inputs)?,
         };
-        let handle = self.accels.get(accel)?.handle();
-        self.by_handle.insert(handle, accel);
+        self.by_handle.insert(accel.handle(), handle);
         Ok(accel)
     }
 
@@ -757,9 +787,14 @@ impl Inner {
         Ok(buffer)
     }
 
-    fn build_gas(&mut self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<Accel> {
+    fn build_gas(
+        &mut self,
+        objects: &Objects,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<AccelObject> {
         let kind = geometry::gas_kind(inputs)?;
-        let decoded = self.decode(options, inputs)?;
+        let decoded = self.decode(objects, options, inputs)?;
         let input = self.input_buffer(&decoded)?;
         let flags = vk_build_flags(options.flags);
         let mut parts: Vec<(AsBuffer, u32)> = Vec::new();
@@ -823,7 +858,7 @@ impl Inner {
             }
         };
         let features = SceneFeatures::of_geometry(options, inputs);
-        Ok(self.accels.insert(AccelObject::Gas(Gas {
+        Ok(AccelObject::Gas(Gas {
             parts,
             part_geometries: part_geometries_held,
             wrapper,
@@ -845,26 +880,27 @@ impl Inner {
             activity: activity_of(&decoded),
             compacted: false,
             features,
-        })))
+        }))
     }
 
     fn build_ias(
         &mut self,
+        objects: &Objects,
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
         ia: &InstanceArray,
-    ) -> Result<Accel> {
-        let (instances, children) = self.decode_instances(ia)?;
-        let (flat, counts) = self.flatten_instances(&instances, &children, None)?;
+    ) -> Result<AccelObject> {
+        let (instances, children) = self.decode_instances(&objects.buffers, ia)?;
+        let (flat, counts) = Self::flatten_instances(&objects.accels, &instances, &children, None)?;
         let child_features: Vec<SceneFeatures> = children
             .iter()
             .flatten()
-            .filter_map(|c| self.accels.get(*c).ok())
+            .filter_map(|c| objects.accels.get(*c).ok())
             .map(|o| o.features())
             .collect();
         let features = SceneFeatures::of_parent(&child_features, MotionKinds::default(), false);
         let tlas = self.build_tlas(&flat, vk_build_flags(options.flags))?;
-        Ok(self.accels.insert(AccelObject::Ias(Ias {
+        Ok(AccelObject::Ias(Ias {
             tlas,
             instances,
             children,
@@ -873,21 +909,23 @@ impl Inner {
             options: *options,
             inputs: inputs.to_vec(),
             features,
-        })))
+        }))
     }
 
     pub fn accel_update(
         &mut self,
+        objects: &mut Objects,
         accel: Accel,
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<()> {
-        self.check_buildable(options, inputs)?;
+        self.check_buildable(objects, options, inputs)?;
         match &inputs[0] {
             BuildInput::Instances(ia) => {
-                let (instances, children) = self.decode_instances(ia)?;
-                let (flat, counts) = self.flatten_instances(&instances, &children, None)?;
-                let old_counts = match self.accels.get(accel)? {
+                let (instances, children) = self.decode_instances(&objects.buffers, ia)?;
+                let (flat, counts) =
+                    Self::flatten_instances(&objects.accels, &instances, &children, None)?;
+                let old_counts = match objects.accels.get(accel)? {
                     AccelObject::Ias(i) => i.counts.clone(),
                     _ => Vec::new(),
                 };
@@ -896,37 +934,39 @@ impl Inner {
                         "the update changes how many Vulkan instances some instance flattens to (its child has a different instance tree); Vulkan top levels keep their instance count, so build a new structure instead",
                     ));
                 }
-                self.rebuild_tlas(accel, &flat)?;
-                if let AccelObject::Ias(i) = self.accels.get_mut(accel)? {
+                self.rebuild_tlas(&mut objects.accels, accel, &flat)?;
+                if let AccelObject::Ias(i) = objects.accels.get_mut(accel)? {
                     i.instances = instances;
                     i.children = children;
                     i.flat = flat;
                     i.inputs = inputs.to_vec();
                 }
             }
-            _ => self.update_gas(accel, options, inputs)?,
+            _ => self.update_gas(objects, accel, options, inputs)?,
         }
-        self.refresh_dependents(accel)
+        self.refresh_dependents(&mut objects.accels, accel)
     }
 
     fn update_gas(
         &mut self,
+        objects: &mut Objects,
         accel: Accel,
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<()> {
-        let decoded = self.decode(options, inputs)?;
-        let (parts, holds, partition, activity, flags, data_len) = match self.accels.get(accel)? {
-            AccelObject::Gas(g) => (
-                g.parts.iter().map(|(p, _)| p.accel).collect::<Vec<_>>(),
-                g.part_geometries.clone(),
-                g.partition.clone(),
-                g.activity,
-                vk_build_flags(g.options.flags),
-                g.data_len,
-            ),
-            _ => return Err(Error::backend("not a geometry structure")),
-        };
+        let decoded = self.decode(objects, options, inputs)?;
+        let (parts, holds, partition, activity, flags, data_len) =
+            match objects.accels.get(accel)? {
+                AccelObject::Gas(g) => (
+                    g.parts.iter().map(|(p, _)| p.accel).collect::<Vec<_>>(),
+                    g.part_geometries.clone(),
+                    g.partition.clone(),
+                    g.activity,
+                    vk_build_flags(g.options.flags),
+                    g.data_len,
+                ),
+                _ => return Err(Error::backend("not a geometry structure")),
+            };
         if decoded.partition != partition {
             return Err(Error::invalid(
                 "the update changes which SBT record some primitive uses (sbt_index_offsets); updates keep them, so build a new structure instead",
@@ -935,7 +975,7 @@ impl Inner {
         if activity_of(&decoded) != activity || decoded.data.len() as u32 != data_len {
             // Primitives became usable or unusable (or triangle indices changed): Vulkan
             // refits cannot follow, so the bottom levels are built anew under the same handle.
-            return self.rebuild_gas(accel, options, inputs);
+            return self.rebuild_gas(objects, accel, options, inputs);
         }
         let input = self.input_buffer(&decoded)?;
         let mut result = Ok(());
@@ -954,14 +994,14 @@ impl Inner {
         }
         input.destroy(&self.ctx, &mut self.alloc);
         result?;
-        if let AccelObject::Gas(g) = self.accels.get(accel)? {
+        if let AccelObject::Gas(g) = objects.accels.get(accel)? {
             let start = g.data_start;
             self.tables.data.write(start, &decoded.data);
             self.tables.touch();
         }
-        let flat = self.accels.get(accel)?.flat();
-        self.rebuild_tlas(accel, &flat)?;
-        if let AccelObject::Gas(g) = self.accels.get_mut(accel)? {
+        let flat = objects.accels.get(accel)?.flat();
+        self.rebuild_tlas(&mut objects.accels, accel, &flat)?;
+        if let AccelObject::Gas(g) = objects.accels.get_mut(accel)? {
             g.inputs = inputs.to_vec();
             for ((_, boxes), new) in g.geometry_boxes.iter_mut().zip(decoded.boxes) {
                 *boxes = new;
@@ -974,12 +1014,12 @@ impl Inner {
     /// its handle (its top level is built again in place, as are the top levels above it).
     fn rebuild_gas(
         &mut self,
+        objects: &mut Objects,
         accel: Accel,
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<()> {
-        let fresh = self.build_gas(options, inputs)?;
-        let AccelObject::Gas(mut new) = self.accels.remove(fresh)? else {
+        let AccelObject::Gas(mut new) = self.build_gas(objects, options, inputs)? else {
             return Err(Error::backend("a geometry build made something else"));
         };
         // The new object's own top level goes; the old one stays and keeps the handle.
@@ -988,7 +1028,7 @@ impl Inner {
         self.tables
             .instances
             .remove(new.wrapper.table_start, new.wrapper.count);
-        let AccelObject::Gas(old) = self.accels.get_mut(accel)? else {
+        let AccelObject::Gas(old) = objects.accels.get_mut(accel)? else {
             return Err(Error::backend("not a geometry structure"));
         };
         let old_parts = std::mem::replace(&mut old.parts, std::mem::take(&mut new.parts));
@@ -1012,29 +1052,23 @@ impl Inner {
         self.tables.data.remove(old_d, old_dn);
         self.tables.touch();
         new.wrapper.destroy(&self.ctx, &mut self.alloc);
-        let flat = self.accels.get(accel)?.flat();
-        self.rebuild_tlas(accel, &flat)?;
-        self.refresh_dependents(accel)?;
+        let flat = objects.accels.get(accel)?.flat();
+        self.rebuild_tlas(&mut objects.accels, accel, &flat)?;
+        self.refresh_dependents(&mut objects.accels, accel)?;
         for (p, _) in old_parts {
             p.destroy(&self.ctx, &mut self.alloc);
         }
         Ok(())
     }
 
-    /// The options and inputs of a structure's last build or update; `None` for transforms.
-    pub fn accel_build_record(
-        &self,
+    /// A compacted copy of `accel` that core stores under `handle`.
+    pub fn accel_compact(
+        &mut self,
+        accels: &Accels,
         accel: Accel,
-    ) -> Result<Option<(AccelBuildOptions, Vec<BuildInput>)>> {
-        Ok(match self.accels.get(accel)? {
-            AccelObject::Gas(g) => Some((g.options, g.inputs.clone())),
-            AccelObject::Ias(i) => Some((i.options, i.inputs.clone())),
-            AccelObject::Transform(_) => None,
-        })
-    }
-
-    pub fn accel_compact(&mut self, accel: Accel) -> Result<Accel> {
-        let copy = match self.accels.get(accel)? {
+        handle: Accel,
+    ) -> Result<AccelObject> {
+        let copy = match accels.get(accel)? {
             AccelObject::Gas(g) => {
                 let parts: Vec<(vk::AccelerationStructureKHR, u32)> =
                     g.parts.iter().map(|(p, f)| (p.accel, *f)).collect();
@@ -1137,16 +1171,22 @@ impl Inner {
                 return Err(Error::backend("accel_compact was given a transform"));
             }
         };
-        let handle = copy.handle();
-        let new = self.accels.insert(copy);
-        self.by_handle.insert(handle, new);
-        Ok(new)
+        self.by_handle.insert(copy.handle(), handle);
+        Ok(copy)
     }
 
-    pub fn destroy_accel(&mut self, accel: Accel) -> Result<()> {
-        self.accels.get(accel)?;
-        self.wait_launches()?;
-        let obj = self.accels.remove(accel)?;
+    /// Frees `obj`, which core has taken out of `accels` (its handle was `accel`), after
+    /// the launches that may trace it; the top levels above it are built again without it.
+    pub fn destroy_accel(
+        &mut self,
+        accels: &mut Accels,
+        accel: Accel,
+        obj: AccelObject,
+    ) -> Result<()> {
+        if let Err(e) = self.wait_launches() {
+            self.keep(Unfreed::Accel(obj));
+            return Err(e);
+        }
         self.by_handle.remove(&obj.handle());
         let t = obj.tlas();
         self.tables.instances.remove(t.table_start, t.count);
@@ -1158,7 +1198,7 @@ impl Inner {
         }
         self.tables.touch();
         // Parents drop their paths into it before its bottom levels go.
-        let refreshed = self.refresh_dependents(accel);
+        let refreshed = self.refresh_dependents(accels, accel);
         if let AccelObject::Transform(t) = &obj {
             self.free_proxies(&t.proxies);
         }

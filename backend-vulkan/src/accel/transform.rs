@@ -6,7 +6,7 @@ use super::motion::{self, Aabb, ChainLink};
 use super::tables::{self, NONE};
 use super::vkas::{AsBuffer, BuildTarget, VkGeometry};
 use super::{AccelObject, Tlas};
-use crate::device::Inner;
+use crate::device::{Accels, Inner};
 use crate::memory::{GpuBuffer, Location};
 use ash::vk;
 use optik_api::*;
@@ -41,22 +41,28 @@ pub struct Proxy {
     pub chain: (u32, u32),
 }
 
-impl Inner {
-    /// The flat list of `accel`, its geometry structures' paths naming their owner.
-    pub fn flat_of(&self, accel: Accel) -> Result<Vec<FlatInstance>> {
-        let obj = self.accels.get(accel)?;
-        let flat = obj.flat();
-        Ok(match obj {
-            AccelObject::Gas(_) => flat
-                .into_iter()
-                .map(|f| f.owned_by(FlatSource::Gas(accel)))
-                .collect(),
-            _ => flat,
-        })
-    }
+/// The flat list of `accel`, its geometry structures' paths naming their owner.
+pub fn flat_of(accels: &Accels, accel: Accel) -> Result<Vec<FlatInstance>> {
+    let obj = accels.get(accel)?;
+    let flat = obj.flat();
+    Ok(match obj {
+        AccelObject::Gas(_) => flat
+            .into_iter()
+            .map(|f| f.owned_by(FlatSource::Gas(accel)))
+            .collect(),
+        _ => flat,
+    })
+}
 
-    /// Creates a static, matrix-motion or SRT-motion transform.
-    pub fn create_transform(&mut self, desc: &TransformDesc) -> Result<Accel> {
+impl Inner {
+    /// Creates a static, matrix-motion or SRT-motion transform that core stores under
+    /// `handle`.
+    pub fn create_transform(
+        &mut self,
+        accels: &Accels,
+        handle: Accel,
+        desc: &TransformDesc,
+    ) -> Result<AccelObject> {
         let (link, kinds) = match desc {
             TransformDesc::Static {
                 object_to_world, ..
@@ -83,7 +89,7 @@ impl Inner {
             })?),
         };
         let child_features: Vec<SceneFeatures> = match child {
-            Some(c) => vec![self.accels.get(c)?.features()],
+            Some(c) => vec![accels.get(c)?.features()],
             None => Vec::new(),
         };
         if !link.is_static()
@@ -98,10 +104,10 @@ impl Inner {
         }
         let features = SceneFeatures::of_parent(&child_features, kinds, link.is_static());
         let child_flat = match child {
-            Some(c) => self.flat_of(c)?,
+            Some(c) => flat_of(accels, c)?,
             None => Vec::new(),
         };
-        let (flat, proxies) = self.transform_flat(&link, &child_flat)?;
+        let (flat, proxies) = self.transform_flat(accels, &link, &child_flat)?;
         let tlas = match self.build_tlas(
             &flat,
             vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE,
@@ -112,28 +118,27 @@ impl Inner {
                 return Err(e);
             }
         };
-        let handle = tlas.structure.address;
-        let accel = self.accels.insert(AccelObject::Transform(Transform {
+        self.by_handle.insert(tlas.structure.address, handle);
+        Ok(AccelObject::Transform(Transform {
             tlas,
             link,
             child,
             flat,
             proxies,
             features,
-        }));
-        self.by_handle.insert(handle, accel);
-        Ok(accel)
+        }))
     }
 
     /// A transform's flat list over its child's, with the proxies a motion transform makes
     /// (their addresses, 0 for inactive paths).
     fn transform_flat(
         &mut self,
+        accels: &Accels,
         link: &ChainLink,
         child: &[FlatInstance],
     ) -> Result<(Vec<FlatInstance>, Vec<u64>)> {
         let ChainLink::Static(m) = link else {
-            return self.motion_flat(link, child);
+            return self.motion_flat(accels, link, child);
         };
         Ok((flatten::through_transform(m, child), Vec::new()))
     }
@@ -141,6 +146,7 @@ impl Inner {
     /// The flat list of a motion transform: a proxy and a chain per path of its child.
     fn motion_flat(
         &mut self,
+        accels: &Accels,
         link: &ChainLink,
         child: &[FlatInstance],
     ) -> Result<(Vec<FlatInstance>, Vec<u64>)> {
@@ -157,7 +163,7 @@ impl Inner {
                 proxies.push(0);
                 continue;
             }
-            match self.proxy_over(link, c) {
+            match self.proxy_over(accels, link, c) {
                 Ok(address) => {
                     let chain = self.proxies.get(&address).map_or(NONE, |p| p.chain.0);
                     flat.push(FlatInstance {
@@ -179,10 +185,10 @@ impl Inner {
     }
 
     /// Builds the proxy of path `c` seen through the motion transform `link`; its address.
-    fn proxy_over(&mut self, link: &ChainLink, c: &FlatInstance) -> Result<u64> {
+    fn proxy_over(&mut self, accels: &Accels, link: &ChainLink, c: &FlatInstance) -> Result<u64> {
         let (base, below): (Vec<(vk::GeometryFlagsKHR, Vec<Aabb>)>, Vec<ChainLink>) = match c.source
         {
-            Some(FlatSource::Gas(g)) => match self.accels.get(g)? {
+            Some(FlatSource::Gas(g)) => match accels.get(g)? {
                 AccelObject::Gas(gas) => (gas.geometry_boxes.clone(), Vec::new()),
                 _ => return Err(Error::backend("a path's geometry is not a geometry")),
             },
@@ -285,25 +291,25 @@ impl Inner {
     /// A transform's flat list again, over its child as it is now (inactive when the child
     /// is gone); rebuilds its top level and retires the proxies it replaced (freed once the
     /// top levels above are refreshed too).
-    pub fn refresh_transform(&mut self, accel: Accel) -> Result<()> {
-        let (link, child, old_flat, old_proxies) = match self.accels.get(accel)? {
+    pub fn refresh_transform(&mut self, accels: &mut Accels, accel: Accel) -> Result<()> {
+        let (link, child, old_flat, old_proxies) = match accels.get(accel)? {
             AccelObject::Transform(t) => {
                 (t.link.clone(), t.child, t.flat.clone(), t.proxies.clone())
             }
             _ => return Err(Error::backend("not a transform")),
         };
-        let (flat, proxies) = match child.map(|c| self.flat_of(c)) {
-            Some(Ok(child_flat)) => self.transform_flat(&link, &child_flat)?,
+        let (flat, proxies) = match child.map(|c| flat_of(accels, c)) {
+            Some(Ok(child_flat)) => self.transform_flat(accels, &link, &child_flat)?,
             _ => (
                 old_flat.iter().map(|f| f.inactive()).collect(),
                 vec![0; old_proxies.len()],
             ),
         };
-        if let Err(e) = self.rebuild_tlas(accel, &flat) {
+        if let Err(e) = self.rebuild_tlas(accels, accel, &flat) {
             self.free_proxies(&proxies);
             return Err(e);
         }
-        if let AccelObject::Transform(t) = self.accels.get_mut(accel)? {
+        if let AccelObject::Transform(t) = accels.get_mut(accel)? {
             t.flat = flat;
             t.proxies = proxies;
         }

@@ -30,24 +30,27 @@ pub(crate) enum Refit {
 }
 
 /// One acceleration structure or transform.
-pub(crate) struct AccelObject {
+///
+/// (Public only as `WgpuBackend`'s `optik_core::Backend::Accel`, the type optik-core's
+/// device keeps; its insides stay private to this crate.)
+pub struct AccelObject {
     /// Where its words live in the arena (vec4 index, count).
-    pub region: (u64, u64),
-    pub bounds: Aabb,
-    pub stack_need: u32,
-    pub levels: u32,
-    pub features: SceneFeatures,
-    pub options: AccelBuildOptions,
+    pub(crate) region: (u64, u64),
+    pub(crate) bounds: Aabb,
+    pub(crate) stack_need: u32,
+    pub(crate) levels: u32,
+    pub(crate) features: SceneFeatures,
+    pub(crate) options: AccelBuildOptions,
     /// The inputs it was built from (empty for transforms), for update checks.
-    pub inputs: Vec<BuildInput>,
-    pub refit: Refit,
+    pub(crate) inputs: Vec<BuildInput>,
+    pub(crate) refit: Refit,
     /// The GPU handle-table entry's kind word.
-    pub kind_word: u32,
+    pub(crate) kind_word: u32,
 }
 
 impl AccelObject {
     /// What a parent needs to know about it (`handle` is its own).
-    pub fn child_info(&self, handle: Accel) -> ChildInfo {
+    pub(crate) fn child_info(&self, handle: Accel) -> ChildInfo {
         let raw = handle.raw();
         ChildInfo {
             slot: raw.slot,

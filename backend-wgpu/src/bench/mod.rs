@@ -13,7 +13,7 @@
 
 pub mod bandwidth;
 
-use crate::device::{WgpuBackend, WgpuDevice};
+use crate::device::{WgpuBackend, WgpuDevice, WgpuDeviceExt};
 use crate::kernel::counters;
 pub use crate::kernel::counters::TrafficCounts;
 pub use bandwidth::Bandwidth;
@@ -489,6 +489,7 @@ pub fn bench_trace(
     let launch = |params: &[u8], observe: crate::launch::Observe<'_>| {
         crate::launch::launch(
             &wgpu_device,
+            &mut wgpu_device.objects(),
             p.pipeline,
             params,
             &[Resource::buffer(1, p.out)],
@@ -609,7 +610,17 @@ pub fn launch_counted(
     size: LaunchSize,
 ) -> Result<TrafficCounts> {
     count_traffic(dev, |observe| {
-        crate::launch::launch(dev, pipeline, params, resources, sbt, size, observe).map(drop)
+        crate::launch::launch(
+            dev,
+            &mut dev.objects(),
+            pipeline,
+            params,
+            resources,
+            sbt,
+            size,
+            observe,
+        )
+        .map(drop)
     })
 }
 

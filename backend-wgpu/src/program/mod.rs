@@ -16,8 +16,11 @@ use optik_core::frontend::{self, CompiledModule};
 use std::sync::Arc;
 
 /// A compiled module.
-pub(crate) struct ModuleObject {
-    pub source: Arc<ModuleSource>,
+///
+/// (Public only as `WgpuBackend`'s `optik_core::Backend::Module`, the type optik-core's
+/// device keeps; its insides stay private to this crate.)
+pub struct ModuleObject {
+    pub(crate) source: Arc<ModuleSource>,
 }
 
 /// A module's source and its check at creation.
@@ -30,7 +33,7 @@ pub(crate) struct ModuleSource {
 impl ModuleObject {
     /// Compiles `source`; the log lists the programs found. The optimisation and debug
     /// levels of `options` do not change the generated WGSL (the driver optimises it).
-    pub fn create(
+    pub(crate) fn create(
         _options: &ModuleCompileOptions,
         pipeline_options: &PipelineCompileOptions,
         source: &ProgramSource,
@@ -55,15 +58,18 @@ impl ModuleObject {
 }
 
 /// A program group: its description and the modules its programs come from.
-pub(crate) struct GroupObject {
-    pub desc: ProgramGroupDesc,
+///
+/// (Public only as `WgpuBackend`'s `optik_core::Backend::ProgramGroup`, the type optik-core's
+/// device keeps; its insides stay private to this crate.)
+pub struct GroupObject {
+    pub(crate) desc: ProgramGroupDesc,
     /// The source of each program of `desc.programs()`, in that order.
-    pub sources: Vec<Arc<ModuleSource>>,
+    pub(crate) sources: Vec<Arc<ModuleSource>>,
 }
 
 impl GroupObject {
     /// Resolves the modules of `desc`'s programs.
-    pub fn create(
+    pub(crate) fn create(
         desc: &ProgramGroupDesc,
         module_of: &dyn Fn(&ProgramRef) -> Result<Arc<ModuleSource>>,
     ) -> Result<GroupObject> {

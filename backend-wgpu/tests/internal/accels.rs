@@ -3,6 +3,7 @@
 
 use crate::common::*;
 use optik_api::*;
+use optik_wgpu::WgpuDeviceExt;
 
 #[test]
 fn scenes_larger_than_one_storage_binding_are_split() {

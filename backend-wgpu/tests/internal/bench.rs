@@ -5,7 +5,7 @@
 use crate::common::*;
 use optik_api::*;
 use optik_wgpu::bench::{BenchConfig, TrafficCounts};
-use optik_wgpu::{WgpuBackend, WgpuDevice};
+use optik_wgpu::{WgpuBackend, WgpuDevice, WgpuDeviceExt};
 
 fn small_config() -> BenchConfig {
     BenchConfig {

@@ -3,6 +3,7 @@
 
 use crate::common::*;
 use optik_api::*;
+use optik_wgpu::WgpuDeviceExt;
 
 #[test]
 fn scenes_that_grow_after_linking_get_bigger_kernels() {

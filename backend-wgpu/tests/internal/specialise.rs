@@ -2,6 +2,7 @@
 
 use crate::common::*;
 use optik_api::*;
+use optik_wgpu::WgpuDeviceExt;
 
 /// Names that only the code of one feature defines.
 const SPHERES: &str = "_optik_sphere_roots(";
