@@ -1,9 +1,12 @@
-//! The CPU backend's objects that are not programs: what optik-core keeps in its tables for
-//! `CpuBackend` as the associated types `Buffer`, `Texture` and `Accel` (modules, groups and
-//! pipelines are `pipeline::{ModuleObject, GroupObject, PipelineObject}`, micromap arrays
-//! `accel::MicromapArrayData`). Nothing here looks at the device.
+//! The CPU backend's objects: what optik-core keeps in its tables for `CpuBackend` (the
+//! associated types of its `optik_core::Backend`), named in one place. Buffers, textures
+//! and acceleration structures are defined here; modules, groups and pipelines live beside
+//! the code that makes them (`pipeline`), micromap arrays in `accel`, and are re-exported.
+//! Nothing here looks at the device's state.
 
+pub use crate::accel::MicromapArrayData;
 use crate::accel::Traversable;
+pub use crate::pipeline::{GroupObject, ModuleObject, PipelineObject};
 use optik_api::{AccelBuildOptions, BuildInput, Error, ErrorKind, Result, TextureDesc};
 use std::sync::Arc;
 

@@ -1,7 +1,8 @@
 //! User buffers: created zero-filled, written and read with byte ranges checked, through
 //! staging buffers where they live in device-local memory.
 
-use crate::device::{Buffers, Inner, UserBuffer};
+use crate::device::{Inner};
+use crate::objects::{Buffers, UserBuffer};
 use crate::memory::{GpuBuffer, Location};
 use ash::vk;
 use optik_accel::decode::BufferBytes;

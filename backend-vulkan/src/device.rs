@@ -17,6 +17,7 @@ use crate::context::{Context, VulkanOptions};
 use crate::launch::InFlight;
 use crate::memory::{Allocator, GpuBuffer};
 use crate::pipeline::{GroupObject, ModuleObject, PipelineObject};
+use crate::objects::{Objects, Unfreed};
 use crate::probe::VulkanDeviceInfo;
 use crate::texture::TextureObject;
 use ash::vk;
@@ -24,47 +25,6 @@ use optik_api::*;
 use optik_core::HandleTable;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, MutexGuard};
-
-/// A user buffer.
-pub struct UserBuffer {
-    /// The Vulkan buffer.
-    pub gpu: GpuBuffer,
-    /// Bumped on every write (host writes, and launches that bind it writable), so cached
-    /// SBT translations know when to read it again.
-    pub generation: u64,
-}
-
-/// The objects of a Vulkan device, owned by optik-core.
-pub type Objects = optik_core::Objects<VulkanBackend>;
-/// The user buffers of [`Objects`].
-pub type Buffers = HandleTable<Buffer, UserBuffer>;
-/// The acceleration structures and transforms of [`Objects`].
-pub type Accels = HandleTable<Accel, AccelObject>;
-
-/// An object core handed back to be freed while the device could not free it (it was lost,
-/// or waiting for the launches that may use it failed): kept until the device is dropped,
-/// which waits for its work and then frees it.
-pub enum Unfreed {
-    /// A user buffer.
-    Buffer(UserBuffer),
-    /// A texture.
-    Texture(TextureObject),
-    /// An acceleration structure or transform.
-    Accel(AccelObject),
-    /// A pipeline.
-    Pipeline(PipelineObject),
-}
-
-impl Unfreed {
-    fn destroy(self, ctx: &Context, alloc: &mut Allocator) {
-        match self {
-            Unfreed::Buffer(b) => b.gpu.destroy(ctx, alloc),
-            Unfreed::Texture(t) => t.destroy(ctx, alloc),
-            Unfreed::Accel(a) => a.destroy(ctx, alloc),
-            Unfreed::Pipeline(p) => p.destroy(ctx, alloc),
-        }
-    }
-}
 
 /// What a device holds besides its objects (which optik-core owns), behind its lock.
 pub struct Inner {
@@ -465,7 +425,7 @@ impl optik_core::Backend for VulkanBackend {
     type Buffer = UserBuffer;
     type Texture = TextureObject;
     type Accel = AccelObject;
-    type MicromapArray = Arc<OpacityMicromapArrayDesc>;
+    type MicromapArray = MicromapArrayObject;
     type Module = ModuleObject;
     type ProgramGroup = GroupObject;
     type Pipeline = PipelineObject;

@@ -11,7 +11,8 @@
 
 use crate::accel::scene_features;
 use crate::commands::Submission;
-use crate::device::{Accels, Inner, Objects};
+use crate::device::{Inner};
+use crate::objects::{Accels, Objects};
 use crate::error::VkResultExt;
 use crate::memory::{GpuBuffer, Location};
 use crate::program::LoweringConfig;

@@ -31,6 +31,7 @@ mod error;
 pub mod instance;
 mod launch;
 mod memory;
+mod objects;
 mod pipeline;
 pub mod probe;
 pub mod program;

@@ -12,7 +12,8 @@
 //! the pipeline's depths, as OptiX's `optixUtilComputeStackSizes` does.
 
 use crate::accel::scene_features;
-use crate::device::{Inner, Objects};
+use crate::device::{Inner};
+use crate::objects::{Objects};
 use crate::error::VkResultExt;
 use crate::memory::Allocator;
 use crate::program::{

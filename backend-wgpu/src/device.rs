@@ -22,7 +22,7 @@
 use crate::accel::geometry;
 use crate::accel::instances::{self, ChildInfo};
 use crate::accel::{self, AccelObject, Refit, Scene};
-use crate::buffer::{BufferObject, TextureObject};
+use crate::objects::{BufferObject, TextureObject};
 use crate::gpu::Gpu;
 use crate::kernel::Sizes;
 use crate::pipeline::{self, PipelineObject};

@@ -15,12 +15,12 @@
 
 mod accel;
 pub mod bench;
-mod buffer;
 mod device;
 mod gpu;
 mod kernel;
 mod launch;
 mod memory;
+mod objects;
 mod pipeline;
 mod probe;
 mod program;

@@ -25,7 +25,8 @@ pub use tables::SceneTables;
 pub use transform::{Proxy, Transform};
 
 use crate::buffer::snapshot_view;
-use crate::device::{Accels, Buffers, Inner, Objects, Unfreed};
+use crate::device::{Inner};
+use crate::objects::{Accels, Buffers, Objects, Unfreed};
 use crate::memory::{Allocator, GpuBuffer, Location};
 use ash::vk;
 use flatten::{FlatInstance, vk_flags};

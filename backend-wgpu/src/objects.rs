@@ -1,12 +1,20 @@
-//! User buffers: a wgpu storage buffer plus a host copy of its bytes.
+//! The wgpu backend's objects: what optik-core keeps in its tables for `WgpuBackend` (the
+//! associated types of its `optik_core::Backend`), named in one place. Buffers and textures
+//! are defined here; the others live beside the code that makes them (`AccelObject` in
+//! `accel`, `ModuleObject` and `GroupObject` in `program`, `PipelineObject` in `pipeline`)
+//! and are re-exported. Nothing here looks at the device's state.
 //!
-//! Acceleration structures are built on the host and the SBT is decoded on the host, from
+//! A user buffer is a wgpu storage buffer plus a host copy of its bytes. Acceleration structures are built on the host and the SBT is decoded on the host, from
 //! bytes users wrote with `write_buffer`. Keeping a host copy makes those reads free; it
 //! becomes stale only when a launch binds the buffer for writing, and is then refreshed by
 //! reading the GPU buffer back when the host needs it.
 
+pub use crate::accel::AccelObject;
 use crate::gpu::Gpu;
 use crate::memory::Tracked;
+pub use crate::pipeline::PipelineObject;
+pub use crate::program::{GroupObject, ModuleObject};
+pub use optik_accel::MicromapArrayData;
 use optik_api::{Error, Result};
 
 /// One user buffer.
