@@ -9,14 +9,13 @@
 //! `synchronize` has nothing to wait for and a launch's buffers cannot change under it;
 //! other calls on the device wait while a launch runs.
 
-use crate::accel::{
-    self, Gas, Ias, MicromapArrayData, MicromapLookup, SceneTable, Transform, Traversable, handle,
-};
+use crate::accel::{self, Gas, Ias, MicromapLookup, SceneTable, Transform, Traversable, handle};
 use crate::launch::{self, LaunchShared};
-use crate::objects::{AccelObject, AccelOrigin, BufferData, TextureData};
-use crate::pipeline::{
-    self, GroupObject, ModuleObject, NativeModuleDesc, PipelineObject, PreparedModules,
+use crate::objects::{
+    AccelObject, AccelOrigin, BufferData, GroupObject, MicromapArrayData, ModuleObject,
+    PipelineObject, TextureData,
 };
+use crate::pipeline::{self, NativeModuleDesc, PreparedModules};
 use crate::program::abi::{Bindings, BoundBuffer, BoundResource, BoundTexture};
 use crate::sbt::{self, RecordBytes};
 use crate::traversal::TraceConfig;

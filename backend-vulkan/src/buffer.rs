@@ -1,9 +1,9 @@
 //! User buffers: created zero-filled, written and read with byte ranges checked, through
 //! staging buffers where they live in device-local memory.
 
-use crate::device::{Inner};
-use crate::objects::{Buffers, UserBuffer};
+use crate::device::Inner;
 use crate::memory::{GpuBuffer, Location};
+use crate::objects::{Buffers, UserBuffer};
 use ash::vk;
 use optik_accel::decode::BufferBytes;
 use optik_api::{Buffer, Error, Result};

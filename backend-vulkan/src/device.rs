@@ -10,19 +10,19 @@
 //! modules named as in every backend (`accel`, `pipeline`, `sbt`, `launch`), plus `buffer`
 //! and `texture`, passing the tables they read.
 
-use crate::accel::{AccelObject, Proxy, SceneTables, Tlas};
+use crate::accel::{Proxy, SceneTables, Tlas};
 use crate::cache::PipelineCache;
 use crate::commands::{Commands, Submission};
 use crate::context::{Context, VulkanOptions};
 use crate::launch::InFlight;
-use crate::memory::{Allocator, GpuBuffer};
-use crate::pipeline::{GroupObject, ModuleObject, PipelineObject};
-use crate::objects::{Objects, Unfreed};
+use crate::memory::Allocator;
+use crate::objects::{
+    AccelObject, Accels, GroupObject, MicromapArrayObject, ModuleObject, Objects, PipelineObject,
+    TextureObject, Unfreed, UserBuffer,
+};
 use crate::probe::VulkanDeviceInfo;
-use crate::texture::TextureObject;
 use ash::vk;
 use optik_api::*;
-use optik_core::HandleTable;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, MutexGuard};
 

@@ -11,10 +11,10 @@
 
 use crate::accel::scene_features;
 use crate::commands::Submission;
-use crate::device::{Inner};
-use crate::objects::{Accels, Objects};
+use crate::device::Inner;
 use crate::error::VkResultExt;
 use crate::memory::{GpuBuffer, Location};
+use crate::objects::{Accels, Objects};
 use crate::program::LoweringConfig;
 use crate::sbt::TranslatedSbt;
 use ash::vk;

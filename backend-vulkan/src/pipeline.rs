@@ -12,10 +12,10 @@
 //! the pipeline's depths, as OptiX's `optixUtilComputeStackSizes` does.
 
 use crate::accel::scene_features;
-use crate::device::{Inner};
-use crate::objects::{Objects};
+use crate::device::Inner;
 use crate::error::VkResultExt;
 use crate::memory::Allocator;
+use crate::objects::Objects;
 use crate::program::{
     self, HitContext, LoweringConfig, ModuleText, StageRole, TriangleMode, VkStage,
 };

@@ -20,9 +20,9 @@
 //! the scene's reach, so a launch loop over an unchanged table reads nothing back.
 
 use crate::buffer::snapshot_view;
-use crate::device::{Inner};
-use crate::objects::{Objects};
+use crate::device::Inner;
 use crate::memory::{Allocator, GpuBuffer, Location};
+use crate::objects::Objects;
 use crate::pipeline::{GroupHandles, PipelineObject};
 use crate::program::device_api::SBT_DATA_WORDS;
 use ash::vk;

@@ -16,19 +16,23 @@
 //! failed creation, update or launch leaves the device as it was: a structure enters the
 //! scene (under the handle core will give it) only once nothing can fail any more. On a lost
 //! device every call fails with `ErrorKind::DeviceLost` before core looks at its arguments
-//! (`Backend::alive`), so objects stay in core's tables until the device is dropped. Dropping the device drops every object (core hands them back) before the
-//! scene they were stored in.
+//! (`Backend::alive`), so objects stay in core's tables until the device is dropped.
+//! Dropping the device drops every object (core hands them back) before the scene they
+//! were stored in.
 
 use crate::accel::geometry;
 use crate::accel::instances::{self, ChildInfo};
-use crate::accel::{self, AccelObject, Refit, Scene};
-use crate::objects::{BufferObject, TextureObject};
+use crate::accel::{self, Refit, Scene};
 use crate::gpu::Gpu;
 use crate::kernel::Sizes;
-use crate::pipeline::{self, PipelineObject};
-use crate::program::{GroupObject, ModuleObject, ModuleSource};
+use crate::objects::{
+    AccelObject, BufferObject, GroupObject, MicromapArrayData, ModuleObject, PipelineObject,
+    TextureObject,
+};
+use crate::pipeline;
+use crate::program::ModuleSource;
+use optik_accel::MicromapLookup;
 use optik_accel::decode::BufferBytes;
-use optik_accel::{MicromapArrayData, MicromapLookup};
 use optik_api::{
     Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BufferView,
     BuildInput, BuildOperation, DeviceId, DeviceProperties, Error, FeatureSet, GroupRegion, Handle,

@@ -25,9 +25,9 @@ pub use tables::SceneTables;
 pub use transform::{Proxy, Transform};
 
 use crate::buffer::snapshot_view;
-use crate::device::{Inner};
-use crate::objects::{Accels, Buffers, Objects, Unfreed};
+use crate::device::Inner;
 use crate::memory::{Allocator, GpuBuffer, Location};
+use crate::objects::{Accels, Buffers, Objects, Unfreed};
 use ash::vk;
 use flatten::{FlatInstance, vk_flags};
 use geometry::{DecodedGas, DecodedGeometry, GasKind};

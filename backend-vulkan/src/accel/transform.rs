@@ -6,9 +6,9 @@ use super::motion::{self, Aabb, ChainLink};
 use super::tables::{self, NONE};
 use super::vkas::{AsBuffer, BuildTarget, VkGeometry};
 use super::{AccelObject, Tlas};
-use crate::device::{Inner};
-use crate::objects::{Accels};
+use crate::device::Inner;
 use crate::memory::{GpuBuffer, Location};
+use crate::objects::Accels;
 use ash::vk;
 use optik_api::*;
 
