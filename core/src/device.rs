@@ -50,6 +50,27 @@ impl<B: Backend> Device<B> {
         self.objects.lock().unwrap_or_else(|e| e.into_inner())
     }
 
+    /// The objects, locked, once the backend says the device works.
+    fn lock(&self) -> Result<MutexGuard<'_, Objects<B>>> {
+        self.backend.alive()?;
+        Ok(self.objects())
+    }
+
+    /// Checks build inputs against the live buffers; their motion key count.
+    fn check_inputs(
+        &self,
+        objects: &Objects<B>,
+        options: &AccelBuildOptions,
+        inputs: &[BuildInput],
+    ) -> Result<usize> {
+        validate::build_inputs(
+            options,
+            inputs,
+            self.backend.properties(),
+            &sizes(&self.backend, objects),
+        )
+    }
+
     /// The build record of `accel`, refusing transforms in `call`.
     fn built(
         &self,
@@ -177,8 +198,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn set_accuracy(&self, accuracy: Accuracy) -> Result<()> {
-        self.backend.alive()?;
-        self.backend.set_accuracy(&self.objects(), accuracy)
+        self.backend.set_accuracy(&*self.lock()?, accuracy)
     }
 
     fn create_buffer(&self, size: u64) -> Result<Buffer> {
@@ -189,8 +209,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn write_buffer(&self, buffer: Buffer, offset: u64, data: &[u8]) -> Result<()> {
-        self.backend.alive()?;
-        let mut objects = self.objects();
+        let mut objects = self.lock()?;
         validate::buffer_range(
             "write_buffer",
             buffer,
@@ -203,8 +222,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn read_buffer(&self, buffer: Buffer, offset: u64, out: &mut [u8]) -> Result<()> {
-        self.backend.alive()?;
-        let mut objects = self.objects();
+        let mut objects = self.lock()?;
         validate::buffer_range(
             "read_buffer",
             buffer,
@@ -217,13 +235,11 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn buffer_size(&self, buffer: Buffer) -> Result<u64> {
-        self.backend.alive()?;
-        sizes(&self.backend, &self.objects())(buffer)
+        sizes(&self.backend, &*self.lock()?)(buffer)
     }
 
     fn destroy_buffer(&self, buffer: Buffer) -> Result<()> {
-        self.backend.alive()?;
-        let b = self.objects().buffers.remove(buffer)?;
+        let b = self.lock()?.buffers.remove(buffer)?;
         self.backend.destroy_buffer(b)
     }
 
@@ -235,16 +251,14 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn write_texture(&self, texture: Texture, data: &[u8]) -> Result<()> {
-        self.backend.alive()?;
-        let mut objects = self.objects();
+        let mut objects = self.lock()?;
         let t = objects.textures.get_mut(texture)?;
         validate::texture_data(&self.backend.texture_desc(t), data)?;
         self.backend.write_texture(t, data)
     }
 
     fn destroy_texture(&self, texture: Texture) -> Result<()> {
-        self.backend.alive()?;
-        let t = self.objects().textures.remove(texture)?;
+        let t = self.lock()?.textures.remove(texture)?;
         self.backend.destroy_texture(t)
     }
 
@@ -253,27 +267,15 @@ impl<B: Backend> optik_api::Device for Device<B> {
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<AccelBufferSizes> {
-        self.backend.alive()?;
-        let mut objects = self.objects();
-        let keys = validate::build_inputs(
-            options,
-            inputs,
-            self.backend.properties(),
-            &sizes(&self.backend, &objects),
-        )?;
+        let mut objects = self.lock()?;
+        let keys = self.check_inputs(&objects, options, inputs)?;
         self.backend
             .accel_memory_usage(&mut objects, options, inputs, keys)
     }
 
     fn accel_build(&self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<Accel> {
-        self.backend.alive()?;
-        let mut objects = self.objects();
-        let keys = validate::build_inputs(
-            options,
-            inputs,
-            self.backend.properties(),
-            &sizes(&self.backend, &objects),
-        )?;
+        let mut objects = self.lock()?;
+        let keys = self.check_inputs(&objects, options, inputs)?;
         if options.operation != BuildOperation::Build {
             return Err(Error::invalid(
                 "accel_build needs build_options.operation = Build; refit an existing structure with accel_update",
@@ -292,23 +294,16 @@ impl<B: Backend> optik_api::Device for Device<B> {
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<()> {
-        self.backend.alive()?;
-        let mut objects = self.objects();
+        let mut objects = self.lock()?;
         let (built_with, built_inputs) = self.built(&objects, accel, "accel_update")?;
         validate::update(&built_with, &built_inputs, options, inputs)?;
-        validate::build_inputs(
-            options,
-            inputs,
-            self.backend.properties(),
-            &sizes(&self.backend, &objects),
-        )?;
+        self.check_inputs(&objects, options, inputs)?;
         self.backend
             .accel_update(&mut objects, accel, options, inputs)
     }
 
     fn accel_compact(&self, accel: Accel) -> Result<Accel> {
-        self.backend.alive()?;
-        let mut objects = self.objects();
+        let mut objects = self.lock()?;
         let (built_with, _) = self.built(&objects, accel, "accel_compact")?;
         if !built_with.flags.contains(BuildFlags::ALLOW_COMPACTION) {
             return Err(Error::invalid(
@@ -321,8 +316,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn accel_size(&self, accel: Accel) -> Result<u64> {
-        self.backend.alive()?;
-        Ok(self.backend.accel_size(self.objects().accels.get(accel)?))
+        Ok(self.backend.accel_size(self.lock()?.accels.get(accel)?))
     }
 
     fn create_transform(&self, desc: &TransformDesc) -> Result<Accel> {
@@ -345,22 +339,19 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn traversable_handle(&self, accel: Accel) -> Result<TraversableHandle> {
-        self.backend.alive()?;
-        let objects = self.objects();
+        let objects = self.lock()?;
         self.backend
             .traversable_handle(accel, objects.accels.get(accel)?)
     }
 
     fn destroy_accel(&self, accel: Accel) -> Result<()> {
-        self.backend.alive()?;
-        let mut objects = self.objects();
+        let mut objects = self.lock()?;
         let object = objects.accels.remove(accel)?;
         self.backend.destroy_accel(&mut objects, accel, object)
     }
 
     fn destroy_micromap_array(&self, array: MicromapArray) -> Result<()> {
-        self.backend.alive()?;
-        let array = self.objects().micromaps.remove(array)?;
+        let array = self.lock()?.micromaps.remove(array)?;
         self.backend.destroy_micromap_array(array)
     }
 
@@ -385,14 +376,12 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn destroy_module(&self, module: Module) -> Result<()> {
-        self.backend.alive()?;
-        let module = self.objects().modules.remove(module)?;
+        let module = self.lock()?.modules.remove(module)?;
         self.backend.destroy_module(module)
     }
 
     fn create_program_groups(&self, descs: &[ProgramGroupDesc]) -> Result<Vec<ProgramGroup>> {
-        self.backend.alive()?;
-        let mut objects = self.objects();
+        let mut objects = self.lock()?;
         for (i, desc) in descs.iter().enumerate() {
             self.check_group(&objects, i, desc)?;
         }
@@ -404,8 +393,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn destroy_program_group(&self, group: ProgramGroup) -> Result<()> {
-        self.backend.alive()?;
-        let group = self.objects().groups.remove(group)?;
+        let group = self.lock()?.groups.remove(group)?;
         self.backend.destroy_program_group(group)
     }
 
@@ -457,14 +445,12 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn destroy_pipeline(&self, pipeline: Pipeline) -> Result<()> {
-        self.backend.alive()?;
-        let pipeline = self.objects().pipelines.remove(pipeline)?;
+        let pipeline = self.lock()?.pipelines.remove(pipeline)?;
         self.backend.destroy_pipeline(pipeline)
     }
 
     fn sbt_record_pack_header(&self, group: ProgramGroup) -> Result<[u8; 32]> {
-        self.backend.alive()?;
-        let region = self.backend.group_region(self.objects().groups.get(group)?);
+        let region = self.backend.group_region(self.lock()?.groups.get(group)?);
         Ok(SbtHeader::pack(group, region))
     }
 
@@ -477,8 +463,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
         size: LaunchSize,
         options: &LaunchOptions,
     ) -> Result<()> {
-        self.backend.alive()?;
-        let mut objects = self.objects();
+        let mut objects = self.lock()?;
         let bindings = self
             .backend
             .pipeline_bindings(objects.pipelines.get(pipeline)?);
