@@ -23,10 +23,16 @@ use std::time::Instant;
 pub const RAY_FLOATS: usize = 8;
 /// Words per hit in the output: t, prim, inst, u, v.
 const HIT_WORDS: usize = 5;
-/// Rays per launch: 2^20 rays bind 32 MiB of rays and 20 MiB of hits, under the smallest
-/// storage binding limit WebGPU and Vulkan guarantee (128 MiB; lavapipe's), so any number
-/// of rays the host holds can be traced (a launch per batch).
-pub const BATCH_RAYS: usize = 1 << 20;
+/// Rays per launch by default on `properties`: as many as one binding holds (a ray takes
+/// 32 bytes, its hit 20) and one launch allows, so that any number of rays the host holds
+/// can be traced (a launch per batch; 2^22 rays on lavapipe's 128 MiB bindings) while a
+/// GPU with large bindings gets all its rays in one launch: every launch ends in a tail of
+/// few busy threads, which splitting would repeat.
+pub fn default_batch_rays(properties: &crate::DeviceProperties) -> usize {
+    let by_binding = properties.max_binding_size / (RAY_FLOATS * 4) as u64;
+    let rays = by_binding.min(properties.max_launch_size).max(1);
+    usize::try_from(rays).unwrap_or(usize::MAX)
+}
 
 /// Launch width; the height covers the rest of the rays.
 const LAUNCH_WIDTH: u32 = 4096;
@@ -235,6 +241,7 @@ impl<'d> RayCaster<'d> {
             }),
             callables: None,
         };
+        let batch_rays = default_batch_rays(device.properties());
         Ok(RayCaster {
             device,
             accel,
@@ -243,7 +250,7 @@ impl<'d> RayCaster<'d> {
             sbt,
             owned,
             build_seconds,
-            batch_rays: BATCH_RAYS,
+            batch_rays,
         })
     }
 
@@ -252,7 +259,7 @@ impl<'d> RayCaster<'d> {
         self.device.pipeline_features(self.pipeline)
     }
 
-    /// Rays per launch from now on (at least 1; the default is [`BATCH_RAYS`]).
+    /// Rays per launch from now on (at least 1; the default is [`default_batch_rays`]).
     pub fn set_batch_rays(&mut self, rays: usize) {
         self.batch_rays = rays.max(1);
     }
@@ -430,6 +437,25 @@ mod tests {
             vec![[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]],
             vec![[0, 1, 2]],
         )
+    }
+
+    #[test]
+    fn a_batch_fills_one_binding_within_the_launch_limit() {
+        let device = crate::open_backend(crate::BackendKind::Cpu).unwrap();
+        let mut props = device.properties().clone();
+        // The CPU binds any buffer: the launch limit decides.
+        assert_eq!(default_batch_rays(&props) as u64, props.max_launch_size);
+        // lavapipe's 128 MiB storage bindings hold 2^22 rays of 32 bytes.
+        props.max_binding_size = 128 << 20;
+        assert_eq!(default_batch_rays(&props), 1 << 22);
+        props.max_binding_size = 16;
+        assert_eq!(default_batch_rays(&props), 1, "at least one ray per launch");
+        let (p, t) = triangle();
+        let caster = RayCaster::new(device.as_ref(), &p, &t).unwrap();
+        assert_eq!(
+            caster.batch_rays as u64,
+            device.properties().max_launch_size
+        );
     }
 
     #[test]

@@ -85,6 +85,9 @@ pub struct DeviceProperties {
     pub max_launch_size: u64,
     /// Largest buffer in bytes.
     pub max_buffer_size: u64,
+    /// Largest byte range one buffer resource of a launch may bind (a GPU's storage binding
+    /// limit: 128 MiB on lavapipe); bind ranges of a larger buffer and launch in parts.
+    pub max_binding_size: u64,
     /// The backend.
     pub backend: BackendKind,
     /// The device's name (the CPU model, the GPU adapter).

@@ -134,6 +134,7 @@ impl CpuBackend {
             max_attribute_values: 8,
             max_launch_size: 1 << 32,
             max_buffer_size: 1 << 40,
+            max_binding_size: 1 << 40,
             backend: BackendKind::Cpu,
             device_name: format!(
                 "{} (optik-cpu, {} threads)",

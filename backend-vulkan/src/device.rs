@@ -232,6 +232,7 @@ fn properties(info: &VulkanDeviceInfo) -> DeviceProperties {
         // bound keeps linear launch indices in a u32, as on the wgpu backend.
         max_launch_size: 1 << 31,
         max_buffer_size: info.device_local_heap.max(1 << 30),
+        max_binding_size: info.max_storage_buffer_range as u64,
         backend: BackendKind::Vulkan,
         device_name: format!("{} (Vulkan, {})", info.name, info.driver_name),
     }

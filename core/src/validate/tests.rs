@@ -23,6 +23,7 @@ fn props() -> DeviceProperties {
         max_attribute_values: 8,
         max_launch_size: 1 << 20,
         max_buffer_size: 1 << 30,
+        max_binding_size: 1 << 27,
         backend: optik_api::device::BackendKind::Cpu,
         device_name: "test".into(),
     }
