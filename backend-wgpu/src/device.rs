@@ -112,7 +112,7 @@ impl WgpuBackend {
             max_attribute_values: 8,
             max_launch_size: 1 << 31,
             max_buffer_size: gpu.limits.max_buffer_size,
-            max_binding_size: gpu.limits.max_storage_buffer_binding_size as u64,
+            max_binding_size: gpu.limits.max_storage_buffer_binding_size,
             backend: BackendKind::Wgpu,
             device_name: gpu.info.name.clone(),
         };
