@@ -128,8 +128,9 @@ fn signed_zero_directions_agree() {
 /// `optik trace` splits its rays into launches that each bind less than a device's storage
 /// binding limit (the GPU backends failed with a binding-range error above 4,194,304 rays on
 /// lavapipe's 128 MiB limit). Tested small: a wgpu device capped at 16 KiB per binding
-/// refuses one launch over 4,000 rays (128 KB of rays) with an error naming the limit, and
-/// traces them all in batches; on the CPU device batches give the hits of one launch.
+/// traces 4,000 rays in batches of what one binding holds by default, refuses one launch
+/// of all of them (128 KB of rays) with an error naming the limit, and gives the same hits
+/// in batches of any size; on the CPU device batches give the hits of one launch.
 #[test]
 fn rays_beyond_a_binding_limit_trace_in_batches() {
     use optik::backends::wgpu::{WgpuBackend, WgpuDevice, WgpuOptions};
@@ -160,11 +161,16 @@ fn rays_beyond_a_binding_limit_trace_in_batches() {
         }
     };
     let mut caster = RayCaster::new(&gpu, &mesh.positions, &mesh.triangles).expect("build");
+    // By default a batch fills one binding: 16 KiB hold 512 rays of 32 bytes.
+    assert_eq!(gpu.properties().max_binding_size, 16 << 10);
+    assert_eq!(caster.upload(&rays).expect("upload").batches(), 8);
+    let (hits, _) = caster.cast(&rays, 1).expect("batches of 16 KB");
+    caster.set_batch_rays(4000);
     let e = caster.cast(&rays, 1).expect_err("one launch binds 128 KB");
     assert_eq!(e.kind(), optik::ErrorKind::LimitExceeded, "{e}");
     assert!(e.message().contains("at most 16384 bytes"), "{e}");
     caster.set_batch_rays(500);
-    let (hits, _) = caster.cast(&rays, 1).expect("batches of 16 KB");
+    assert_eq!(caster.cast(&rays, 1).expect("batches of 500").0, hits);
     assert_eq!(hits.t.len(), 4000);
     assert!(hits.prim.iter().all(|&p| p != u32::MAX), "a ray escaped");
     // Ties at shared edges may go to either triangle across backends; the batch size
