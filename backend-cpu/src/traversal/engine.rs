@@ -312,51 +312,35 @@ impl<S: Spec> Walker<'_, S> {
                     for k in 0..TriangleBlock::blocks_of(count) {
                         let block = &wide.blocks[(first + k) as usize];
                         let lanes = TriangleBlock::lane_mask(count, k);
-                        if S::WATERTIGHT {
-                            let hits = triangle::watertight4(&wr, block, lanes, tmin, h.t_max());
-                            let mut mask = hits.mask;
-                            while mask != 0 {
-                                let lane = mask.trailing_zeros() as usize;
-                                mask &= mask - 1;
-                                let hit = hits.lane(lane);
-                                // A hit an earlier lane's commit moved beyond the interval
-                                // is one the scalar order would not have found (`t` of a
-                                // hit is a number, so `>=` is `!<`).
-                                if hit.t >= h.t_max() {
-                                    continue;
-                                }
-                                let s = block.slots[lane] as usize;
-                                // The block holds the vertices key 0 holds (bit for bit), in
-                                // lines already loaded: reading the slot's key-0 copy cost a
-                                // cache miss per candidate.
-                                let tri = std::array::from_fn(|v| {
-                                    std::array::from_fn(|a| block.vertices[v][a][lane])
-                                });
-                                let info = &block.infos[lane];
-                                self.triangle_hit_at(g, s, info, tri, hit, path, h);
-                                if h.done() {
-                                    return;
-                                }
-                            }
+                        // Both tests run on the block's four lanes at once (bit for bit as
+                        // their scalar forms).
+                        let hits = if S::WATERTIGHT {
+                            triangle::watertight4(&wr, block, lanes, tmin, h.t_max())
                         } else {
-                            for lane in 0..4 {
-                                if lanes >> lane & 1 == 0 {
-                                    continue;
-                                }
-                                let tri = std::array::from_fn(|v| {
-                                    std::array::from_fn(|a| block.vertices[v][a][lane])
-                                });
-                                let Some(hit) =
-                                    triangle::moller_trumbore(&pr, &tri, tmin, h.t_max())
-                                else {
-                                    continue;
-                                };
-                                let s = block.slots[lane] as usize;
-                                let info = &block.infos[lane];
-                                self.triangle_hit_at(g, s, info, tri, hit, path, h);
-                                if h.done() {
-                                    return;
-                                }
+                            triangle::moller_trumbore4(&wr, block, lanes, tmin, h.t_max())
+                        };
+                        let mut mask = hits.mask;
+                        while mask != 0 {
+                            let lane = mask.trailing_zeros() as usize;
+                            mask &= mask - 1;
+                            let hit = hits.lane(lane);
+                            // A hit an earlier lane's commit moved beyond the interval
+                            // is one the scalar order would not have found (`t` of a
+                            // hit is a number, so `>=` is `!<`).
+                            if hit.t >= h.t_max() {
+                                continue;
+                            }
+                            let s = block.slots[lane] as usize;
+                            // The block holds the vertices key 0 holds (bit for bit), in
+                            // lines already loaded: reading the slot's key-0 copy cost a
+                            // cache miss per candidate.
+                            let tri = std::array::from_fn(|v| {
+                                std::array::from_fn(|a| block.vertices[v][a][lane])
+                            });
+                            let info = &block.infos[lane];
+                            self.triangle_hit_at(g, s, info, tri, hit, path, h);
+                            if h.done() {
+                                return;
                             }
                         }
                     }

@@ -23,7 +23,9 @@ pub use engine::{Candidate, CustomPrimitive, HitData, Path, TraceConfig, TraceRa
 pub use ray::{PreparedRay, SLAB_WIDENING, WideRay};
 pub use slab::{entry as slab_entry, entry4 as slab_entry4};
 pub use sphere::SphereHit;
-pub use triangle::{BlockHits, TriangleHit, moller_trumbore, watertight, watertight4};
+pub use triangle::{
+    BlockHits, TriangleHit, moller_trumbore, moller_trumbore4, watertight, watertight4,
+};
 
 /// The intersectors of the built-in primitives, for tools and the wgpu backend's tests.
 pub mod intersect {

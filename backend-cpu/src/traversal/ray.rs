@@ -78,6 +78,8 @@ impl PreparedRay {
 pub struct WideRay {
     /// Origin, per axis.
     pub origin: [F4; 3],
+    /// Direction, per axis (Möller–Trumbore's four-wide test reads it).
+    pub dir: [F4; 3],
     /// Reciprocal direction, per axis.
     pub inv: [F4; 3],
     /// The exit scale of the box test.
@@ -96,6 +98,7 @@ impl WideRay {
     pub fn new(ray: &PreparedRay) -> WideRay {
         WideRay {
             origin: ray.origin.map(F4::splat),
+            dir: ray.dir.map(F4::splat),
             inv: ray.inv.map(F4::splat),
             exit_scale: F4::splat(ray.exit_scale),
             shear: ray.shear.map(F4::splat),
