@@ -29,6 +29,7 @@ fn _optik_time() -> f32 {
         )
         .as_str(),
     );
+    s.push_str(PRIMITIVE_STRUCTS);
     if !c.motion_structures {
         s.push_str(STATIC_PRIMITIVES);
         if c.box_guard() {
@@ -50,22 +51,14 @@ fn _optik_time() -> f32 {
     s
 }
 
-/// Primitive data of static scenes: key 0 only, Vulkan's object space.
-const STATIC_PRIMITIVES: &str = r#"
+/// What the primitive readers of both kinds of scene return (`live` false when a primitive
+/// vanished at the ray's time).
+const PRIMITIVE_STRUCTS: &str = r#"
 struct _OptikTriangle {
     v0: vec3<f32>,
     v1: vec3<f32>,
     v2: vec3<f32>,
     live: bool,
-}
-
-fn _optik_triangle(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> _OptikTriangle {
-    let a = g0.z + p * 9u;
-    return _OptikTriangle(_optik_data_vec3(a), _optik_data_vec3(a + 3u), _optik_data_vec3(a + 6u), true);
-}
-
-fn _optik_sphere_at(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> vec4<f32> {
-    return _optik_data_vec4(g0.z + p * 4u);
 }
 
 // A curve segment's control points (xyz, radius) and cap bits; `live` false when it vanished.
@@ -76,6 +69,18 @@ struct _OptikSegment {
     p3: vec4<f32>,
     caps: u32,
     live: bool,
+}
+"#;
+
+/// Primitive data of static scenes: key 0 only, Vulkan's object space.
+const STATIC_PRIMITIVES: &str = r#"
+fn _optik_triangle(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> _OptikTriangle {
+    let a = g0.z + p * 9u;
+    return _OptikTriangle(_optik_data_vec3(a), _optik_data_vec3(a + 3u), _optik_data_vec3(a + 6u), true);
+}
+
+fn _optik_sphere_at(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> vec4<f32> {
+    return _optik_data_vec4(g0.z + p * 4u);
 }
 
 fn _optik_segment(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> _OptikSegment {
@@ -140,13 +145,6 @@ fn _optik_geometry_key(g1: vec4<u32>) -> _OptikKey {
     return _optik_key(_optik_data[m], _optik_data[m + 1u], bitcast<f32>(_optik_data[m + 2u]), bitcast<f32>(_optik_data[m + 3u]));
 }
 
-struct _OptikTriangle {
-    v0: vec3<f32>,
-    v1: vec3<f32>,
-    v2: vec3<f32>,
-    live: bool,
-}
-
 // A motion transform above the primitive that vanished at the ray's time hides it too.
 fn _optik_triangle(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> _OptikTriangle {
     let k = _optik_geometry_key(g1);
@@ -176,16 +174,6 @@ fn _optik_sphere_at(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> vec4<f32> {
         s = s * (1.0 - k.frac) + _optik_data_vec4(a + g1.z * 4u) * k.frac;
     }
     return s;
-}
-
-// A curve segment's control points (xyz, radius) and cap bits; `live` false when it vanished.
-struct _OptikSegment {
-    p0: vec4<f32>,
-    p1: vec4<f32>,
-    p2: vec4<f32>,
-    p3: vec4<f32>,
-    caps: u32,
-    live: bool,
 }
 
 fn _optik_segment(g0: vec4<u32>, g1: vec4<u32>, p: u32) -> _OptikSegment {
