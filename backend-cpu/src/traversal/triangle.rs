@@ -496,6 +496,28 @@ mod tests {
         b
     }
 
+    /// Checks a block test's hits against its scalar form, lane by lane and bit for bit
+    /// (masked lanes have none); the number of hits.
+    fn assert_lanes_match(
+        block_index: usize,
+        tris: &[[[f32; 3]; 3]],
+        lanes: u32,
+        got: &BlockHits,
+        scalar: impl Fn(&[[f32; 3]; 3]) -> Option<TriangleHit>,
+    ) -> u32 {
+        let bits = |h: Option<TriangleHit>| {
+            h.map(|h| (h.t.to_bits(), h.u.to_bits(), h.v.to_bits(), h.front))
+        };
+        let mut hits = 0;
+        for (lane, tri) in tris.iter().enumerate() {
+            let want = (lanes >> lane & 1 == 1).then(|| scalar(tri)).flatten();
+            let have = (got.mask >> lane & 1 == 1).then(|| got.lane(lane));
+            assert_eq!(bits(want), bits(have), "block {block_index} lane {lane}");
+            hits += want.is_some() as u32;
+        }
+        hits
+    }
+
     #[test]
     fn four_lanes_agree_with_the_scalar_test_bit_for_bit() {
         let mut rng = Rng(5);
@@ -536,20 +558,10 @@ mod tests {
                 (0.0, f32::INFINITY)
             };
             let got = watertight4(&WideRay::new(&r), &block(&tris), lanes, tmin, tmax);
-            for (lane, tri) in tris.iter().enumerate() {
-                let want = if lanes >> lane & 1 == 1 {
-                    watertight(&r, tri, tmin, tmax)
-                } else {
-                    None
-                };
-                let have = (got.mask >> lane & 1 == 1).then(|| got.lane(lane));
-                let bits = |h: Option<TriangleHit>| {
-                    h.map(|h| (h.t.to_bits(), h.u.to_bits(), h.v.to_bits(), h.front))
-                };
-                assert_eq!(bits(want), bits(have), "block {i} lane {lane}");
-                hits += want.is_some() as u32;
-                exact += (i % 4 == 0 && want.is_some()) as u32;
-            }
+            let found =
+                assert_lanes_match(i, &tris, lanes, &got, |t| watertight(&r, t, tmin, tmax));
+            hits += found;
+            exact += if i % 4 == 0 { found } else { 0 };
         }
         assert!(hits > 2000 && exact > 500, "{hits} {exact}");
     }
@@ -581,19 +593,9 @@ mod tests {
                 (0.0, f32::INFINITY)
             };
             let got = moller_trumbore4(&WideRay::new(&r), &block(&tris), lanes, tmin, tmax);
-            for (lane, tri) in tris.iter().enumerate() {
-                let want = if lanes >> lane & 1 == 1 {
-                    moller_trumbore(&r, tri, tmin, tmax)
-                } else {
-                    None
-                };
-                let have = (got.mask >> lane & 1 == 1).then(|| got.lane(lane));
-                let bits = |h: Option<TriangleHit>| {
-                    h.map(|h| (h.t.to_bits(), h.u.to_bits(), h.v.to_bits(), h.front))
-                };
-                assert_eq!(bits(want), bits(have), "block {i} lane {lane}");
-                hits += want.is_some() as u32;
-            }
+            hits += assert_lanes_match(i, &tris, lanes, &got, |t| {
+                moller_trumbore(&r, t, tmin, tmax)
+            });
         }
         assert!(hits > 2000, "{hits}");
     }
