@@ -408,6 +408,8 @@ impl optik_core::Backend for WgpuBackend {
         self.id
     }
 
+    /// optik-core asks this before every call, so the methods below do not check again
+    /// before they start; those that reach the GPU look again after (a loss during the call).
     fn alive(&self) -> Result<()> {
         self.gpu.check()
     }
@@ -435,17 +437,14 @@ impl optik_core::Backend for WgpuBackend {
     }
 
     fn create_buffer(&self, size: u64) -> Result<BufferObject> {
-        self.gpu.check()?;
         BufferObject::create(&self.gpu, size)
     }
 
     fn write_buffer(&self, buffer: &mut BufferObject, offset: u64, data: &[u8]) -> Result<()> {
-        self.gpu.check()?;
         buffer.write(&self.gpu, offset, data)
     }
 
     fn read_buffer(&self, buffer: &mut BufferObject, offset: u64, out: &mut [u8]) -> Result<()> {
-        self.gpu.check()?;
         buffer.read(&self.gpu, offset, out)
     }
 
@@ -459,12 +458,10 @@ impl optik_core::Backend for WgpuBackend {
     }
 
     fn create_texture(&self, desc: &TextureDesc) -> Result<TextureObject> {
-        self.gpu.check()?;
         TextureObject::create(&self.gpu, desc)
     }
 
     fn write_texture(&self, texture: &mut TextureObject, data: &[u8]) -> Result<()> {
-        self.gpu.check()?;
         texture.write(&self.gpu, data)
     }
 
@@ -655,12 +652,10 @@ impl optik_core::Backend for WgpuBackend {
         &self,
         desc: &OpacityMicromapArrayDesc,
     ) -> Result<Arc<MicromapArrayData>> {
-        self.gpu.check()?;
         Ok(Arc::new(MicromapArrayData::new(desc)))
     }
 
     fn traversable_handle(&self, handle: Accel, _accel: &AccelObject) -> Result<TraversableHandle> {
-        self.gpu.check()?;
         Ok(accel::handle_of(self.id, handle))
     }
 
@@ -715,7 +710,6 @@ impl optik_core::Backend for WgpuBackend {
         objects: &WgpuObjects,
         descs: &[ProgramGroupDesc],
     ) -> Result<Vec<GroupObject>> {
-        self.gpu.check()?;
         descs
             .iter()
             .enumerate()
@@ -774,7 +768,6 @@ impl optik_core::Backend for WgpuBackend {
         objects: &WgpuObjects,
         groups: &[ProgramGroup],
     ) -> Result<optik_api::ProgramFeatures> {
-        self.gpu.check()?;
         Ok(pipeline::program_features(&objects.groups_of(groups)?))
     }
 
