@@ -341,6 +341,62 @@ mod tests {
         }
     }
 
+    /// obvhs's parallel build (PLOC, reinsertion, leaf collapse on the caller's rayon pool)
+    /// splits its work by the pool's thread count; the tree must not depend on it, or
+    /// results would change with `--threads` where ties between coplanar triangles follow
+    /// the tree (docs/cpu-backend.md, "BVH").
+    #[test]
+    fn builds_are_the_same_tree_on_any_number_of_threads() {
+        // Many boxes with equal Morton codes and equal areas: ties at every step.
+        let mut state = 7u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let boxes: Vec<Aabb> = (0..40_000)
+            .map(|i| {
+                if i % 4 == 0 {
+                    unit_box((i % 97) as f32)
+                } else {
+                    let c = [next() * 100.0, next() * 100.0, next() * 5.0];
+                    Aabb {
+                        min: c,
+                        max: [c[0] + next(), c[1] + next(), c[2]],
+                    }
+                }
+            })
+            .collect();
+        for q in [
+            BuildQuality::FastBuild,
+            BuildQuality::Balanced,
+            BuildQuality::FastTrace,
+        ] {
+            let build = |threads: usize| {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .expect("a thread pool");
+                pool.install(|| Bvh::build(&boxes, q)).expect("a build")
+            };
+            let (one, one_order) = build(1);
+            check_structure(&one, &one_order, &boxes);
+            let bytes = |b: &Bvh| bytemuck::cast_slice::<NodePair, u8>(&b.pairs).to_vec();
+            for threads in [2, 3, 8] {
+                let (many, many_order) = build(threads);
+                assert_eq!(
+                    many_order, one_order,
+                    "{q:?}, {threads} threads: slot order"
+                );
+                assert!(
+                    bytes(&many) == bytes(&one),
+                    "{q:?}, {threads} threads: nodes"
+                );
+            }
+        }
+    }
+
     #[test]
     fn invalid_boxes_get_no_slot() {
         let mut boxes: Vec<Aabb> = (0..10).map(|i| unit_box(i as f32)).collect();

@@ -359,16 +359,21 @@ impl optik_core::Backend for CpuBackend {
             buffers: &objects.buffers,
             micromaps: &objects.micromaps,
         };
-        let traversable = match &inputs[0] {
-            BuildInput::Instances(ia) => Traversable::Instances(Ias::build(
-                options,
-                ia,
-                &data,
-                &st.scene,
-                self.props.max_traversable_graph_depth,
-            )?),
-            _ => Traversable::Geometry(Gas::build(options, inputs, &data, &data)?),
-        };
+        // obvhs builds in parallel on the current rayon pool: the device's launch pool, so a
+        // device set to one thread builds on one (the tree is the same on any number).
+        let pool = self.pool.lock().unwrap_or_else(|e| e.into_inner()).clone();
+        let traversable = pool.install(|| -> Result<Traversable> {
+            Ok(match &inputs[0] {
+                BuildInput::Instances(ia) => Traversable::Instances(Ias::build(
+                    options,
+                    ia,
+                    &data,
+                    &st.scene,
+                    self.props.max_traversable_graph_depth,
+                )?),
+                _ => Traversable::Geometry(Gas::build(options, inputs, &data, &data)?),
+            })
+        })?;
         let size = accel::memory_usage(inputs, keys)
             .output_size_in_bytes
             .max(traversable.size_in_bytes());

@@ -1,7 +1,7 @@
 //! The traversal loop: graphs of instances and transforms down to geometry, BVH walks,
 //! primitive tests, culling and flag resolution.
 
-use super::ray::{PreparedRay, WideRay};
+use super::ray::{PreparedRay, TriangleLanes, WideRay};
 use super::simd::F4;
 use super::{Handler, Spec, curve, slab, sphere, triangle};
 use crate::accel::curve_basis::BezierSegment;
@@ -297,55 +297,15 @@ impl<S: Spec> Walker<'_, S> {
             },
             _ => KeyPosition { key: 0, t: 0.0 },
         };
-        let pr = PreparedRay::new(path.object_origin, path.object_direction, S::CONSERVATIVE);
-        let wr = WideRay::new(&pr);
         let tmin = self.ray.tmin;
         let flags = self.ray.flags;
         let wide = &g.encoding;
+        if matches!(g.geometry, Geometry::Triangles(_)) && !wide.blocks.is_empty() {
+            return self.triangle_blocks(g, path, h);
+        }
+        let pr = PreparedRay::new(path.object_origin, path.object_direction, S::CONSERVATIVE);
+        let wr = WideRay::of(&pr);
         match &g.geometry {
-            Geometry::Triangles(_) if !wide.blocks.is_empty() => {
-                // A zero direction hits no triangle (the scalar tests say so per triangle).
-                if !pr.moves {
-                    return;
-                }
-                walk_wide(wide, &wr, tmin, h, |h, first, count| {
-                    for k in 0..TriangleBlock::blocks_of(count) {
-                        let block = &wide.blocks[(first + k) as usize];
-                        let lanes = TriangleBlock::lane_mask(count, k);
-                        // Both tests run on the block's four lanes at once (bit for bit as
-                        // their scalar forms).
-                        let hits = if S::WATERTIGHT {
-                            triangle::watertight4(&wr, block, lanes, tmin, h.t_max())
-                        } else {
-                            triangle::moller_trumbore4(&wr, block, lanes, tmin, h.t_max())
-                        };
-                        let mut mask = hits.mask;
-                        while mask != 0 {
-                            let lane = mask.trailing_zeros() as usize;
-                            mask &= mask - 1;
-                            let hit = hits.lane(lane);
-                            // A hit an earlier lane's commit moved beyond the interval
-                            // is one the scalar order would not have found (`t` of a
-                            // hit is a number, so `>=` is `!<`).
-                            if hit.t >= h.t_max() {
-                                continue;
-                            }
-                            let s = block.slots[lane] as usize;
-                            // The block holds the vertices key 0 holds (bit for bit), in
-                            // lines already loaded: reading the slot's key-0 copy cost a
-                            // cache miss per candidate.
-                            let tri = std::array::from_fn(|v| {
-                                std::array::from_fn(|a| block.vertices[v][a][lane])
-                            });
-                            let info = &block.infos[lane];
-                            self.triangle_hit_at(g, s, info, tri, hit, path, h);
-                            if h.done() {
-                                return;
-                            }
-                        }
-                    }
-                })
-            }
             Geometry::Triangles(tris) => walk_wide(wide, &wr, tmin, h, |h, first, count| {
                 for s in first as usize..(first + count) as usize {
                     let tri = lerp_key(&tris.keys, at, s, |a, b, f| {
@@ -455,6 +415,66 @@ impl<S: Spec> Walker<'_, S> {
 }
 
 impl<S: Spec> Walker<'_, S> {
+    /// The 4-wide triangle blocks of a static triangle structure. Only the box test's
+    /// constants are prepared up front; the triangle tests' (the watertight shear, two
+    /// divisions) wait for the first leaf the ray reaches.
+    #[inline(always)]
+    fn triangle_blocks<H: Handler>(&self, g: &Gas, path: &Path, h: &mut H) {
+        let wr = WideRay::new(path.object_origin, path.object_direction, S::CONSERVATIVE);
+        // A zero direction hits no triangle (the scalar tests say so per triangle).
+        if !wr.moves() {
+            return;
+        }
+        let tmin = self.ray.tmin;
+        let wide = &g.encoding;
+        let mut lanes_of_ray: Option<TriangleLanes> = None;
+        walk_wide(wide, &wr, tmin, h, |h, first, count| {
+            // The triangle constants, once the ray reaches its first leaf.
+            let lanes_of_ray = lanes_of_ray.get_or_insert_with(|| {
+                if S::WATERTIGHT {
+                    TriangleLanes::new(&wr)
+                } else {
+                    TriangleLanes::for_moller_trumbore(&wr)
+                }
+            });
+            for k in 0..TriangleBlock::blocks_of(count) {
+                let block = &wide.blocks[(first + k) as usize];
+                let lanes = TriangleBlock::lane_mask(count, k);
+                // Both tests run on the block's four lanes at once (bit for bit as
+                // their scalar forms).
+                let hits = if S::WATERTIGHT {
+                    triangle::watertight4(&wr, lanes_of_ray, block, lanes, tmin, h.t_max())
+                } else {
+                    triangle::moller_trumbore4(&wr, lanes_of_ray, block, lanes, tmin, h.t_max())
+                };
+                let mut mask = hits.mask;
+                while mask != 0 {
+                    let lane = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let hit = hits.lane(lane);
+                    // A hit an earlier lane's commit moved beyond the interval
+                    // is one the scalar order would not have found (`t` of a
+                    // hit is a number, so `>=` is `!<`).
+                    if hit.t >= h.t_max() {
+                        continue;
+                    }
+                    let s = block.slots[lane] as usize;
+                    // The block holds the vertices key 0 holds (bit for bit), in
+                    // lines already loaded: reading the slot's key-0 copy cost a
+                    // cache miss per candidate.
+                    let tri = std::array::from_fn(|v| {
+                        std::array::from_fn(|a| block.vertices[v][a][lane])
+                    });
+                    let info = &block.infos[lane];
+                    self.triangle_hit_at(g, s, info, tri, hit, path, h);
+                    if h.done() {
+                        return;
+                    }
+                }
+            }
+        })
+    }
+
     /// A triangle's hit (with the slot's record and the vertices it was tested with):
     /// facing, culling, micromap and flag resolution, then the handler's candidate.
     #[allow(clippy::too_many_arguments)]

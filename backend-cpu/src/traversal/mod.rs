@@ -20,7 +20,7 @@ pub use curve::{
     CURVE_TOLERANCE_RADIUS, CURVE_TOLERANCE_SIZE, CurveHit, MAX_DEPTH as CURVE_MAX_DEPTH,
 };
 pub use engine::{Candidate, CustomPrimitive, HitData, Path, TraceConfig, TraceRay, trace};
-pub use ray::{PreparedRay, SLAB_WIDENING, WideRay};
+pub use ray::{PreparedRay, SLAB_WIDENING, TriangleLanes, WideRay};
 pub use slab::{entry as slab_entry, entry4 as slab_entry4};
 pub use sphere::SphereHit;
 pub use triangle::{

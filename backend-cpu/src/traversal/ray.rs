@@ -42,68 +42,195 @@ impl PreparedRay {
     /// Prepares `origin`, `dir` (finite); `conservative` selects the widened reciprocals.
     #[inline]
     pub fn new(origin: [f32; 3], dir: [f32; 3], conservative: bool) -> PreparedRay {
-        let dir = [dir[0] + 0.0, dir[1] + 0.0, dir[2] + 0.0];
-        let inv = [1.0 / dir[0], 1.0 / dir[1], 1.0 / dir[2]];
-        let abs = [dir[0].abs(), dir[1].abs(), dir[2].abs()];
-        let kz = if abs[0] >= abs[1] && abs[0] >= abs[2] {
-            0
-        } else if abs[1] >= abs[2] {
-            1
-        } else {
-            2
-        };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if dir[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        let dz = dir[kz];
+        let dir = canonical(dir);
+        let inv = reciprocal(dir);
+        let (axes, shear) = shear_of(dir, inv);
         PreparedRay {
             origin,
             dir,
             inv,
-            exit_scale: if conservative { SLAB_WIDENING } else { 1.0 },
+            exit_scale: exit_scale(conservative),
             negative: [dir[0] < 0.0, dir[1] < 0.0, dir[2] < 0.0],
-            axes: [kx, ky, kz],
-            // `1.0 / dz` is `inv[kz]`, bit for bit: one division fewer per ray.
-            shear: [dir[kx] / dz, dir[ky] / dz, inv[kz]],
-            moves: dz != 0.0,
+            axes,
+            shear,
+            moves: moves(dir),
         }
     }
 }
 
-/// A [`PreparedRay`]'s constants in all four lanes, for the 4-wide tests (only what they
-/// read, so it stays small to build per ray).
+/// `d + 0.0` per component: `-0.0` becomes `+0.0`, every other value stays.
+#[inline(always)]
+fn canonical(dir: [f32; 3]) -> [f32; 3] {
+    [dir[0] + 0.0, dir[1] + 0.0, dir[2] + 0.0]
+}
+
+#[inline(always)]
+fn reciprocal(dir: [f32; 3]) -> [f32; 3] {
+    [1.0 / dir[0], 1.0 / dir[1], 1.0 / dir[2]]
+}
+
+#[inline(always)]
+fn exit_scale(conservative: bool) -> f32 {
+    if conservative { SLAB_WIDENING } else { 1.0 }
+}
+
+/// Whether a canonical direction is nonzero (a zero direction hits no built-in primitive).
+#[inline(always)]
+fn moves(dir: [f32; 3]) -> bool {
+    dir[0] != 0.0 || dir[1] != 0.0 || dir[2] != 0.0
+}
+
+/// The watertight test's axes and shear constants of a canonical direction and its
+/// reciprocal: the axis of largest |direction| last, the other two ordered so the shear
+/// keeps the triangle's winding, and `(dx/dz, dy/dz, 1/dz)` along them.
+#[inline(always)]
+fn shear_of(dir: [f32; 3], inv: [f32; 3]) -> ([usize; 3], [f32; 3]) {
+    let abs = [dir[0].abs(), dir[1].abs(), dir[2].abs()];
+    let kz = if abs[0] >= abs[1] && abs[0] >= abs[2] {
+        0
+    } else if abs[1] >= abs[2] {
+        1
+    } else {
+        2
+    };
+    let mut kx = (kz + 1) % 3;
+    let mut ky = (kx + 1) % 3;
+    if dir[kz] < 0.0 {
+        std::mem::swap(&mut kx, &mut ky);
+    }
+    let dz = dir[kz];
+    // `1.0 / dz` is `inv[kz]`, bit for bit: one division fewer per ray.
+    ([kx, ky, kz], [dir[kx] / dz, dir[ky] / dz, inv[kz]])
+}
+
+/// A ray's box-test constants in all four lanes, for the 4-wide node test (only what it
+/// reads, so it stays small to build per ray). The triangle tests' constants are
+/// [`TriangleLanes`], built from it when the ray first reaches a leaf: most rays of a
+/// mostly empty view never do, and the shear's divisions were a fifth of their trace.
 #[derive(Clone, Copy)]
 pub struct WideRay {
     /// Origin, per axis.
     pub origin: [F4; 3],
-    /// Direction, per axis (Möller–Trumbore's four-wide test reads it).
-    pub dir: [F4; 3],
     /// Reciprocal direction, per axis.
     pub inv: [F4; 3],
     /// The exit scale of the box test.
     pub exit_scale: F4,
-    /// The watertight test's shear constants.
-    pub shear: [F4; 3],
     /// Per axis, whether the direction is negative.
     pub negative: [bool; 3],
-    /// The watertight test's axes.
-    pub axes: [usize; 3],
+    /// The canonical direction and its reciprocal, one lane, for [`TriangleLanes::new`].
+    dir: [f32; 3],
+    inv1: [f32; 3],
 }
 
 impl WideRay {
+    /// Prepares `origin`, `dir` (finite) for box tests, bit for bit as [`PreparedRay::new`]
+    /// does.
+    #[inline(always)]
+    pub fn new(origin: [f32; 3], dir: [f32; 3], conservative: bool) -> WideRay {
+        let dir = canonical(dir);
+        let inv = reciprocal(dir);
+        WideRay {
+            origin: origin.map(F4::splat),
+            inv: inv.map(F4::splat),
+            exit_scale: F4::splat(exit_scale(conservative)),
+            negative: [dir[0] < 0.0, dir[1] < 0.0, dir[2] < 0.0],
+            dir,
+            inv1: inv,
+        }
+    }
+
     /// The lanes of `ray`.
     #[inline(always)]
-    pub fn new(ray: &PreparedRay) -> WideRay {
+    pub fn of(ray: &PreparedRay) -> WideRay {
         WideRay {
             origin: ray.origin.map(F4::splat),
-            dir: ray.dir.map(F4::splat),
             inv: ray.inv.map(F4::splat),
             exit_scale: F4::splat(ray.exit_scale),
-            shear: ray.shear.map(F4::splat),
             negative: ray.negative,
-            axes: ray.axes,
+            dir: ray.dir,
+            inv1: ray.inv,
+        }
+    }
+
+    /// Whether the direction is nonzero (as [`PreparedRay::moves`]).
+    #[inline(always)]
+    pub fn moves(&self) -> bool {
+        moves(self.dir)
+    }
+}
+
+/// The constants of the 4-wide triangle tests for one ray, in all four lanes.
+#[derive(Clone, Copy)]
+pub struct TriangleLanes {
+    /// Canonical direction, per axis (Möller–Trumbore's test reads it).
+    pub dir: [F4; 3],
+    /// The watertight test's shear constants (as [`PreparedRay::shear`]).
+    pub shear: [F4; 3],
+    /// The watertight test's axes (as [`PreparedRay::axes`]).
+    pub axes: [usize; 3],
+}
+
+impl TriangleLanes {
+    /// The triangle constants of `ray`, bit for bit those [`PreparedRay::new`] computes.
+    #[inline(always)]
+    pub fn new(ray: &WideRay) -> TriangleLanes {
+        let (axes, shear) = shear_of(ray.dir, ray.inv1);
+        TriangleLanes {
+            dir: ray.dir.map(F4::splat),
+            shear: shear.map(F4::splat),
+            axes,
+        }
+    }
+
+    /// The constants Möller–Trumbore's test reads (the direction): the shear and axes,
+    /// which only the watertight test reads, are left zero, and their divisions unpaid.
+    #[inline(always)]
+    pub fn for_moller_trumbore(ray: &WideRay) -> TriangleLanes {
+        TriangleLanes {
+            dir: ray.dir.map(F4::splat),
+            shear: [F4::splat(0.0); 3],
+            axes: [0, 1, 2],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The split preparation (box lanes first, triangle lanes later) computes what the
+    /// scalar preparation does, bit for bit, signed zeros and axis ties included.
+    #[test]
+    fn lazily_built_lanes_equal_the_prepared_ray() {
+        let dirs = [
+            [1.0, 2.0, 3.0],
+            [-3.0, 2.0, 1.0],
+            [0.5, -0.5, 0.25],
+            [-0.0, 0.0, -1.0],
+            [1.0, 1.0, 1.0],
+            [-1.0, -1.0, 0.0],
+            [0.0, 0.0, 0.0],
+            [1e-30, -2e30, 3.0],
+        ];
+        for d in dirs {
+            for conservative in [false, true] {
+                let o = [0.25, -7.0, 1e5];
+                let p = PreparedRay::new(o, d, conservative);
+                let w = WideRay::new(o, d, conservative);
+                let l = TriangleLanes::new(&w);
+                let bits = |v: [f32; 3]| v.map(f32::to_bits);
+                let lane0 = |v: [F4; 3]| v.map(|x| x.to_array()[0].to_bits());
+                assert_eq!(lane0(w.origin), bits(p.origin), "{d:?}");
+                assert_eq!(lane0(w.inv), bits(p.inv), "{d:?}");
+                assert_eq!(w.exit_scale.to_array()[0], p.exit_scale);
+                assert_eq!(w.negative, p.negative);
+                assert_eq!(w.moves(), p.moves, "{d:?}");
+                assert_eq!(lane0(l.dir), bits(p.dir), "{d:?}");
+                if p.moves {
+                    assert_eq!(l.axes, p.axes, "{d:?}");
+                    assert_eq!(lane0(l.shear), bits(p.shear), "{d:?}");
+                }
+            }
         }
     }
 }

@@ -117,7 +117,7 @@ mod tests {
             };
             for conservative in [false, true] {
                 let r = PreparedRay::new(o, d, conservative);
-                let (mask, t) = entry4(&WideRay::new(&r), &node, F4::splat(tmin), F4::splat(tmax));
+                let (mask, t) = entry4(&WideRay::of(&r), &node, F4::splat(tmin), F4::splat(tmax));
                 for (lane, &entered) in t.iter().enumerate() {
                     let min = std::array::from_fn(|a| node.min[a][lane]);
                     let max = std::array::from_fn(|a| node.max[a][lane]);

@@ -6,7 +6,7 @@
 //! seen from the origin). Degenerate triangles (zero area), triangles with NaN or infinite
 //! vertices and zero directions never hit; NaNs fall through every comparison to a miss.
 
-use super::ray::{PreparedRay, WideRay};
+use super::ray::{PreparedRay, TriangleLanes, WideRay};
 use super::simd::F4;
 use crate::accel::wide::TriangleBlock;
 
@@ -130,10 +130,11 @@ impl BlockHits {
 
 /// [`watertight`] for the lanes `lanes` of a triangle block at once, lane by lane the same
 /// arithmetic (the f64 fallback included), so each lane's answer is bit for bit the scalar
-/// test's. The ray must move (`PreparedRay::moves`).
+/// test's. The ray must move (`WideRay::moves`).
 #[inline(always)]
 pub fn watertight4(
     ray: &WideRay,
+    lanes_of_ray: &TriangleLanes,
     block: &TriangleBlock,
     lanes: u32,
     tmin: f32,
@@ -146,8 +147,8 @@ pub fn watertight4(
         v: [0.0; 4],
         front: 0,
     };
-    let [kx, ky, kz] = ray.axes;
-    let [sx, sy, sz] = ray.shear;
+    let [kx, ky, kz] = lanes_of_ray.axes;
+    let [sx, sy, sz] = lanes_of_ray.shear;
     let o = &ray.origin;
     let rel = |v: usize, k: usize| F4::load(&block.vertices[v][k]) - o[k];
     let (a, b, c) = (
@@ -233,6 +234,7 @@ pub fn watertight4(
 #[inline(always)]
 pub fn moller_trumbore4(
     ray: &WideRay,
+    lanes_of_ray: &TriangleLanes,
     block: &TriangleBlock,
     lanes: u32,
     tmin: f32,
@@ -258,7 +260,7 @@ pub fn moller_trumbore4(
     let dot4 = |a: [F4; 3], b: [F4; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     let e1 = sub4(v1, v0);
     let e2 = sub4(v2, v0);
-    let p = cross4(ray.dir, e2);
+    let p = cross4(lanes_of_ray.dir, e2);
     let det = dot4(e1, p);
     let (zero, one) = (F4::splat(0.0), F4::splat(1.0));
     // Finite and non-zero (NaN fails both comparisons).
@@ -277,7 +279,7 @@ pub fn moller_trumbore4(
         return none;
     }
     let q = cross4(s, e1);
-    let v = dot4(ray.dir, q) * inv;
+    let v = dot4(lanes_of_ray.dir, q) * inv;
     mask &= (zero.le(v) & (u + v).le(one)).bits();
     if mask == 0 {
         return none;
@@ -557,7 +559,16 @@ mod tests {
             } else {
                 (0.0, f32::INFINITY)
             };
-            let got = watertight4(&WideRay::new(&r), &block(&tris), lanes, tmin, tmax);
+            // The lanes as the traversal builds them: box lanes first, triangle lanes later.
+            let w = WideRay::new(o, d, true);
+            let got = watertight4(
+                &w,
+                &TriangleLanes::new(&w),
+                &block(&tris),
+                lanes,
+                tmin,
+                tmax,
+            );
             let found =
                 assert_lanes_match(i, &tris, lanes, &got, |t| watertight(&r, t, tmin, tmax));
             hits += found;
@@ -585,14 +596,23 @@ mod tests {
                 })
                 .collect();
             let o = rng.v(8.0);
-            let r = ray(o, sub(rng.v(1.0), o));
+            let d = sub(rng.v(1.0), o);
+            let r = ray(o, d);
             let lanes = if i % 3 == 0 { 0b1011 } else { 0b1111 };
             let (tmin, tmax) = if i % 5 == 0 {
                 (1.0, 4.0)
             } else {
                 (0.0, f32::INFINITY)
             };
-            let got = moller_trumbore4(&WideRay::new(&r), &block(&tris), lanes, tmin, tmax);
+            let w = WideRay::new(o, d, true);
+            let got = moller_trumbore4(
+                &w,
+                &TriangleLanes::for_moller_trumbore(&w),
+                &block(&tris),
+                lanes,
+                tmin,
+                tmax,
+            );
             hits += assert_lanes_match(i, &tris, lanes, &got, |t| {
                 moller_trumbore(&r, t, tmin, tmax)
             });
