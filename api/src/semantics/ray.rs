@@ -48,6 +48,18 @@ pub fn check(
     Ok(())
 }
 
+/// Whether `check` passes, without saying why not: the form the CPU backend's trace path
+/// runs per ray. Branch-free: `x · 0` is `±0` for every finite `x` and NaN for infinities
+/// and NaNs, so one comparison of their sum tests all six components; `tmin >= 0` fails for
+/// NaN and negative tmin (not `-0.0`), `tmin <= tmax` for NaN tmax and empty intervals.
+#[inline]
+pub fn is_valid(origin: [f32; 3], direction: [f32; 3], tmin: f32, tmax: f32) -> bool {
+    let zeroed = (origin[0] * 0.0 + origin[1] * 0.0)
+        + (origin[2] * 0.0 + direction[0] * 0.0)
+        + (direction[1] * 0.0 + direction[2] * 0.0);
+    (zeroed == 0.0) & (tmin >= 0.0) & (tmin <= tmax)
+}
+
 /// Whether a triangle hit at `t` lies in the open interval (tmin, tmax).
 pub fn triangle_t_accepted(t: f32, tmin: f32, tmax: f32) -> bool {
     t > tmin && t < tmax
@@ -61,6 +73,47 @@ pub fn reported_t_accepted(t: f32, tmin: f32, tmax: f32) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `is_valid` is `check(..).is_ok()` on every combination of special values.
+    #[test]
+    fn is_valid_agrees_with_check() {
+        let values = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            1e-45,
+            3e38,
+            -3e38,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        let mut seen = [0usize; 2];
+        for (i, &a) in values.iter().enumerate() {
+            for &b in &values {
+                for &c in &values {
+                    // Each value in each origin and direction slot, with every interval.
+                    let slot = i % 6;
+                    let mut v = [0.5f32; 6];
+                    v[slot] = a;
+                    v[(slot + 3) % 6] = b;
+                    let (o, d) = ([v[0], v[1], v[2]], [v[3], v[4], v[5]]);
+                    for (tmin, tmax) in [(b, c), (c, b), (0.0, c), (b, f32::INFINITY)] {
+                        let want = check(o, d, tmin, tmax).is_ok();
+                        assert_eq!(
+                            is_valid(o, d, tmin, tmax),
+                            want,
+                            "{o:?} {d:?} {tmin} {tmax}"
+                        );
+                        seen[want as usize] += 1;
+                    }
+                }
+            }
+        }
+        assert!(seen[0] > 1000 && seen[1] > 100, "{seen:?}");
+    }
 
     #[test]
     fn policy_table() {

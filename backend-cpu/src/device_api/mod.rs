@@ -401,7 +401,11 @@ impl<'l> Invocation<'l> {
                     .get(sbt_index::miss_record_index(miss_index) as usize)
                 {
                     Some(record) => {
-                        if let Some(ms) = record.programs.main {
+                        // An empty miss program (a cast that keeps its payload) costs no
+                        // view.
+                        if let Some(ms) = record.programs.main
+                            && !ms.does_nothing()
+                        {
                             self.run(
                                 ms,
                                 View {
@@ -542,7 +546,7 @@ impl DeviceCalls for Invocation<'_> {
             }
             return;
         }
-        if semantics::ray::check(origin, direction, tmin, tmax).is_err() {
+        if !semantics::ray::is_valid(origin, direction, tmin, tmax) {
             if features.exceptions.contains(ExceptionFlags::DEBUG) {
                 self.raise(code::INVALID_RAY);
             }
