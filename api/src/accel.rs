@@ -416,6 +416,12 @@ impl Instance {
     pub fn instance_flags(&self) -> InstanceFlags {
         InstanceFlags(self.flags)
     }
+
+    /// The 80 bytes to write into an instance buffer (the host's byte order: little-endian
+    /// on every platform optik's backends run on).
+    pub fn as_bytes(&self) -> &[u8] {
+        bytemuck::bytes_of(self)
+    }
 }
 
 /// Instances (OptiX `OptixBuildInputInstanceArray`).

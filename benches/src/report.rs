@@ -8,6 +8,8 @@
 //! 3. Specialised pipelines against pipelines with features forced on: what each skipped
 //!    feature saves.
 //! 4. Build and trace cost as the triangle count grows.
+//! 5. With `scale`: a scene of over 10 million triangles, flat and instanced, traced with
+//!    2^24 incoherent rays (build time, structure memory, throughput, launches).
 //!
 //! Absolute times are only meaningful on the machine that made them; the ratios are the result.
 
@@ -43,6 +45,8 @@ pub struct ReportOptions {
     pub embree: bool,
     /// Where `benches/embree/peer.py` lives.
     pub peer_script: PathBuf,
+    /// Also measure the large scenes of [`scale`] (minutes and gigabytes: off by default).
+    pub scale: bool,
 }
 
 /// Prints a markdown table.
@@ -591,6 +595,146 @@ fn scaling(opts: &ReportOptions, report: &mut Vec<Value>) {
     );
 }
 
+/// The large scene: copies of an icosphere on a grid, as one flat mesh and as one mesh with
+/// an instance per copy (`grid` copies per axis; `subdivisions` of each sphere).
+pub struct GridScene {
+    /// One sphere.
+    pub sphere: Mesh,
+    /// Each copy's object-to-world matrix (a translation), 3×4 row-major.
+    pub transforms: Vec<[f32; 12]>,
+    /// All copies in one mesh, copy `i`'s triangles at `i * sphere.triangles.len()`.
+    pub flat: Mesh,
+}
+
+impl GridScene {
+    /// Spheres of radius 1, centres 2.5 apart.
+    pub fn new(subdivisions: u32, grid: [u32; 3]) -> GridScene {
+        let sphere = Mesh::icosphere(subdivisions);
+        let mut transforms = Vec::new();
+        for z in 0..grid[2] {
+            for y in 0..grid[1] {
+                for x in 0..grid[0] {
+                    let [tx, ty, tz] = [x, y, z].map(|c| c as f32 * 2.5);
+                    transforms.push([1.0, 0.0, 0.0, tx, 0.0, 1.0, 0.0, ty, 0.0, 0.0, 1.0, tz]);
+                }
+            }
+        }
+        let mut flat = Mesh::default();
+        for m in &transforms {
+            let base = flat.positions.len() as u32;
+            flat.positions.extend(
+                sphere
+                    .positions
+                    .iter()
+                    .map(|p| [p[0] + m[3], p[1] + m[7], p[2] + m[11]]),
+            );
+            flat.triangles
+                .extend(sphere.triangles.iter().map(|t| t.map(|i| i + base)));
+        }
+        GridScene {
+            sphere,
+            transforms,
+            flat,
+        }
+    }
+}
+
+/// Section 5: 32 spheres of 327 680 triangles (10 485 760), flat and instanced, 2^24 rays.
+fn scale(opts: &ReportOptions, report: &mut Vec<Value>) {
+    let scene = GridScene::new(7, [4, 4, 2]);
+    let rays = rays::incoherent(&scene.flat, 1 << 24, 17);
+    let mut rows = Vec::new();
+    for &kind in &opts.backends {
+        let device = match open(kind, opts.threads) {
+            Ok(d) => d,
+            Err(why) => {
+                rows.push(vec![
+                    "".into(),
+                    "".into(),
+                    kind.name().into(),
+                    format!("skipped: {why}"),
+                    "".into(),
+                    "".into(),
+                    "".into(),
+                ]);
+                continue;
+            }
+        };
+        for instanced in [false, true] {
+            let layout = if instanced {
+                "instanced (32 × 327 680)"
+            } else {
+                "flat"
+            };
+            let measured = (|| -> Result<(f64, u64, f64, usize, usize)> {
+                let mut caster = if instanced {
+                    RayCaster::instanced(
+                        device.as_ref(),
+                        &scene.sphere.positions,
+                        &scene.sphere.triangles,
+                        &scene.transforms,
+                    )?
+                } else {
+                    RayCaster::new(
+                        device.as_ref(),
+                        &scene.flat.positions,
+                        &scene.flat.triangles,
+                    )?
+                };
+                let launches = (rays.len() / 8).div_ceil(caster.batch_rays());
+                let (hits, s) = caster.cast(&rays, opts.repeat.min(2))?;
+                Ok((
+                    caster.build_seconds,
+                    caster.accel_bytes()?,
+                    s,
+                    launches,
+                    hits.hit_count(),
+                ))
+            })();
+            match measured {
+                Ok((build, bytes, s, launches, hit_count)) => {
+                    let rate = mrays(rays.len() / 8, s);
+                    rows.push(vec![
+                        layout.into(),
+                        scene.flat.triangles.len().to_string(),
+                        kind.name().into(),
+                        format!("{build:.2}"),
+                        format!("{:.0}", bytes as f64 / (1 << 20) as f64),
+                        format!("{rate:.2}"),
+                        format!("{launches} ({hit_count} hits)"),
+                    ]);
+                    report.push(json!({"section": "scale", "layout": if instanced { "instanced" } else { "flat" },
+                        "triangles": scene.flat.triangles.len(), "rays": rays.len() / 8, "backend": kind.name(),
+                        "build_s": build, "accel_bytes": bytes, "incoherent_mrays_per_s": rate,
+                        "launches": launches, "hits": hit_count}));
+                }
+                Err(e) => rows.push(vec![
+                    layout.into(),
+                    scene.flat.triangles.len().to_string(),
+                    kind.name().into(),
+                    format!("failed: {e}"),
+                    "".into(),
+                    "".into(),
+                    "".into(),
+                ]),
+            }
+        }
+    }
+    table(
+        "Scale: 10 485 760 triangles, 16 777 216 incoherent rays",
+        &[
+            "scene",
+            "triangles",
+            "backend",
+            "build s",
+            "structures MiB",
+            "Mrays/s",
+            "launches",
+        ],
+        &rows,
+    );
+}
+
 /// Runs the whole report; returns its figures as JSON.
 pub fn run(opts: &ReportOptions) -> Value {
     println!("# optik benchmark report\n");
@@ -608,10 +752,59 @@ pub fn run(opts: &ReportOptions) -> Value {
         specialisation(opts, scene, &mut report);
     }
     scaling(opts, &mut report);
+    if opts.scale {
+        scale(opts, &mut report);
+    }
     json!({ "width": opts.width, "height": opts.height, "incoherent": opts.incoherent, "repeat": opts.repeat, "rows": report })
 }
 
 /// The Embree peer script in this source tree.
 pub fn default_peer_script() -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/embree/peer.py"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The flat and the instanced layout of the scale scene are the same scene: a ray hits
+    /// copy `i`'s triangle `p` in one exactly where it hits triangle `p` of instance `i` in the
+    /// other (distances equal up to the rounding of the translated vertices).
+    #[test]
+    fn flat_and_instanced_grid_scenes_agree() {
+        let scene = GridScene::new(2, [2, 2, 2]);
+        let per_copy = scene.sphere.triangles.len() as u32;
+        assert_eq!(scene.flat.triangles.len() as u32, 8 * per_copy);
+        let device = optik::open_backend(BackendKind::Cpu).expect("the CPU backend");
+        let rays = rays::incoherent(&scene.flat, 4000, 3);
+        let mut flat = RayCaster::new(
+            device.as_ref(),
+            &scene.flat.positions,
+            &scene.flat.triangles,
+        )
+        .expect("flat caster");
+        let mut instanced = RayCaster::instanced(
+            device.as_ref(),
+            &scene.sphere.positions,
+            &scene.sphere.triangles,
+            &scene.transforms,
+        )
+        .expect("instanced caster");
+        let (a, _) = flat.cast(&rays, 1).expect("flat cast");
+        let (b, _) = instanced.cast(&rays, 1).expect("instanced cast");
+        let mut same = 0;
+        for i in 0..a.prim.len() {
+            let flat_hit = (a.prim[i] != optik::raycast::NO_HIT)
+                .then(|| (a.prim[i] / per_copy, a.prim[i] % per_copy));
+            let inst_hit = (b.prim[i] != optik::raycast::NO_HIT).then(|| (b.inst[i], b.prim[i]));
+            if flat_hit == inst_hit
+                && (flat_hit.is_none() || (a.t[i] - b.t[i]).abs() <= 1e-4 * a.t[i].abs())
+            {
+                same += 1;
+            }
+        }
+        assert!(a.hit_count() > 1000, "{} hits", a.hit_count());
+        assert!(same >= a.prim.len() - 4, "{same} of {} agree", a.prim.len());
+        assert!(instanced.accel_bytes().unwrap() < flat.accel_bytes().unwrap());
+    }
 }

@@ -27,6 +27,10 @@ pub struct ReportArgs {
     /// Leave Embree out.
     #[arg(long)]
     no_embree: bool,
+    /// Also trace a scene of 10 485 760 triangles, flat and instanced, with 2^24 incoherent
+    /// rays (minutes and several GiB of memory).
+    #[arg(long)]
+    scale: bool,
     /// Also write the figures as JSON here.
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
@@ -86,6 +90,7 @@ pub fn run(args: &ReportArgs) -> u8 {
         threads: args.threads,
         embree: !args.no_embree,
         peer_script: report::default_peer_script(),
+        scale: args.scale,
     };
     let figures = report::run(&opts);
     if let Some(path) = &args.json
