@@ -15,6 +15,7 @@ pub use optik_core::frontend;
 mod auto;
 pub use auto::{AutoChoice, FoundDevice, auto_choice, decide_auto};
 pub mod raycast;
+pub mod triangle_check;
 
 /// Which backend [`open`] should use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

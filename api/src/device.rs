@@ -92,6 +92,11 @@ pub struct DeviceProperties {
     pub backend: BackendKind,
     /// The device's name (the CPU model, the GPU adapter).
     pub device_name: String,
+    /// The driver and its version as the platform reports them (Vulkan: the driver's name,
+    /// its info string and version; wgpu: the adapter's driver and driver info; CPU: optik's
+    /// own version). What depends on the driver's behaviour is cached under it
+    /// ([`crate::DeviceProperties::device_name`] and this together name one driver build).
+    pub driver: String,
 }
 
 /// Triangle intersection test (DESIGN.md §5).

@@ -70,6 +70,42 @@ pub fn icosphere(subdivisions: u32) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
     (vertices, triangles)
 }
 
+/// Rays from `inside` aimed exactly at every vertex and at the midpoint of every edge of a
+/// mesh (8 floats each: origin, tmin 0, direction, tmax ∞; directions not normalised, so the
+/// aimed point is at t = 1): the hardest rays for a closed mesh's watertightness, which no
+/// watertight test lets out. Targets equal to `inside` are skipped.
+pub fn rays_at_vertices_and_edges(
+    positions: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    inside: [f32; 3],
+) -> Vec<f32> {
+    let mut targets: Vec<[f32; 3]> = positions.to_vec();
+    for t in triangles {
+        for e in 0..3 {
+            let a = positions[t[e] as usize];
+            let b = positions[t[(e + 1) % 3] as usize];
+            targets.push(std::array::from_fn(|k| 0.5 * (a[k] + b[k])));
+        }
+    }
+    let mut rays = Vec::with_capacity(targets.len() * 8);
+    for p in targets {
+        let d: [f32; 3] = std::array::from_fn(|k| p[k] - inside[k]);
+        if d.iter().any(|c| *c != 0.0) {
+            rays.extend_from_slice(&[
+                inside[0],
+                inside[1],
+                inside[2],
+                0.0,
+                d[0],
+                d[1],
+                d[2],
+                f32::INFINITY,
+            ]);
+        }
+    }
+    rays
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

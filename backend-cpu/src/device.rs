@@ -141,6 +141,7 @@ impl CpuBackend {
                 cpu_name(),
                 pool.current_num_threads()
             ),
+            driver: format!("optik-cpu {}", env!("CARGO_PKG_VERSION")),
         };
         Ok(CpuBackend {
             id,

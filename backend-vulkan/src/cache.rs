@@ -16,14 +16,7 @@ pub struct PipelineCache {
 
 /// The directory the cache lives in, from the environment.
 pub fn cache_dir() -> Option<PathBuf> {
-    let env = |n: &str| {
-        std::env::var_os(n)
-            .filter(|v| !v.is_empty())
-            .map(PathBuf::from)
-    };
-    env("OPTIK_CACHE_PATH")
-        .or_else(|| env("XDG_CACHE_HOME").map(|d| d.join("optik")))
-        .or_else(|| env("HOME").map(|h| h.join(".cache").join("optik")))
+    optik_api::cache::root()
 }
 
 /// Whether `data` is a cache this device wrote (Vulkan's header version one).

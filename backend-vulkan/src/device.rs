@@ -235,6 +235,10 @@ fn properties(info: &VulkanDeviceInfo) -> DeviceProperties {
         max_binding_size: info.max_storage_buffer_range as u64,
         backend: BackendKind::Vulkan,
         device_name: format!("{} (Vulkan, {})", info.name, info.driver_name),
+        driver: format!(
+            "{} {} (version {:#x})",
+            info.driver_name, info.driver_info, info.driver_version
+        ),
     }
 }
 

@@ -115,6 +115,9 @@ impl WgpuBackend {
             max_binding_size: gpu.limits.max_storage_buffer_binding_size,
             backend: BackendKind::Wgpu,
             device_name: gpu.info.name.clone(),
+            driver: format!("{} {}", gpu.info.driver, gpu.info.driver_info)
+                .trim()
+                .to_string(),
         };
         let scene = Scene::new(&gpu)?;
         Ok(WgpuBackend {

@@ -108,24 +108,10 @@ pub fn incoherent(mesh: &Mesh, count: usize, seed: u64) -> Vec<f32> {
 }
 
 /// Rays from `inside` aimed exactly at every vertex and at the midpoint of every edge of the
-/// mesh: the hardest rays for a closed mesh's watertightness.
+/// mesh: the hardest rays for a closed mesh's watertightness
+/// (`optik::shapes::rays_at_vertices_and_edges`).
 pub fn aimed_at_vertices_and_edges(mesh: &Mesh, inside: [f32; 3]) -> Vec<f32> {
-    let mut targets: Vec<[f32; 3]> = mesh.positions.clone();
-    for t in &mesh.triangles {
-        for e in 0..3 {
-            let a = mesh.positions[t[e] as usize];
-            let b = mesh.positions[t[(e + 1) % 3] as usize];
-            targets.push(std::array::from_fn(|k| 0.5 * (a[k] + b[k])));
-        }
-    }
-    let mut rays = Vec::with_capacity(targets.len() * 8);
-    for p in targets {
-        let d: [f32; 3] = std::array::from_fn(|k| p[k] - inside[k]);
-        if d.iter().any(|c| *c != 0.0) {
-            push(&mut rays, inside, d, 0.0, f32::INFINITY);
-        }
-    }
-    rays
+    optik::shapes::rays_at_vertices_and_edges(&mesh.positions, &mesh.triangles, inside)
 }
 
 #[cfg(test)]

@@ -441,6 +441,33 @@ fn accuracy(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) {
             }
         }
         let _ = device.set_accuracy(Accuracy::ROBUST);
+        if kind == BackendKind::Vulkan {
+            // The driver's own triangles against optik's watertightness check (cached per
+            // driver build): what decides whether they could serve the default.
+            let name = "driver triangle check";
+            match optik::triangle_check::check_driver_triangles(device.as_ref()) {
+                Ok(check) => {
+                    rows.push(vec![
+                        kind.name().into(),
+                        name.into(),
+                        if check.passed { "passed" } else { "failed" }.into(),
+                        format!("{} of {} rays leaked", check.leaks, check.rays),
+                        "".into(),
+                        "".into(),
+                    ]);
+                    report.push(json!({"section": "accuracy", "backend": kind.name(), "option": name,
+                        "passed": check.passed, "rays": check.rays, "leaks": check.leaks, "cached": check.cached}));
+                }
+                Err(e) => rows.push(vec![
+                    kind.name().into(),
+                    name.into(),
+                    format!("error: {}", e.message()),
+                    "".into(),
+                    "".into(),
+                    "".into(),
+                ]),
+            }
+        }
     }
     table(
         &format!(

@@ -11,6 +11,7 @@ pub fn run() -> u8 {
     }
     let auto = optik::auto_choice();
     outln!("  auto    picks {}: {}", auto.kind(), auto.reason);
+    driver_triangles();
     outln!();
     match optik::backends::vulkan::probe() {
         Ok(devices) => {
@@ -32,4 +33,18 @@ pub fn run() -> u8 {
         }
     }
     0
+}
+
+/// The Vulkan driver's triangle test against optik's watertightness check (cached per driver
+/// build; docs/vulkan-backend.md, "The driver's triangles").
+fn driver_triangles() {
+    let Ok(device) = optik::open_backend(optik::BackendKind::Vulkan) else {
+        return;
+    };
+    match optik::triangle_check::check_driver_triangles(device.as_ref()) {
+        Ok(check) => outln!(
+            "  vulkan  the driver's triangles (TriangleTest::Driver) {check}; the default stays optik's watertight triangles"
+        ),
+        Err(e) => outln!("  vulkan  the driver's triangles could not be checked: {e}"),
+    }
 }

@@ -37,3 +37,25 @@ fn says_what_auto_picks_and_why() {
         "{line}"
     );
 }
+
+#[test]
+fn says_whether_the_vulkan_drivers_triangles_passed_the_check() {
+    if optik::open_backend(optik::BackendKind::Vulkan).is_err() {
+        eprintln!("skipped: no Vulkan device here");
+        return;
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_optik"))
+        .arg("info")
+        .output()
+        .expect("run optik");
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text
+        .lines()
+        .find(|l| l.contains("TriangleTest::Driver"))
+        .unwrap_or_else(|| panic!("no line for the driver's triangles:\n{text}"));
+    assert!(
+        line.contains(") passed: 0 of ") || line.contains(") failed: "),
+        "{line}"
+    );
+    assert!(line.contains("rays leaked through closed meshes"), "{line}");
+}

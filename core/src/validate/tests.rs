@@ -26,6 +26,7 @@ fn props() -> DeviceProperties {
         max_binding_size: 1 << 27,
         backend: optik_api::device::BackendKind::Cpu,
         device_name: "test".into(),
+        driver: "test".into(),
     }
 }
 

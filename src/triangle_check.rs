@@ -1,0 +1,253 @@
+//! Whether a device's own triangle test (`TriangleTest::Driver`, the Vulkan driver's native
+//! triangles) is watertight on the rays where tests usually fail: optik's check, run once per
+//! driver build and cached.
+//!
+//! With the driver's triangles the check traces rays that no watertight test lets out of a
+//! closed mesh: from points inside closed icospheres (5 120 triangles, edges shared exactly)
+//! at three scales and at two places far from the origin, aimed exactly at every vertex and
+//! every edge midpoint (so through shared edges and vertices); from near the surface too, so
+//! rays graze the faces around the point they aim at; and from the centre along the axes with
+//! every sign of zero in the other components. A ray that misses has leaked. The driver
+//! passes when none leaks.
+//!
+//! A pass is evidence about one driver build, not a guarantee: the check is cached under
+//! [`DeviceProperties::device_name`](crate::DeviceProperties) and
+//! [`DeviceProperties::driver`](crate::DeviceProperties) (with optik's version), in
+//! `driver-triangles.tsv` of the cache folder ([`crate::cache`]), so a driver update runs it
+//! again. What optik does with the answer is in docs/vulkan-backend.md ("The driver's
+//! triangles").
+
+use crate::raycast::RayCaster;
+use crate::{Accuracy, Device, Result, TriangleTest, shapes};
+use std::io::Write;
+
+/// The outcome of [`check_driver_triangles`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TriangleCheck {
+    /// Whether no ray leaked.
+    pub passed: bool,
+    /// Rays traced.
+    pub rays: u64,
+    /// Rays that missed a closed mesh from inside it.
+    pub leaks: u64,
+    /// Whether the answer was read from the cache (made by an earlier run on this driver).
+    pub cached: bool,
+}
+
+impl std::fmt::Display for TriangleCheck {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let verdict = if self.passed { "passed" } else { "failed" };
+        write!(
+            f,
+            "{verdict}: {} of {} rays leaked through closed meshes{}",
+            self.leaks,
+            self.rays,
+            if self.cached { " (cached)" } else { "" }
+        )
+    }
+}
+
+/// The closed meshes: (scale, offset) of the unit icosphere.
+const PLACES: [(f64, [f64; 3]); 5] = [
+    (1.0, [0.0, 0.0, 0.0]),
+    (1e-3, [0.0, 0.0, 0.0]),
+    (1e3, [0.0, 0.0, 0.0]),
+    (1.0, [1e5, -1e5, 1e5]),
+    (1.0, [-3072.5, 700.25, 5000.125]),
+];
+
+/// Subdivisions of the icosphere (5 120 triangles).
+const SUBDIVISIONS: u32 = 4;
+
+/// Cache file in the cache folder.
+const CACHE_FILE: &str = "driver-triangles.tsv";
+
+/// Runs (or reads from the cache) the check of `device`'s own triangle test. The device's
+/// accuracy is set to `TriangleTest::Driver` for the check and set back afterwards, so it
+/// must hold no triangle structures (the Vulkan backend refuses to switch while any live);
+/// backends without a triangle test of their own refuse it (`Unsupported`).
+pub fn check_driver_triangles(device: &dyn Device) -> Result<TriangleCheck> {
+    let props = device.properties();
+    let key = format!(
+        "{} | {} | optik {}",
+        props.device_name,
+        props.driver,
+        env!("CARGO_PKG_VERSION")
+    )
+    .replace(['\t', '\n'], " ");
+    if let Some(found) = cached(&key) {
+        return Ok(found);
+    }
+    let saved = device.accuracy();
+    device.set_accuracy(Accuracy {
+        triangle: TriangleTest::Driver,
+        ..saved
+    })?;
+    let traced = trace_all(device);
+    // The casters are gone: the accuracy can go back whatever happened.
+    let restored = device.set_accuracy(saved);
+    let (rays, leaks) = traced?;
+    restored?;
+    let result = TriangleCheck {
+        passed: leaks == 0,
+        rays,
+        leaks,
+        cached: false,
+    };
+    store(&key, &result);
+    Ok(result)
+}
+
+/// Every ray set of the check: (rays, leaks).
+fn trace_all(device: &dyn Device) -> Result<(u64, u64)> {
+    let (unit_positions, triangles) = shapes::icosphere(SUBDIVISIONS);
+    let (mut rays, mut leaks) = (0u64, 0u64);
+    for (scale, offset) in PLACES {
+        let at = |p: [f64; 3]| -> [f32; 3] {
+            std::array::from_fn(|k| (offset[k] + scale * p[k]) as f32)
+        };
+        let positions: Vec<[f32; 3]> = unit_positions
+            .iter()
+            .map(|p| at([p[0] as f64, p[1] as f64, p[2] as f64]))
+            .collect();
+        // Near the centre, and near the surface (0.97 of the way to a vertex), whose rays
+        // to nearby vertices and edges graze the faces around them.
+        let v = unit_positions[0];
+        let insides = [
+            at([0.0123, -0.0311, 0.0217]),
+            at([0.97 * v[0] as f64, 0.97 * v[1] as f64, 0.97 * v[2] as f64]),
+        ];
+        let mut set = Vec::new();
+        for inside in insides {
+            set.extend(shapes::rays_at_vertices_and_edges(
+                &positions, &triangles, inside,
+            ));
+        }
+        if scale == 1.0 && offset == [0.0; 3] {
+            set.extend(signed_zero_rays());
+        }
+        let mut caster = RayCaster::new(device, &positions, &triangles)?;
+        let (hits, _) = caster.cast(&set, 1)?;
+        rays += hits.prim.len() as u64;
+        leaks += hits
+            .prim
+            .iter()
+            .filter(|&&p| p == crate::raycast::NO_HIT)
+            .count() as u64;
+    }
+    Ok((rays, leaks))
+}
+
+/// From the centre along each axis, both directions, with each sign of zero in the other two
+/// components (24 rays): a test that treats `-0.0` unlike `+0.0` lets some out.
+fn signed_zero_rays() -> Vec<f32> {
+    let mut rays = Vec::new();
+    for axis in 0..3 {
+        for along in [1.0f32, -1.0] {
+            for zeros in 0..4u32 {
+                let mut d = [0.0f32; 3];
+                d[axis] = along;
+                d[(axis + 1) % 3] = if zeros & 1 == 1 { -0.0 } else { 0.0 };
+                d[(axis + 2) % 3] = if zeros & 2 == 2 { -0.0 } else { 0.0 };
+                rays.extend_from_slice(&[0.0, 0.0, 0.0, 0.0, d[0], d[1], d[2], f32::INFINITY]);
+            }
+        }
+    }
+    rays
+}
+
+/// The cached answer for `key`, if any.
+fn cached(key: &str) -> Option<TriangleCheck> {
+    if crate::cache::disabled() {
+        return None;
+    }
+    let text = std::fs::read_to_string(crate::cache::root()?.join(CACHE_FILE)).ok()?;
+    text.lines().rev().find_map(|line| {
+        let mut fields = line.split('\t');
+        if fields.next()? != key {
+            return None;
+        }
+        let rays = fields.next()?.parse().ok()?;
+        let leaks = fields.next()?.parse().ok()?;
+        Some(TriangleCheck {
+            passed: leaks == 0,
+            rays,
+            leaks,
+            cached: true,
+        })
+    })
+}
+
+/// Appends `result` under `key` to the cache (a failure to write only loses the cache).
+fn store(key: &str, result: &TriangleCheck) {
+    if crate::cache::disabled() {
+        return;
+    }
+    let Some(dir) = crate::cache::root() else {
+        return;
+    };
+    let _ = std::fs::create_dir_all(&dir);
+    if let Ok(mut file) = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(dir.join(CACHE_FILE))
+    {
+        let _ = writeln!(file, "{key}\t{}\t{}", result.rays, result.leaks);
+    }
+}
+
+#[cfg(all(test, feature = "cpu"))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn backends_without_a_triangle_test_of_their_own_refuse_the_check() {
+        let device = crate::open_backend(crate::BackendKind::Cpu).unwrap();
+        let before = device.accuracy();
+        let e = check_driver_triangles(device.as_ref()).unwrap_err();
+        assert_eq!(e.kind(), crate::ErrorKind::Unsupported, "{e}");
+        assert_eq!(device.accuracy(), before, "the accuracy is left as it was");
+    }
+
+    #[test]
+    fn signed_zero_rays_cover_every_axis_direction_and_zero_sign() {
+        let rays = signed_zero_rays();
+        assert_eq!(rays.len(), 24 * 8);
+        let negative_zeros = rays
+            .chunks_exact(8)
+            .filter(|r| r[4..7].iter().any(|c| *c == 0.0 && c.is_sign_negative()))
+            .count();
+        assert_eq!(negative_zeros, 18);
+    }
+
+    /// On a Vulkan device (lavapipe in CI, with the validation layer): every ray of every set
+    /// is traced with the driver's triangles, the verdict is "no leak", the accuracy comes
+    /// back, and a second check on the same driver is answered from the cache.
+    #[cfg(feature = "vulkan")]
+    #[test]
+    fn the_vulkan_check_traces_every_set_and_is_cached() {
+        let device = match crate::open_backend(crate::BackendKind::Vulkan) {
+            Ok(d) => d,
+            Err(e) => {
+                eprintln!("skipped: no Vulkan device here ({e})");
+                return;
+            }
+        };
+        let before = device.accuracy();
+        let first = check_driver_triangles(device.as_ref()).expect("the check runs");
+        let (positions, triangles) = shapes::icosphere(SUBDIVISIONS);
+        let per_inside = (positions.len() + 3 * triangles.len()) as u64;
+        if !first.cached {
+            assert_eq!(first.rays, PLACES.len() as u64 * 2 * per_inside + 24);
+        }
+        assert_eq!(first.passed, first.leaks == 0);
+        assert!(first.leaks <= first.rays);
+        assert_eq!(device.accuracy(), before, "the accuracy is set back");
+        assert_eq!(device.take_diagnostics(), Vec::<String>::new());
+        let second = check_driver_triangles(device.as_ref()).expect("the check runs again");
+        if crate::cache::root().is_some() && !crate::cache::disabled() {
+            assert!(second.cached, "the second check comes from the cache");
+            assert_eq!((second.rays, second.leaks), (first.rays, first.leaks));
+        }
+    }
+}
