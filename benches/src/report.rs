@@ -192,14 +192,14 @@ fn throughput(opts: &ReportOptions, scenes: &[Scene], report: &mut Vec<Value>) {
             let device = match open(kind, opts.threads) {
                 Ok(d) => d,
                 Err(why) => {
-                    rows.push(vec![
-                        scene.name.clone(),
-                        kind.name().into(),
-                        format!("skipped: {why}"),
-                        "".into(),
-                        "".into(),
-                        "".into(),
-                    ]);
+                    rows.push(padded(
+                        vec![
+                            scene.name.clone(),
+                            kind.name().into(),
+                            format!("skipped: {why}"),
+                        ],
+                        6,
+                    ));
                     continue;
                 }
             };
@@ -350,6 +350,18 @@ fn leak_rate(device: &dyn Device, scale: f64, offset: [f64; 3]) -> Result<f64> {
     Ok(hits.prim.iter().filter(|&&p| p == u32::MAX).count() as f64 / hits.prim.len().max(1) as f64)
 }
 
+/// `cells` padded with empty cells to a table's `width`: a row that says why it has no
+/// figures.
+fn padded(mut cells: Vec<String>, width: usize) -> Vec<String> {
+    cells.resize(width.max(cells.len()), String::new());
+    cells
+}
+
+/// A row of the accuracy table with a note (why an option has no figures) instead of figures.
+fn accuracy_note(kind: BackendKind, option: &str, note: String) -> Vec<String> {
+    padded(vec![kind.name().into(), option.into(), note], 6)
+}
+
 fn accuracy(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) {
     let mut rows = Vec::new();
     let choices = [
@@ -384,14 +396,11 @@ fn accuracy(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) {
         let mut baseline: Option<(f64, Hits)> = None;
         for (name, acc) in choices {
             if let Err(e) = device.set_accuracy(acc) {
-                rows.push(vec![
-                    kind.name().into(),
-                    name.into(),
+                rows.push(accuracy_note(
+                    kind,
+                    name,
                     format!("not offered: {}", e.message()),
-                    "".into(),
-                    "".into(),
-                    "".into(),
-                ]);
+                ));
                 continue;
             }
             let measured = (|| -> Result<(f64, Hits, f64, f64)> {
@@ -430,14 +439,7 @@ fn accuracy(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) {
                     report.push(json!({"section": "accuracy", "backend": kind.name(), "option": name,
                         "time_vs_default": time_ratio, "leak_origin": leak0, "leak_far": leak_far, "camera_prims_differing": diff}));
                 }
-                Err(e) => rows.push(vec![
-                    kind.name().into(),
-                    name.into(),
-                    format!("error: {}", e.message()),
-                    "".into(),
-                    "".into(),
-                    "".into(),
-                ]),
+                Err(e) => rows.push(accuracy_note(kind, name, format!("error: {}", e.message()))),
             }
         }
         let _ = device.set_accuracy(Accuracy::ROBUST);
@@ -458,14 +460,7 @@ fn accuracy(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) {
                     report.push(json!({"section": "accuracy", "backend": kind.name(), "option": name,
                         "passed": check.passed, "rays": check.rays, "leaks": check.leaks, "cached": check.cached}));
                 }
-                Err(e) => rows.push(vec![
-                    kind.name().into(),
-                    name.into(),
-                    format!("error: {}", e.message()),
-                    "".into(),
-                    "".into(),
-                    "".into(),
-                ]),
+                Err(e) => rows.push(accuracy_note(kind, name, format!("error: {}", e.message()))),
             }
         }
     }
@@ -675,15 +670,15 @@ fn scale(opts: &ReportOptions, report: &mut Vec<Value>) {
         let device = match open(kind, opts.threads) {
             Ok(d) => d,
             Err(why) => {
-                rows.push(vec![
-                    "".into(),
-                    "".into(),
-                    kind.name().into(),
-                    format!("skipped: {why}"),
-                    "".into(),
-                    "".into(),
-                    "".into(),
-                ]);
+                rows.push(padded(
+                    vec![
+                        "".into(),
+                        "".into(),
+                        kind.name().into(),
+                        format!("skipped: {why}"),
+                    ],
+                    7,
+                ));
                 continue;
             }
         };
@@ -735,15 +730,15 @@ fn scale(opts: &ReportOptions, report: &mut Vec<Value>) {
                         "build_s": build, "accel_bytes": bytes, "incoherent_mrays_per_s": rate,
                         "launches": launches, "hits": hit_count}));
                 }
-                Err(e) => rows.push(vec![
-                    layout.into(),
-                    scene.flat.triangles.len().to_string(),
-                    kind.name().into(),
-                    format!("failed: {e}"),
-                    "".into(),
-                    "".into(),
-                    "".into(),
-                ]),
+                Err(e) => rows.push(padded(
+                    vec![
+                        layout.into(),
+                        scene.flat.triangles.len().to_string(),
+                        kind.name().into(),
+                        format!("failed: {e}"),
+                    ],
+                    7,
+                )),
             }
         }
     }

@@ -2,19 +2,28 @@
 
 use std::process::Command;
 
-#[test]
-fn lists_every_backend() {
+/// `optik info`'s standard output.
+fn info() -> String {
     let out = Command::new(env!("CARGO_BIN_EXE_optik"))
         .arg("info")
         .output()
         .expect("run optik");
     assert!(out.status.success());
-    let text = String::from_utf8_lossy(&out.stdout);
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// The first line of `text` that `wanted` accepts.
+fn line<'a>(text: &'a str, what: &str, wanted: impl Fn(&str) -> bool) -> &'a str {
+    text.lines()
+        .find(|l| wanted(l))
+        .unwrap_or_else(|| panic!("no line for {what}:\n{text}"))
+}
+
+#[test]
+fn lists_every_backend() {
+    let text = info();
     for backend in ["cpu", "wgpu", "vulkan"] {
-        let line = text
-            .lines()
-            .find(|l| l.trim_start().starts_with(backend))
-            .unwrap_or_else(|| panic!("no line for {backend}:\n{text}"));
+        let line = line(&text, backend, |l| l.trim_start().starts_with(backend));
         assert!(line.contains("available"), "{line}");
     }
     assert!(text.contains("wgpu adapters ("), "{text}");
@@ -22,15 +31,8 @@ fn lists_every_backend() {
 
 #[test]
 fn says_what_auto_picks_and_why() {
-    let out = Command::new(env!("CARGO_BIN_EXE_optik"))
-        .arg("info")
-        .output()
-        .expect("run optik");
-    let text = String::from_utf8_lossy(&out.stdout);
-    let line = text
-        .lines()
-        .find(|l| l.trim_start().starts_with("auto"))
-        .unwrap_or_else(|| panic!("no line for auto:\n{text}"));
+    let text = info();
+    let line = line(&text, "auto", |l| l.trim_start().starts_with("auto"));
     let pick = optik::auto_choice();
     assert!(
         line.contains(&format!("picks {}: {}", pick.kind(), pick.reason)),
@@ -44,15 +46,10 @@ fn says_whether_the_vulkan_drivers_triangles_passed_the_check() {
         eprintln!("skipped: no Vulkan device here");
         return;
     }
-    let out = Command::new(env!("CARGO_BIN_EXE_optik"))
-        .arg("info")
-        .output()
-        .expect("run optik");
-    let text = String::from_utf8_lossy(&out.stdout);
-    let line = text
-        .lines()
-        .find(|l| l.contains("TriangleTest::Driver"))
-        .unwrap_or_else(|| panic!("no line for the driver's triangles:\n{text}"));
+    let text = info();
+    let line = line(&text, "the driver's triangles", |l| {
+        l.contains("TriangleTest::Driver")
+    });
     assert!(
         line.contains(") passed: 0 of ") || line.contains(") failed: "),
         "{line}"
