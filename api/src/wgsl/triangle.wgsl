@@ -86,6 +86,12 @@ fn _optik_edge_pushed(e: f32, p: vec2<f32>, q: vec2<f32>) -> f32 {
     return select(q.x - p.x, dx, dx != 0.0);
 }
 
+// Component `k` of `v`, through selects: a vector indexed by a value known only at run time
+// may be lowered to local memory, one access per read.
+fn _optik_pick(v: vec3<f32>, k: u32) -> f32 {
+    return select(select(v.x, v.y, k == 1u), v.z, k == 2u);
+}
+
 // Woop, Benthin and Wald's watertight test, with exact-zero edge functions tie-broken.
 fn _optik_tri_watertight(w: _OptikWoop, o: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, tmin: f32, tmax: f32) -> _OptikTriHit {
     if !w.usable {
@@ -94,9 +100,12 @@ fn _optik_tri_watertight(w: _OptikWoop, o: vec3<f32>, v0: vec3<f32>, v1: vec3<f3
     let a = v0 - o;
     let b = v1 - o;
     let c = v2 - o;
-    let pa = vec2<f32>(a[w.kx] - w.shear.x * a[w.kz], a[w.ky] - w.shear.y * a[w.kz]);
-    let pb = vec2<f32>(b[w.kx] - w.shear.x * b[w.kz], b[w.ky] - w.shear.y * b[w.kz]);
-    let pc = vec2<f32>(c[w.kx] - w.shear.x * c[w.kz], c[w.ky] - w.shear.y * c[w.kz]);
+    let akz = _optik_pick(a, w.kz);
+    let bkz = _optik_pick(b, w.kz);
+    let ckz = _optik_pick(c, w.kz);
+    let pa = vec2<f32>(_optik_pick(a, w.kx) - w.shear.x * akz, _optik_pick(a, w.ky) - w.shear.y * akz);
+    let pb = vec2<f32>(_optik_pick(b, w.kx) - w.shear.x * bkz, _optik_pick(b, w.ky) - w.shear.y * bkz);
+    let pc = vec2<f32>(_optik_pick(c, w.kx) - w.shear.x * ckz, _optik_pick(c, w.ky) - w.shear.y * ckz);
     var eu = _optik_edge(pc, pb);
     var ev = _optik_edge(pa, pc);
     var ew = _optik_edge(pb, pa);
@@ -115,9 +124,9 @@ fn _optik_tri_watertight(w: _OptikWoop, o: vec3<f32>, v0: vec3<f32>, v1: vec3<f3
     if det == 0.0 {
         return _optik_tri_miss();
     }
-    let az = w.shear.z * a[w.kz];
-    let bz = w.shear.z * b[w.kz];
-    let cz = w.shear.z * c[w.kz];
+    let az = w.shear.z * akz;
+    let bz = w.shear.z * bkz;
+    let cz = w.shear.z * ckz;
     let t = (eu * az + ev * bz + ew * cz) / det;
     if !(t > tmin && t < tmax) {
         return _optik_tri_miss();
