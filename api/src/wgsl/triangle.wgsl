@@ -25,6 +25,12 @@ struct _OptikWoop {
     usable: bool,
 }
 
+// Component `k` of `v`, through selects: a vector indexed by a value known only at run time
+// may be lowered to local memory, one access per read.
+fn _optik_pick(v: vec3<f32>, k: u32) -> f32 {
+    return select(select(v.x, v.y, k == 1u), v.z, k == 2u);
+}
+
 fn _optik_woop_ray(d: vec3<f32>) -> _OptikWoop {
     let a = abs(d);
     var kz = 0u;
@@ -36,16 +42,16 @@ fn _optik_woop_ray(d: vec3<f32>) -> _OptikWoop {
     }
     var kx = (kz + 1u) % 3u;
     var ky = (kx + 1u) % 3u;
-    let dz = d[kz];
+    let dz = _optik_pick(d, kz);
     if dz < 0.0 {
         let swap = kx;
         kx = ky;
         ky = swap;
     }
     // A zero (or subnormal) direction has no largest axis; it hits no triangle.
-    let usable = a[kz] >= _OPTIK_MIN_NORMAL;
+    let usable = _optik_pick(a, kz) >= _OPTIK_MIN_NORMAL;
     let dz_safe = select(1.0, dz, usable);
-    return _OptikWoop(kx, ky, kz, vec3<f32>(d[kx] / dz_safe, d[ky] / dz_safe, 1.0 / dz_safe), usable);
+    return _OptikWoop(kx, ky, kz, vec3<f32>(_optik_pick(d, kx) / dz_safe, _optik_pick(d, ky) / dz_safe, 1.0 / dz_safe), usable);
 }
 
 // The 2D edge function p.x·q.y − p.y·q.x, always evaluated with its operands in one
@@ -84,12 +90,6 @@ fn _optik_edge_pushed(e: f32, p: vec2<f32>, q: vec2<f32>) -> f32 {
     }
     let dx = p.y - q.y;
     return select(q.x - p.x, dx, dx != 0.0);
-}
-
-// Component `k` of `v`, through selects: a vector indexed by a value known only at run time
-// may be lowered to local memory, one access per read.
-fn _optik_pick(v: vec3<f32>, k: u32) -> f32 {
-    return select(select(v.x, v.y, k == 1u), v.z, k == 2u);
 }
 
 // Woop, Benthin and Wald's watertight test, with exact-zero edge functions tie-broken.
