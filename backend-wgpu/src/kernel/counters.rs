@@ -65,7 +65,7 @@ const HOOKS: &[(&str, Counter, &str)] = &[
     ("        let e = stack[sp];", Counter::StackPops, "1u"),
     ("            let n = _optik_node4(", Counter::Nodes, "1u"),
     (
-        "                    stack[sp] = vec2<u32>(s.refs[k], bitcast<u32>(s.keys[k]));",
+        "        (*stack)[*sp] = vec2<u32>(r, bitcast<u32>(key));",
         Counter::StackPushes,
         "1u",
     ),

@@ -636,6 +636,18 @@ fn traverse(c: &KernelConfig<'_>, out: &mut String) {
         "const _OPTIK_STACK: u32 = {stack}u;\nconst _OPTIK_LEVELS: u32 = {saved_levels}u;\n\n"
     ));
     out.push_str(
+        r#"// Pushes a child with the distance where the ray enters it, unless it is _OPTIK_NONE or
+// the stack is full.
+fn _optik_push(stack: ptr<function, array<vec2<u32>, _OPTIK_STACK>>, sp: ptr<function, u32>, r: u32, key: f32) {
+    if r != _OPTIK_NONE && *sp < _OPTIK_STACK {
+        (*stack)[*sp] = vec2<u32>(r, bitcast<u32>(key));
+        *sp = *sp + 1u;
+    }
+}
+
+"#,
+    );
+    out.push_str(
         r#"// Walks the graph under `handle` for _optik_ray; the closest accepted hit ends in _optik_best.
 fn _optik_traverse(handle: vec2<u32>) -> bool {
     _optik_found = false;
@@ -706,25 +718,20 @@ fn _optik_traverse(handle: vec2<u32>) -> bool {
         }
         if tag == 0u {
             let n = _optik_node4(lv.node_base, e.x & 0x3FFFFFFFu, lv.slab, _optik_ray.tmin, _optik_best.t);
-            var refs = vec4<u32>(_OPTIK_NONE);
-            for (var k = 0u; k < 4u; k = k + 1u) {
-                if n.hit[k] {
-                    if n.kind[k] == 1u {
-                        refs[k] = n.child[k];
-                    } else {
-                        // A leaf of count - 1 in bits 27..30: primitives (1) or instances (2).
-                        let tag = select(1u, 2u, lv.is_ias);
-                        refs[k] = (tag << 30u) | ((n.kind[k] - 2u) << 27u) | n.child[k];
-                    }
-                }
-            }
+            // Inner children by node index; a leaf as count - 1 in bits 27..30 with its tag,
+            // primitives (1) or instances (2); children the ray misses _OPTIK_NONE. Whole
+            // vectors, no loop over lanes: a vector indexed by a loop counter may be lowered
+            // to local memory (the watertight test's dynamic indices cost wgpu a sixth of
+            // its incoherent-ray time, docs/wgpu-backend.md §12.2).
+            let leaf_tag = vec4<u32>(select(1u, 2u, lv.is_ias) << 30u);
+            let leaves = leaf_tag | ((n.kind - vec4<u32>(2u)) << vec4<u32>(27u)) | n.child;
+            let inner = n.kind == vec4<u32>(1u);
+            let refs = select(vec4<u32>(_OPTIK_NONE), select(leaves, n.child, inner), n.hit);
             let s = _optik_sort4(select(vec4<f32>(_optik_inf()), n.tnear, n.hit), refs);
-            for (var k = 0u; k < 4u; k = k + 1u) {
-                if s.refs[k] != _OPTIK_NONE && sp < _OPTIK_STACK {
-                    stack[sp] = vec2<u32>(s.refs[k], bitcast<u32>(s.keys[k]));
-                    sp = sp + 1u;
-                }
-            }
+            _optik_push(&stack, &sp, s.refs.x, s.keys.x);
+            _optik_push(&stack, &sp, s.refs.y, s.keys.y);
+            _optik_push(&stack, &sp, s.refs.z, s.keys.z);
+            _optik_push(&stack, &sp, s.refs.w, s.keys.w);
         } else if tag == 1u {
             let first = e.x & 0x7FFFFFFu;
             let count = ((e.x >> 27u) & 7u) + 1u;
