@@ -75,17 +75,12 @@ fn directory_in(
     let root = match setting {
         DiskCache::Disabled => return None,
         DiskCache::Directory(dir) => dir.clone(),
+        // The rule every optik cache follows (optik_api::cache).
         DiskCache::FromEnvironment => {
-            if var("OPTIK_CACHE_DISABLE").is_some_and(|v| v == "1") {
+            if optik_api::cache::disabled_in(&var) {
                 return None;
             }
-            let env = |name: &str| var(name).filter(|v| !v.is_empty()).map(PathBuf::from);
-            match (env("OPTIK_CACHE_PATH"), env("XDG_CACHE_HOME"), env("HOME")) {
-                (Some(path), _, _) => path,
-                (None, Some(xdg), _) => xdg.join("optik"),
-                (None, None, Some(home)) => home.join(".cache").join("optik"),
-                (None, None, None) => return None,
-            }
+            optik_api::cache::root_in(&var)?
         }
     };
     let dir = root.join(concat!("cranelift-", env!("CARGO_PKG_VERSION"), "-0.135"));

@@ -50,7 +50,7 @@ impl PreparedRay {
             dir,
             inv,
             exit_scale: exit_scale(conservative),
-            negative: [dir[0] < 0.0, dir[1] < 0.0, dir[2] < 0.0],
+            negative: negative(dir),
             axes,
             shear,
             moves: moves(dir),
@@ -72,6 +72,12 @@ fn reciprocal(dir: [f32; 3]) -> [f32; 3] {
 #[inline(always)]
 fn exit_scale(conservative: bool) -> f32 {
     if conservative { SLAB_WIDENING } else { 1.0 }
+}
+
+/// Per axis, whether a canonical direction is negative (the near plane is the box maximum).
+#[inline(always)]
+fn negative(dir: [f32; 3]) -> [bool; 3] {
+    [dir[0] < 0.0, dir[1] < 0.0, dir[2] < 0.0]
 }
 
 /// Whether a canonical direction is nonzero (a zero direction hits no built-in primitive).
@@ -133,7 +139,7 @@ impl WideRay {
             origin: origin.map(F4::splat),
             inv: inv.map(F4::splat),
             exit_scale: F4::splat(exit_scale(conservative)),
-            negative: [dir[0] < 0.0, dir[1] < 0.0, dir[2] < 0.0],
+            negative: negative(dir),
             dir,
             inv1: inv,
         }
