@@ -179,9 +179,20 @@ fn open_wgpu() -> Result<Box<dyn Device>> {
     Err(not_built(BackendKind::Wgpu))
 }
 
+/// Opens the Vulkan device the environment asks for. Unless `OPTIK_VULKAN_DRIVER_TRIANGLES`
+/// decides it, optik's check of the driver's triangle test ([`triangle_check`], cached per
+/// driver build) decides whether the default accuracy uses the driver's triangles where they
+/// can serve (docs/vulkan-backend.md §2.4); a check that cannot run keeps optik's triangles.
 #[cfg(feature = "vulkan")]
 fn open_vulkan() -> Result<Box<dyn Device>> {
-    optik_vulkan::open()
+    let options = optik_vulkan::VulkanOptions::from_env();
+    let device = optik_vulkan::open_with(&options)?;
+    if options.driver_triangles.is_none()
+        && let Ok(check) = triangle_check::check_driver_triangles(&device)
+    {
+        device.set_driver_triangles(check.passed)?;
+    }
+    Ok(Box::new(device))
 }
 #[cfg(not(feature = "vulkan"))]
 fn open_vulkan() -> Result<Box<dyn Device>> {

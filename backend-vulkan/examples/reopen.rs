@@ -23,6 +23,7 @@ fn main() {
             pipeline_cache: false,
             cache_dir: None,
             max_dispatch_invocations: None,
+            driver_triangles: None,
         };
         match VulkanBackend::open(&options).map(VulkanDevice::new) {
             Ok(dev) => drop(dev),

@@ -31,6 +31,13 @@ pub struct VulkanOptions {
     /// splitting a launch into several dispatches is tested with small launches. `None`: the
     /// device's limits alone.
     pub max_dispatch_invocations: Option<u64>,
+    /// Whether `TriangleTest::Watertight` (the default) may use the driver's triangles
+    /// where they can serve (docs/vulkan-backend.md §2.4): `Some(true)` when the driver
+    /// passed optik's check (`optik::triangle_check`), `Some(false)` to keep optik's
+    /// triangle stage for every triangle; `None` lets `optik::open` run the check (cached
+    /// per driver) and leaves the backend's own `open` on optik's triangles.
+    /// `OPTIK_VULKAN_DRIVER_TRIANGLES=1` or `0`.
+    pub driver_triangles: Option<bool>,
 }
 
 impl VulkanOptions {
@@ -48,6 +55,11 @@ impl VulkanOptions {
             pipeline_cache: !flag("OPTIK_CACHE_DISABLE"),
             cache_dir: None,
             max_dispatch_invocations: None,
+            driver_triangles: match std::env::var("OPTIK_VULKAN_DRIVER_TRIANGLES").as_deref() {
+                Ok("1") | Ok("true") => Some(true),
+                Ok("0") | Ok("false") => Some(false),
+                _ => None,
+            },
         }
     }
 }

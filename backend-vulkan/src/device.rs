@@ -10,7 +10,7 @@
 //! modules named as in every backend (`accel`, `pipeline`, `sbt`, `launch`), plus `buffer`
 //! and `texture`, passing the tables they read.
 
-use crate::accel::{Proxy, SceneTables, Tlas};
+use crate::accel::{Proxy, SceneTables, Tlas, TriangleBuild};
 use crate::cache::PipelineCache;
 use crate::commands::{Commands, Submission};
 use crate::context::{Context, VulkanOptions};
@@ -60,6 +60,18 @@ pub struct Inner {
     pub retired_proxies: Vec<u64>,
     /// Objects destroyed while they could not be freed, freed with the device.
     pub unfreed: Vec<Unfreed>,
+    /// `TriangleTest::Watertight` uses the driver's triangles where they can serve (the
+    /// driver passed optik's check; docs/vulkan-backend.md §2.4).
+    pub driver_triangles: bool,
+    /// Where the device mixes triangle kinds, the first hit record index of the second half,
+    /// which paths over optik's triangles select (a power of two above every index a path
+    /// selects without it; accel/mod.rs keeps it so).
+    pub hit_half: u32,
+    /// Box twins of geometry structures built with the driver's triangles, for paths whose
+    /// instances disable face culling (accel/mod.rs, §2.4), by structure.
+    pub box_twins: HashMap<Accel, crate::accel::vkas::AsBuffer>,
+    /// Traversable handles of the live geometry structures whose triangles are the driver's.
+    pub driver_triangle_structures: std::collections::HashSet<u64>,
 }
 
 /// The Vulkan device users hold: optik-core's checks in front of [`VulkanBackend`], whose own
@@ -99,6 +111,10 @@ impl VulkanBackend {
             proxies: HashMap::new(),
             retired_proxies: Vec::new(),
             unfreed: Vec::new(),
+            driver_triangles: options.driver_triangles.unwrap_or(false),
+            hit_half: 0,
+            box_twins: HashMap::new(),
+            driver_triangle_structures: Default::default(),
         };
         inner.create_empty_tlas()?;
         Ok(VulkanBackend {
@@ -130,6 +146,27 @@ impl VulkanBackend {
     /// The pipeline cache file, when the cache is kept on disk.
     pub fn pipeline_cache_path(&self) -> Option<std::path::PathBuf> {
         self.lock().cache.path().cloned()
+    }
+
+    /// Lets `TriangleTest::Watertight` (the default) use the driver's triangles where they
+    /// can serve, for a driver that passed optik's check (`optik::open` decides it so;
+    /// docs/vulkan-backend.md §2.4), or keeps optik's triangle stage for every triangle.
+    /// Only before any acceleration structure or transform is built; pipelines created
+    /// before it are refused at launch.
+    pub fn set_driver_triangles(&self, on: bool) -> Result<()> {
+        self.with(|i| i.set_driver_triangles(on))
+    }
+
+    /// Whether `TriangleTest::Watertight` uses the driver's triangles where they can serve.
+    pub fn driver_triangles(&self) -> bool {
+        self.lock().driver_triangles
+    }
+
+    /// Whether the live geometry structure with traversable handle `handle` holds the
+    /// driver's triangles (under `TriangleTest::Driver`, or where the default mixes them in,
+    /// docs/vulkan-backend.md §2.4), rather than boxes for optik's intersection stages.
+    pub fn holds_driver_triangles(&self, handle: TraversableHandle) -> bool {
+        self.lock().driver_triangle_structures.contains(&handle.0)
     }
 
     /// Whether buffers live in device-local memory behind staging copies.
@@ -257,17 +294,17 @@ impl Inner {
                 accuracy.box_test
             )));
         }
-        let emulate = accuracy.triangle != TriangleTest::Driver;
-        if emulate != self.emulates_triangles() {
+        let build = TriangleBuild::of(accuracy.triangle, self.mixable());
+        if build != self.triangle_build() {
             let built_the_other_way = accels.iter().filter(|(_, a)| a.has_triangles()).count();
             if built_the_other_way > 0 {
                 return Err(Error::invalid(format!(
-                    "set_accuracy({:?}): {built_the_other_way} live acceleration structure(s) hold triangles built for {}; the Vulkan backend builds triangles differently for TriangleTest::Driver (native triangles) and the other tests (optik's triangle stage), so destroy them first or set the accuracy before building",
+                    "set_accuracy({:?}): {built_the_other_way} live acceleration structure(s) hold triangles built for {}; the Vulkan backend builds triangles differently for TriangleTest::Driver (native triangles), the watertight test on a driver that passed optik's check (the driver's triangles where they can serve, docs/vulkan-backend.md §2.4) and the other tests (optik's triangle stage), so destroy them first or set the accuracy before building",
                     accuracy.triangle,
-                    if emulate {
-                        "TriangleTest::Driver"
-                    } else {
-                        "optik's triangle test"
+                    match self.triangle_build() {
+                        TriangleBuild::Driver => "TriangleTest::Driver",
+                        TriangleBuild::Optik => "optik's triangle test",
+                        TriangleBuild::Mixed => "the driver's and optik's triangles",
                     }
                 )));
             }
@@ -276,11 +313,31 @@ impl Inner {
         Ok(())
     }
 
+    /// Lets `TriangleTest::Watertight` use the driver's triangles where they can serve
+    /// (`on`, for a driver that passed optik's check) or not; only before any acceleration
+    /// structure or transform is built (structures are built for one or the other).
+    pub fn set_driver_triangles(&mut self, on: bool) -> Result<()> {
+        if on != self.driver_triangles && !self.by_handle.is_empty() {
+            return Err(Error::invalid(format!(
+                "set_driver_triangles({on}): {} acceleration structure(s) or transform(s) are alive, built {} the driver's triangles; call it before building any",
+                self.by_handle.len(),
+                if self.driver_triangles {
+                    "with"
+                } else {
+                    "without"
+                }
+            )));
+        }
+        self.driver_triangles = on;
+        Ok(())
+    }
+
     /// Keeps an object that cannot be freed now until the device is dropped; a structure's
     /// traversable handle stops naming it at once.
     pub fn keep(&mut self, object: Unfreed) {
         if let Unfreed::Accel(a) = &object {
             self.by_handle.remove(&a.handle());
+            self.driver_triangle_structures.remove(&a.handle());
         }
         self.unfreed.push(object);
     }
@@ -411,6 +468,9 @@ impl Inner {
         }
         for (_, p) in std::mem::take(&mut self.proxies) {
             p.structure.destroy(&ctx, &mut self.alloc);
+        }
+        for (_, t) in std::mem::take(&mut self.box_twins) {
+            t.destroy(&ctx, &mut self.alloc);
         }
         if let Some(t) = self.empty_tlas.take() {
             t.destroy(&ctx, &mut self.alloc);

@@ -318,6 +318,20 @@ impl Inner {
                 },
             )));
         }
+        let mixed = self.mixes_triangles() && config.intersects(PrimitiveTypeFlags::TRIANGLE);
+        if scene.primitive_types.contains(PrimitiveTypeFlags::TRIANGLE)
+            && config.mixed_triangles != mixed
+        {
+            return Err(Error::invalid(format!(
+                "the pipeline was compiled for a device that {} the driver's triangles with optik's, and this device {} (VulkanDevice::set_driver_triangles or the accuracy changed since): {recreate}",
+                if config.mixed_triangles {
+                    "mixes"
+                } else {
+                    "does not mix"
+                },
+                if mixed { "does" } else { "does not" },
+            )));
+        }
         if scene.motion.any() && !config.motion_structures {
             return Err(Error::invalid(format!(
                 "live acceleration structures have motion, which this pipeline was not compiled for: {recreate}"

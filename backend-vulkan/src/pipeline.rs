@@ -47,6 +47,9 @@ pub struct GroupHandles {
     pub primary: Option<Vec<u8>>,
     /// The continuation callable's miss group handle.
     pub continuation: Option<Vec<u8>>,
+    /// A triangle hit group's handle for optik's triangles, where the pipeline mixes them
+    /// with the driver's (`primary` then serves the driver's; docs/vulkan-backend.md §2.4).
+    pub optik_triangles: Option<Vec<u8>>,
     /// The direct callable's program id in the callable table of calls inlined into
     /// intersection and any-hit stages (program/inline.rs).
     pub direct_id: Option<u32>,
@@ -76,6 +79,9 @@ pub struct PipelineObject {
     /// `INVALID_HIT_SBT` under debug exceptions), when the pipeline's primitives allow one
     /// group for all; else those records are null records.
     pub past_table: Option<Vec<u8>>,
+    /// The same for the second half of the hit records, where the pipeline mixes the
+    /// driver's triangles with optik's (§2.4): paths over boxes select them.
+    pub past_table_optik: Option<Vec<u8>>,
     /// The stack size to set at launch.
     pub stack_size: u32,
     /// Recent SBT translations.
@@ -196,16 +202,29 @@ struct GroupPlan {
     groups: Vec<VkGroup>,
     /// Per optik group (in the pipeline's order): its region, primary and continuation
     /// Vulkan group.
-    user: Vec<(RawHandle, GroupRegion, Option<usize>, Option<usize>)>,
+    user: Vec<UserGroups>,
     null_callable: usize,
     null_continuation: Option<usize>,
     past_table: Option<usize>,
+    past_table_optik: Option<usize>,
+}
+
+/// The Vulkan groups of one optik group.
+struct UserGroups {
+    group: RawHandle,
+    region: GroupRegion,
+    primary: Option<usize>,
+    continuation: Option<usize>,
+    /// A triangle hit group's group for optik's triangles, where the pipeline mixes kinds.
+    optik_triangles: Option<usize>,
 }
 
 /// What the device and its live scene add to a pipeline's lowering.
 struct DeviceSide {
     /// How triangles are intersected (the device's accuracy).
     triangles: TriangleMode,
+    /// The device mixes the driver's triangles with optik's (§2.4).
+    mixed: bool,
     /// Live structures have motion.
     scene_motion: bool,
     /// Live structures have opacity micromaps.
@@ -244,9 +263,12 @@ fn lowering_config(
     let micromaps = device.triangles.emulated()
         && triangles
         && (features.opacity_micromaps || device.scene_micromaps);
+    let mixed_triangles = device.mixed && triangles;
     // optik's triangle stage reads the ray's face-culling flags from Vulkan's (both faces as
-    // SkipTrianglesKHR), or from the state word where the device lacks that flag; its
-    // opacity checks with micromaps need the 2-state flag, which only the state keeps.
+    // SkipTrianglesKHR, which also skips the driver's triangles where they share the scene:
+    // paths that disable culling over them go through box twins, accel/mod.rs), or from the
+    // state word where the device lacks that flag; its opacity checks with micromaps need
+    // the 2-state flag, which only the state keeps.
     let skip_triangles_flag = device.triangles.emulated() && device.primitive_culling;
     let track_ray_flags =
         calls(&|_, f| matches!(f, DeviceFunction::RayFlags | DeviceFunction::RayMask))
@@ -275,6 +297,7 @@ fn lowering_config(
         continuation_calls,
         inline_calls,
         triangles: device.triangles,
+        mixed_triangles,
         skip_triangles_flag,
         motion_structures: features.motion || device.scene_motion,
         micromaps,
@@ -377,6 +400,7 @@ impl Inner {
                     f64: self.ctx.info.shader_float64,
                 },
             },
+            mixed: self.mixes_triangles(),
             scene_motion: scene.motion.any(),
             scene_micromaps: scene.opacity_micromaps,
             primitive_culling: self.ctx.info.primitive_culling,
@@ -637,15 +661,16 @@ impl Inner {
         };
         let handle = |g: usize| all[g * handle_size..(g + 1) * handle_size].to_vec();
         let mut handles = HashMap::new();
-        for (raw, region, primary, continuation) in &group_plan.user {
+        for u in &group_plan.user {
             handles.insert(
-                *raw,
+                u.group,
                 (
-                    *region,
+                    u.region,
                     GroupHandles {
-                        primary: primary.map(handle),
-                        continuation: continuation.map(handle),
-                        direct_id: direct_ids.get(raw).copied(),
+                        primary: u.primary.map(handle),
+                        continuation: u.continuation.map(handle),
+                        optik_triangles: u.optik_triangles.map(handle),
+                        direct_id: direct_ids.get(&u.group).copied(),
                     },
                 ),
             );
@@ -662,6 +687,7 @@ impl Inner {
             null_callable: handle(group_plan.null_callable),
             null_continuation: group_plan.null_continuation.map(handle),
             past_table: group_plan.past_table.map(handle),
+            past_table_optik: group_plan.past_table_optik.map(handle),
             stack_size,
             sbt_cache: Vec::new(),
         };
@@ -682,7 +708,7 @@ impl Inner {
         let triangles = features
             .primitive_types
             .contains(PrimitiveTypeFlags::TRIANGLE);
-        if !triangles || config.triangles.emulated() {
+        if !triangles || (config.triangles.emulated() && !config.mixed_triangles) {
             flags |= vk::PipelineCreateFlags::RAY_TRACING_SKIP_TRIANGLES_KHR;
         }
         let on_aabbs =
@@ -937,6 +963,7 @@ fn plan_stages(
         )
     };
     for (g, desc) in groups.iter().zip(descs) {
+        let mut optik_triangles = None;
         let add = |vk_groups: &mut Vec<VkGroup>, group: VkGroup| {
             vk_groups.push(group);
             vk_groups.len() - 1
@@ -1001,22 +1028,36 @@ fn plan_stages(
                             ),
                         )
                     }
-                    (None, BuiltinIntersector::Triangle) => config
-                        .triangles
-                        .emulated()
+                    (None, BuiltinIntersector::Triangle) => (config.triangles.emulated()
+                        && !config.mixed_triangles)
                         .then(|| plan.stage(Source::Internal(0), StageRole::TriangleIntersection)),
                 };
-                (
-                    Some(add(
+                let primary = add(
+                    &mut vk_groups,
+                    VkGroup::Hit {
+                        closest,
+                        any,
+                        intersection: is,
+                    },
+                );
+                // Where the driver's triangles and optik's share a scene, a triangle hit
+                // group is two Vulkan groups of one closest-hit and any-hit stage each: a
+                // triangle group and a procedural one with optik's triangle stage.
+                let triangle_group = intersection.is_none()
+                    && matches!(builtin, BuiltinIntersector::Triangle)
+                    && config.mixed_triangles;
+                optik_triangles = triangle_group.then(|| {
+                    let stage = plan.stage(Source::Internal(0), StageRole::TriangleIntersection);
+                    add(
                         &mut vk_groups,
                         VkGroup::Hit {
                             closest,
                             any,
-                            intersection: is,
+                            intersection: Some(stage),
                         },
-                    )),
-                    None,
-                )
+                    )
+                });
+                (Some(primary), None)
             }
             ProgramGroupDesc::Callables {
                 direct,
@@ -1033,12 +1074,13 @@ fn plan_stages(
                 (d, c)
             }
         };
-        user.push((
-            optik_api::Handle::raw(g),
-            desc.region(),
+        user.push(UserGroups {
+            group: optik_api::Handle::raw(g),
+            region: desc.region(),
             primary,
             continuation,
-        ));
+            optik_triangles,
+        });
     }
     vk_groups.push(VkGroup::General(
         plan.stage(Source::Internal(0), StageRole::NullCallable),
@@ -1054,6 +1096,15 @@ fn plan_stages(
         vk_groups.push(g);
         vk_groups.len() - 1
     });
+    // The second half's records past the table serve boxes only.
+    let past_table_optik = config.mixed_triangles.then(|| {
+        vk_groups.push(VkGroup::Hit {
+            closest: None,
+            any: None,
+            intersection: Some(plan.stage(Source::Internal(0), StageRole::PastTableIntersection)),
+        });
+        vk_groups.len() - 1
+    });
     (
         plan,
         GroupPlan {
@@ -1062,6 +1113,7 @@ fn plan_stages(
             null_callable,
             null_continuation,
             past_table,
+            past_table_optik,
         },
     )
 }
@@ -1080,10 +1132,13 @@ fn past_table_group(
 ) -> Option<VkGroup> {
     let types = features.primitive_types;
     let triangles = types.contains(PrimitiveTypeFlags::TRIANGLE);
-    let native = triangles && !config.triangles.emulated();
-    let boxes = types.intersects(
-        PrimitiveTypeFlags::CUSTOM | PrimitiveTypeFlags::SPHERE | PrimitiveTypeFlags::CURVES,
-    ) || (triangles && config.triangles.emulated());
+    let native = triangles && (!config.triangles.emulated() || config.mixed_triangles);
+    // Where triangle kinds mix, boxes select the second half of the records (§2.4): this
+    // group serves the first, the driver's triangles alone.
+    let boxes = !config.mixed_triangles
+        && (types.intersects(
+            PrimitiveTypeFlags::CUSTOM | PrimitiveTypeFlags::SPHERE | PrimitiveTypeFlags::CURVES,
+        ) || (triangles && config.triangles.emulated()));
     let internal = Source::Internal(0);
     match (native, boxes) {
         (false, _) => Some(VkGroup::Hit {

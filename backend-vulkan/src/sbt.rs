@@ -12,7 +12,11 @@
 //!   `M + 1 + i` (continuation callables run as miss stages) and a null continuation;
 //! - hit: the user's hit records, then null records up to the highest index a ray of the
 //!   live scene can select (bounded), so an index past the table runs no program (or raises
-//!   `INVALID_HIT_SBT` under debug exceptions) instead of reading past the buffer;
+//!   `INVALID_HIT_SBT` under debug exceptions) instead of reading past the buffer. Where the
+//!   device mixes the driver's triangles with optik's, paths over boxes (every kind but the
+//!   driver's triangles) select a second half starting at the device's `hit_half`: the same
+//!   records with the triangle groups' procedural twins (docs/vulkan-backend.md §2.4), so
+//!   each half serves one Vulkan geometry type;
 //! - callable: the exception program at 0, the null callable at 1, the direct callables of
 //!   the user's callable records from 2.
 //!
@@ -40,7 +44,17 @@ const CACHE_ENTRIES: usize = 4;
 pub struct SbtKey {
     table: ShaderBindingTable,
     generations: Vec<(Buffer, u64)>,
-    hit_reach: u64,
+    hit_reach: HitReach,
+}
+
+/// The hit record indices a ray of the live scene can select.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct HitReach {
+    /// The largest index without the second half's offset.
+    all: u64,
+    /// Where paths over boxes select a second half: its start and the largest index (before
+    /// the offset) they select.
+    boxes: Option<(u64, u64)>,
 }
 
 /// A Vulkan shader binding table.
@@ -176,12 +190,22 @@ impl Inner {
         for b in &buffers {
             generations.push((*b, objects.buffers.get(*b)?.generation));
         }
-        let hit_reach = objects
-            .accels
-            .iter()
-            .map(|(_, a)| a.sbt_reach())
-            .max()
-            .unwrap_or(0);
+        let box_offset = self.box_offset() as u64;
+        let hit_reach = HitReach {
+            all: objects
+                .accels
+                .iter()
+                .map(|(_, a)| a.sbt_reach())
+                .max()
+                .unwrap_or(0),
+            boxes: objects
+                .accels
+                .iter()
+                .filter_map(|(_, a)| a.box_reach())
+                .max()
+                .filter(|_| box_offset > 0)
+                .map(|r| (box_offset, r)),
+        };
         let key = SbtKey {
             table: *table,
             generations,
@@ -350,7 +374,7 @@ impl Inner {
 fn read_regions(
     reader: &Reader,
     table: &ShaderBindingTable,
-    hit_reach: u64,
+    hit_reach: HitReach,
     max_data: u64,
 ) -> Result<([Region; 4], Vec<u32>)> {
     let single_data = |buffer: Buffer, offset: u64| -> Result<Vec<u8>> {
@@ -420,24 +444,47 @@ fn read_regions(
         records: Vec::new(),
         user_stride: table.hitgroup.map(|h| h.stride),
     };
-    if let Some(h) = &table.hitgroup {
-        for (handles, data) in reader.array("sbt.hitgroup", h, GroupRegion::HitGroup)? {
-            hit.records.push(Record {
-                handle: handles.primary,
-                data,
-            });
-        }
+    let user_hits = match &table.hitgroup {
+        Some(h) => reader.array("sbt.hitgroup", h, GroupRegion::HitGroup)?,
+        None => Vec::new(),
+    };
+    for (handles, data) in &user_hits {
+        hit.records.push(Record {
+            handle: handles.primary.clone(),
+            data: data.clone(),
+        });
     }
     // Records past the user's: hits without programs, or raising INVALID_HIT_SBT under debug
     // exceptions (pipeline.rs).
-    let wanted = (hit_reach + 1)
-        .min(hit.records.len() as u64 + MAX_HIT_PADDING)
-        .max(1);
-    while (hit.records.len() as u64) < wanted {
+    let user_count = user_hits.len() as u64;
+    let padded = |reach: u64| (reach + 1).min(user_count + MAX_HIT_PADDING).max(1);
+    while (hit.records.len() as u64) < padded(hit_reach.all) {
         hit.records.push(Record {
             handle: p.past_table.clone(),
             data: Vec::new(),
         });
+    }
+    // The second half, for paths over boxes: every path selects below its start without
+    // the offset, so the gap is never selected (and records of the first half past it never
+    // were). Pipelines that intersect no triangles have no twins: their groups' own stages
+    // skip triangle candidates.
+    if let Some((start, reach)) = hit_reach.boxes {
+        hit.records.resize_with(start as usize, || Record {
+            handle: None,
+            data: Vec::new(),
+        });
+        for (handles, data) in user_hits {
+            hit.records.push(Record {
+                handle: handles.optik_triangles.or(handles.primary),
+                data,
+            });
+        }
+        while ((hit.records.len() as u64) - start) < padded(reach) {
+            hit.records.push(Record {
+                handle: p.past_table_optik.clone().or_else(|| p.past_table.clone()),
+                data: Vec::new(),
+            });
+        }
     }
 
     let exception = match &table.exception {

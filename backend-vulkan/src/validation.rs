@@ -90,6 +90,7 @@ mod tests {
             pipeline_cache: false,
             cache_dir: None,
             max_dispatch_invocations: None,
+            driver_triangles: None,
         };
         let ctx = Context::new(&options).expect("a Vulkan ray tracing device for the tests");
         assert!(ctx.log.take().is_empty());

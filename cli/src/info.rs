@@ -43,7 +43,12 @@ fn driver_triangles() {
     };
     match optik::triangle_check::check_driver_triangles(device.as_ref()) {
         Ok(check) => outln!(
-            "  vulkan  the driver's triangles (TriangleTest::Driver) {check}; the default stays optik's watertight triangles"
+            "  vulkan  the driver's triangles (TriangleTest::Driver) {check}; the default (watertight) uses {}",
+            if check.passed {
+                "the driver's triangles where they can serve and optik's for the rest (motion, micromaps, face-culling records, under motion transforms)"
+            } else {
+                "optik's triangle stage for every triangle"
+            }
         ),
         Err(e) => outln!("  vulkan  the driver's triangles could not be checked: {e}"),
     }

@@ -73,6 +73,11 @@ pub struct FlatInstance {
     pub chain: u32,
     /// The owner of the bottom level (none in unit tests).
     pub source: Option<FlatSource>,
+    /// Vulkan sees boxes at the path's end (custom primitives, spheres, curves, optik's
+    /// triangles, motion transforms' proxies). Where a device mixes the driver's triangles
+    /// with optik's, such paths select the second half of the hit records, so each half
+    /// serves one Vulkan geometry type (docs/vulkan-backend.md §2.4).
+    pub boxes: bool,
 }
 
 impl FlatInstance {
@@ -91,7 +96,14 @@ impl FlatInstance {
             geometry_count,
             chain: super::tables::NONE,
             source: None,
+            boxes: false,
         }
+    }
+
+    /// The same path, over boxes or not.
+    pub fn over_boxes(mut self, boxes: bool) -> Self {
+        self.boxes = boxes;
+        self
     }
 
     /// The same path with its owner named.

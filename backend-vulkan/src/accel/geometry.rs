@@ -621,6 +621,59 @@ pub fn decode_gas(
 }
 
 /// A triangle input as Vulkan triangles, one geometry per record.
+/// Whether the driver's triangles can serve a structure decoded for optik's triangle stage,
+/// on a device that mixes them (docs/vulkan-backend.md §2.4): triangles without motion keys,
+/// micromaps or records that disable face culling (Vulkan culls per instance, and a ray
+/// culling both faces skips every driver triangle, §4).
+pub fn driver_can_serve(options: &AccelBuildOptions, decoded: &DecodedGas) -> bool {
+    let triangles = decoded
+        .records
+        .iter()
+        .all(|r| (r[3] >> 8) & 0xFF == tables::KIND_TRIANGLES);
+    triangles
+        && !decoded.records.is_empty()
+        && motion_keys(options) == 1
+        && decoded.geometries.iter().all(|g| {
+            !g.micromap
+                && !g
+                    .flags
+                    .contains(GeometryFlags::DISABLE_TRIANGLE_FACE_CULLING)
+        })
+}
+
+/// Gives a structure decoded for optik's triangle stage native Vulkan triangles over the
+/// same primitives, numbered as its boxes were: the tables (records, remaps, vertices) stay
+/// those optik's stage reads, so one closest-hit or any-hit stage serves both kinds, and the
+/// boxes stay for motion transforms over it, whose proxies are optik's (§2.4). Each
+/// geometry's vertices are its primitives' three vertices in the data table, unindexed
+/// (indices `0..3n`).
+pub fn add_driver_triangles(decoded: &mut DecodedGas) {
+    let mut bytes = Vec::new();
+    for (g, r) in decoded.geometries.iter_mut().zip(&decoded.records) {
+        let words = 9 * g.count as usize;
+        let mut vertices: Vec<f32> = match r[2] {
+            NONE => Vec::new(),
+            at => decoded.data[at as usize..at as usize + words]
+                .iter()
+                .map(|w| f32::from_bits(*w))
+                .collect(),
+        };
+        if vertices.is_empty() {
+            // Vulkan wants a vertex to point at even when a geometry has no triangles.
+            vertices.extend([0.0; 3]);
+        }
+        g.data_offset = push_aligned(&mut bytes, &f32_bytes(&vertices));
+        g.vertex_count = (vertices.len() / 3) as u32;
+        let indices: Vec<u8> = (0..3 * g.count).flat_map(|i| i.to_le_bytes()).collect();
+        g.index_offset = push_aligned(&mut bytes, &indices);
+    }
+    if bytes.is_empty() {
+        bytes.resize(16, 0);
+    }
+    decoded.bytes = bytes;
+    decoded.native_triangles = true;
+}
+
 fn push_native_triangles(
     out: &mut DecodedGas,
     t: &optik_api::TriangleArray,

@@ -22,6 +22,32 @@ pub mod transform;
 pub mod vkas;
 
 pub use tables::SceneTables;
+
+/// How a device builds triangles: the driver's (`TriangleTest::Driver`), optik's triangle
+/// stage (the other tests), or both (the watertight test where the driver passed optik's
+/// check: the driver's triangles wherever they can serve, §2.4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TriangleBuild {
+    /// Native Vulkan triangles only.
+    Driver,
+    /// AABBs with optik's triangle stage only.
+    Optik,
+    /// Native triangles for static structures without micromaps or face-culling records,
+    /// optik's stage for the rest and under motion transforms.
+    Mixed,
+}
+
+impl TriangleBuild {
+    /// The build for triangle test `test` on a device that does (`driver_triangles`) or does
+    /// not trust its driver's triangles.
+    pub fn of(test: TriangleTest, driver_triangles: bool) -> TriangleBuild {
+        match test {
+            TriangleTest::Driver => TriangleBuild::Driver,
+            TriangleTest::Watertight if driver_triangles => TriangleBuild::Mixed,
+            _ => TriangleBuild::Optik,
+        }
+    }
+}
 pub use transform::{Proxy, Transform};
 
 use crate::buffer::snapshot_view;
@@ -29,7 +55,7 @@ use crate::device::Inner;
 use crate::memory::{Allocator, GpuBuffer, Location};
 use crate::objects::{Accels, Buffers, Objects, Unfreed};
 use ash::vk;
-use flatten::{FlatInstance, vk_flags};
+use flatten::{FlatInstance, FlatSource, vk_flags};
 use geometry::{DecodedGas, DecodedGeometry, GasKind};
 use optik_api::*;
 use std::collections::HashSet;
@@ -46,8 +72,23 @@ pub struct Tlas {
     /// First entry of its instances in the instance table (the custom index of instance 0).
     pub table_start: u32,
     flags: vk::BuildAccelerationStructureFlagsKHR,
-    /// The largest hit record index a ray through it can select.
+    /// The largest hit record index a ray through it can select, before the offset of
+    /// paths over boxes on a device that mixes triangle kinds (§2.4).
     pub sbt_reach: u64,
+    /// The same for its paths over boxes; `None` without such paths.
+    pub box_reach: Option<u64>,
+}
+
+impl Tlas {
+    fn reaches(flat: &[FlatInstance]) -> (u64, Option<u64>) {
+        let all = flat.iter().map(FlatInstance::sbt_reach).max().unwrap_or(0);
+        let optik = flat
+            .iter()
+            .filter(|f| f.boxes)
+            .map(FlatInstance::sbt_reach)
+            .max();
+        (all, optik)
+    }
 }
 
 impl Tlas {
@@ -70,7 +111,7 @@ pub struct Gas {
     data_start: u32,
     data_len: u32,
     kind: GasKind,
-    /// Whether Vulkan sees its triangles as triangles (`TriangleTest::Driver`).
+    /// Whether Vulkan sees its triangles as triangles (the driver's test).
     native_triangles: bool,
     /// Per geometry, the Vulkan geometry flags and (for AABB geometries) its boxes: what
     /// motion transforms bound again.
@@ -144,13 +185,13 @@ impl AccelObject {
     /// Its flat list (one entry per path to a bottom level).
     pub fn flat(&self) -> Vec<FlatInstance> {
         match self {
-            AccelObject::Gas(g) => g
-                .parts
-                .iter()
-                .map(|(p, flags)| {
-                    FlatInstance::bottom(p.address, *flags, g.geometry_start, g.geometry_count)
-                })
-                .collect(),
+            AccelObject::Gas(g) => gas_paths(
+                &g.parts,
+                g.geometry_start,
+                g.geometry_count,
+                g.kind,
+                g.native_triangles,
+            ),
             AccelObject::Ias(i) => i.flat.clone(),
             AccelObject::Transform(t) => t.flat.clone(),
         }
@@ -179,9 +220,15 @@ impl AccelObject {
         matches!(self, AccelObject::Gas(g) if g.kind == GasKind::Triangles)
     }
 
-    /// The largest hit record index a ray traced against it can select.
+    /// The largest hit record index a ray traced against it can select (before the offset
+    /// of paths over optik's triangles where a device mixes triangle kinds).
     pub fn sbt_reach(&self) -> u64 {
         self.tlas().sbt_reach
+    }
+
+    /// The same for its paths over boxes, if it has any.
+    pub fn box_reach(&self) -> Option<u64> {
+        self.tlas().box_reach
     }
 
     /// Frees its Vulkan objects (table ranges are returned by the caller).
@@ -259,6 +306,24 @@ fn input_buffers(input: &BuildInput) -> Vec<Buffer> {
         BuildInput::Instances(i) => v.push(i.instances.buffer),
     }
     v
+}
+
+/// The paths of a GAS's bottom levels (`parts`: each with the instance flags its
+/// instances carry).
+fn gas_paths(
+    parts: &[(AsBuffer, u32)],
+    geometry_start: u32,
+    geometry_count: u32,
+    kind: GasKind,
+    native_triangles: bool,
+) -> Vec<FlatInstance> {
+    parts
+        .iter()
+        .map(|(p, flags)| {
+            FlatInstance::bottom(p.address, *flags, geometry_start, geometry_count)
+                .over_boxes(kind != GasKind::Triangles || !native_triangles)
+        })
+        .collect()
 }
 
 /// The error for what native Vulkan triangles (`TriangleTest::Driver`) cannot carry.
@@ -359,6 +424,7 @@ impl Inner {
     /// The acceleration structure with no instances (null handles, continuation calls).
     pub fn create_empty_tlas(&mut self) -> Result<()> {
         let tlas = self.build_tlas(
+            None,
             &[],
             vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE,
         )?;
@@ -386,15 +452,17 @@ impl Inner {
     fn vk_instances(
         flat: &[FlatInstance],
         table_start: u32,
+        box_offset: u32,
     ) -> Vec<vk::AccelerationStructureInstanceKHR> {
         flat.iter()
             .enumerate()
             .map(|(k, f)| {
+                let offset = if f.boxes { box_offset } else { 0 };
                 vkas::vk_instance(
                     &f.transform,
                     table_start + k as u32,
                     f.mask,
-                    f.sbt_offset,
+                    f.sbt_offset + offset,
                     f.vk_flags() as u8,
                     f.blas,
                 )
@@ -416,12 +484,83 @@ impl Inner {
         buffer.write(0, bytes)
     }
 
-    /// A new top level over `flat`.
+    /// The SBT offset added to paths over boxes: the start of the hit records' second half
+    /// where the device mixes triangle kinds (§2.4), else 0.
+    pub fn box_offset(&self) -> u32 {
+        if self.mixes_triangles() {
+            self.hit_half
+        } else {
+            0
+        }
+    }
+
+    /// Keeps the second half of the hit records past every index a path of `flat` (or of a
+    /// live top level) can select without the offset, where the device mixes triangle kinds:
+    /// when it must grow, the live top levels with paths over boxes are built again with
+    /// the new offset (in place, same handles).
+    fn ensure_hit_half(&mut self, accels: &Accels, flat: &[FlatInstance]) -> Result<()> {
+        if !self.mixes_triangles() {
+            return Ok(());
+        }
+        let (reach, optik) = Tlas::reaches(flat);
+        if reach < self.hit_half as u64 {
+            return self.check_box_offset(optik);
+        }
+        let half = (reach + 1).next_power_of_two().max(16);
+        let largest = accels.iter().filter_map(|(_, a)| a.box_reach()).max();
+        self.hit_half = u32::try_from(half).unwrap_or(u32::MAX);
+        self.check_box_offset(optik.max(largest))?;
+        for (_, a) in accels.iter() {
+            if a.box_reach().is_some() {
+                self.write_tlas(a.tlas(), &a.flat())?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Errors when a path over boxes with `reach` would select records past the
+    /// 24 bits of a Vulkan instance's SBT offset once moved to the second half.
+    fn check_box_offset(&self, reach: Option<u64>) -> Result<()> {
+        match reach {
+            Some(r) if r + self.hit_half as u64 >= 1 << 24 => Err(Error::limit(format!(
+                "a path over boxes (custom primitives, spheres, curves or optik's triangles) selects hit records up to {r}; on a device that mixes the driver's triangles with optik's (docs/vulkan-backend.md §2.4) those paths select records {} further, past the 24 bits of a Vulkan instance's SBT offset: use smaller SBT offsets, or TriangleTest::MollerTrumbore or VulkanOptions::driver_triangles = false",
+                self.hit_half
+            ))),
+            _ => Ok(()),
+        }
+    }
+
+    /// Writes `flat`'s Vulkan instances into top level `t` and builds it again in place.
+    fn write_tlas(&mut self, t: &Tlas, flat: &[FlatInstance]) -> Result<()> {
+        self.tables
+            .instances
+            .write(t.table_start, &Self::instance_entries(flat));
+        self.tables.touch();
+        Self::write_instances(
+            &t.instances,
+            &Self::vk_instances(flat, t.table_start, self.box_offset()),
+        )?;
+        self.build_as(
+            vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+            &[],
+            Some((t.instances.address, t.count)),
+            t.flags,
+            BuildTarget::Rebuild(t.structure.accel),
+        )?;
+        Ok(())
+    }
+
+    /// A new top level over `flat` (`accels`: the live structures, whose top levels may be
+    /// built again when the hit records' second half moves, §2.4).
     fn build_tlas(
         &mut self,
+        accels: Option<&Accels>,
         flat: &[FlatInstance],
         flags: vk::BuildAccelerationStructureFlagsKHR,
     ) -> Result<Tlas> {
+        if let Some(accels) = accels {
+            self.ensure_hit_half(accels, flat)?;
+        }
         if flat.len() as u64 > self.ctx.info.max_instance_count {
             return Err(Error::limit(format!(
                 "the flattened instance tree has {} Vulkan instances; this device allows {}",
@@ -446,9 +585,10 @@ impl Inner {
                 Location::HostVisible,
                 16,
             )?;
-            if let Err(e) =
-                Self::write_instances(&instances, &Self::vk_instances(flat, table_start))
-            {
+            if let Err(e) = Self::write_instances(
+                &instances,
+                &Self::vk_instances(flat, table_start, self.box_offset()),
+            ) {
                 instances.destroy(&self.ctx, &mut self.alloc);
                 return Err(e);
             }
@@ -460,14 +600,18 @@ impl Inner {
                 BuildTarget::New,
             );
             match built {
-                Ok(Some(structure)) => Ok(Tlas {
-                    structure,
-                    instances,
-                    count: flat.len() as u32,
-                    table_start,
-                    flags,
-                    sbt_reach: flat.iter().map(FlatInstance::sbt_reach).max().unwrap_or(0),
-                }),
+                Ok(Some(structure)) => {
+                    let (sbt_reach, box_reach) = Tlas::reaches(flat);
+                    Ok(Tlas {
+                        structure,
+                        instances,
+                        count: flat.len() as u32,
+                        table_start,
+                        flags,
+                        sbt_reach,
+                        box_reach,
+                    })
+                }
                 Ok(None) => Err(Error::backend("top level build returned nothing")),
                 Err(e) => {
                     instances.destroy(&self.ctx, &mut self.alloc);
@@ -488,43 +632,23 @@ impl Inner {
         accel: Accel,
         flat: &[FlatInstance],
     ) -> Result<()> {
-        let (structure, address, count, table_start, flags) = {
-            let t = accels.get(accel)?.tlas();
-            (
-                t.structure.accel,
-                t.instances.address,
-                t.count,
-                t.table_start,
-                t.flags,
-            )
-        };
+        let count = accels.get(accel)?.tlas().count;
         if flat.len() as u32 != count {
             return Err(Error::invalid(format!(
                 "the flattened instance tree changed from {count} to {} Vulkan instances; Vulkan top levels keep their instance count, so rebuild the structure instead",
                 flat.len()
             )));
         }
-        self.tables
-            .instances
-            .write(table_start, &Self::instance_entries(flat));
-        self.tables.touch();
-        Self::write_instances(
-            &accels.get(accel)?.tlas().instances,
-            &Self::vk_instances(flat, table_start),
-        )?;
-        self.build_as(
-            vk::AccelerationStructureTypeKHR::TOP_LEVEL,
-            &[],
-            Some((address, count)),
-            flags,
-            BuildTarget::Rebuild(structure),
-        )?;
-        let reach = flat.iter().map(FlatInstance::sbt_reach).max().unwrap_or(0);
-        match accels.get_mut(accel)? {
-            AccelObject::Gas(g) => g.wrapper.sbt_reach = reach,
-            AccelObject::Ias(i) => i.tlas.sbt_reach = reach,
-            AccelObject::Transform(t) => t.tlas.sbt_reach = reach,
-        }
+        self.ensure_hit_half(accels, flat)?;
+        self.write_tlas(accels.get(accel)?.tlas(), flat)?;
+        let (reach, optik) = Tlas::reaches(flat);
+        let t = match accels.get_mut(accel)? {
+            AccelObject::Gas(g) => &mut g.wrapper,
+            AccelObject::Ias(i) => &mut i.tlas,
+            AccelObject::Transform(t) => &mut t.tlas,
+        };
+        t.sbt_reach = reach;
+        t.box_reach = optik;
         Ok(())
     }
 
@@ -568,6 +692,52 @@ impl Inner {
         Ok((flat, counts))
     }
 
+    /// The flat list of an instance structure (as [`Inner::flatten_instances`]), where paths
+    /// whose instances disable face culling over the driver's triangles go through the
+    /// geometry's box twin instead: a ray culling both faces carries `SkipTrianglesKHR`,
+    /// which would skip those triangles too, while optik's triangle stage follows the
+    /// path's flags (§2.4).
+    fn flatten_paths(
+        &mut self,
+        accels: &Accels,
+        instances: &[Instance],
+        children: &[Option<Accel>],
+        previous: Option<(&[u32], &[FlatInstance])>,
+    ) -> Result<(Vec<FlatInstance>, Vec<u32>)> {
+        let (mut flat, counts) = Self::flatten_instances(accels, instances, children, previous)?;
+        if self.mixes_triangles() {
+            let unculled = InstanceFlags::DISABLE_TRIANGLE_FACE_CULLING.0;
+            for f in flat
+                .iter_mut()
+                .filter(|f| f.flags & unculled != 0 && !f.boxes)
+            {
+                if let Some(FlatSource::Gas(g)) = f.source
+                    && f.blas != 0
+                {
+                    f.blas = self.box_twin(accels, g)?;
+                    f.boxes = true;
+                }
+            }
+        }
+        Ok((flat, counts))
+    }
+
+    /// The box twin of geometry structure `accel` (built with the driver's triangles): an
+    /// AABB bottom level of its padded triangle boxes, over the same tables, built when a
+    /// path first needs it and freed with the structure or when a refit moves its boxes.
+    fn box_twin(&mut self, accels: &Accels, accel: Accel) -> Result<u64> {
+        if let Some(t) = self.box_twins.get(&accel) {
+            return Ok(t.address);
+        }
+        let AccelObject::Gas(g) = accels.get(accel)? else {
+            return Err(Error::backend("a path's geometry is not a geometry"));
+        };
+        let twin = self.build_proxy(&g.geometry_boxes)?;
+        let address = twin.address;
+        self.box_twins.insert(accel, twin);
+        Ok(address)
+    }
+
     /// Builds every top level that contains `changed` again, upwards.
     fn refresh_dependents(&mut self, accels: &mut Accels, changed: Accel) -> Result<()> {
         let mut queue = vec![changed];
@@ -595,7 +765,7 @@ impl Inner {
     fn refresh(&mut self, accels: &mut Accels, accel: Accel) -> Result<()> {
         let flat = match accels.get(accel)? {
             AccelObject::Ias(ias) => {
-                let (flat, counts) = Self::flatten_instances(
+                let (flat, counts) = self.flatten_paths(
                     accels,
                     &ias.instances,
                     &ias.children,
@@ -618,10 +788,38 @@ impl Inner {
         Ok(())
     }
 
-    /// Whether triangles are built as AABBs for optik's triangle stage (every triangle test
-    /// but `TriangleTest::Driver`).
+    /// Files a new structure under its traversable handle (and among those with the
+    /// driver's triangles).
+    fn name(&mut self, obj: &AccelObject, handle: Accel) {
+        self.by_handle.insert(obj.handle(), handle);
+        if matches!(obj, AccelObject::Gas(g) if g.kind == GasKind::Triangles && g.native_triangles)
+        {
+            self.driver_triangle_structures.insert(obj.handle());
+        }
+    }
+
+    /// How the device builds triangles for its accuracy (§1, §2.4).
+    pub fn triangle_build(&self) -> TriangleBuild {
+        TriangleBuild::of(self.accuracy.triangle, self.mixable())
+    }
+
+    /// Whether the default may mix the driver's triangles in: the driver passed optik's
+    /// check, and the device has `rayTraversalPrimitiveCulling`, so a ray culling both faces
+    /// can skip the driver's triangles (`SkipTrianglesKHR`) as optik's semantics ask.
+    pub fn mixable(&self) -> bool {
+        self.driver_triangles && self.ctx.info.primitive_culling
+    }
+
+    /// Whether optik's triangle stage intersects (some) triangles: every triangle test but
+    /// `TriangleTest::Driver`.
     pub fn emulates_triangles(&self) -> bool {
-        self.accuracy.triangle != TriangleTest::Driver
+        self.triangle_build() != TriangleBuild::Driver
+    }
+
+    /// Whether triangles are the driver's where they can be and optik's where they cannot
+    /// (the watertight test on a device whose driver passed optik's check, §2.4).
+    pub fn mixes_triangles(&self) -> bool {
+        self.triangle_build() == TriangleBuild::Mixed
     }
 
     /// What native Vulkan triangles cannot carry (optik-core has checked the rest).
@@ -674,13 +872,17 @@ impl Inner {
         let snapshot = snapshot_view(&objects.buffers, downloaded, &buffers)?;
         let arrays = &objects.micromaps;
         let lookup = |a: MicromapArray| arrays.get(a).cloned();
-        geometry::decode_gas(
+        let mut decoded = geometry::decode_gas(
             options,
             inputs,
             &snapshot,
             self.emulates_triangles(),
             &lookup,
-        )
+        )?;
+        if self.mixes_triangles() && geometry::driver_can_serve(options, &decoded) {
+            geometry::add_driver_triangles(&mut decoded);
+        }
+        Ok(decoded)
     }
 
     fn decode_instances(
@@ -767,7 +969,7 @@ impl Inner {
             BuildInput::Instances(ia) => self.build_ias(objects, options, inputs, ia)?,
             _ => self.build_gas(objects, options, inputs)?,
         };
-        self.by_handle.insert(accel.handle(), handle);
+        self.name(&accel, handle);
         Ok(accel)
     }
 
@@ -836,11 +1038,15 @@ impl Inner {
             .collect();
         let geometry_start = self.tables.geometries.insert(&records);
         self.tables.touch();
-        let flat: Vec<FlatInstance> = parts
-            .iter()
-            .map(|(p, f)| FlatInstance::bottom(p.address, *f, geometry_start, records.len() as u32))
-            .collect();
+        let flat = gas_paths(
+            &parts,
+            geometry_start,
+            records.len() as u32,
+            kind,
+            decoded.native_triangles,
+        );
         let wrapper = match self.build_tlas(
+            Some(&objects.accels),
             &flat,
             vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE,
         ) {
@@ -892,7 +1098,7 @@ impl Inner {
         ia: &InstanceArray,
     ) -> Result<AccelObject> {
         let (instances, children) = self.decode_instances(&objects.buffers, ia)?;
-        let (flat, counts) = Self::flatten_instances(&objects.accels, &instances, &children, None)?;
+        let (flat, counts) = self.flatten_paths(&objects.accels, &instances, &children, None)?;
         let child_features: Vec<SceneFeatures> = children
             .iter()
             .flatten()
@@ -900,7 +1106,7 @@ impl Inner {
             .map(|o| o.features())
             .collect();
         let features = SceneFeatures::of_parent(&child_features, MotionKinds::default(), false);
-        let tlas = self.build_tlas(&flat, vk_build_flags(options.flags))?;
+        let tlas = self.build_tlas(Some(&objects.accels), &flat, vk_build_flags(options.flags))?;
         Ok(AccelObject::Ias(Ias {
             tlas,
             instances,
@@ -925,7 +1131,7 @@ impl Inner {
             BuildInput::Instances(ia) => {
                 let (instances, children) = self.decode_instances(&objects.buffers, ia)?;
                 let (flat, counts) =
-                    Self::flatten_instances(&objects.accels, &instances, &children, None)?;
+                    self.flatten_paths(&objects.accels, &instances, &children, None)?;
                 let old_counts = match objects.accels.get(accel)? {
                     AccelObject::Ias(i) => i.counts.clone(),
                     _ => Vec::new(),
@@ -943,7 +1149,17 @@ impl Inner {
                     i.inputs = inputs.to_vec();
                 }
             }
-            _ => self.update_gas(objects, accel, options, inputs)?,
+            _ => {
+                // The twin's boxes go stale: the paths above build a new one.
+                let stale = self.box_twins.remove(&accel);
+                let updated = self
+                    .update_gas(objects, accel, options, inputs)
+                    .and_then(|_| self.refresh_dependents(&mut objects.accels, accel));
+                if let Some(t) = stale {
+                    t.destroy(&self.ctx, &mut self.alloc);
+                }
+                return updated;
+            }
         }
         self.refresh_dependents(&mut objects.accels, accel)
     }
@@ -1108,11 +1324,15 @@ impl Inner {
                     .collect();
                 let geometry_start = self.tables.geometries.insert(&records);
                 self.tables.touch();
-                let flat: Vec<FlatInstance> = compacted
-                    .iter()
-                    .map(|(p, f)| FlatInstance::bottom(p.address, *f, geometry_start, g_count))
-                    .collect();
+                let flat = gas_paths(
+                    &compacted,
+                    geometry_start,
+                    g_count,
+                    template.1.0,
+                    template.1.1,
+                );
                 let wrapper = self.build_tlas(
+                    Some(accels),
                     &flat,
                     vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE,
                 )?;
@@ -1156,7 +1376,7 @@ impl Inner {
                     i.inputs.clone(),
                     i.features,
                 );
-                let tlas = self.build_tlas(&flat, vk_build_flags(options.flags))?;
+                let tlas = self.build_tlas(Some(accels), &flat, vk_build_flags(options.flags))?;
                 AccelObject::Ias(Ias {
                     tlas,
                     instances,
@@ -1172,7 +1392,7 @@ impl Inner {
                 return Err(Error::backend("accel_compact was given a transform"));
             }
         };
-        self.by_handle.insert(copy.handle(), handle);
+        self.name(&copy, handle);
         Ok(copy)
     }
 
@@ -1189,6 +1409,7 @@ impl Inner {
             return Err(e);
         }
         self.by_handle.remove(&obj.handle());
+        self.driver_triangle_structures.remove(&obj.handle());
         let t = obj.tlas();
         self.tables.instances.remove(t.table_start, t.count);
         if let AccelObject::Gas(g) = &obj {
@@ -1202,6 +1423,9 @@ impl Inner {
         let refreshed = self.refresh_dependents(accels, accel);
         if let AccelObject::Transform(t) = &obj {
             self.free_proxies(&t.proxies);
+        }
+        if let Some(t) = self.box_twins.remove(&accel) {
+            t.destroy(&self.ctx, &mut self.alloc);
         }
         obj.destroy(&self.ctx, &mut self.alloc);
         refreshed

@@ -110,6 +110,7 @@ impl Inner {
         };
         let (flat, proxies) = self.transform_flat(accels, &link, &child_flat)?;
         let tlas = match self.build_tlas(
+            Some(accels),
             &flat,
             vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE,
         ) {
@@ -172,6 +173,8 @@ impl Inner {
                         blas: address,
                         chain,
                         source: Some(FlatSource::Proxy(address)),
+                        // A proxy is boxes (its triangles, if any, are optik's stage's).
+                        boxes: true,
                         ..*c
                     });
                     proxies.push(address);
@@ -236,7 +239,7 @@ impl Inner {
     }
 
     /// An AABB bottom level of `geometries`.
-    fn build_proxy(
+    pub(super) fn build_proxy(
         &mut self,
         geometries: &[(vk::GeometryFlagsKHR, Vec<Aabb>)],
     ) -> Result<AsBuffer> {

@@ -57,12 +57,17 @@ pub struct LoweringConfig {
     /// Some intersection or any-hit program calls direct callables: they are compiled into
     /// those stages (program/inline.rs).
     pub inline_calls: bool,
-    /// How triangles are intersected.
+    /// How triangles are intersected (optik's triangles, where the pipeline mixes kinds).
     pub triangles: TriangleMode,
-    /// The device has `rayTraversalPrimitiveCulling`: with optik's triangle stage (and so no
-    /// Vulkan triangles), a ray asking to cull both faces carries Vulkan's `SkipTrianglesKHR`
-    /// instead, which the stage reads back, so rays need not carry their flags in the
-    /// state.
+    /// The driver's triangles and optik's share the scene (docs/vulkan-backend.md §2.4):
+    /// triangle hit groups are two Vulkan groups, and hit stages tell the kinds apart by
+    /// their hit kinds (the driver's are 0xFE and 0xFF, optik's stage reports bits 0 and 1).
+    pub mixed_triangles: bool,
+    /// The device has `rayTraversalPrimitiveCulling`: with optik's triangle stage, a ray
+    /// asking to cull both faces carries Vulkan's `SkipTrianglesKHR` instead, which the stage
+    /// reads back, so rays need not carry their flags in the state. It skips the driver's
+    /// triangles too where they share the scene, as their culling asks (paths that disable
+    /// culling over them go through box twins, docs/vulkan-backend.md §2.4).
     pub skip_triangles_flag: bool,
     /// The scene has motion (keys, motion transforms): stages interpolate primitives and
     /// follow motion chains, at the ray's time when `motion` is on and at key 0 otherwise
@@ -124,6 +129,7 @@ impl Default for LoweringConfig {
             continuation_calls: false,
             inline_calls: false,
             triangles: TriangleMode::Native,
+            mixed_triangles: false,
             skip_triangles_flag: false,
             motion_structures: false,
             micromaps: false,

@@ -492,7 +492,10 @@ const PRIMITIVE_INDEX: &str = "let g = _optik_geometry_record();
 /// triangle stage bit 0 for the face (0 front) and bit 1 for an opacity its any-hit wrapper
 /// applies; programs see the face kinds of built-in primitives (optik_api::wgsl, sphere.wgsl).
 fn hit_kind_body(c: &LoweringConfig) -> String {
-    let triangles = if c.triangles.emulated() {
+    let triangles = if c.mixed_triangles {
+        // The driver's triangles report Vulkan's face kinds already.
+        "\n    if _optik_ctx == _OPTIK_CTX_TRIANGLES && k < 0x80u {\n        return select(RT_HIT_KIND_TRIANGLE_BACK_FACE, RT_HIT_KIND_TRIANGLE_FRONT_FACE, (k & 1u) == 0u);\n    }"
+    } else if c.triangles.emulated() {
         "\n    if _optik_ctx == _OPTIK_CTX_TRIANGLES {\n        return select(RT_HIT_KIND_TRIANGLE_BACK_FACE, RT_HIT_KIND_TRIANGLE_FRONT_FACE, (k & 1u) == 0u);\n    }"
     } else {
         ""
@@ -709,8 +712,13 @@ pub fn wrapper(entry_fn: &str, role: &StageRole, c: &LoweringConfig) -> String {
             }
             if c.micromaps && c.triangles.emulated() && ctx == HitContext::Triangles {
                 // optik's triangle stage found the candidate opaque (a micromap state) where
-                // Vulkan saw it non-opaque: accepted without the any-hit program.
-                b.push_str("    if (_optik_hit_kind() & 2u) != 0u {\n        return;\n    }\n");
+                // Vulkan saw it non-opaque: accepted without the any-hit program. (The
+                // driver's triangles, where they share the scene, report 0xFE and 0xFF.)
+                b.push_str(if c.mixed_triangles {
+                    "    if (_optik_hit_kind() & 0x82u) == 2u {\n        return;\n    }\n"
+                } else {
+                    "    if (_optik_hit_kind() & 2u) != 0u {\n        return;\n    }\n"
+                });
             }
             b.push_str(&format!("    {program}();\n"));
             if unwinds {

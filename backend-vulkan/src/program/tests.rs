@@ -196,6 +196,7 @@ pub(crate) fn largest_config() -> LoweringConfig {
         continuation_calls: true,
         inline_calls: true,
         triangles: TriangleMode::Watertight { f64: true },
+        mixed_triangles: false,
         skip_triangles_flag: true,
         motion_structures: true,
         micromaps: true,

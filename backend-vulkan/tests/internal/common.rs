@@ -42,6 +42,9 @@ pub fn device_with(force_staging: bool) -> TestDevice {
         pipeline_cache: false,
         cache_dir: None,
         max_dispatch_invocations: None,
+        // OPTIK_VULKAN_DRIVER_TRIANGLES=1 runs the suite with the driver's triangles mixed
+        // in (docs/vulkan-backend.md §2.4).
+        driver_triangles: VulkanOptions::from_env().driver_triangles,
     };
     let dev = VulkanBackend::open(&options)
         .map(VulkanDevice::new)

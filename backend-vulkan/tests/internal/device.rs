@@ -80,6 +80,7 @@ fn the_pipeline_cache_is_kept_on_disk() {
         pipeline_cache: true,
         cache_dir: Some(dir.clone()),
         max_dispatch_invocations: None,
+        driver_triangles: None,
     };
     let path = {
         let dev = device_with_options(options.clone());
@@ -109,6 +110,7 @@ fn the_pipeline_cache_is_kept_on_disk() {
         pipeline_cache: false,
         cache_dir: Some(std::env::temp_dir()),
         max_dispatch_invocations: None,
+        driver_triangles: None,
     };
     assert!(
         device_with_options(off).pipeline_cache_path().is_none(),
@@ -125,6 +127,7 @@ fn naming_a_device_that_does_not_exist_lists_the_devices() {
         pipeline_cache: false,
         cache_dir: None,
         max_dispatch_invocations: None,
+        driver_triangles: None,
     };
     let e = optik_vulkan::VulkanBackend::open(&options)
         .map(optik_vulkan::VulkanDevice::new)
@@ -150,6 +153,7 @@ fn devices_open_and_drop_any_number_of_times() {
             pipeline_cache: false,
             cache_dir: None,
             max_dispatch_invocations: None,
+            driver_triangles: None,
         };
         if let Err(e) =
             optik_vulkan::VulkanBackend::open(&options).map(optik_vulkan::VulkanDevice::new)

@@ -102,6 +102,7 @@ fn a_launch_over_the_dispatch_limit_runs_as_several_dispatches() {
         pipeline_cache: false,
         cache_dir: None,
         max_dispatch_invocations: Some(7),
+        driver_triangles: None,
     });
     for size in [
         LaunchSize::new(5, 4, 3),

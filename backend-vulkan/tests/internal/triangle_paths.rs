@@ -329,6 +329,9 @@ fn optik_watertight_triangles_never_let_rays_out_of_a_closed_mesh() {
     let rays = aimed_at_vertices_and_edges(&positions, &triangles, inside);
     for accuracy in paths() {
         let dev = device();
+        // optik's own stage, also when the suite runs with the driver's triangles mixed in
+        // (OPTIK_VULKAN_DRIVER_TRIANGLES=1, whatever the driver's check says).
+        dev.set_driver_triangles(false).unwrap();
         dev.set_accuracy(accuracy).unwrap();
         let vb = dev.f32_buffer(&positions.iter().flatten().copied().collect::<Vec<_>>());
         let ib = dev.u32_buffer(&triangles.iter().flatten().copied().collect::<Vec<_>>());
@@ -355,4 +358,147 @@ fn optik_watertight_triangles_never_let_rays_out_of_a_closed_mesh() {
             assert_eq!(escaped, 0, "optik's watertight test leaks");
         }
     }
+}
+
+/// The default on a driver that passed optik's check (docs/vulkan-backend.md §2.4): static
+/// triangles are the driver's, and optik's stage serves what the driver's cannot (motion
+/// keys, face-culling records, motion transforms, instances that disable face culling under
+/// rays culling both faces), in one scene and one pipeline, with the answers of optik's stage
+/// alone everywhere the rays stay away from edges and vertices (where the driver may differ:
+/// lavapipe's leaks). Refit and destroyed structures keep the box twins in step.
+#[test]
+fn the_default_mixes_the_drivers_triangles_with_optiks_and_answers_as_optiks_alone() {
+    let cull = [
+        RayFlags::NONE,
+        RayFlags::CULL_BACK_FACING_TRIANGLES,
+        RayFlags::CULL_FRONT_FACING_TRIANGLES,
+        RayFlags::CULL_BACK_FACING_TRIANGLES | RayFlags::CULL_FRONT_FACING_TRIANGLES,
+    ];
+    let scene = |dev: &TestDevice, vb: Buffer| -> (Accel, Vec<Accel>) {
+        let static_options = AccelBuildOptions {
+            flags: BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS | BuildFlags::ALLOW_UPDATE,
+            ..Default::default()
+        };
+        let input = TriangleArray::new(BufferView::new(vb), 3, GeometryFlags::NONE);
+        let plain = dev
+            .accel_build(&static_options, &[BuildInput::Triangles(input)])
+            .unwrap();
+        let unculled = gas(dev, &CW, GeometryFlags::DISABLE_TRIANGLE_FACE_CULLING);
+        let mut keyed = TriangleArray::new(
+            BufferView::new(dev.f32_buffer(&CCW.concat())),
+            3,
+            GeometryFlags::DISABLE_ANYHIT,
+        );
+        keyed
+            .vertex_buffers
+            .push(BufferView::new(dev.f32_buffer(&CCW.concat())));
+        let motion = MotionOptions {
+            num_keys: 2,
+            flags: MotionFlags::NONE,
+            time_begin: 0.0,
+            time_end: 1.0,
+        };
+        let moving = dev
+            .accel_build(
+                &AccelBuildOptions {
+                    motion: Some(motion),
+                    ..Default::default()
+                },
+                &[BuildInput::Triangles(keyed)],
+            )
+            .unwrap();
+        let transform = dev
+            .create_transform(&TransformDesc::MatrixMotion {
+                child: dev.traversable_handle(plain).unwrap(),
+                motion,
+                keys: vec![IDENTITY_3X4, IDENTITY_3X4],
+            })
+            .unwrap();
+        // Instance i at x = 2i: (child, instance flags).
+        let children = [
+            (plain, InstanceFlags::NONE),
+            (plain, InstanceFlags::FLIP_TRIANGLE_FACING),
+            (plain, InstanceFlags::DISABLE_TRIANGLE_FACE_CULLING),
+            (unculled, InstanceFlags::NONE),
+            (moving, InstanceFlags::NONE),
+            (transform, InstanceFlags::FLIP_TRIANGLE_FACING),
+        ];
+        let instances: Vec<Instance> = children
+            .iter()
+            .enumerate()
+            .map(|(i, (child, flags))| {
+                let mut inst = Instance::new(dev.traversable_handle(*child).unwrap());
+                inst.transform[3] = 2.0 * i as f32;
+                inst.instance_id = i as u32;
+                inst.flags = flags.0;
+                inst
+            })
+            .collect();
+        (
+            dev.instances(&instances),
+            vec![plain, unculled, moving, transform],
+        )
+    };
+    let mut rays = Vec::new();
+    for flags in cull {
+        for i in 0..6 {
+            let x = 2.0 * i as f32;
+            rays.push(Ray::down(x + 0.25, 0.5, flags));
+            rays.push(Ray {
+                origin: [x + 0.5, 0.25, -5.0],
+                direction: [0.0, 0.0, 1.0],
+                ..Ray::down(0.0, 0.0, flags)
+            });
+        }
+    }
+    let answers = |driver_triangles: bool| {
+        let dev = device();
+        dev.set_driver_triangles(driver_triangles).unwrap();
+        assert_eq!(dev.driver_triangles(), driver_triangles);
+        let vb = dev.f32_buffer(&CCW.concat());
+        let (ias, parts) = scene(&dev, vb);
+        let handle = dev.traversable_handle(ias).unwrap();
+        let held: Vec<bool> = parts
+            .iter()
+            .map(|p| dev.holds_driver_triangles(dev.traversable_handle(*p).unwrap()))
+            .collect();
+        // Only the static structure without face-culling records is the driver's (where
+        // the device can skip triangles for rays culling both faces).
+        let mixed = driver_triangles && dev.info().primitive_culling;
+        assert_eq!(held, [mixed, false, false, false]);
+        let before = cast(&dev, handle, &rays);
+        // A refit moves the static triangle 0.5 up in y; the paths above (the box twin of
+        // the instance that disables culling included) follow.
+        let moved: Vec<f32> = CCW.iter().flat_map(|v| [v[0], v[1] + 0.5, v[2]]).collect();
+        dev.write_buffer(vb, 0, bytemuck::cast_slice(&moved))
+            .unwrap();
+        let update = AccelBuildOptions {
+            flags: BuildFlags::ALLOW_RANDOM_VERTEX_ACCESS | BuildFlags::ALLOW_UPDATE,
+            operation: BuildOperation::Update,
+            ..Default::default()
+        };
+        let input = TriangleArray::new(BufferView::new(vb), 3, GeometryFlags::NONE);
+        dev.accel_update(parts[0], &update, &[BuildInput::Triangles(input)])
+            .unwrap();
+        let after = cast(&dev, handle, &rays);
+        dev.destroy_accel(parts[0]).unwrap();
+        let gone = cast(&dev, handle, &rays);
+        dev.assert_no_messages();
+        (before, after, gone)
+    };
+    let optik = answers(false);
+    let mixed = answers(true);
+    for (what, a, b) in [
+        ("built", &optik.0, &mixed.0),
+        ("refit", &optik.1, &mixed.1),
+        ("destroyed", &optik.2, &mixed.2),
+    ] {
+        for (k, (x, y)) in a.iter().zip(b).enumerate() {
+            assert_eq!(x, y, "{what}: ray {k} ({:?})", rays[k].flags);
+        }
+    }
+    // The scene is not empty: both faces culled by the instance that disables culling still
+    // hits (its box twin), and the refit moved the hits.
+    assert!(optik.0.iter().filter(|r| r[0] == 0).count() > 20);
+    assert_ne!(optik.0, optik.1);
 }
