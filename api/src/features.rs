@@ -200,6 +200,11 @@ pub struct FeatureSet {
     pub num_payload_values: u32,
     /// Attribute registers.
     pub num_attribute_values: u32,
+    /// Some triangles are intersected by the device's own triangle test rather than optik's
+    /// (a backend's report, not a request): Vulkan under `TriangleTest::Driver`, or under
+    /// the default where the driver passed optik's check of its triangle test
+    /// (docs/vulkan-backend.md §2.4). Resolving features leaves it false.
+    pub driver_triangles: bool,
 }
 
 impl FeatureSet {
@@ -223,6 +228,7 @@ impl FeatureSet {
             max_trace_depth,
             num_payload_values: 32,
             num_attribute_values: 8,
+            driver_triangles: false,
         }
     }
 
@@ -267,6 +273,7 @@ impl FeatureSet {
             (self.direct_callables, "direct-callables"),
             (self.continuation_callables, "continuation-callables"),
             (self.opacity_micromaps, "opacity-micromaps"),
+            (self.driver_triangles, "driver-triangles"),
         ] {
             if on {
                 v.push(name.into());

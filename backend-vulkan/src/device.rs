@@ -722,7 +722,12 @@ impl optik_core::Backend for VulkanBackend {
     }
 
     fn pipeline_features(&self, pipeline: &PipelineObject) -> FeatureSet {
-        pipeline.features
+        let c = &pipeline.config;
+        FeatureSet {
+            driver_triangles: c.intersects(PrimitiveTypeFlags::TRIANGLE)
+                && (!c.triangles.emulated() || c.mixed_triangles),
+            ..pipeline.features
+        }
     }
 
     fn pipeline_bindings(

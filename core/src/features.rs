@@ -165,6 +165,7 @@ pub fn resolve(
         max_trace_depth: link.max_trace_depth,
         num_payload_values,
         num_attribute_values,
+        driver_triangles: false,
     })
 }
 

@@ -466,6 +466,14 @@ fn the_default_mixes_the_drivers_triangles_with_optiks_and_answers_as_optiks_alo
         // the device can skip triangles for rays culling both faces).
         let mixed = driver_triangles && dev.info().primitive_culling;
         assert_eq!(held, [mixed, false, false, false]);
+        let m = dev.module(PROGRAMS);
+        let groups = [
+            dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg"))),
+            dev.group(ProgramGroupDesc::closest_hit(prog(m, "closesthit__ch"))),
+        ];
+        let p = dev.pipeline(&groups, 1);
+        assert_eq!(dev.pipeline_features(p).unwrap().driver_triangles, mixed);
+        dev.destroy_pipeline(p).unwrap();
         let before = cast(&dev, handle, &rays);
         // A refit moves the static triangle 0.5 up in y; the paths above (the box twin of
         // the instance that disables culling included) follow.
