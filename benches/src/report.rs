@@ -393,17 +393,23 @@ fn accuracy(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) {
         let Ok(device) = open(kind, opts.threads) else {
             continue;
         };
-        let mut baseline: Option<(f64, Hits)> = None;
-        for (name, acc) in choices {
-            if let Err(e) = device.set_accuracy(acc) {
-                rows.push(accuracy_note(
-                    kind,
-                    name,
-                    format!("not offered: {}", e.message()),
-                ));
-                continue;
-            }
-            let measured = (|| -> Result<(f64, Hits, f64, f64)> {
+        // Each option's incoherent time is its best over two passes through the options:
+        // a slow moment of the (possibly shared) machine then spoils one pass of one option
+        // rather than its figure (one pass made single rows read 2-4x on the H200).
+        let incoherent_time = |acc: Accuracy| -> Result<f64> {
+            device.set_accuracy(acc)?;
+            let mut caster = RayCaster::new(
+                device.as_ref(),
+                &scene.mesh.positions,
+                &scene.mesh.triangles,
+            )?;
+            caster.cast(&scene.camera, 1)?;
+            Ok(caster.cast(&scene.incoherent, opts.repeat)?.1)
+        };
+        let mut first: Vec<Result<(f64, Hits, f64, f64)>> = Vec::new();
+        for (_, acc) in choices {
+            first.push((|| -> Result<(f64, Hits, f64, f64)> {
+                device.set_accuracy(acc)?;
                 let mut caster = RayCaster::new(
                     device.as_ref(),
                     &scene.mesh.positions,
@@ -418,7 +424,25 @@ fn accuracy(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) {
                     leak_rate(device.as_ref(), 1.0, [0.0; 3])?,
                     leak_rate(device.as_ref(), 1.0, [1e5, -1e5, 1e5])?,
                 ))
-            })();
+            })());
+        }
+        for ((_, acc), measured) in choices.iter().zip(first.iter_mut()) {
+            if let Ok((inc, ..)) = measured
+                && let Ok(again) = incoherent_time(*acc)
+            {
+                *inc = inc.min(again);
+            }
+        }
+        let mut baseline: Option<(f64, Hits)> = None;
+        for ((name, acc), measured) in choices.into_iter().zip(first) {
+            if let Err(e) = device.set_accuracy(acc) {
+                rows.push(accuracy_note(
+                    kind,
+                    name,
+                    format!("not offered: {}", e.message()),
+                ));
+                continue;
+            }
             match measured {
                 Ok((inc, hits, leak0, leak_far)) => {
                     let (time_ratio, diff) = match &baseline {

@@ -496,6 +496,19 @@ fn the_default_mixes_the_drivers_triangles_with_optiks_and_answers_as_optiks_alo
     };
     let optik = answers(false);
     let mixed = answers(true);
+    // Möller–Trumbore, the fast option, takes the driver's triangles too where they serve.
+    let dev = device();
+    dev.set_driver_triangles(true).unwrap();
+    dev.set_accuracy(Accuracy {
+        triangle: TriangleTest::MollerTrumbore,
+        box_test: BoxTest::Conservative,
+    })
+    .unwrap();
+    let g = gas(&dev, &CCW, GeometryFlags::NONE);
+    assert_eq!(
+        dev.holds_driver_triangles(dev.traversable_handle(g).unwrap()),
+        dev.info().primitive_culling
+    );
     for (what, a, b) in [
         ("built", &optik.0, &mixed.0),
         ("refit", &optik.1, &mixed.1),
