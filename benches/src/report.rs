@@ -558,19 +558,34 @@ fn specialisation(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) 
         let Ok(device) = open(kind, opts.threads) else {
             continue;
         };
+        let measure = |options: &PipelineCompileOptions| -> Result<(f64, String)> {
+            let mut caster = RayCaster::with_options(
+                device.as_ref(),
+                &scene.mesh.positions,
+                &scene.mesh.triangles,
+                options,
+            )?;
+            let features = caster.features()?.names().join(" ");
+            let (_, s) = caster.cast(&scene.incoherent, opts.repeat)?;
+            Ok((s, features))
+        };
+        let pipelines: Vec<(&str, PipelineCompileOptions)> = forced
+            .iter()
+            .copied()
+            .chain([("everything on", everything)])
+            .collect();
+        // Each pipeline's best over two passes through the list, as the accuracy rows.
+        let mut measured: Vec<Result<(f64, String)>> =
+            pipelines.iter().map(|(_, o)| measure(o)).collect();
+        for ((_, options), m) in pipelines.iter().zip(measured.iter_mut()) {
+            if let Ok((s, _)) = m
+                && let Ok((again, _)) = measure(options)
+            {
+                *s = s.min(again);
+            }
+        }
         let mut base = None;
-        for (name, options) in forced.iter().chain([("everything on", everything)].iter()) {
-            let measured = (|| -> Result<(f64, String)> {
-                let mut caster = RayCaster::with_options(
-                    device.as_ref(),
-                    &scene.mesh.positions,
-                    &scene.mesh.triangles,
-                    options,
-                )?;
-                let features = caster.features()?.names().join(" ");
-                let (_, s) = caster.cast(&scene.incoherent, opts.repeat)?;
-                Ok((s, features))
-            })();
+        for ((name, _), measured) in pipelines.iter().zip(measured) {
             match measured {
                 Ok((s, features)) => {
                     let b = *base.get_or_insert(s);
