@@ -110,12 +110,10 @@ struct BoxRecord {
     kind: GasKind,
 }
 
-/// One primitive of a geometry of boxes.
+/// One primitive of a geometry of boxes (its data words go to the builder's scratch).
 struct BoxItem {
     /// Its box over all motion keys.
     bbox: [f32; 6],
-    /// Its data words, `keys × stride`, key after key.
-    data: Vec<u32>,
     /// Its micromap words (tables.rs), when its input has micromaps.
     micromap: Option<[u32; 2]>,
 }
@@ -145,7 +143,8 @@ struct Builder {
 
 impl Builder {
     /// Adds one geometry of boxes holding the usable ones of primitives `all` (indices in
-    /// their input); `item` gives a primitive's box, data and micromap words. The geometry's
+    /// their input); `item` gives a primitive's box and micromap words and appends its data
+    /// words (`keys × stride`, key after key) to the vector it is given. The geometry's
     /// primitives are remapped to their input indices when it holds a subset
     /// (`several_records`, or unusable boxes left out).
     fn push_boxes(
@@ -154,27 +153,39 @@ impl Builder {
         several_records: bool,
         record: BoxRecord,
         micromap: Option<MicromapBlock>,
-        item: impl Fn(u32) -> BoxItem,
+        item: impl Fn(u32, &mut Vec<u32>) -> BoxItem,
     ) {
-        let items: Vec<(u32, BoxItem)> = all
-            .iter()
-            .map(|&p| (p, item(p)))
-            .filter(|(_, it)| usable(&it.bbox))
-            .collect();
+        // One scratch vector for every item's words (not one allocation per primitive:
+        // decoding is most of a structure's build time).
+        let mut words: Vec<u32> = Vec::new();
+        let mut items: Vec<(u32, BoxItem)> = Vec::with_capacity(all.len());
+        for &p in all {
+            let start = words.len();
+            let it = item(p, &mut words);
+            if usable(&it.bbox) {
+                items.push((p, it));
+            } else {
+                words.truncate(start);
+            }
+        }
         let count = items.len() as u32;
-        let data = if items.iter().any(|(_, it)| !it.data.is_empty()) {
+        let data = if words.is_empty() {
+            NONE
+        } else {
             let base = self.out.data.len() as u32;
-            let stride = items[0].1.data.len() / self.keys;
-            for k in 0..self.keys {
-                for (_, it) in &items {
-                    self.out
-                        .data
-                        .extend_from_slice(&it.data[k * stride..(k + 1) * stride]);
+            let per_item = words.len() / items.len();
+            if self.keys == 1 {
+                self.out.data.extend_from_slice(&words);
+            } else {
+                let stride = per_item / self.keys;
+                for k in 0..self.keys {
+                    for i in 0..items.len() {
+                        let at = i * per_item + k * stride;
+                        self.out.data.extend_from_slice(&words[at..at + stride]);
+                    }
                 }
             }
             base
-        } else {
-            NONE
         };
         let micromap_block = match micromap {
             Some(block) => self.push_micromaps(&items, block),
@@ -446,10 +457,9 @@ pub fn decode_gas(
                         kind: GasKind::Triangles,
                     };
                     let block = array.as_ref().map(|a| MicromapBlock { states: &a.data });
-                    b.push_boxes(all, records > 1, record, block, |p| {
+                    b.push_boxes(all, records > 1, record, block, |p, data| {
                         let tri = indices[p as usize];
                         let mut bbox = [f32::NAN; 6];
-                        let mut data = Vec::with_capacity(9 * keys);
                         let mut some_key_has_area = false;
                         for (k, key) in per_key.iter().enumerate() {
                             let v = tri.map(|x| key.vertices[x as usize]);
@@ -467,11 +477,7 @@ pub fn decode_gas(
                             (Some(a), Some(ids)) => Some(micromap_words(a, ids[p as usize])),
                             _ => None,
                         };
-                        BoxItem {
-                            bbox,
-                            data,
-                            micromap,
-                        }
+                        BoxItem { bbox, micromap }
                     });
                 }
                 b.out.partition.push(offsets);
@@ -504,17 +510,16 @@ pub fn decode_gas(
                     // meets the box (at its time), as on the CPU backend; the driver's test
                     // of the padded (and, in hardware, quantised) box lets more rays through
                     // (program/traversal.rs, `_optik_vanished`).
-                    b.push_boxes(all, records > 1, record, None, |p| BoxItem {
-                        bbox: per_key
-                            .iter()
-                            .map(|k| k[p as usize])
-                            .reduce(|a, x| union(&a, &x))
-                            .unwrap_or([f32::NAN; 6]),
-                        data: per_key
-                            .iter()
-                            .flat_map(|k| k[p as usize].map(f32::to_bits))
-                            .collect(),
-                        micromap: None,
+                    b.push_boxes(all, records > 1, record, None, |p, data| {
+                        data.extend(per_key.iter().flat_map(|k| k[p as usize].map(f32::to_bits)));
+                        BoxItem {
+                            bbox: per_key
+                                .iter()
+                                .map(|k| k[p as usize])
+                                .reduce(|a, x| union(&a, &x))
+                                .unwrap_or([f32::NAN; 6]),
+                            micromap: None,
+                        }
                     });
                 }
                 b.out.partition.push(offsets);
@@ -539,9 +544,8 @@ pub fn decode_gas(
                         basis: 0,
                         kind: GasKind::Spheres,
                     };
-                    b.push_boxes(all, records > 1, record, None, |p| {
+                    b.push_boxes(all, records > 1, record, None, |p, data| {
                         let mut bbox = [f32::NAN; 6];
-                        let mut data = Vec::with_capacity(4 * keys);
                         for (k, key) in per_key.iter().enumerate() {
                             let [x, y, z, radius] = key[p as usize];
                             let kb = [
@@ -557,7 +561,6 @@ pub fn decode_gas(
                         }
                         BoxItem {
                             bbox,
-                            data,
                             micromap: None,
                         }
                     });
@@ -576,7 +579,7 @@ pub fn decode_gas(
                 // joints inside a strand are always round.
                 let caps_on =
                     c.curve_type == CurveType::RoundLinear || c.endcaps == CurveEndcaps::On;
-                let segment = |s: u32| {
+                let segment = |s: u32, data: &mut Vec<u32>| {
                     let s = s as usize;
                     let first = segments[s];
                     let starts_strand = s == 0 || segments[s - 1] + 1 != first;
@@ -584,7 +587,6 @@ pub fn decode_gas(
                     let caps = u32::from(!starts_strand || caps_on)
                         | (u32::from(!ends_strand || caps_on) << 1);
                     let mut bbox = [f32::NAN; 6];
-                    let mut data = Vec::with_capacity(17 * keys);
                     for (k, key) in per_key.iter().enumerate() {
                         let points: Vec<[f32; 4]> = (0..4)
                             .map(|j| key.points[first as usize + j.min(per - 1)])
@@ -596,7 +598,6 @@ pub fn decode_gas(
                     }
                     BoxItem {
                         bbox,
-                        data,
                         micromap: None,
                     }
                 };
@@ -620,7 +621,6 @@ pub fn decode_gas(
     Ok(b.finish())
 }
 
-/// A triangle input as Vulkan triangles, one geometry per record.
 /// Whether the driver's triangles can serve a structure decoded for optik's triangle stage,
 /// on a device that mixes them (docs/vulkan-backend.md §2.4): triangles without motion keys,
 /// micromaps or records that disable face culling (Vulkan culls per instance, and a ray
@@ -674,6 +674,7 @@ pub fn add_driver_triangles(decoded: &mut DecodedGas) {
     decoded.native_triangles = true;
 }
 
+/// A triangle input as Vulkan triangles, one geometry per record.
 fn push_native_triangles(
     out: &mut DecodedGas,
     t: &optik_api::TriangleArray,
