@@ -396,39 +396,30 @@ fn accuracy(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) {
         // Each option's incoherent time is its best over two passes through the options:
         // a slow moment of the (possibly shared) machine then spoils one pass of one option
         // rather than its figure (one pass made single rows read 2-4x on the H200).
-        let incoherent_time = |acc: Accuracy| -> Result<f64> {
+        let hits_and_time = |acc: Accuracy| -> Result<(Hits, f64)> {
             device.set_accuracy(acc)?;
             let mut caster = RayCaster::new(
                 device.as_ref(),
                 &scene.mesh.positions,
                 &scene.mesh.triangles,
             )?;
-            caster.cast(&scene.camera, 1)?;
-            Ok(caster.cast(&scene.incoherent, opts.repeat)?.1)
+            let (hits, _) = caster.cast(&scene.camera, 1)?;
+            Ok((hits, caster.cast(&scene.incoherent, opts.repeat)?.1))
         };
         let mut first: Vec<Result<(f64, Hits, f64, f64)>> = Vec::new();
         for (_, acc) in choices {
-            first.push((|| -> Result<(f64, Hits, f64, f64)> {
-                device.set_accuracy(acc)?;
-                let mut caster = RayCaster::new(
-                    device.as_ref(),
-                    &scene.mesh.positions,
-                    &scene.mesh.triangles,
-                )?;
-                let (hits, _) = caster.cast(&scene.camera, 1)?;
-                let (_, inc) = caster.cast(&scene.incoherent, opts.repeat)?;
-                drop(caster);
+            first.push(hits_and_time(acc).and_then(|(hits, inc)| {
                 Ok((
                     inc,
                     hits,
                     leak_rate(device.as_ref(), 1.0, [0.0; 3])?,
                     leak_rate(device.as_ref(), 1.0, [1e5, -1e5, 1e5])?,
                 ))
-            })());
+            }));
         }
         for ((_, acc), measured) in choices.iter().zip(first.iter_mut()) {
             if let Ok((inc, ..)) = measured
-                && let Ok(again) = incoherent_time(*acc)
+                && let Ok((_, again)) = hits_and_time(*acc)
             {
                 *inc = inc.min(again);
             }
