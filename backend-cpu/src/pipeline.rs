@@ -158,22 +158,24 @@ impl ProgramCode {
 
 impl Callable<'_> {
     /// Runs the program with the launch's bindings; `state` is what `calls.state()`
-    /// returns (compiled programs read it without asking).
+    /// returns (compiled programs read it without asking), `trace` the runtime's own
+    /// `rt_trace` for `calls` (compiled programs call it instead of `calls.trace`).
     #[inline]
     pub fn call(
         &self,
         bindings: &Bindings<'_>,
         calls: &mut dyn DeviceCalls,
         state: *const crate::program::abi::DeviceState,
+        trace: crate::program::abi::TraceEntry,
     ) {
         match self {
             #[cfg(feature = "jit")]
             Callable::Jit(f, prepared) => {
                 let _ = bindings;
-                f.call_prepared_with_state(prepared, calls, state)
+                f.call_prepared_with_state(prepared, calls, state, Some(trace))
             }
             Callable::Native(f) => {
-                let _ = state;
+                let _ = (state, trace);
                 f(bindings, calls)
             }
         }
@@ -451,11 +453,23 @@ pub(crate) fn with_payload_registers(
 }
 
 /// Traverses for one pipeline: a [`Spec`] chosen from the pipeline's features.
-pub(crate) type TraceFn =
-    for<'a, 'l> fn(&'a mut crate::device_api::Invocation<'l>, &'a TraceRay, TraversableHandle);
+type WalkFn =
+    for<'a, 'r, 'l> fn(&'a mut crate::device_api::Invocation<'l>, &'r TraceRay, TraversableHandle);
+
+/// A pipeline's traces, compiled for its [`Spec`]: the walk (for `DeviceCalls::trace`, which
+/// native programs call) and the whole `rt_trace` as compiled programs call it, so the
+/// arguments reach the walk without a `dyn` call or a fn-pointer hop.
+#[derive(Clone, Copy)]
+pub(crate) struct TraceFn {
+    pub walk: WalkFn,
+    pub entry: crate::program::abi::TraceEntry,
+}
 
 fn trace_fn<S: Spec>() -> TraceFn {
-    crate::device_api::trace_with::<S>
+    TraceFn {
+        walk: crate::device_api::trace_with::<S>,
+        entry: crate::device_api::trace_entry::<S>,
+    }
 }
 
 fn select_c<const M: bool, const I: bool, const A: bool, const W: bool>(c: bool) -> TraceFn {

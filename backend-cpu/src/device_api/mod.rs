@@ -205,6 +205,54 @@ pub(crate) fn trace_with<S: Spec>(
     traversal::trace::<S, _>(shared.scene, root, ray, &shared.config, inv);
 }
 
+/// `rt_trace` of compiled programs for a pipeline compiled as `S` (an
+/// [`abi::TraceEntry`](crate::program::abi::TraceEntry)): the whole trace in one
+/// monomorphic function, the walk called directly.
+///
+/// # Safety
+/// `calls` is the invocation that called the running program with this entry
+/// (`Invocation::run_program`), and `payload` holds `payload_len` registers of the caller.
+#[allow(clippy::too_many_arguments)]
+pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec>(
+    calls: *mut (),
+    handle_lo: u32,
+    handle_hi: u32,
+    ox: f32,
+    oy: f32,
+    oz: f32,
+    dx: f32,
+    dy: f32,
+    dz: f32,
+    tmin: f32,
+    tmax: f32,
+    time: f32,
+    mask: u32,
+    flags: u32,
+    sbt_offset: u32,
+    sbt_stride: u32,
+    miss_index: u32,
+    payload: *mut u32,
+    payload_len: u32,
+) -> u32 {
+    // SAFETY: `run_program` hands this entry to programs it calls with the invocation as
+    // their `DeviceCalls`, whose data pointer `calls` is; the invocation outlives the call.
+    let inv = unsafe { &mut *calls.cast::<Invocation<'_>>() };
+    // SAFETY: the caller's registers, as the contract says.
+    unsafe {
+        inv.trace_ray(
+            [handle_lo, handle_hi],
+            [ox, oy, oz],
+            [dx, dy, dz],
+            [tmin, tmax, time],
+            [mask, flags, sbt_offset, sbt_stride, miss_index],
+            payload,
+            payload_len as usize,
+            trace_with::<S>,
+        )
+    };
+    inv.unwinding() as u32
+}
+
 impl<'l> Invocation<'l> {
     /// Runs launch index `index`: its ray generation program `raygen`, and everything that
     /// calls.
@@ -284,7 +332,8 @@ impl<'l> Invocation<'l> {
         self.fill_state(program.state_bits());
         let bindings = self.shared.bindings;
         let state = self.state;
-        program.call(bindings, self, state);
+        let trace = self.shared.trace.entry;
+        program.call(bindings, self, state, trace);
         (self.view, self.state) = saved;
     }
 
@@ -508,6 +557,100 @@ impl<'l> Invocation<'l> {
         // SAFETY: as for the hit (see `View::path`).
         unsafe { self.view().path.as_ref() }
     }
+
+    /// `rt_trace` (`DeviceCalls::trace`, and compiled programs' entry), with `walk` the
+    /// pipeline's traversal. Inlined into each caller, so the compiled programs' entry
+    /// keeps its arguments in registers and calls the walk directly.
+    ///
+    /// # Safety
+    /// `payload` points to `payload_len` registers, valid and unaliased for the call.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    unsafe fn trace_ray(
+        &mut self,
+        handle: [u32; 2],
+        origin: [f32; 3],
+        direction: [f32; 3],
+        [tmin, tmax, time]: [f32; 3],
+        [mask, flags, sbt_offset, sbt_stride, miss_index]: [u32; 5],
+        payload: *mut u32,
+        payload_len: usize,
+        walk: impl FnOnce(&mut Self, &TraceRay, TraversableHandle),
+    ) {
+        if self.ending {
+            return;
+        }
+        let features = self.shared.features;
+        if self.depth >= features.max_trace_depth {
+            if features.exceptions.contains(ExceptionFlags::TRACE_DEPTH) {
+                self.raise(code::TRACE_DEPTH_EXCEEDED);
+            }
+            return;
+        }
+        if !semantics::ray::is_valid(origin, direction, tmin, tmax) {
+            if features.exceptions.contains(ExceptionFlags::DEBUG) {
+                self.raise(code::INVALID_RAY);
+            }
+            return;
+        }
+        let time = if features.motion { time } else { 0.0 };
+        let world = RayState {
+            origin,
+            direction,
+            tmin,
+            tmax,
+            time,
+            flags,
+            mask,
+        };
+        let n = payload_len.min(MAX_PAYLOAD);
+        // Registers past `n` are never read (accesses check `payload_len`), so only the
+        // caller's words are copied in, one by one (a handful: no `memcpy` call).
+        let mut registers = [const { std::mem::MaybeUninit::<u32>::uninit() }; MAX_PAYLOAD];
+        for (i, r) in registers[..n].iter_mut().enumerate() {
+            // SAFETY: `i < n <= payload_len` (the caller's contract).
+            r.write(unsafe { *payload.add(i) });
+        }
+        let mut state = TraceState {
+            ray: world,
+            sbt_offset,
+            sbt_stride,
+            committed: None,
+            committed_path: std::mem::MaybeUninit::uninit(),
+            committed_has_path: false,
+            terminated: false,
+            any_hit: AnyHitOutcome::Accept,
+            intersection: None,
+            intersection_exit: false,
+        };
+        let saved_trace = std::mem::replace(&mut self.trace, &mut state);
+        let saved_payload = (self.payload, self.payload_len);
+        (self.payload, self.payload_len) = (registers.as_mut_ptr().cast::<u32>(), n);
+        self.depth += 1;
+        let ray = TraceRay {
+            origin,
+            direction,
+            tmin,
+            tmax,
+            time,
+            mask,
+            flags: RayFlags(flags),
+        };
+        walk(self, &ray, TraversableHandle::from_words(handle));
+        if !self.ending {
+            self.finish_trace(world, miss_index);
+        }
+        self.depth -= 1;
+        self.trace = saved_trace;
+        (self.payload, self.payload_len) = saved_payload;
+        if !self.ending {
+            for (i, r) in registers[..n].iter().enumerate() {
+                // SAFETY: the first `n` registers were written above (and maybe by
+                // programs); `i < payload_len` as above.
+                unsafe { *payload.add(i) = r.assume_init() };
+            }
+        }
+    }
 }
 
 impl DeviceCalls for Invocation<'_> {
@@ -536,76 +679,19 @@ impl DeviceCalls for Invocation<'_> {
         miss_index: u32,
         payload: &mut [u32],
     ) {
-        if self.ending {
-            return;
-        }
-        let features = self.shared.features;
-        if self.depth >= features.max_trace_depth {
-            if features.exceptions.contains(ExceptionFlags::TRACE_DEPTH) {
-                self.raise(code::TRACE_DEPTH_EXCEEDED);
-            }
-            return;
-        }
-        if !semantics::ray::is_valid(origin, direction, tmin, tmax) {
-            if features.exceptions.contains(ExceptionFlags::DEBUG) {
-                self.raise(code::INVALID_RAY);
-            }
-            return;
-        }
-        let time = if features.motion { time } else { 0.0 };
-        let world = RayState {
-            origin,
-            direction,
-            tmin,
-            tmax,
-            time,
-            flags,
-            mask,
-        };
-        let n = payload.len().min(MAX_PAYLOAD);
-        // Registers past `n` are never read (accesses check `payload_len`), so only the
-        // caller's words are copied in, one by one (a handful: no `memcpy` call).
-        let mut registers = [const { std::mem::MaybeUninit::<u32>::uninit() }; MAX_PAYLOAD];
-        for (r, &p) in registers.iter_mut().zip(&payload[..n]) {
-            r.write(p);
-        }
-        let mut state = TraceState {
-            ray: world,
-            sbt_offset,
-            sbt_stride,
-            committed: None,
-            committed_path: std::mem::MaybeUninit::uninit(),
-            committed_has_path: false,
-            terminated: false,
-            any_hit: AnyHitOutcome::Accept,
-            intersection: None,
-            intersection_exit: false,
-        };
-        let saved_trace = std::mem::replace(&mut self.trace, &mut state);
-        let saved_payload = (self.payload, self.payload_len);
-        (self.payload, self.payload_len) = (registers.as_mut_ptr().cast::<u32>(), n);
-        self.depth += 1;
-        let ray = TraceRay {
-            origin,
-            direction,
-            tmin,
-            tmax,
-            time,
-            mask,
-            flags: RayFlags(flags),
-        };
-        (self.shared.trace)(self, &ray, TraversableHandle::from_words(handle));
-        if !self.ending {
-            self.finish_trace(world, miss_index);
-        }
-        self.depth -= 1;
-        self.trace = saved_trace;
-        (self.payload, self.payload_len) = saved_payload;
-        if !self.ending {
-            for (p, r) in payload[..n].iter_mut().zip(&registers) {
-                // SAFETY: the first `n` registers were written above (and maybe by programs).
-                *p = unsafe { r.assume_init() };
-            }
+        let walk = self.shared.trace.walk;
+        // SAFETY: the slice's registers, borrowed for the call.
+        unsafe {
+            self.trace_ray(
+                handle,
+                origin,
+                direction,
+                [tmin, tmax, time],
+                [mask, flags, sbt_offset, sbt_stride, miss_index],
+                payload.as_mut_ptr(),
+                payload.len(),
+                walk,
+            )
         }
     }
 

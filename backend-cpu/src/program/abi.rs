@@ -148,6 +148,38 @@ pub trait DeviceCalls {
     }
 }
 
+/// A runtime's own `rt_trace`, called by compiled code instead of [`DeviceCalls::trace`]
+/// when the runtime offers one for a program call (`ProgramFn::call_prepared_with_state`):
+/// the arguments stay scalars in registers end to end, with no `dyn` call and no arrays
+/// built in memory on the way (their 4-byte stores, read back 8 or 16 bytes at a time,
+/// stalled store-to-load forwarding on every trace).
+///
+/// `calls` is the data pointer of the `&mut dyn DeviceCalls` the program was called with;
+/// the entry must do exactly what that object's `trace` followed by `unwinding` does, and
+/// return whether the program must return (1) or go on (0). `payload` points to
+/// `payload_len` registers the caller owns, as the slice `trace` takes.
+pub type TraceEntry = unsafe extern "C-unwind" fn(
+    calls: *mut (),
+    handle_lo: u32,
+    handle_hi: u32,
+    ox: f32,
+    oy: f32,
+    oz: f32,
+    dx: f32,
+    dy: f32,
+    dz: f32,
+    tmin: f32,
+    tmax: f32,
+    time: f32,
+    mask: u32,
+    flags: u32,
+    sbt_offset: u32,
+    sbt_stride: u32,
+    miss_index: u32,
+    payload: *mut u32,
+    payload_len: u32,
+) -> u32;
+
 /// Device-API values a runtime may hand to programs as memory ([`DeviceCalls::state`]).
 /// Each group of fields has a bit in `present`; a getter whose bit is clear calls its
 /// [`DeviceCalls`] method instead. Matrices are row-major 3×4, as the methods return them.

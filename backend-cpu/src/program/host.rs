@@ -12,7 +12,7 @@
 //! is caught in the trampoline, parked in the context and resumed when the program
 //! returns (the trampolines answer zeros until then).
 
-use super::abi::{Bindings, BoundResource, DeviceCalls};
+use super::abi::{Bindings, BoundResource, DeviceCalls, TraceEntry};
 use super::texture;
 use cranelift_codegen::ir::types::{F32, I32, I64};
 use cranelift_codegen::ir::{AbiParam, Signature, Type};
@@ -54,6 +54,8 @@ pub(crate) struct CallContext<'a> {
     /// The launch's stop flag ([`DeviceCalls::stop_flag`]), or [`NEVER_STOP`]; never null.
     pub stop: *const AtomicU32,
     pub calls: *mut (dyn DeviceCalls + 'a),
+    /// The runtime's own `rt_trace` for `calls`, if it offers one.
+    pub trace: Option<TraceEntry>,
     pub bindings: *const Bindings<'a>,
     pub panic: Option<Box<dyn Any + Send>>,
 }
@@ -263,6 +265,37 @@ unsafe extern "C-unwind" fn rt_trace(
     payload: *mut u32,
     payload_len: u32,
 ) -> u32 {
+    // Where panics unwind through compiled code, the runtime's entry takes the call as it
+    // came (elsewhere `with_calls` must catch them, so the trait's path is taken).
+    #[cfg(target_os = "linux")]
+    // SAFETY: `ctx` is the live context of this program call; its `trace` entry was given
+    // for its `calls` object, whose data pointer it receives, with the arguments as
+    // compiled code passed them (the payload is the caller's own array).
+    if let Some(entry) = unsafe { (*ctx).trace } {
+        return unsafe {
+            entry(
+                (*ctx).calls as *mut (),
+                handle_lo,
+                handle_hi,
+                ox,
+                oy,
+                oz,
+                dx,
+                dy,
+                dz,
+                tmin,
+                tmax,
+                time,
+                mask,
+                flags,
+                sbt_offset,
+                sbt_stride,
+                miss_index,
+                payload,
+                payload_len,
+            )
+        };
+    }
     // SAFETY: compiled code passes the address and length of a `array<u32, N>` it owns.
     let payload = unsafe { std::slice::from_raw_parts_mut(payload, payload_len as usize) };
     unsafe {

@@ -1,6 +1,6 @@
 //! The JIT driver: a module's programs to machine code, and calling them.
 
-use super::abi::{Bindings, BoundResource, DeviceCalls, DeviceState};
+use super::abi::{Bindings, BoundResource, DeviceCalls, DeviceState, TraceEntry};
 use super::cache::{self, DiskStore, ModuleKey};
 use super::host::{BufferSlot, CallContext, HostFn, NEVER_STOP, ZERO_PAGE};
 use super::lower::{self, LowerError, ModuleEnv};
@@ -214,16 +214,25 @@ impl ProgramFn<'_> {
     }
 
     /// [`ProgramFn::call_prepared`] given what `calls.state()` returns, which saves asking
-    /// for it (a runtime that keeps its state at hand calls this).
+    /// for it (a runtime that keeps its state at hand calls this), and optionally the
+    /// runtime's own `rt_trace` for `calls` ([`TraceEntry`]: its contract is the caller's
+    /// to keep).
     #[inline]
     pub fn call_prepared_with_state(
         &self,
         prepared: &PreparedBindings<'_>,
         calls: &mut dyn DeviceCalls,
         state: *const DeviceState,
+        trace: Option<TraceEntry>,
     ) {
         if std::ptr::eq(prepared.layout, self.slot_bindings) {
-            self.run_with_state(prepared.table.as_ptr(), prepared.bindings, calls, state);
+            self.run_with_state(
+                prepared.table.as_ptr(),
+                prepared.bindings,
+                calls,
+                state,
+                trace,
+            );
         } else {
             self.call(prepared.bindings, calls);
         }
@@ -235,7 +244,7 @@ impl ProgramFn<'_> {
         } else {
             std::ptr::null()
         };
-        self.run_with_state(table, bindings, calls, state);
+        self.run_with_state(table, bindings, calls, state, None);
     }
 
     fn run_with_state(
@@ -244,6 +253,7 @@ impl ProgramFn<'_> {
         bindings: &Bindings<'_>,
         calls: &mut dyn DeviceCalls,
         state: *const DeviceState,
+        trace: Option<TraceEntry>,
     ) {
         let mut ctx = CallContext {
             buffers: table,
@@ -262,6 +272,7 @@ impl ProgramFn<'_> {
                 if stop.is_null() { &NEVER_STOP } else { stop }
             },
             calls: calls as *mut dyn DeviceCalls,
+            trace,
             bindings: bindings as *const Bindings<'_>,
             panic: None,
         };
