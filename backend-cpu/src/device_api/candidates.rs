@@ -2,7 +2,7 @@
 //! selects, its any-hit program (accept, ignore, terminate), a custom primitive's intersection
 //! program, and the commit of the closest hit so far.
 
-use super::{AnyHitOutcome, HitState, IntersectionContext, Invocation, RayState, View};
+use super::{AnyHitOutcome, HitState, IntersectionContext, Invocation, View};
 use crate::pipeline::Callable;
 use crate::sbt::Record;
 use crate::traversal::{Candidate, CustomPrimitive, Handler, Path, Spec};
@@ -46,16 +46,14 @@ impl<'l> Invocation<'l> {
         path: *const Path,
     ) -> Option<AnyHitOutcome> {
         let saved = std::mem::replace(&mut self.tr_mut().any_hit, AnyHitOutcome::Accept);
-        let ray = RayState {
-            tmax: hit.t,
-            ..self.tr().ray
-        };
+        let ray = self.tr().ray;
         self.run(
             program,
             View {
                 kind: ProgramKind::AnyHit,
                 record: Some(record),
                 ray,
+                tmax: hit.t,
                 hit,
                 path,
                 exception_code: 0,
@@ -75,14 +73,16 @@ impl<'l> Invocation<'l> {
         terminate: bool,
     ) {
         let tr = self.tr_mut();
-        tr.ray.tmax = hit.t;
+        tr.tmax = hit.t;
         tr.committed = Some((hit, record));
         tr.committed_has_path = !path.is_null();
         if !path.is_null() {
             // SAFETY: a non-null path points to the traversal's live path for this call.
             tr.committed_path.write(unsafe { *path });
         }
-        if terminate || RayFlags(tr.ray.flags).contains(RayFlags::TERMINATE_ON_FIRST_HIT) {
+        // SAFETY: the trace in progress keeps its ray (`TraceState::ray`).
+        let flags = unsafe { (*tr.ray).flags };
+        if terminate || flags.contains(RayFlags::TERMINATE_ON_FIRST_HIT) {
             tr.terminated = true;
         }
     }
@@ -91,7 +91,7 @@ impl<'l> Invocation<'l> {
 impl Handler for Invocation<'_> {
     #[inline]
     fn t_max(&self) -> f32 {
-        self.tr().ray.tmax
+        self.tr().tmax
     }
 
     #[inline]
@@ -148,6 +148,7 @@ impl Handler for Invocation<'_> {
             kind: ProgramKind::Intersection,
             record: Some(record),
             ray: tr.ray,
+            tmax: tr.tmax,
             hit: &base,
             path,
             exception_code: 0,

@@ -43,18 +43,16 @@ use std::sync::atomic::AtomicU32;
 /// Most payload (and callable argument) registers.
 const MAX_PAYLOAD: usize = 32;
 
-/// The ray a program sees.
-#[derive(Clone, Copy, Debug)]
-struct RayState {
-    origin: [f32; 3],
-    direction: [f32; 3],
-    tmin: f32,
-    /// The current end: the committed (or candidate) distance in hit programs.
-    tmax: f32,
-    time: f32,
-    flags: u32,
-    mask: u32,
-}
+/// The ray of programs that trace no ray (raygen, callables of raygen): every getter reads 0.
+static NO_RAY: TraceRay = TraceRay {
+    origin: [0.0; 3],
+    direction: [0.0; 3],
+    tmin: 0.0,
+    tmax: 0.0,
+    time: 0.0,
+    mask: 0,
+    flags: RayFlags(0),
+};
 
 /// The primitive a program sees (the instances above it are its [`Path`]).
 #[derive(Clone, Copy, Debug)]
@@ -107,7 +105,12 @@ impl HitState {
 struct View<'l> {
     kind: ProgramKind,
     record: Option<&'l Record<'l>>,
-    ray: RayState,
+    /// The traced ray (in the frame of the trace that runs the program, or [`NO_RAY`]):
+    /// pointed to, not copied, since most views never read it.
+    ray: *const TraceRay,
+    /// The end of the ray's interval the program sees: the committed (or candidate)
+    /// distance in hit programs (the traced ray's own `tmax` is not it).
+    tmax: f32,
     /// The primitive, or null: a hit kept by a caller of the program's `run` (the committed
     /// hit of the trace, the candidate of an any-hit, the primitive of an intersection), so
     /// views stay small to copy.
@@ -123,15 +126,8 @@ impl View<'_> {
     const EMPTY: View<'static> = View {
         kind: ProgramKind::Raygen,
         record: None,
-        ray: RayState {
-            origin: [0.0; 3],
-            direction: [0.0; 3],
-            tmin: 0.0,
-            tmax: 0.0,
-            time: 0.0,
-            flags: 0,
-            mask: 0,
-        },
+        ray: &NO_RAY,
+        tmax: 0.0,
         hit: std::ptr::null(),
         path: std::ptr::null(),
         exception_code: 0,
@@ -155,9 +151,13 @@ struct IntersectionContext<'l> {
     fate: CandidateFate,
 }
 
-/// The state of one `rt_trace`, in the stack frame of [`Invocation::trace`].
+/// The state of one `rt_trace`, in the stack frame of [`Invocation::trace_ray`].
 struct TraceState<'l> {
-    ray: RayState,
+    /// The traced ray, in the same frame (its copies cost more than the pointer: most
+    /// traces read only `tmax`, below).
+    ray: *const TraceRay,
+    /// The end of the interval now: the ray's `tmax`, then the committed distance.
+    tmax: f32,
     sbt_offset: u32,
     sbt_stride: u32,
     committed: Option<(HitState, &'l Record<'l>)>,
@@ -297,6 +297,21 @@ impl<'l> Invocation<'l> {
         }
     }
 
+    /// The ray the running program sees.
+    #[inline]
+    fn ray(&self) -> &TraceRay {
+        // SAFETY: a view's ray is `NO_RAY` or the ray of the trace that runs the program,
+        // in the frame of `trace_ray`, which outlives the program.
+        unsafe { &*self.view().ray }
+    }
+
+    /// The innermost trace's ray.
+    #[inline]
+    fn traced_ray(&self) -> &TraceRay {
+        // SAFETY: as in `ray`: the trace in progress keeps it.
+        unsafe { &*self.tr().ray }
+    }
+
     /// The innermost trace. Only called while one runs (from the traversal's handler
     /// calls, or from programs it runs).
     #[inline]
@@ -411,7 +426,7 @@ impl<'l> Invocation<'l> {
         }
     }
     /// After traversal: the closest-hit or miss program.
-    fn finish_trace(&mut self, world: RayState, miss_index: u32) {
+    fn finish_trace(&mut self, world: &TraceRay, miss_index: u32) {
         let tr = self.tr();
         let path: *const Path = if tr.committed_has_path {
             tr.committed_path.as_ptr()
@@ -420,21 +435,19 @@ impl<'l> Invocation<'l> {
         };
         match &tr.committed {
             &Some((ref hit, record)) => {
-                if RayFlags(world.flags).contains(RayFlags::DISABLE_CLOSESTHIT) {
+                if world.flags.contains(RayFlags::DISABLE_CLOSESTHIT) {
                     return;
                 }
                 if let Some(ch) = record.programs.main {
-                    let ray = RayState {
-                        tmax: hit.t,
-                        ..world
-                    };
+                    let tmax = hit.t;
                     let hit: *const HitState = hit;
                     self.run(
                         ch,
                         View {
                             kind: ProgramKind::ClosestHit,
                             record: Some(record),
-                            ray,
+                            ray: world,
+                            tmax,
                             hit,
                             path,
                             exception_code: 0,
@@ -461,6 +474,7 @@ impl<'l> Invocation<'l> {
                                     kind: ProgramKind::Miss,
                                     record: Some(record),
                                     ray: world,
+                                    tmax: world.tmax,
                                     hit: std::ptr::null(),
                                     path: std::ptr::null(),
                                     exception_code: 0,
@@ -594,14 +608,14 @@ impl<'l> Invocation<'l> {
             return;
         }
         let time = if features.motion { time } else { 0.0 };
-        let world = RayState {
+        let world = TraceRay {
             origin,
             direction,
             tmin,
             tmax,
             time,
-            flags,
             mask,
+            flags: RayFlags(flags),
         };
         let n = payload_len.min(MAX_PAYLOAD);
         // Registers past `n` are never read (accesses check `payload_len`), so only the
@@ -612,7 +626,8 @@ impl<'l> Invocation<'l> {
             r.write(unsafe { *payload.add(i) });
         }
         let mut state = TraceState {
-            ray: world,
+            ray: &world,
+            tmax,
             sbt_offset,
             sbt_stride,
             committed: None,
@@ -627,18 +642,9 @@ impl<'l> Invocation<'l> {
         let saved_payload = (self.payload, self.payload_len);
         (self.payload, self.payload_len) = (registers.as_mut_ptr().cast::<u32>(), n);
         self.depth += 1;
-        let ray = TraceRay {
-            origin,
-            direction,
-            tmin,
-            tmax,
-            time,
-            mask,
-            flags: RayFlags(flags),
-        };
-        walk(self, &ray, TraversableHandle::from_words(handle));
+        walk(self, &world, TraversableHandle::from_words(handle));
         if !self.ending {
-            self.finish_trace(world, miss_index);
+            self.finish_trace(&world, miss_index);
         }
         self.depth -= 1;
         self.trace = saved_trace;
@@ -728,8 +734,7 @@ impl DeviceCalls for Invocation<'_> {
         let Some(ctx) = self.tr().intersection else {
             return false;
         };
-        let ray = self.tr().ray;
-        if !semantics::ray::reported_t_accepted(t, ray.tmin, ray.tmax) {
+        if !semantics::ray::reported_t_accepted(t, self.traced_ray().tmin, self.tr().tmax) {
             return false;
         }
         let hit = HitState {
@@ -756,7 +761,7 @@ impl DeviceCalls for Invocation<'_> {
         // methods and through its state.
         // SAFETY: `view` and `state` are the intersection program's (it is running).
         unsafe {
-            (*self.view).ray.tmax = t;
+            (*self.view).tmax = t;
             (*self.state).ray_tmax = t;
         }
         true
@@ -776,49 +781,48 @@ impl DeviceCalls for Invocation<'_> {
 
     #[inline]
     fn world_ray_origin(&self) -> [f32; 3] {
-        self.view().ray.origin
+        self.ray().origin
     }
 
     #[inline]
     fn world_ray_direction(&self) -> [f32; 3] {
-        self.view().ray.direction
+        self.ray().direction
     }
 
     #[inline]
     fn object_ray_origin(&self) -> [f32; 3] {
-        self.path()
-            .map_or(self.view().ray.origin, |p| p.object_origin)
+        self.path().map_or(self.ray().origin, |p| p.object_origin)
     }
 
     #[inline]
     fn object_ray_direction(&self) -> [f32; 3] {
         self.path()
-            .map_or(self.view().ray.direction, |p| p.object_direction)
+            .map_or(self.ray().direction, |p| p.object_direction)
     }
 
     #[inline]
     fn ray_tmin(&self) -> f32 {
-        self.view().ray.tmin
+        self.ray().tmin
     }
 
     #[inline]
     fn ray_tmax(&self) -> f32 {
-        self.view().ray.tmax
+        self.view().tmax
     }
 
     #[inline]
     fn ray_time(&self) -> f32 {
-        self.view().ray.time
+        self.ray().time
     }
 
     #[inline]
     fn ray_flags(&self) -> u32 {
-        self.view().ray.flags
+        self.ray().flags.0
     }
 
     #[inline]
     fn ray_mask(&self) -> u32 {
-        self.view().ray.mask
+        self.ray().mask
     }
 
     #[inline]
