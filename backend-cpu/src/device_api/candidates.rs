@@ -74,7 +74,8 @@ impl<'l> Invocation<'l> {
     ) {
         let tr = self.tr_mut();
         tr.tmax = hit.t;
-        tr.committed = Some((hit, record));
+        tr.committed_hit.write(hit);
+        tr.committed_record = Some(record);
         tr.committed_has_path = !path.is_null();
         if !path.is_null() {
             // SAFETY: a non-null path points to the traversal's live path for this call.
@@ -136,13 +137,14 @@ impl Handler for Invocation<'_> {
             std::ptr::null()
         };
         let base = HitState::at(p.info);
-        let tr = self.tr_mut();
-        tr.intersection = Some(IntersectionContext {
+        let context = IntersectionContext {
             base,
             path,
             record,
             fate,
-        });
+        };
+        let tr = self.tr_mut();
+        let saved = std::mem::replace(&mut tr.intersection, &context);
         tr.intersection_exit = false;
         let view = View {
             kind: ProgramKind::Intersection,
@@ -155,7 +157,7 @@ impl Handler for Invocation<'_> {
         };
         self.run(is, view);
         let tr = self.tr_mut();
-        tr.intersection = None;
+        tr.intersection = saved;
         tr.intersection_exit = false;
     }
 

@@ -160,14 +160,19 @@ struct TraceState<'l> {
     tmax: f32,
     sbt_offset: u32,
     sbt_stride: u32,
-    committed: Option<(HitState, &'l Record<'l>)>,
+    /// The committed hit's record; `None` while there is no hit.
+    committed_record: Option<&'l Record<'l>>,
+    /// The committed hit: written with `committed_record`, only read when that is `Some`.
+    committed_hit: std::mem::MaybeUninit<HitState>,
     /// The instances above the committed hit, when the pipeline has instancing (else the
     /// committed hit has none). Only read when `committed_has_path`.
     committed_path: std::mem::MaybeUninit<Path>,
     committed_has_path: bool,
     terminated: bool,
     any_hit: AnyHitOutcome,
-    intersection: Option<IntersectionContext<'l>>,
+    /// The running intersection program's candidate (in the frame of `Handler::custom`),
+    /// or null.
+    intersection: *const IntersectionContext<'l>,
     /// The running intersection program must return.
     intersection_exit: bool,
 }
@@ -247,6 +252,7 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec>(
             [mask, flags, sbt_offset, sbt_stride, miss_index],
             payload,
             payload_len as usize,
+            true,
             trace_with::<S>,
         )
     };
@@ -433,8 +439,10 @@ impl<'l> Invocation<'l> {
         } else {
             std::ptr::null()
         };
-        match &tr.committed {
-            &Some((ref hit, record)) => {
+        match tr.committed_record {
+            Some(record) => {
+                // SAFETY: written with the record (`commit`).
+                let hit = unsafe { tr.committed_hit.assume_init_ref() };
                 if world.flags.contains(RayFlags::DISABLE_CLOSESTHIT) {
                     return;
                 }
@@ -576,6 +584,11 @@ impl<'l> Invocation<'l> {
     /// pipeline's traversal. Inlined into each caller, so the compiled programs' entry
     /// keeps its arguments in registers and calls the walk directly.
     ///
+    /// `in_place`: the trace's programs use the caller's registers themselves instead of a
+    /// copy made here and copied back when the trace returns without an exception. Only
+    /// for callers that read nothing of their payload once the index ends (compiled
+    /// programs return at once when `unwinding`), so no one sees the difference.
+    ///
     /// # Safety
     /// `payload` points to `payload_len` registers, valid and unaliased for the call.
     #[allow(clippy::too_many_arguments)]
@@ -589,6 +602,7 @@ impl<'l> Invocation<'l> {
         [mask, flags, sbt_offset, sbt_stride, miss_index]: [u32; 5],
         payload: *mut u32,
         payload_len: usize,
+        in_place: bool,
         walk: impl FnOnce(&mut Self, &TraceRay, TraversableHandle),
     ) {
         if self.ending {
@@ -619,28 +633,37 @@ impl<'l> Invocation<'l> {
         };
         let n = payload_len.min(MAX_PAYLOAD);
         // Registers past `n` are never read (accesses check `payload_len`), so only the
-        // caller's words are copied in, one by one (a handful: no `memcpy` call).
+        // caller's words are copied in.
         let mut registers = [const { std::mem::MaybeUninit::<u32>::uninit() }; MAX_PAYLOAD];
-        for (i, r) in registers[..n].iter_mut().enumerate() {
-            // SAFETY: `i < n <= payload_len` (the caller's contract).
-            r.write(unsafe { *payload.add(i) });
-        }
+        let registers_at = if in_place {
+            payload
+        } else {
+            for (i, r) in registers[..n].iter_mut().enumerate() {
+                // SAFETY: `i < n <= payload_len` (the caller's contract).
+                r.write(unsafe { *payload.add(i) });
+            }
+            registers.as_mut_ptr().cast::<u32>()
+        };
+        // Only what every trace reads is written; the committed hit and the intersection
+        // context are written when there are some (their `Option`s cost a few hundred
+        // bytes of stores per trace).
         let mut state = TraceState {
             ray: &world,
             tmax,
             sbt_offset,
             sbt_stride,
-            committed: None,
+            committed_record: None,
+            committed_hit: std::mem::MaybeUninit::uninit(),
             committed_path: std::mem::MaybeUninit::uninit(),
             committed_has_path: false,
             terminated: false,
             any_hit: AnyHitOutcome::Accept,
-            intersection: None,
+            intersection: std::ptr::null(),
             intersection_exit: false,
         };
         let saved_trace = std::mem::replace(&mut self.trace, &mut state);
         let saved_payload = (self.payload, self.payload_len);
-        (self.payload, self.payload_len) = (registers.as_mut_ptr().cast::<u32>(), n);
+        (self.payload, self.payload_len) = (registers_at, n);
         self.depth += 1;
         walk(self, &world, TraversableHandle::from_words(handle));
         if !self.ending {
@@ -649,7 +672,7 @@ impl<'l> Invocation<'l> {
         self.depth -= 1;
         self.trace = saved_trace;
         (self.payload, self.payload_len) = saved_payload;
-        if !self.ending {
+        if !in_place && !self.ending {
             for (i, r) in registers[..n].iter().enumerate() {
                 // SAFETY: the first `n` registers were written above (and maybe by
                 // programs); `i < payload_len` as above.
@@ -696,6 +719,7 @@ impl DeviceCalls for Invocation<'_> {
                 [mask, flags, sbt_offset, sbt_stride, miss_index],
                 payload.as_mut_ptr(),
                 payload.len(),
+                false,
                 walk,
             )
         }
@@ -731,7 +755,9 @@ impl DeviceCalls for Invocation<'_> {
         {
             return false;
         }
-        let Some(ctx) = self.tr().intersection else {
+        // SAFETY: a non-null context is in the frame of the `custom` call that runs the
+        // intersection program calling this.
+        let Some(&ctx) = (unsafe { self.tr().intersection.as_ref() }) else {
             return false;
         };
         if !semantics::ray::reported_t_accepted(t, self.traced_ray().tmin, self.tr().tmax) {
