@@ -372,7 +372,10 @@ impl<'l> Invocation<'l> {
             return;
         }
         if bits & S::LAUNCH_INDEX != 0 {
-            unsafe { (*s).launch_index = self.launch_index() };
+            // The launch loop has just written the index as three 4-byte words; copying it
+            // as one 12-byte value reads 8 bytes across two of those stores, which the CPU
+            // cannot forward (a stall on every launch index).
+            unsafe { (*s).launch_index = traversal::words(&self.index) };
         }
         if bits & S::LAUNCH_DIMENSIONS != 0 {
             unsafe { (*s).launch_dimensions = self.launch_dimensions() };

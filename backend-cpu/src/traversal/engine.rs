@@ -85,8 +85,10 @@ impl Path {
             sbt_offset: 0,
             flags: InstanceFlags::NONE,
             flip: false,
-            object_origin: ray.origin,
-            object_direction: ray.direction,
+            // Word by word (`traversal::words`): the caller stored the ray's scalars one
+            // by one moments ago.
+            object_origin: super::words(&ray.origin),
+            object_direction: super::words(&ray.direction),
         }
     }
 

@@ -35,6 +35,17 @@ pub mod intersect {
 
 use optik_api::semantics::opacity::CandidateFate;
 
+/// `v` read one 4-byte word at a time, so that values just written word by word (the launch
+/// index, the traced ray: scalars in registers stored one by one) are read back the way they
+/// were written: the CPU forwards a store to a load that lies within it, never a wider load
+/// spanning two stores (which waits for both to reach the cache). LLVM merges plain
+/// component reads into wider loads, hence the volatile reads.
+#[inline(always)]
+pub(crate) fn words<T: Copy, const N: usize>(v: &[T; N]) -> [T; N] {
+    // SAFETY: each element of a live reference is valid to read.
+    std::array::from_fn(|i| unsafe { std::ptr::read_volatile(&v[i]) })
+}
+
 /// Compile-time switches of a traversal (DESIGN.md §6).
 pub trait Spec: 'static {
     /// Interpolate motion keys at the ray's time (else key 0, time ignored).
