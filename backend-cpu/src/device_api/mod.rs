@@ -152,29 +152,34 @@ struct IntersectionContext<'l> {
 }
 
 /// The state of one `rt_trace`, in the stack frame of [`Invocation::trace_ray`].
+///
+/// `repr(C)`, with the fields every trace writes first and the ones written only with a
+/// hit last: in Rust's order the uninitialised hit sat between written fields, and LLVM
+/// zeroed the whole ~170 bytes to write them as one block.
+#[repr(C)]
 struct TraceState<'l> {
     /// The traced ray, in the same frame (its copies cost more than the pointer: most
     /// traces read only `tmax`, below).
     ray: *const TraceRay,
+    /// The committed hit's record; `None` while there is no hit.
+    committed_record: Option<&'l Record<'l>>,
+    /// The running intersection program's candidate (in the frame of `Handler::custom`),
+    /// or null.
+    intersection: *const IntersectionContext<'l>,
     /// The end of the interval now: the ray's `tmax`, then the committed distance.
     tmax: f32,
     sbt_offset: u32,
     sbt_stride: u32,
-    /// The committed hit's record; `None` while there is no hit.
-    committed_record: Option<&'l Record<'l>>,
+    committed_has_path: bool,
+    terminated: bool,
+    any_hit: AnyHitOutcome,
+    /// The running intersection program must return.
+    intersection_exit: bool,
     /// The committed hit: written with `committed_record`, only read when that is `Some`.
     committed_hit: std::mem::MaybeUninit<HitState>,
     /// The instances above the committed hit, when the pipeline has instancing (else the
     /// committed hit has none). Only read when `committed_has_path`.
     committed_path: std::mem::MaybeUninit<Path>,
-    committed_has_path: bool,
-    terminated: bool,
-    any_hit: AnyHitOutcome,
-    /// The running intersection program's candidate (in the frame of `Handler::custom`),
-    /// or null.
-    intersection: *const IntersectionContext<'l>,
-    /// The running intersection program must return.
-    intersection_exit: bool,
 }
 
 /// One launch index: the device API for its programs, and the candidate handler of its
@@ -368,9 +373,6 @@ impl<'l> Invocation<'l> {
         // pointer (never read before they are written).
         let s = self.state;
         unsafe { (*s).present = bits & !S::PAYLOAD };
-        if bits == 0 {
-            return;
-        }
         if bits & S::LAUNCH_INDEX != 0 {
             // The launch loop has just written the index as three 4-byte words; copying it
             // as one 12-byte value reads 8 bytes across two of those stores, which the CPU
@@ -380,16 +382,51 @@ impl<'l> Invocation<'l> {
         if bits & S::LAUNCH_DIMENSIONS != 0 {
             unsafe { (*s).launch_dimensions = self.launch_dimensions() };
         }
-        if bits & S::WORLD_RAY != 0 {
+        // Ray generation programs read none of the rest: one test instead of seven.
+        const TRACE_VALUES: u32 = S::WORLD_RAY
+            | S::OBJECT_RAY
+            | S::RAY
+            | S::PRIMITIVE
+            | S::HIT
+            | S::TRANSFORMS
+            | S::TRACE_DEPTH;
+        if bits & TRACE_VALUES != 0 {
+            self.fill_trace_values(bits);
+        }
+        // Writes in place are right only while they are not dropped (before an exception
+        // ends the index; no program starts after that).
+        if bits & S::PAYLOAD != 0 && !self.payload.is_null() && !self.ending {
             unsafe {
-                (*s).world_ray_origin = self.world_ray_origin();
-                (*s).world_ray_direction = self.world_ray_direction();
+                (*s).present |= S::PAYLOAD;
+                (*s).payload = self.payload;
+                (*s).payload_len = self.payload_len as u32;
+            }
+        }
+    }
+    /// `fill_state`'s values of the trace that runs the program.
+    #[inline(always)]
+    fn fill_trace_values(&mut self, bits: u32) {
+        type S = DeviceState;
+        // SAFETY (every write below): as in `fill_state`.
+        let s = self.state;
+        if bits & S::WORLD_RAY != 0 {
+            // The ray's words were stored one by one by the trace (as the launch index).
+            unsafe {
+                (*s).world_ray_origin = traversal::words(&self.ray().origin);
+                (*s).world_ray_direction = traversal::words(&self.ray().direction);
             }
         }
         if bits & S::OBJECT_RAY != 0 {
+            let (origin, direction) = match self.path() {
+                Some(p) => (p.object_origin, p.object_direction),
+                None => (
+                    traversal::words(&self.ray().origin),
+                    traversal::words(&self.ray().direction),
+                ),
+            };
             unsafe {
-                (*s).object_ray_origin = self.object_ray_origin();
-                (*s).object_ray_direction = self.object_ray_direction();
+                (*s).object_ray_origin = origin;
+                (*s).object_ray_direction = direction;
             }
         }
         if bits & S::RAY != 0 {
@@ -424,16 +461,8 @@ impl<'l> Invocation<'l> {
         if bits & S::TRACE_DEPTH != 0 {
             unsafe { (*s).remaining_trace_depth = self.remaining_trace_depth() };
         }
-        // Writes in place are right only while they are not dropped (before an exception
-        // ends the index; no program starts after that).
-        if bits & S::PAYLOAD != 0 && !self.payload.is_null() && !self.ending {
-            unsafe {
-                (*s).present |= S::PAYLOAD;
-                (*s).payload = self.payload;
-                (*s).payload_len = self.payload_len as u32;
-            }
-        }
     }
+
     /// After traversal: the closest-hit or miss program.
     fn finish_trace(&mut self, world: &TraceRay, miss_index: u32) {
         let tr = self.tr();
