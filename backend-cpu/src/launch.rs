@@ -50,11 +50,12 @@ pub(crate) fn run(shared: &LaunchShared<'_>, pool: &rayon::ThreadPool) {
                 // bookkeeping).
                 let f = first as u64;
                 let mut index = [(f % w) as u32, ((f / w) % h) as u32, (f / (w * h)) as u32];
+                let mut invocation = Invocation::new(shared);
                 for _ in first..(first + INDICES_PER_TASK).min(count) {
                     if shared.stop.load(Ordering::Relaxed) != 0 {
                         return;
                     }
-                    Invocation::run_raygen(shared, index, raygen);
+                    invocation.run_raygen(index, raygen);
                     index = next_index(index, w as u32, h as u32);
                 }
             })

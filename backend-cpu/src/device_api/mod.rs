@@ -267,19 +267,27 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec>(
 impl<'l> Invocation<'l> {
     /// Runs launch index `index`: its ray generation program `raygen`, and everything that
     /// calls.
-    pub(crate) fn run_raygen(shared: &'l LaunchShared<'l>, index: [u32; 3], raygen: Callable<'l>) {
+    ///
+    /// An invocation runs one launch index after another (a launch task's), so it is set
+    /// up once per task: every run leaves it as it found it (depths, the innermost view,
+    /// trace and payload are restored on the way out) but for `ending`, reset here.
+    #[inline]
+    pub(crate) fn run_raygen(&mut self, index: [u32; 3], raygen: Callable<'l>) {
+        self.index = index;
+        self.ending = false;
         let view = View {
             kind: ProgramKind::Raygen,
-            record: Some(&shared.sbt.raygen),
+            record: Some(&self.shared.sbt.raygen),
             ..View::EMPTY
         };
-        Invocation::new(shared, index).run(raygen, view);
+        self.run(raygen, view);
     }
 
-    fn new(shared: &'l LaunchShared<'l>, index: [u32; 3]) -> Invocation<'l> {
+    /// An invocation for the launch indices of one task ([`Invocation::run_raygen`]).
+    pub(crate) fn new(shared: &'l LaunchShared<'l>) -> Invocation<'l> {
         Invocation {
             shared,
-            index,
+            index: [0; 3],
             depth: 0,
             direct_depth: 0,
             continuation_depth: 0,
