@@ -5,7 +5,9 @@
 //!
 //! Semantics kept here (DESIGN.md §4, written down in docs/cpu-backend.md):
 //! - Payload registers are copied in at `rt_trace` and out when it returns; callables get
-//!   their argument array the same way. Registers past the caller's array read 0.
+//!   their argument array the same way. Registers past the caller's array read 0. Compiled
+//!   programs' traces (`trace_entry`) use the caller's array in place instead, which no one
+//!   can tell apart (`Invocation::trace_ray`).
 //! - An invalid ray misses without running any program and leaves the payload alone; with
 //!   `ExceptionFlags::DEBUG` the exception program runs (`INVALID_RAY`).
 //! - `rt_trace` beyond `max_trace_depth` does nothing, or raises `TRACE_DEPTH_EXCEEDED` when

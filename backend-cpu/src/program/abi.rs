@@ -4,7 +4,8 @@
 //! `&mut dyn DeviceCalls` that answers every device-API function (DESIGN.md §3) for the
 //! current ray, hit and launch index. The JIT lowers each prelude stub (`rt_*`) to a call
 //! of the matching [`DeviceCalls`] method (through `extern "C-unwind"` trampolines), or to a
-//! load from the runtime's [`DeviceState`] when it offers one; the runtime
+//! load from the runtime's [`DeviceState`] when it offers one (and `rt_trace` to the runtime's
+//! own [`TraceEntry`], when it gives one, without the trait object); the runtime
 //! (`device_api` and `traversal`) implements the trait. Tests implement it too, which is how the
 //! JIT is tested without traversal and traversal without the JIT.
 //!

@@ -9,7 +9,9 @@
 //! Fast paths for the runtime, both optional: [`JitModule::prepare`] lays a launch's
 //! bindings out once for [`ProgramFn::call_prepared`] (instead of at every call), and a
 //! `DeviceCalls` that returns an [`abi::DeviceState`] from `state()` has its getters read
-//! as memory instead of called (a few nanoseconds each).
+//! as memory instead of called (a few nanoseconds each). A runtime may also give
+//! [`ProgramFn::call_prepared_with_state`] its own `rt_trace` ([`abi::TraceEntry`]), which
+//! compiled code then calls with the trace's arguments as they are, without the trait object.
 //!
 //! WGSL semantics where the language leaves a choice, the same on every path:
 //! - Bounds (naga's policies): indices into arrays, vectors and matrices in function or
