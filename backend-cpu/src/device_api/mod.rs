@@ -473,73 +473,85 @@ impl<'l> Invocation<'l> {
         }
     }
 
-    /// After traversal: the closest-hit or miss program.
+    /// After traversal: the closest-hit or miss program. Inlined into the trace: most rays
+    /// of a camera miss, and their usual miss program (one that keeps the payload) does
+    /// nothing, which costs a record lookup here instead of a call.
+    #[inline(always)]
     fn finish_trace(&mut self, world: &TraceRay, miss_index: u32) {
+        if self.tr().committed_record.is_some() {
+            return self.closest_hit(world);
+        }
+        let shared = self.shared;
+        match shared
+            .sbt
+            .miss
+            .get(sbt_index::miss_record_index(miss_index) as usize)
+        {
+            Some(record) => {
+                if let Some(ms) = record.programs.main
+                    && !ms.does_nothing()
+                {
+                    self.miss(ms, record, world);
+                }
+            }
+            None => {
+                if self.exceptions().contains(ExceptionFlags::DEBUG) {
+                    self.raise(code::INVALID_MISS_SBT);
+                }
+            }
+        }
+    }
+
+    /// Runs the closest-hit program of the trace's committed hit (there is one).
+    #[inline(never)]
+    fn closest_hit(&mut self, world: &TraceRay) {
         let tr = self.tr();
+        let Some(record) = tr.committed_record else {
+            return;
+        };
+        // SAFETY: written with the record (`commit`).
+        let hit = unsafe { tr.committed_hit.assume_init_ref() };
         let path: *const Path = if tr.committed_has_path {
             tr.committed_path.as_ptr()
         } else {
             std::ptr::null()
         };
-        match tr.committed_record {
-            Some(record) => {
-                // SAFETY: written with the record (`commit`).
-                let hit = unsafe { tr.committed_hit.assume_init_ref() };
-                if world.flags.contains(RayFlags::DISABLE_CLOSESTHIT) {
-                    return;
-                }
-                if let Some(ch) = record.programs.main {
-                    let tmax = hit.t;
-                    let hit: *const HitState = hit;
-                    self.run(
-                        ch,
-                        View {
-                            kind: ProgramKind::ClosestHit,
-                            record: Some(record),
-                            ray: world,
-                            tmax,
-                            hit,
-                            path,
-                            exception_code: 0,
-                        },
-                    );
-                }
-            }
-            None => {
-                let shared = self.shared;
-                match shared
-                    .sbt
-                    .miss
-                    .get(sbt_index::miss_record_index(miss_index) as usize)
-                {
-                    Some(record) => {
-                        // An empty miss program (a cast that keeps its payload) costs no
-                        // view.
-                        if let Some(ms) = record.programs.main
-                            && !ms.does_nothing()
-                        {
-                            self.run(
-                                ms,
-                                View {
-                                    kind: ProgramKind::Miss,
-                                    record: Some(record),
-                                    ray: world,
-                                    tmax: world.tmax,
-                                    hit: std::ptr::null(),
-                                    path: std::ptr::null(),
-                                    exception_code: 0,
-                                },
-                            );
-                        }
-                    }
-                    None => {
-                        if self.exceptions().contains(ExceptionFlags::DEBUG) {
-                            self.raise(code::INVALID_MISS_SBT);
-                        }
-                    }
-                }
-            }
+        if world.flags.contains(RayFlags::DISABLE_CLOSESTHIT) {
+            return;
         }
+        if let Some(ch) = record.programs.main {
+            let tmax = hit.t;
+            let hit: *const HitState = hit;
+            self.run(
+                ch,
+                View {
+                    kind: ProgramKind::ClosestHit,
+                    record: Some(record),
+                    ray: world,
+                    tmax,
+                    hit,
+                    path,
+                    exception_code: 0,
+                },
+            );
+        }
+    }
+
+    /// Runs a miss program that does something.
+    #[inline(never)]
+    fn miss(&mut self, program: Callable<'l>, record: &'l Record<'l>, world: &TraceRay) {
+        self.run_program(
+            program,
+            View {
+                kind: ProgramKind::Miss,
+                record: Some(record),
+                ray: world,
+                tmax: world.tmax,
+                hit: std::ptr::null(),
+                path: std::ptr::null(),
+                exception_code: 0,
+            },
+        );
     }
 
     /// `rt_direct_call` and `rt_continuation_call`.
