@@ -468,12 +468,15 @@ fn accuracy(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) {
                         kind.name().into(),
                         name.into(),
                         if check.passed { "passed" } else { "failed" }.into(),
-                        format!("{} of {} rays leaked", check.leaks, check.rays),
+                        format!(
+                            "of {} rays, {} leaked and {} met two triangles or more",
+                            check.rays, check.leaks, check.doubles
+                        ),
                         "".into(),
                         "".into(),
                     ]);
                     report.push(json!({"section": "accuracy", "backend": kind.name(), "option": name,
-                        "passed": check.passed, "rays": check.rays, "leaks": check.leaks, "cached": check.cached}));
+                        "passed": check.passed, "rays": check.rays, "leaks": check.leaks, "doubles": check.doubles, "cached": check.cached}));
                 }
                 Err(e) => rows.push(accuracy_note(kind, name, format!("error: {}", e.message()))),
             }
