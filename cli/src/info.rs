@@ -41,13 +41,20 @@ fn driver_triangles() {
     let Ok(device) = optik::open_backend(optik::BackendKind::Vulkan) else {
         return;
     };
+    // OPTIK_VULKAN_DRIVER_TRIANGLES decides instead of the check where it is set.
+    let forced = optik::backends::vulkan::VulkanOptions::from_env().driver_triangles;
     match optik::triangle_check::check_driver_triangles(device.as_ref()) {
         Ok(check) => outln!(
-            "  vulkan  the driver's triangles (TriangleTest::Driver) {check}; the default (watertight) uses {}",
-            if check.passed {
+            "  vulkan  the driver's triangles (TriangleTest::Driver) {check}; the default (watertight) uses {}{}",
+            if forced.unwrap_or(check.passed) {
                 "the driver's triangles where they can serve and optik's for the rest (motion, micromaps, face-culling records, under motion transforms)"
             } else {
                 "optik's triangle stage for every triangle"
+            },
+            if forced.is_some() {
+                " (as OPTIK_VULKAN_DRIVER_TRIANGLES says)"
+            } else {
+                ""
             }
         ),
         Err(e) => outln!("  vulkan  the driver's triangles could not be checked: {e}"),
