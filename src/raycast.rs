@@ -17,7 +17,7 @@ use crate::{
     Accel, AccelBuildOptions, Buffer, BufferView, BuildFlags, BuildInput, Device, Error,
     GeometryFlags, Instance, InstanceArray, LaunchSize, ModuleCompileOptions, Pipeline,
     PipelineCompileOptions, PipelineLinkOptions, ProgramGroupDesc, ProgramRef, ProgramSource,
-    Resource, Result, SbtRecord, SbtRegion, ShaderBindingTable, TriangleArray,
+    Resource, Result, ShaderBindingTable, TriangleArray,
 };
 use std::time::Instant;
 
@@ -293,28 +293,7 @@ impl<'d> RayCaster<'d> {
         for g in &groups {
             table.extend_from_slice(&device.sbt_record_pack_header(*g)?);
         }
-        let sbt_buffer = upload(&table)?;
-        let record = |i: u64| SbtRecord {
-            buffer: sbt_buffer,
-            offset: 32 * i,
-        };
-        let sbt = ShaderBindingTable {
-            raygen: record(0),
-            exception: None,
-            miss: Some(SbtRegion {
-                buffer: sbt_buffer,
-                offset: 32,
-                stride: 32,
-                count: 1,
-            }),
-            hitgroup: Some(SbtRegion {
-                buffer: sbt_buffer,
-                offset: 64,
-                stride: 32,
-                count: 1,
-            }),
-            callables: None,
-        };
+        let sbt = ShaderBindingTable::raygen_miss_hit(upload(&table)?);
         let batch_rays = default_batch_rays(device.properties());
         Ok(RayCaster {
             device,

@@ -23,8 +23,8 @@
 use crate::{
     AccelBuildOptions, Accuracy, BufferView, BuildInput, Device, GeometryFlags, LaunchSize,
     ModuleCompileOptions, PipelineCompileOptions, PipelineLinkOptions, ProgramGroupDesc,
-    ProgramRef, ProgramSource, Resource, Result, SbtRecord, SbtRegion, ShaderBindingTable,
-    TriangleArray, TriangleTest, shapes,
+    ProgramRef, ProgramSource, Resource, Result, ShaderBindingTable, TriangleArray, TriangleTest,
+    shapes,
 };
 use std::io::Write;
 
@@ -263,23 +263,7 @@ fn count_crossings(
         for g in &groups {
             table.extend_from_slice(&device.sbt_record_pack_header(*g)?);
         }
-        let sbt_buffer = upload(table)?;
-        let region = |offset: u64| SbtRegion {
-            buffer: sbt_buffer,
-            offset,
-            stride: 32,
-            count: 1,
-        };
-        let sbt = ShaderBindingTable {
-            raygen: SbtRecord {
-                buffer: sbt_buffer,
-                offset: 0,
-            },
-            exception: None,
-            miss: Some(region(32)),
-            hitgroup: Some(region(64)),
-            callables: None,
-        };
+        let sbt = ShaderBindingTable::raygen_miss_hit(upload(table)?);
         let ray_buffer = upload(rays.iter().flat_map(|r| r.to_le_bytes()).collect())?;
         let count_buffer = upload(vec![0; 4 * n as usize])?;
         let params = words(&mut [handle[0], handle[1], n, WIDTH].into_iter());

@@ -49,6 +49,26 @@ pub struct ShaderBindingTable {
     pub callables: Option<SbtRegion>,
 }
 
+impl ShaderBindingTable {
+    /// The smallest table: three header-only records packed in `buffer` from offset 0, the
+    /// raygen's, one miss record and one hit record (what a single-mesh ray caster needs).
+    pub fn raygen_miss_hit(buffer: Buffer) -> ShaderBindingTable {
+        let region = |offset: u64| SbtRegion {
+            buffer,
+            offset,
+            stride: SBT_RECORD_HEADER_SIZE,
+            count: 1,
+        };
+        ShaderBindingTable {
+            raygen: SbtRecord { buffer, offset: 0 },
+            exception: None,
+            miss: Some(region(SBT_RECORD_HEADER_SIZE as u64)),
+            hitgroup: Some(region(2 * SBT_RECORD_HEADER_SIZE as u64)),
+            callables: None,
+        }
+    }
+}
+
 const HEADER_MAGIC: u32 = u32::from_le_bytes(*b"OPTK");
 
 /// What a record header identifies: a program group of one device.
@@ -130,6 +150,22 @@ impl SbtHeader {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_smallest_table_packs_raygen_miss_and_hit_headers_in_order() {
+        let b = Buffer::from_raw(RawHandle {
+            device: DeviceId(7),
+            slot: 1,
+            generation: 2,
+        });
+        let t = ShaderBindingTable::raygen_miss_hit(b);
+        assert_eq!((t.raygen.buffer, t.raygen.offset), (b, 0));
+        let miss = t.miss.unwrap();
+        let hit = t.hitgroup.unwrap();
+        assert_eq!((miss.offset, miss.stride, miss.count), (32, 32, 1));
+        assert_eq!((hit.offset, hit.stride, hit.count), (64, 32, 1));
+        assert!(t.exception.is_none() && t.callables.is_none());
+    }
     use crate::handle::Handle;
 
     #[test]

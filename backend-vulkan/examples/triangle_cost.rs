@@ -109,23 +109,7 @@ impl Setup {
         for g in &groups {
             table.extend_from_slice(&dev.sbt_record_pack_header(*g)?);
         }
-        let sbt_buffer = upload(&table)?;
-        let region = |offset: u64| SbtRegion {
-            buffer: sbt_buffer,
-            offset,
-            stride: 32,
-            count: 1,
-        };
-        let sbt = ShaderBindingTable {
-            raygen: SbtRecord {
-                buffer: sbt_buffer,
-                offset: 0,
-            },
-            exception: None,
-            miss: Some(region(32)),
-            hitgroup: Some(region(64)),
-            callables: None,
-        };
+        let sbt = ShaderBindingTable::raygen_miss_hit(upload(&table)?);
         let out = dev.create_buffer(width as u64 * width as u64 * 4)?;
         let handle = dev.traversable_handle(gas)?.to_words();
         let params: Vec<u8> = [handle[0], handle[1], width, 0]
