@@ -64,8 +64,8 @@ pub struct Inner {
     /// driver passed optik's check; docs/vulkan-backend.md §2.4).
     pub driver_triangles: bool,
     /// Where the device mixes triangle kinds, the first hit record index of the second half,
-    /// which paths over optik's triangles select (a power of two above every index a path
-    /// selects without it; accel/mod.rs keeps it so).
+    /// which paths over boxes select (a power of two above every index a path selects
+    /// without it; accel/mod.rs keeps it so).
     pub hit_half: u32,
     /// Box twins of geometry structures built with the driver's triangles, for paths whose
     /// instances disable face culling (accel/mod.rs, §2.4), by structure.
@@ -157,7 +157,8 @@ impl VulkanBackend {
         self.with(|i| i.set_driver_triangles(on))
     }
 
-    /// Whether `TriangleTest::Watertight` uses the driver's triangles where they can serve.
+    /// Whether the device was told its driver's triangles may serve the default
+    /// (`set_driver_triangles`); they do where it also has `rayTraversalPrimitiveCulling`.
     pub fn driver_triangles(&self) -> bool {
         self.lock().driver_triangles
     }

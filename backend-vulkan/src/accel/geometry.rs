@@ -621,18 +621,12 @@ pub fn decode_gas(
     Ok(b.finish())
 }
 
-/// Whether the driver's triangles can serve a structure decoded for optik's triangle stage,
-/// on a device that mixes them (docs/vulkan-backend.md §2.4): triangles without motion keys,
-/// micromaps or records that disable face culling (Vulkan culls per instance, and a ray
-/// culling both faces skips every driver triangle, §4).
+/// Whether the driver's triangles can serve a triangle structure decoded for optik's
+/// triangle stage, on a device that mixes them (docs/vulkan-backend.md §2.4): without motion
+/// keys, micromaps or records that disable face culling (Vulkan culls per instance, and a
+/// ray culling both faces skips every driver triangle, §4).
 pub fn driver_can_serve(options: &AccelBuildOptions, decoded: &DecodedGas) -> bool {
-    let triangles = decoded
-        .records
-        .iter()
-        .all(|r| (r[3] >> 8) & 0xFF == tables::KIND_TRIANGLES);
-    triangles
-        && !decoded.records.is_empty()
-        && motion_keys(options) == 1
+    motion_keys(options) == 1
         && decoded.geometries.iter().all(|g| {
             !g.micromap
                 && !g

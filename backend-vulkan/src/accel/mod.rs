@@ -22,6 +22,19 @@ pub mod transform;
 pub mod vkas;
 
 pub use tables::SceneTables;
+pub use transform::{Proxy, Transform};
+
+use crate::buffer::snapshot_view;
+use crate::device::Inner;
+use crate::memory::{Allocator, GpuBuffer, Location};
+use crate::objects::{Accels, Buffers, Objects, Unfreed};
+use ash::vk;
+use flatten::{FlatInstance, FlatSource, vk_flags};
+use geometry::{DecodedGas, DecodedGeometry, GasKind};
+use optik_api::*;
+use std::collections::HashSet;
+use std::hash::{Hash, Hasher};
+use vkas::{AsBuffer, BuildTarget, INSTANCE_SIZE, VkGeometry};
 
 /// How a device builds triangles: the driver's (`TriangleTest::Driver`), optik's triangle
 /// stage (the other tests), or both (where the driver passed optik's check: the driver's
@@ -51,19 +64,6 @@ impl TriangleBuild {
         }
     }
 }
-pub use transform::{Proxy, Transform};
-
-use crate::buffer::snapshot_view;
-use crate::device::Inner;
-use crate::memory::{Allocator, GpuBuffer, Location};
-use crate::objects::{Accels, Buffers, Objects, Unfreed};
-use ash::vk;
-use flatten::{FlatInstance, FlatSource, vk_flags};
-use geometry::{DecodedGas, DecodedGeometry, GasKind};
-use optik_api::*;
-use std::collections::HashSet;
-use std::hash::{Hash, Hasher};
-use vkas::{AsBuffer, BuildTarget, INSTANCE_SIZE, VkGeometry};
 
 /// A Vulkan top level with its instance buffer and its range of the instance table.
 pub struct Tlas {
@@ -83,18 +83,18 @@ pub struct Tlas {
 }
 
 impl Tlas {
+    /// The largest hit record index the paths of `flat` select, and that of its paths over
+    /// boxes (`sbt_reach`, `box_reach`).
     fn reaches(flat: &[FlatInstance]) -> (u64, Option<u64>) {
         let all = flat.iter().map(FlatInstance::sbt_reach).max().unwrap_or(0);
-        let optik = flat
+        let boxes = flat
             .iter()
             .filter(|f| f.boxes)
             .map(FlatInstance::sbt_reach)
             .max();
-        (all, optik)
+        (all, boxes)
     }
-}
 
-impl Tlas {
     /// Frees it (its table range is the caller's to return).
     pub fn destroy(self, ctx: &crate::context::Context, alloc: &mut Allocator) {
         self.structure.destroy(ctx, alloc);
@@ -224,7 +224,7 @@ impl AccelObject {
     }
 
     /// The largest hit record index a ray traced against it can select (before the offset
-    /// of paths over optik's triangles where a device mixes triangle kinds).
+    /// of paths over boxes where a device mixes triangle kinds).
     pub fn sbt_reach(&self) -> u64 {
         self.tlas().sbt_reach
     }
@@ -505,14 +505,14 @@ impl Inner {
         if !self.mixes_triangles() {
             return Ok(());
         }
-        let (reach, optik) = Tlas::reaches(flat);
+        let (reach, boxes) = Tlas::reaches(flat);
         if reach < self.hit_half as u64 {
-            return self.check_box_offset(optik);
+            return self.check_box_offset(boxes);
         }
         let half = (reach + 1).next_power_of_two().max(16);
         let largest = accels.iter().filter_map(|(_, a)| a.box_reach()).max();
         self.hit_half = u32::try_from(half).unwrap_or(u32::MAX);
-        self.check_box_offset(optik.max(largest))?;
+        self.check_box_offset(boxes.max(largest))?;
         for (_, a) in accels.iter() {
             if a.box_reach().is_some() {
                 self.write_tlas(a.tlas(), &a.flat())?;
@@ -644,14 +644,12 @@ impl Inner {
         }
         self.ensure_hit_half(accels, flat)?;
         self.write_tlas(accels.get(accel)?.tlas(), flat)?;
-        let (reach, optik) = Tlas::reaches(flat);
         let t = match accels.get_mut(accel)? {
             AccelObject::Gas(g) => &mut g.wrapper,
             AccelObject::Ias(i) => &mut i.tlas,
             AccelObject::Transform(t) => &mut t.tlas,
         };
-        t.sbt_reach = reach;
-        t.box_reach = optik;
+        (t.sbt_reach, t.box_reach) = Tlas::reaches(flat);
         Ok(())
     }
 
@@ -882,7 +880,10 @@ impl Inner {
             self.emulates_triangles(),
             &lookup,
         )?;
-        if self.mixes_triangles() && geometry::driver_can_serve(options, &decoded) {
+        if self.mixes_triangles()
+            && geometry::gas_kind(inputs)? == GasKind::Triangles
+            && geometry::driver_can_serve(options, &decoded)
+        {
             geometry::add_driver_triangles(&mut decoded);
         }
         Ok(decoded)
