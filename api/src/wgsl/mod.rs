@@ -16,8 +16,9 @@
 //! Dependencies: [`CURVE`] needs [`SPHERE`]; [`SLAB`], [`TRIANGLE`] and [`MOTION`] need [`RAY`];
 //! [`BVH4`] needs [`RAY`] and [`SLAB`]; [`BVH4`] and [`MICROMAP`] call
 //! `fn _optik_fetch(i: u32) -> vec4<u32>`, which the including shader defines over its scene
-//! data. Lines tagged `// @conservative` or `// @f64` are optional: [`specialise`] keeps or
-//! drops them (the plain slab test; no f64 fallback where the device has no f64).
+//! data. Lines tagged `// @conservative`, `// @plain` or `// @f64` are optional: [`specialise`]
+//! keeps or drops them (the conservative or the plain slab test; no f64 fallback where the
+//! device has no f64).
 
 /// The prefix, compared without regard to ASCII case, of every internal WGSL name: the shared
 /// snippets here and what the backends generate. User names may not start with it.
@@ -65,7 +66,8 @@ pub const OPACITY: &str = include_str!("opacity.wgsl");
 /// Which optional lines of the snippets to keep.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct SnippetOptions {
-    /// Keep the `@conservative` lines: the slab test widened by 1 + 2γ(3).
+    /// Keep the `@conservative` lines (the slab test widened by 1 + 2γ(3)) rather than the
+    /// `@plain` ones.
     pub conservative_boxes: bool,
     /// Keep the `@f64` lines: the exact fallback of the watertight triangle test, which
     /// needs WGSL's `f64` (wgpu's `SHADER_F64`).
@@ -78,6 +80,8 @@ pub fn specialise(source: &str, options: SnippetOptions) -> String {
     for line in source.lines() {
         let (code, keep) = if let Some(code) = line.strip_suffix(" // @conservative") {
             (code, options.conservative_boxes)
+        } else if let Some(code) = line.strip_suffix(" // @plain") {
+            (code, !options.conservative_boxes)
         } else if let Some(code) = line.strip_suffix(" // @f64") {
             (code, options.f64_fallback)
         } else {
@@ -150,6 +154,14 @@ mod tests {
                 }
                 validate(&src, f64_fallback);
                 assert_eq!(src.contains("_OPTIK_SLAB_WIDEN;"), conservative_boxes);
+                assert_eq!(
+                    src.contains("* _OPTIK_SLAB_WIDEN, vec4<f32>(tmax)"),
+                    conservative_boxes
+                );
+                assert_eq!(
+                    src.contains("min(max(az, bz), vec4<f32>(tmax))"),
+                    !conservative_boxes
+                );
                 assert_eq!(src.contains("f64("), f64_fallback);
                 assert!(!src.contains("// @"));
             }

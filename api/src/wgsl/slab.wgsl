@@ -3,8 +3,8 @@
 // Lines marked `@conservative` widen the far distance by 1 + 2γ(3) (pbrt-v4, Embree's robust
 // mode): the subtraction, the multiplication and the reciprocal each round once, so the
 // computed near and far can each be off by γ(3); widening far by 2γ(3) means a box the ray
-// touches is never missed. The plain test drops those lines. The test is closed: a box
-// touched exactly at tmin or tmax is hit.
+// touches is never missed. The plain test drops those lines and keeps the `@plain` ones.
+// The test is closed: a box touched exactly at tmin or tmax is hit.
 
 const _OPTIK_SLAB_WIDEN: f32 = 1.00000036;
 

@@ -22,7 +22,7 @@ pub(crate) enum Counter {
     Nodes = 2,
     /// Primitives tested in geometry leaves.
     Primitives = 3,
-    /// Instance records read whole (128 bytes each): the mask passed and the child is alive.
+    /// Instance records entered (80 bytes each): the mask passed and the child is alive.
     Instances = 4,
     /// Handle-table entries read (16 bytes each).
     HandleReads = 5,
@@ -62,8 +62,8 @@ const HOOKS: &[(&str, Counter, &str)] = &[
         Counter::HandleReads,
         "1u",
     ),
-    ("        let e = stack[sp];", Counter::StackPops, "1u"),
-    ("            let n = _optik_node4(", Counter::Nodes, "1u"),
+    ("            e = stack[sp];", Counter::StackPops, "1u"),
+    ("            var n: _OptikNode4;", Counter::Nodes, "1u"),
     (
         "        (*stack)[*sp] = vec2<u32>(r, bitcast<u32>(key));",
         Counter::StackPushes,
@@ -93,8 +93,7 @@ pub(crate) fn instrument(traversal: &str) -> String {
     for line in traversal.split_inclusive('\n') {
         let bare = line.trim_end_matches('\n');
         for (anchor, counter, amount) in HOOKS {
-            // The node test's call continues on the next line: match its start.
-            if bare == *anchor || (anchor.ends_with('(') && bare.starts_with(anchor)) {
+            if bare == *anchor {
                 let indent = &bare[..bare.len() - bare.trim_start().len()];
                 out.push_str(&format!(
                     "{indent}_optik_count[{}] += {amount};\n",
@@ -203,12 +202,14 @@ impl TrafficCounts {
         128 * self.nodes
     }
 
-    /// Bytes of instance records read whole (128 each).
+    /// Bytes of the instance records entered (80 each: the world-to-object rows, the
+    /// id/offset/mask/flags word and the child link; the object-to-world rows are read only
+    /// when a program asks for a hit's object space).
     pub fn instance_bytes(&self) -> u64 {
-        128 * self.instances
+        80 * self.instances
     }
 
-    /// Arena bytes that are neither nodes nor whole instance records: primitive records,
+    /// Arena bytes that are neither nodes nor entered instance records: primitive records,
     /// structure headers, transforms and the first words of masked-out instances.
     pub fn other_arena_bytes(&self) -> u64 {
         (16 * self.arena_fetches).saturating_sub(self.node_bytes() + self.instance_bytes())

@@ -17,6 +17,11 @@ pub(super) fn write(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(&format!(
         "\nconst _OPTIK_MAX_TRACE_DEPTH: u32 = {t}u;\nconst _OPTIK_NONE: u32 = 0xFFFFFFFFu;\nalias _OptikRegs = array<u32, {n}>;\n"
     ));
+    if instancing {
+        // Instances on the deepest path of the structures alive (the levels below the root).
+        let levels = c.sizes.levels.saturating_sub(1).max(1);
+        out.push_str(&format!("const _OPTIK_LEVELS: u32 = {levels}u;\n"));
+    }
     out.push_str(
         r#"
 // The ray of the current trace, in world space. `tmax` follows the closest hit so far.
@@ -52,9 +57,10 @@ struct _OptikHit {
 "#,
     );
     if instancing {
-        out.push_str(
-            "    obj_origin: vec3<f32>,\n    obj_direction: vec3<f32>,\n    w2o: _OptikXform,\n    o2w: _OptikXform,\n",
-        );
+        // The hit's path through the graph: the structure under the trace's handle (before
+        // transforms) and the instance records entered, outermost first; its object space
+        // is rebuilt from them only when a program asks (`_optik_hit_frame`).
+        out.push_str("    root: u32,\n    depth: u32,\n    path: array<u32, _OPTIK_LEVELS>,\n");
     }
     out.push_str(
         r#"}
@@ -74,6 +80,25 @@ var<private> _optik_record: u32;
 // Why the current program must return at once: 0 no, 1 ignore, 2 terminate, 3 exception.
 var<private> _optik_unwind: u32;
 var<private> _optik_exception: i32;
+"#,
+    );
+    if instancing {
+        out.push_str(
+            r#"// The current traversal's root structure and the instance records of its current level's
+// path (entries below the level's depth), which candidates copy.
+var<private> _optik_root: u32;
+var<private> _optik_path: array<u32, _OPTIK_LEVELS>;
+"#,
+        );
+        if !c.traces() {
+            // No trace, no hit: the frame functions still need a body.
+            out.push_str(
+                "\nstruct _OptikFrame {\n    origin: vec3<f32>,\n    direction: vec3<f32>,\n    w2o: _OptikXform,\n    o2w: _OptikXform,\n}\n\nfn _optik_hit_frame() -> _OptikFrame {\n    return _OptikFrame(_optik_ray.origin, _optik_ray.direction, _optik_xform_identity(), _optik_xform_identity());\n}\n",
+            );
+        }
+    }
+    out.push_str(
+        r#"
 
 fn _optik_unwinding_fn() -> bool {
     return _optik_unwind != 0u;
@@ -134,13 +159,13 @@ fn body(c: &KernelConfig<'_>, f: DeviceFunction) -> Option<String> {
         F::WorldRayOrigin => "    return _optik_ray.origin;\n".to_string(),
         F::WorldRayDirection => "    return _optik_ray.direction;\n".to_string(),
         F::ObjectRayOrigin => if c.instancing() {
-            "    return _optik_hit.obj_origin;\n"
+            "    return _optik_hit_frame().origin;\n"
         } else {
             "    return _optik_ray.origin;\n"
         }
         .to_string(),
         F::ObjectRayDirection => if c.instancing() {
-            "    return _optik_hit.obj_direction;\n"
+            "    return _optik_hit_frame().direction;\n"
         } else {
             "    return _optik_ray.direction;\n"
         }
@@ -182,7 +207,7 @@ fn body(c: &KernelConfig<'_>, f: DeviceFunction) -> Option<String> {
 fn matrix(c: &KernelConfig<'_>, which: &str) -> String {
     if c.instancing() {
         format!(
-            "    let m = _optik_hit.{which};\n    return mat4x3<f32>(vec3<f32>(m.r0.x, m.r1.x, m.r2.x), vec3<f32>(m.r0.y, m.r1.y, m.r2.y), vec3<f32>(m.r0.z, m.r1.z, m.r2.z), vec3<f32>(m.r0.w, m.r1.w, m.r2.w));\n"
+            "    let m = _optik_hit_frame().{which};\n    return mat4x3<f32>(vec3<f32>(m.r0.x, m.r1.x, m.r2.x), vec3<f32>(m.r0.y, m.r1.y, m.r2.y), vec3<f32>(m.r0.z, m.r1.z, m.r2.z), vec3<f32>(m.r0.w, m.r1.w, m.r2.w));\n"
         )
     } else {
         "    return mat4x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0), vec3<f32>(0.0));\n".to_string()

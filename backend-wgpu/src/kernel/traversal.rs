@@ -1,14 +1,15 @@
 //! The traversal loop, written for exactly the features of the pipeline.
 //!
-//! One loop walks every level of the graph with one stack of `vec2<u32>` entries (a
+//! One walk covers every level of the graph with one stack of `vec2<u32>` entries (a
 //! reference and the entry's near distance, to skip entries beyond the closest hit when
 //! they are popped). A reference's top two bits say what it is: 0 an inner BVH4 node, 1 a
 //! geometry leaf and 2 an instance leaf (count − 1 in bits 27..30, first slot below), 3 a
 //! level marker. Entering an instance saves the current level (ray in that level's space, BVH
-//! bases, instance data, accumulated transforms) in a small array and pushes a marker;
-//! popping the marker restores it. Transform traversables under an instance are folded
-//! into the instance's level as it is entered. Children are pushed far to near, so the
-//! nearest is visited first.
+//! bases, instance data) in a small array and pushes a marker; popping the marker restores
+//! it. Transform traversables under an instance move the instance level's ray as it is
+//! entered. No composed matrices are kept: a hit records its path, from which the device
+//! functions rebuild its object space (`_optik_hit_frame`). Children are pushed far to
+//! near, so the nearest is visited first.
 //!
 //! The rules of DESIGN.md §4 are those of `optik_api::semantics`, ported: opacity and
 //! culling (`opacity::resolve`, `opacity::triangle_face_culled`), facing (decided in object
@@ -40,6 +41,9 @@ fn write_plain(c: &KernelConfig<'_>, out: &mut String) {
     if c.any_graph() {
         transforms(c, out);
     }
+    if c.instancing() {
+        hit_frame(c, out);
+    }
     accept(c, out);
     if c.triangles() {
         triangles(c, out);
@@ -68,7 +72,7 @@ fn level_struct(c: &KernelConfig<'_>, out: &mut String) {
         "    header: u32,\n    node_base: u32,\n    prim_base: u32,\n    kind_word: u32,\n    keys: u32,\n    key: u32,\n    frac: f32,\n    is_ias: bool,\n    instance_id: u32,\n    instance_index: u32,\n    sbt_offset: u32,\n    inst_flags: u32,\n    flip: bool,\n",
     );
     if c.instancing() {
-        out.push_str("    w2o: _OptikXform,\n    o2w: _OptikXform,\n");
+        out.push_str("    depth: u32,\n");
     }
     out.push_str("}\n");
 }
@@ -218,77 +222,155 @@ fn enter(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str("    return _optik_fetch(header + 2u).y > 0u;\n}\n\n");
 }
 
-/// `_optik_through_transforms`: folds a chain of transform traversables into a level.
+/// `_optik_transform_step` (one transform traversable's matrices) and
+/// `_optik_through_transforms` (a chain of them applied to a level's ray).
 fn transforms(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
         r#"fn _optik_srt_key(at: u32) -> array<vec4<f32>, 4> {
     return array<vec4<f32>, 4>(bitcast<vec4<f32>>(_optik_fetch(at)), bitcast<vec4<f32>>(_optik_fetch(at + 1u)), bitcast<vec4<f32>>(_optik_fetch(at + 2u)), bitcast<vec4<f32>>(_optik_fetch(at + 3u)));
 }
 
-// Follows transform traversables from `first` down to a structure, composing them into the
-// level's ray and matrices; _OPTIK_NONE when a child is gone or the object has vanished.
-fn _optik_through_transforms(lv: ptr<function, _OptikLevel>, first: u32) -> u32 {
-    var header = first;
-    for (var i = 0u; i < 64u; i = i + 1u) {
-        let h0 = _optik_fetch(header);
-        let kind = h0.x & 15u;
-        if kind <= 2u {
-            return header;
-        }
-        let h1 = _optik_fetch(header + 1u);
-        let data = header + h1.w;
-        var o2w: _OptikXform;
-        var w2o: _OptikXform;
-        if kind == 3u {
-            w2o = _optik_rows(data);
-            o2w = _optik_rows(data + 3u);
-        } else {
+// A transform traversable's matrices at the ray's time and the header of its child
+// (_OPTIK_NONE when the child is gone or the object has vanished at this time).
+struct _OptikStep {
+    w2o: _OptikXform,
+    o2w: _OptikXform,
+    child: u32,
+}
+
+fn _optik_transform_step(header: u32, h0: vec4<u32>) -> _OptikStep {
+    let kind = h0.x & 15u;
+    let h1 = _optik_fetch(header + 1u);
+    let data = header + h1.w;
+    var s: _OptikStep;
+    s.child = _OPTIK_NONE;
+    if kind == 3u {
+        s.w2o = _optik_rows(data);
+        s.o2w = _optik_rows(data + 3u);
+    } else {
 "#,
     );
     if c.motion() {
         out.push_str(
-            r#"            let k = _optik_motion_key(h0.y, bitcast<f32>(h1.x), bitcast<f32>(h1.y), h1.z, _optik_ray.time);
-            if k.key < 0 {
-                return _OPTIK_NONE;
-            }
-            let a = u32(k.key);
-            let b = min(a + 1u, h0.y - 1u);
-            if kind == 4u {
-                o2w = _optik_lerp_xform(_optik_rows(data + 3u * a), _optik_rows(data + 3u * b), k.frac);
-            } else {
-                o2w = _optik_srt_lerp(_optik_srt_key(data + 4u * a), _optik_srt_key(data + 4u * b), k.frac);
-            }
+            r#"        let k = _optik_motion_key(h0.y, bitcast<f32>(h1.x), bitcast<f32>(h1.y), h1.z, _optik_ray.time);
+        if k.key < 0 {
+            return s;
+        }
+        let a = u32(k.key);
+        let b = min(a + 1u, h0.y - 1u);
+        if kind == 4u {
+            s.o2w = _optik_lerp_xform(_optik_rows(data + 3u * a), _optik_rows(data + 3u * b), k.frac);
+        } else {
+            s.o2w = _optik_srt_lerp(_optik_srt_key(data + 4u * a), _optik_srt_key(data + 4u * b), k.frac);
+        }
 "#,
         );
     } else {
         // Without motion compiled in, keys 0 are used (FeatureSet::motion).
         out.push_str(
-            r#"            if kind == 4u {
-                o2w = _optik_rows(data);
-            } else {
-                let k = _optik_srt_key(data);
-                o2w = _optik_srt_matrix(k[0], k[1], k[2], k[3]);
-            }
+            r#"        if kind == 4u {
+            s.o2w = _optik_rows(data);
+        } else {
+            let k = _optik_srt_key(data);
+            s.o2w = _optik_srt_matrix(k[0], k[1], k[2], k[3]);
+        }
 "#,
         );
     }
     out.push_str(
-        r#"            w2o = _optik_xform_inverse(o2w);
-        }
-        (*lv).w2o = _optik_xform_mul(w2o, (*lv).w2o);
-        (*lv).o2w = _optik_xform_mul((*lv).o2w, o2w);
-        (*lv).origin = _optik_xform_point(w2o, (*lv).origin);
-        (*lv).direction = _optik_canonical_direction(_optik_xform_vector(w2o, (*lv).direction));
-        header = _optik_resolve(h0.z, h0.w);
-        if header == _OPTIK_NONE {
-            return _OPTIK_NONE;
-        }
+        r#"        s.w2o = _optik_xform_inverse(s.o2w);
     }
-    return _OPTIK_NONE;
+    s.child = _optik_resolve(h0.z, h0.w);
+    return s;
 }
 
 "#,
     );
+    through_transforms("_optik_through_transforms", "_OptikLevel", false, out);
+}
+
+/// A function following transform traversables from `first` down to a structure, moving the
+/// ray of `*lv` (of type `state`) into each one's space, and with `compose` also composing
+/// its `w2o` and `o2w`; it returns the structure's header, or _OPTIK_NONE when a child is
+/// gone or the object has vanished. The traversal moves only the ray; the hit's frame
+/// (`_optik_hit_frame`) composes the matrices along the same steps, so both see one ray.
+fn through_transforms(name: &str, state: &str, compose: bool, out: &mut String) {
+    let matrices = if compose {
+        "        (*lv).w2o = _optik_xform_mul(s.w2o, (*lv).w2o);\n        (*lv).o2w = _optik_xform_mul((*lv).o2w, s.o2w);\n"
+    } else {
+        ""
+    };
+    out.push_str(&format!(
+        r#"fn {name}(lv: ptr<function, {state}>, first: u32) -> u32 {{
+    var header = first;
+    for (var i = 0u; i < 64u; i = i + 1u) {{
+        let h0 = _optik_fetch(header);
+        if (h0.x & 15u) <= 2u {{
+            return header;
+        }}
+        let s = _optik_transform_step(header, h0);
+        if s.child == _OPTIK_NONE {{
+            return _OPTIK_NONE;
+        }}
+{matrices}        (*lv).origin = _optik_xform_point(s.w2o, (*lv).origin);
+        (*lv).direction = _optik_canonical_direction(_optik_xform_vector(s.w2o, (*lv).direction));
+        header = s.child;
+    }}
+    return _OPTIK_NONE;
+}}
+
+"#
+    ));
+}
+
+/// `_optik_hit_frame`: the object space of `_optik_hit` (the ray in it and the composed
+/// matrices), rebuilt from the hit's path through the graph. The traversal keeps no
+/// matrices: carrying two composed 3×4 matrices in every level and every candidate took
+/// the any-graph kernel from 64 to 116 registers on the H200 (docs/wgpu-backend.md §12.3).
+/// The steps are the traversal's own, in the same order, so the ray is the one it tested.
+fn hit_frame(c: &KernelConfig<'_>, out: &mut String) {
+    out.push_str(
+        r#"// The object space of a hit: the ray in it and the matrices to and from world space.
+struct _OptikFrame {
+    origin: vec3<f32>,
+    direction: vec3<f32>,
+    w2o: _OptikXform,
+    o2w: _OptikXform,
+}
+
+"#,
+    );
+    if c.any_graph() {
+        through_transforms("_optik_frame_through_transforms", "_OptikFrame", true, out);
+    }
+    out.push_str(
+        r#"fn _optik_hit_frame() -> _OptikFrame {
+    var f: _OptikFrame;
+    f.origin = _optik_ray.origin;
+    f.direction = _optik_ray.direction;
+    f.w2o = _optik_xform_identity();
+    f.o2w = _optik_xform_identity();
+"#,
+    );
+    if c.any_graph() {
+        out.push_str("    _optik_frame_through_transforms(&f, _optik_hit.root);\n");
+    }
+    out.push_str(
+        r#"    for (var i = 0u; i < min(_optik_hit.depth, _OPTIK_LEVELS); i = i + 1u) {
+        let rec = _optik_hit.path[i];
+        let iw = _optik_rows(rec);
+        f.w2o = _optik_xform_mul(iw, f.w2o);
+        f.o2w = _optik_xform_mul(f.o2w, _optik_rows(rec + 3u));
+        f.origin = _optik_xform_point(iw, f.origin);
+        f.direction = _optik_canonical_direction(_optik_xform_vector(iw, f.direction));
+"#,
+    );
+    if c.any_graph() {
+        out.push_str(
+            "        let link = _optik_fetch(rec + 7u);\n        _optik_frame_through_transforms(&f, _optik_resolve(link.x, link.y));\n",
+        );
+    }
+    out.push_str("    }\n    return f;\n}\n\n");
 }
 
 /// The candidate record and the acceptance of built-in primitive hits (any-hit included).
@@ -309,7 +391,7 @@ fn accept(c: &KernelConfig<'_>, out: &mut String) {
     );
     if c.instancing() {
         out.push_str(
-            "    h.obj_origin = (*lv).origin;\n    h.obj_direction = (*lv).direction;\n    h.w2o = (*lv).w2o;\n    h.o2w = (*lv).o2w;\n",
+            "    h.root = _optik_root;\n    h.depth = (*lv).depth;\n    h.path = _optik_path;\n",
         );
     }
     out.push_str(
@@ -631,10 +713,7 @@ fn curves(c: &KernelConfig<'_>, out: &mut String) {
 
 fn traverse(c: &KernelConfig<'_>, out: &mut String) {
     let stack = c.sizes.stack.max(1);
-    let saved_levels = c.sizes.levels.saturating_sub(1).max(1);
-    out.push_str(&format!(
-        "const _OPTIK_STACK: u32 = {stack}u;\nconst _OPTIK_LEVELS: u32 = {saved_levels}u;\n\n"
-    ));
+    out.push_str(&format!("const _OPTIK_STACK: u32 = {stack}u;\n\n"));
     out.push_str(
         r#"// Pushes a child with the distance where the ray enters it, unless it is _OPTIK_NONE or
 // the stack is full.
@@ -676,9 +755,7 @@ fn _optik_traverse(handle: vec2<u32>) -> bool {
 "#,
     );
     if c.instancing() {
-        out.push_str(
-            "    lv.w2o = _optik_xform_identity();\n    lv.o2w = _optik_xform_identity();\n",
-        );
+        out.push_str("    lv.depth = 0u;\n    _optik_root = root;\n");
     }
     if c.any_graph() {
         out.push_str(
@@ -697,27 +774,46 @@ fn _optik_traverse(handle: vec2<u32>) -> bool {
     if c.instancing() {
         out.push_str("    var levels: array<_OptikLevel, _OPTIK_LEVELS>;\n    var lvl = 0u;\n");
     }
+    // "While-while" (Aila and Laine 2009): an inner loop tests nodes until this invocation
+    // pops a leaf; the leaf is tested after it. Invocations of a warp that reach a leaf
+    // wait for the others at the inner loop's end, so the warp runs node tests together and
+    // leaf tests together instead of alternating between the two each step. The entries
+    // are popped in the same order as with one loop, so the hits are the same. On the H200
+    // it traced 1.01–1.08× the incoherent rays per second alone and 1.2–1.3× with the
+    // direct node test (docs/wgpu-backend.md §12.3).
     out.push_str(
         r#"    loop {
-        if sp == 0u || _optik_done {
-            break;
-        }
-        sp = sp - 1u;
-        let e = stack[sp];
-        let tag = e.x >> 30u;
+        var e = vec2<u32>(0u);
+        var tag = 0u;
+        var leaf = false;
+        loop {
+            if sp == 0u || _optik_done {
+                break;
+            }
+            sp = sp - 1u;
+            e = stack[sp];
+            tag = e.x >> 30u;
 "#,
     );
     if c.instancing() {
         out.push_str(
-            "        if tag == 3u {\n            lvl = lvl - 1u;\n            lv = levels[lvl];\n            continue;\n        }\n",
+            "            if tag == 3u {\n                lvl = lvl - 1u;\n                lv = levels[lvl];\n                continue;\n            }\n",
         );
     }
     out.push_str(
-        r#"        if bitcast<f32>(e.y) > _optik_best.t {
-            continue;
-        }
-        if tag == 0u {
-            let n = _optik_node4(lv.node_base, e.x & 0x3FFFFFFFu, lv.slab, _optik_ray.tmin, _optik_best.t);
+        r#"            if bitcast<f32>(e.y) > _optik_best.t {
+                continue;
+            }
+            if tag != 0u {
+                leaf = true;
+                break;
+            }
+            var n: _OptikNode4;
+            if any(lv.slab.parallel) {
+                n = _optik_node4(lv.node_base, e.x & 0x3FFFFFFFu, lv.slab, _optik_ray.tmin, _optik_best.t);
+            } else {
+                n = _optik_node4_direct(lv.node_base, e.x & 0x3FFFFFFFu, lv.slab, _optik_ray.tmin, _optik_best.t);
+            }
             // Inner children by node index; a leaf as count - 1 in bits 27..30 with its tag,
             // primitives (1) or instances (2); children the ray misses _OPTIK_NONE. Whole
             // vectors, no loop over lanes: a vector indexed by a loop counter may be lowered
@@ -732,7 +828,11 @@ fn _optik_traverse(handle: vec2<u32>) -> bool {
             _optik_push(&stack, &sp, s.refs.y, s.keys.y);
             _optik_push(&stack, &sp, s.refs.z, s.keys.z);
             _optik_push(&stack, &sp, s.refs.w, s.keys.w);
-        } else if tag == 1u {
+        }
+        if !leaf {
+            break;
+        }
+        if tag == 1u {
             let first = e.x & 0x7FFFFFFu;
             let count = ((e.x >> 27u) & 7u) + 1u;
             switch (lv.kind_word >> 4u) & 15u {
@@ -779,52 +879,56 @@ fn instance_entry(c: &KernelConfig<'_>, out: &mut String) {
                 continue;
             }
             let iw = _optik_rows(rec);
-            let io = _optik_rows(rec + 3u);
-            var next = lv;
-            next.w2o = _optik_xform_mul(iw, lv.w2o);
-            next.o2w = _optik_xform_mul(lv.o2w, io);
-            next.origin = _optik_xform_point(iw, lv.origin);
-            next.direction = _optik_canonical_direction(_optik_xform_vector(iw, lv.direction));
-            next.instance_id = info.x;
-            next.instance_index = info.w;
-            next.sbt_offset = lv.sbt_offset + info.y;
+            if lvl >= _OPTIK_LEVELS || sp + 2u > _OPTIK_STACK {
+                continue;
+            }
+            // The instance's level is made in place, its parent saved in `levels` and
+            // restored if the instance holds nothing to hit: a second copy of the level
+            // beside the first kept both live at once.
+            levels[lvl] = lv;
+            lv.depth = lv.depth + 1u;
+            lv.origin = _optik_xform_point(iw, lv.origin);
+            lv.direction = _optik_canonical_direction(_optik_xform_vector(iw, lv.direction));
+            lv.instance_id = info.x;
+            lv.instance_index = info.w;
+            lv.sbt_offset = lv.sbt_offset + info.y;
             // Nested instances: flips compose, culling and micromap switches accumulate,
             // and the innermost instance that sets DISABLE_ANYHIT or ENFORCE_ANYHIT decides.
             let f = info.z >> 8u;
-            next.flip = lv.flip != ((f & 2u) != 0u);
+            lv.flip = lv.flip != ((f & 2u) != 0u);
             var flags = lv.inst_flags | (f & 49u);
             if (f & 12u) != 0u {
                 flags = (flags & ~12u) | (f & 12u);
             }
-            next.inst_flags = flags;
+            lv.inst_flags = flags;
 "#,
     );
     if c.any_graph() {
-        out.push_str("            child = _optik_through_transforms(&next, child);\n            if child == _OPTIK_NONE {\n                continue;\n            }\n");
+        out.push_str("            child = _optik_through_transforms(&lv, child);\n            if child == _OPTIK_NONE {\n                lv = levels[lvl];\n                continue;\n            }\n");
     }
     out.push_str(
-        r#"            if !_optik_finite3(next.origin) || !_optik_finite3(next.direction) {
+        r#"            if !_optik_finite3(lv.origin) || !_optik_finite3(lv.direction) {
+                lv = levels[lvl];
                 continue;
             }
-            if !_optik_enter(&next, child) {
+            if !_optik_enter(&lv, child) {
+                lv = levels[lvl];
                 continue;
             }
 "#,
     );
     if !c.any_graph() {
         // Single-level instancing: an instance holds geometry only.
-        out.push_str("            if next.is_ias {\n                continue;\n            }\n");
+        out.push_str(
+            "            if lv.is_ias {\n                lv = levels[lvl];\n                continue;\n            }\n",
+        );
     }
     out.push_str(
-        r#"            if lvl >= _OPTIK_LEVELS || sp + 2u > _OPTIK_STACK {
-                continue;
-            }
-            levels[lvl] = lv;
+        r#"            _optik_path[lvl] = rec;
             lvl = lvl + 1u;
             stack[sp] = vec2<u32>(3u << 30u, 0u);
             stack[sp + 1u] = vec2<u32>(0u, bitcast<u32>(_optik_ray.tmin));
             sp = sp + 2u;
-            lv = next;
         }"#,
     );
 }

@@ -205,15 +205,16 @@ fn instance_traffic_is_counted() {
     assert_eq!(c.instances, 1, "{c:?}");
     // The root's handle and the entered instance's child.
     assert_eq!(c.handle_reads, 2, "{c:?}");
-    // The instance's whole record (8) and its child's header words (2); nodes of both
+    // The instance's world-to-object rows, flags word and child link (5: the object-to-world
+    // rows are read only for a hit's frame) and its child's header words (2); nodes of both
     // levels (8 each), triangles (3 each) and the IAS's header words (2).
     assert_eq!(
         c.arena_fetches,
-        2 + 8 * c.nodes + (8 + 2) + 3 * c.primitives,
+        2 + 8 * c.nodes + (5 + 2) + 3 * c.primitives,
         "{c:?}"
     );
     assert!(c.nodes >= 2, "{c:?}");
-    assert_eq!(c.instance_bytes(), 128);
+    assert_eq!(c.instance_bytes(), 80);
     // The level marker and the child's root entry are pushes too: all are popped.
     assert_eq!(c.stack_pops, c.stack_pushes + 1, "{c:?}");
     assert!(c.stack_pushes >= 2 + 2, "{c:?}");
