@@ -68,8 +68,14 @@ fn level_struct(c: &KernelConfig<'_>, out: &mut String) {
     if c.triangles() && c.accuracy.triangle == TriangleTest::Watertight {
         out.push_str("    woop: _OptikWoop,\n");
     }
+    out.push_str("    header: u32,\n    node_base: u32,\n    prim_base: u32,\n    kind_word: u32,\n    keys: u32,\n");
+    // The motion key and fraction exist only where geometry moves; elsewhere they are the
+    // constants 0 (`key`), not fields a saved level carries through memory.
+    if keyed(c) {
+        out.push_str("    key: u32,\n    frac: f32,\n");
+    }
     out.push_str(
-        "    header: u32,\n    node_base: u32,\n    prim_base: u32,\n    kind_word: u32,\n    keys: u32,\n    key: u32,\n    frac: f32,\n    is_ias: bool,\n    instance_id: u32,\n    instance_index: u32,\n    sbt_offset: u32,\n    inst_flags: u32,\n    flip: bool,\n",
+        "    instance_id: u32,\n    instance_index: u32,\n    sbt_offset: u32,\n    inst_flags: u32,\n    flip: bool,\n",
     );
     if c.instancing() {
         out.push_str("    depth: u32,\n");
@@ -181,8 +187,11 @@ fn _optik_micromap(lv: ptr<function, _OptikLevel>, word: u32, u: f32, v: f32) ->
 /// `_optik_enter`: points a level at a structure; false when it holds nothing to hit now.
 fn enter(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
-        "fn _optik_enter(lv: ptr<function, _OptikLevel>, header: u32) -> bool {\n    let h0 = _optik_fetch(header);\n    (*lv).header = header;\n    (*lv).kind_word = h0.x;\n    (*lv).keys = max(h0.y, 1u);\n    (*lv).node_base = header + h0.z;\n    (*lv).prim_base = header + h0.w;\n    (*lv).is_ias = (h0.x & 15u) == 2u;\n    (*lv).key = 0u;\n    (*lv).frac = 0.0;\n",
+        "fn _optik_enter(lv: ptr<function, _OptikLevel>, header: u32) -> bool {\n    let h0 = _optik_fetch(header);\n    (*lv).header = header;\n    (*lv).kind_word = h0.x;\n    (*lv).keys = max(h0.y, 1u);\n    (*lv).node_base = header + h0.z;\n    (*lv).prim_base = header + h0.w;\n",
     );
+    if keyed(c) {
+        out.push_str("    (*lv).key = 0u;\n    (*lv).frac = 0.0;\n");
+    }
     // Primitive types the pipeline was not compiled for are skipped (DEBUG: exception).
     let mut supported = Vec::new();
     for (on, code) in [
@@ -447,22 +456,28 @@ fn keyed(c: &KernelConfig<'_>) -> bool {
     c.geometry_motion()
 }
 
+/// The motion key a leaf reads: the level's, or 0 where no geometry moves.
+fn motion_key(c: &KernelConfig<'_>) -> &'static str {
+    if keyed(c) { "(*lv).key" } else { "0u" }
+}
+
 fn triangles(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
-        r#"fn _optik_leaf_triangles(lv: ptr<function, _OptikLevel>, first: u32, count: u32) {
+        &r#"fn _optik_leaf_triangles(lv: ptr<function, _OptikLevel>, first: u32, count: u32) {
     for (var i = 0u; i < count; i = i + 1u) {
         if _optik_done {
             return;
         }
         let slot = first + i;
-        let a = (*lv).prim_base + (slot * (*lv).keys + (*lv).key) * 3u;
+        let a = (*lv).prim_base + (slot * (*lv).keys + {KEY}) * 3u;
         let q0 = _optik_fetch(a);
         let q1 = _optik_fetch(a + 1u);
         let q2 = _optik_fetch(a + 2u);
         var v0 = bitcast<vec3<f32>>(q0.xyz);
         var v1 = bitcast<vec3<f32>>(q1.xyz);
         var v2 = bitcast<vec3<f32>>(q2.xyz);
-"#,
+"#
+        .replace("{KEY}", motion_key(c)),
     );
     if keyed(c) {
         out.push_str(
@@ -516,7 +531,7 @@ fn triangles(c: &KernelConfig<'_>, out: &mut String) {
 
 fn custom(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
-        r#"fn _optik_leaf_custom(lv: ptr<function, _OptikLevel>, first: u32, count: u32) {
+        &r#"fn _optik_leaf_custom(lv: ptr<function, _OptikLevel>, first: u32, count: u32) {
     for (var i = 0u; i < count; i = i + 1u) {
         if _optik_done {
             return;
@@ -524,10 +539,11 @@ fn custom(c: &KernelConfig<'_>, out: &mut String) {
         let slot = first + i;
         let base = (*lv).prim_base + slot * (1u + 2u * (*lv).keys);
         let info = _optik_fetch(base);
-        let a = base + 1u + 2u * (*lv).key;
+        let a = base + 1u + 2u * {KEY};
         var lo = bitcast<vec3<f32>>(_optik_fetch(a).xyz);
         var hi = bitcast<vec3<f32>>(_optik_fetch(a + 1u).xyz);
-"#,
+"#
+        .replace("{KEY}", motion_key(c)),
     );
     if keyed(c) {
         out.push_str(
@@ -625,7 +641,7 @@ fn _optik_report(t: f32, hit_kind: u32, attributes: array<u32, 8>) -> bool {
 
 fn spheres(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
-        r#"fn _optik_leaf_spheres(lv: ptr<function, _OptikLevel>, first: u32, count: u32) {
+        &r#"fn _optik_leaf_spheres(lv: ptr<function, _OptikLevel>, first: u32, count: u32) {
     for (var i = 0u; i < count; i = i + 1u) {
         if _optik_done {
             return;
@@ -633,8 +649,9 @@ fn spheres(c: &KernelConfig<'_>, out: &mut String) {
         let slot = first + i;
         let base = (*lv).prim_base + slot * (1u + (*lv).keys);
         let info = _optik_fetch(base);
-        var s = bitcast<vec4<f32>>(_optik_fetch(base + 1u + (*lv).key));
-"#,
+        var s = bitcast<vec4<f32>>(_optik_fetch(base + 1u + {KEY}));
+"#
+        .replace("{KEY}", motion_key(c)),
     );
     if keyed(c) {
         out.push_str(
@@ -668,7 +685,7 @@ fn spheres(c: &KernelConfig<'_>, out: &mut String) {
 
 fn curves(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
-        r#"fn _optik_leaf_curves(lv: ptr<function, _OptikLevel>, first: u32, count: u32) {
+        &r#"fn _optik_leaf_curves(lv: ptr<function, _OptikLevel>, first: u32, count: u32) {
     let basis = ((*lv).kind_word >> 8u) & 3u;
     for (var i = 0u; i < count; i = i + 1u) {
         if _optik_done {
@@ -677,11 +694,12 @@ fn curves(c: &KernelConfig<'_>, out: &mut String) {
         let slot = first + i;
         let base = (*lv).prim_base + slot * (1u + 4u * (*lv).keys);
         let info = _optik_fetch(base);
-        let a = base + 1u + 4u * (*lv).key;
+        let a = base + 1u + 4u * {KEY};
         var p: array<vec4<f32>, 4>;
         for (var j = 0u; j < 4u; j = j + 1u) {
             p[j] = bitcast<vec4<f32>>(_optik_fetch(a + j));
-"#,
+"#
+        .replace("{KEY}", motion_key(c)),
     );
     if keyed(c) {
         out.push_str(
@@ -819,7 +837,7 @@ fn _optik_traverse(handle: vec2<u32>) -> bool {
             // vectors, no loop over lanes: a vector indexed by a loop counter may be lowered
             // to local memory (the watertight test's dynamic indices cost wgpu a sixth of
             // its incoherent-ray time, docs/wgpu-backend.md §12.2).
-            let leaf_tag = vec4<u32>(select(1u, 2u, lv.is_ias) << 30u);
+            let leaf_tag = vec4<u32>(select(1u, 2u, (lv.kind_word & 15u) == 2u) << 30u);
             let leaves = leaf_tag | ((n.kind - vec4<u32>(2u)) << vec4<u32>(27u)) | n.child;
             let inner = n.kind == vec4<u32>(1u);
             let refs = select(vec4<u32>(_OPTIK_NONE), select(leaves, n.child, inner), n.hit);
@@ -920,7 +938,7 @@ fn instance_entry(c: &KernelConfig<'_>, out: &mut String) {
     if !c.any_graph() {
         // Single-level instancing: an instance holds geometry only.
         out.push_str(
-            "            if lv.is_ias {\n                lv = levels[lvl];\n                continue;\n            }\n",
+            "            if (lv.kind_word & 15u) == 2u {\n                lv = levels[lvl];\n                continue;\n            }\n",
         );
     }
     out.push_str(
