@@ -68,9 +68,20 @@ pub(crate) struct State {
     pub samplers: Vec<(optik_api::SamplerDesc, wgpu::Sampler)>,
 }
 
+/// The environment variable naming a folder for the kernels the devices of
+/// [`WgpuBackend::new`] compile ([`WgpuOptions::kernel_dir`]).
+pub const KERNEL_DIR_ENV: &str = "OPTIK_WGPU_KERNEL_DIR";
+
 /// Options of [`WgpuBackend::with_options`].
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct WgpuOptions {
+    /// A folder where every kernel the device compiles is written, as
+    /// `kernel-<hash>.wgsl`, to read the generated code or to hand it to a driver's
+    /// statistics (`optik-vulkan`'s `kernel_stats` example: registers, spills;
+    /// docs/wgpu-backend.md §12.3). [`WgpuBackend::new`] takes it from
+    /// [`KERNEL_DIR_ENV`]. A kernel that cannot be written there fails the call that compiles
+    /// it (`create_pipeline`, or a launch that needs a kernel for a grown scene).
+    pub kernel_dir: Option<std::path::PathBuf>,
     /// Caps the bytes optik puts in one storage binding below the adapter's
     /// `max_storage_buffer_binding_size` (at least 16 KiB is used). Acceleration structure
     /// data is then split into more, smaller buffers: this is how the splitting that large
@@ -87,9 +98,13 @@ pub struct WgpuOptions {
 }
 
 impl WgpuBackend {
-    /// Opens the adapter chosen by [`crate::gpu::ADAPTER_ENV`] or the best one found.
+    /// Opens the adapter chosen by [`crate::gpu::ADAPTER_ENV`] or the best one found; kernels
+    /// are written to the folder [`KERNEL_DIR_ENV`] names, if any.
     pub fn new() -> Result<WgpuBackend> {
-        WgpuBackend::with_options(WgpuOptions::default())
+        WgpuBackend::with_options(WgpuOptions {
+            kernel_dir: std::env::var_os(KERNEL_DIR_ENV).map(std::path::PathBuf::from),
+            ..WgpuOptions::default()
+        })
     }
 
     /// [`WgpuBackend::new`] with options.

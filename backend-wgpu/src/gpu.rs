@@ -17,6 +17,8 @@ pub(crate) struct Gpu {
     pub features: wgpu::Features,
     /// The device's long-lived allocations (`crate::memory`).
     pub memory: crate::memory::MemoryTracker,
+    /// Where compiled kernels are written (`WgpuOptions::kernel_dir`).
+    pub kernel_dir: Option<std::path::PathBuf>,
     lost: Arc<AtomicBool>,
     lost_reason: Arc<Mutex<String>>,
     uncaptured: Arc<Mutex<Vec<String>>>,
@@ -116,6 +118,7 @@ impl Gpu {
             limits,
             features,
             memory: crate::memory::MemoryTracker::default(),
+            kernel_dir: options.kernel_dir.clone(),
             lost,
             lost_reason,
             uncaptured,

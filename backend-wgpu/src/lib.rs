@@ -26,7 +26,7 @@ mod probe;
 mod program;
 mod sbt;
 
-pub use device::{WgpuBackend, WgpuDevice, WgpuDeviceExt, WgpuOptions};
+pub use device::{KERNEL_DIR_ENV, WgpuBackend, WgpuDevice, WgpuDeviceExt, WgpuOptions};
 pub use gpu::ADAPTER_ENV;
 pub use memory::MemoryTracker;
 pub use probe::{AdapterReport, probe};

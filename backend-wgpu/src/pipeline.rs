@@ -203,10 +203,29 @@ impl PipelineObject {
             counters,
         });
         check_kernel(&source, f64)?;
+        if let Some(dir) = &gpu.kernel_dir {
+            write_kernel(dir, &source)?;
+        }
         let v = Arc::new(compile(gpu, &source, &self.bindings, sizes, counters)?);
         self.variants.insert((sizes, counters), v.clone());
         Ok(v)
     }
+}
+
+/// Writes a kernel to `dir` as `kernel-<hash of its text>.wgsl` (`WgpuOptions::kernel_dir`).
+fn write_kernel(dir: &std::path::Path, source: &str) -> Result<()> {
+    use std::hash::{Hash, Hasher};
+    let mut hasher = std::collections::hash_map::DefaultHasher::new();
+    source.hash(&mut hasher);
+    let path = dir.join(format!("kernel-{:016x}.wgsl", hasher.finish()));
+    std::fs::write(&path, source).map_err(|e| {
+        Error::invalid(format!(
+            "{} (WgpuOptions::kernel_dir, {}): cannot write {}: {e}; expected a folder this process can write",
+            dir.display(),
+            crate::KERNEL_DIR_ENV,
+            path.display()
+        ))
+    })
 }
 
 /// Parses and validates a generated kernel with naga: a failure is optik's bug, reported

@@ -230,3 +230,64 @@ fn closesthit__c() {{ rt_set_payload(0u, 2u); }}
     // ray 1 misses both times.
     assert_eq!(out, vec![0, 2, 1, 1]);
 }
+
+#[test]
+fn kernels_are_written_to_the_kernel_folder() {
+    let dir = std::env::temp_dir().join(format!("optik-kernels-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let dev = optik_wgpu::WgpuBackend::with_options(optik_wgpu::WgpuOptions {
+        kernel_dir: Some(dir.clone()),
+        ..Default::default()
+    })
+    .map(optik_wgpu::WgpuDevice::new)
+    .unwrap();
+    let d: &dyn Device = &dev;
+    let m = module(d, RAY_LIST);
+    let g = ray_list_groups(d, m, 1, &[]);
+    let p = pipeline(d, &g, 1);
+    let src = dev.kernel_source(p).unwrap();
+    let written: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(written.len(), 1, "{written:?}");
+    let name = written[0]
+        .file_name()
+        .unwrap()
+        .to_string_lossy()
+        .into_owned();
+    assert!(
+        name.starts_with("kernel-") && name.ends_with(".wgsl"),
+        "{name}"
+    );
+    assert_eq!(std::fs::read_to_string(&written[0]).unwrap(), src);
+
+    // A folder that cannot be written fails the compile (at create_pipeline), naming it.
+    let file = dir.join("not-a-folder");
+    std::fs::write(&file, b"").unwrap();
+    let dev = optik_wgpu::WgpuBackend::with_options(optik_wgpu::WgpuOptions {
+        kernel_dir: Some(file.clone()),
+        ..Default::default()
+    })
+    .map(optik_wgpu::WgpuDevice::new)
+    .unwrap();
+    let d: &dyn Device = &dev;
+    let m = module(d, RAY_LIST);
+    let g = ray_list_groups(d, m, 1, &[]);
+    let e = d
+        .create_pipeline(
+            &PipelineCompileOptions::default(),
+            &PipelineLinkOptions {
+                max_trace_depth: 1,
+                ..Default::default()
+            },
+            &g.all(),
+        )
+        .unwrap_err();
+    assert!(
+        e.message().contains("kernel_dir") && e.message().contains("not-a-folder"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
