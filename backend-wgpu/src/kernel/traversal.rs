@@ -333,10 +333,12 @@ fn through_transforms(name: &str, state: &str, compose: bool, out: &mut String) 
 }
 
 /// `_optik_hit_frame`: the object space of `_optik_hit` (the ray in it and the composed
-/// matrices), rebuilt from the hit's path through the graph. The traversal keeps no
-/// matrices: carrying two composed 3×4 matrices in every level and every candidate took
-/// the any-graph kernel from 64 to 116 registers on the H200 (docs/wgpu-backend.md §12.3).
-/// The steps are the traversal's own, in the same order, so the ray is the one it tested.
+/// matrices), rebuilt from the hit's path through the graph, as OptiX computes transforms on
+/// demand. The traversal keeps no matrices: two composed 3×4 matrices were 24 values in
+/// every saved level and 30 with the object ray in every candidate and the closest hit,
+/// carried through the whole walk for the few programs that ask (docs/wgpu-backend.md
+/// §12.3 has what it changed on the H200). The steps are the traversal's own, in the same
+/// order, so the ray is the one it tested.
 fn hit_frame(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
         r#"// The object space of a hit: the ray in it and the matrices to and from world space.

@@ -236,15 +236,20 @@ fn kernels_are_written_to_the_kernel_folder() {
     let dir = std::env::temp_dir().join(format!("optik-kernels-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let dev = optik_wgpu::WgpuBackend::with_options(optik_wgpu::WgpuOptions {
-        kernel_dir: Some(dir.clone()),
-        ..Default::default()
-    })
-    .map(optik_wgpu::WgpuDevice::new)
-    .unwrap();
+    // A device writing its kernels to `folder`, and the ray-list program groups.
+    let device_writing_to = |folder: &std::path::Path| {
+        let dev = optik_wgpu::WgpuBackend::with_options(optik_wgpu::WgpuOptions {
+            kernel_dir: Some(folder.to_path_buf()),
+            ..Default::default()
+        })
+        .map(optik_wgpu::WgpuDevice::new)
+        .unwrap();
+        let m = module(&dev, RAY_LIST);
+        let g = ray_list_groups(&dev, m, 1, &[]);
+        (dev, g)
+    };
+    let (dev, g) = device_writing_to(&dir);
     let d: &dyn Device = &dev;
-    let m = module(d, RAY_LIST);
-    let g = ray_list_groups(d, m, 1, &[]);
     let p = pipeline(d, &g, 1);
     let src = dev.kernel_source(p).unwrap();
     let written: Vec<_> = std::fs::read_dir(&dir)
@@ -266,16 +271,8 @@ fn kernels_are_written_to_the_kernel_folder() {
     // A folder that cannot be written fails the compile (at create_pipeline), naming it.
     let file = dir.join("not-a-folder");
     std::fs::write(&file, b"").unwrap();
-    let dev = optik_wgpu::WgpuBackend::with_options(optik_wgpu::WgpuOptions {
-        kernel_dir: Some(file.clone()),
-        ..Default::default()
-    })
-    .map(optik_wgpu::WgpuDevice::new)
-    .unwrap();
-    let d: &dyn Device = &dev;
-    let m = module(d, RAY_LIST);
-    let g = ray_list_groups(d, m, 1, &[]);
-    let e = d
+    let (dev, g) = device_writing_to(&file);
+    let e = dev
         .create_pipeline(
             &PipelineCompileOptions::default(),
             &PipelineLinkOptions {

@@ -319,8 +319,17 @@ fn convergence_falls_with_samples_for_every_accuracy_the_cpu_runs() {
     let (rgb, legend) = plot_rgb(&c.curves).unwrap();
     assert_eq!(legend.curves.len(), 4);
     assert!(legend.curves[0].starts_with("blue circles: cpu watertight+conservative"));
-    let blue = rgb.chunks_exact(3).filter(|p| *p == [31, 119, 180]).count();
+    // Alone, since curves of equal error and time cover it (seen in CI under load).
+    let (first, _) = plot_rgb(&c.curves[..1]).unwrap();
+    let blue = first
+        .chunks_exact(3)
+        .filter(|p| *p == [31, 119, 180])
+        .count();
     assert!(blue > 50, "the first curve is drawn: {blue} blue pixels");
+    assert!(
+        rgb.chunks_exact(3).any(|p| p != [255, 255, 255]),
+        "the plot is drawn"
+    );
     let dir = std::env::temp_dir().join(format!("optik-plot-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("convergence.png");
