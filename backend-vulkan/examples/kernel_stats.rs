@@ -25,9 +25,12 @@ fn main() {
     }
 }
 
+/// A kernel's descriptor set layouts by group: (binding, descriptor type) pairs.
+type Groups = Vec<Vec<(u32, vk::DescriptorType)>>;
+
 /// The kernel as wgpu would hand it to the driver (close enough for the driver's statistics:
-/// the same naga front end, bounds clamps and loop bounding).
-fn spirv(path: &str) -> Result<Vec<u32>, String> {
+/// the same naga front end, bounds clamps and loop bounding), and the bindings it declares.
+fn compile(path: &str) -> Result<(Vec<u32>, Groups), String> {
     let src = std::fs::read_to_string(path).map_err(|e| format!("{path}: cannot read: {e}"))?;
     let module = naga::front::wgsl::parse_str(&src)
         .map_err(|e| format!("{path}: {}", e.emit_to_string(&src)))?;
@@ -43,24 +46,22 @@ fn spirv(path: &str) -> Result<Vec<u32>, String> {
             index: naga::proc::BoundsCheckPolicy::Restrict,
             ..Default::default()
         },
+        force_loop_bounding: true,
         ..Default::default()
     };
-    options.force_loop_bounding = true;
     options.flags.remove(naga::back::spv::WriterFlags::DEBUG);
     let entry = naga::back::spv::PipelineOptions {
         shader_stage: naga::ShaderStage::Compute,
         entry_point: "_optik_main".into(),
     };
-    naga::back::spv::write_vec(&module, &info, &options, Some(&entry))
-        .map_err(|e| format!("{path}: SPIR-V: {e}"))
+    let words = naga::back::spv::write_vec(&module, &info, &options, Some(&entry))
+        .map_err(|e| format!("{path}: SPIR-V: {e}"))?;
+    Ok((words, bindings(&module)))
 }
 
-/// The descriptor set layouts the kernel's bindings need, by group.
-fn bindings(path: &str) -> Result<Vec<Vec<(u32, vk::DescriptorType)>>, String> {
-    let src = std::fs::read_to_string(path).map_err(|e| format!("{path}: cannot read: {e}"))?;
-    let module = naga::front::wgsl::parse_str(&src)
-        .map_err(|e| format!("{path}: {}", e.emit_to_string(&src)))?;
-    let mut groups: Vec<Vec<(u32, vk::DescriptorType)>> = Vec::new();
+/// The descriptor set layouts the module's bindings need, by group.
+fn bindings(module: &naga::Module) -> Groups {
+    let mut groups: Groups = Vec::new();
     for (_, global) in module.global_variables.iter() {
         let Some(b) = &global.binding else { continue };
         let kind = match global.space {
@@ -81,7 +82,7 @@ fn bindings(path: &str) -> Result<Vec<Vec<(u32, vk::DescriptorType)>>, String> {
         }
         groups[g].push((b.binding, kind));
     }
-    Ok(groups)
+    groups
 }
 
 /// A Vulkan error as a message naming the call.
@@ -121,7 +122,11 @@ fn run(paths: &[String]) -> Result<(), String> {
                         != vk::PhysicalDeviceType::CPU
                 }
             })
-            .or_else(|| wanted.is_none().then(|| devices.first().copied()).flatten())
+            // Without a wanted name, a CPU device is better than none.
+            .or_else(|| match wanted {
+                None => devices.first().copied(),
+                Some(_) => None,
+            })
             .ok_or("no Vulkan device (or none matching OPTIK_VULKAN_DEVICE)")?;
         println!("device: {}", name_of(physical));
         let extension = ash::khr::pipeline_executable_properties::NAME;
@@ -182,8 +187,7 @@ unsafe fn stats_of(
     executables: &ash::khr::pipeline_executable_properties::Device,
     path: &str,
 ) -> Result<String, String> {
-    let words = spirv(path)?;
-    let groups = bindings(path)?;
+    let (words, groups) = compile(path)?;
     // SAFETY: as for `run`; every object made here is destroyed before returning.
     unsafe {
         let module = device

@@ -90,10 +90,21 @@ var<private> _optik_root: u32;
 var<private> _optik_path: array<u32, _OPTIK_LEVELS>;
 "#,
         );
+        out.push_str(
+            r#"// The object space of a hit: the ray in it and the matrices to and from world space
+// (`_optik_hit_frame`, rebuilt from the hit's path by the traversal's code).
+struct _OptikFrame {
+    origin: vec3<f32>,
+    direction: vec3<f32>,
+    w2o: _OptikXform,
+    o2w: _OptikXform,
+}
+"#,
+        );
         if !c.traces() {
-            // No trace, no hit: the frame functions still need a body.
+            // No trace, no hit: the device functions that ask still need a frame.
             out.push_str(
-                "\nstruct _OptikFrame {\n    origin: vec3<f32>,\n    direction: vec3<f32>,\n    w2o: _OptikXform,\n    o2w: _OptikXform,\n}\n\nfn _optik_hit_frame() -> _OptikFrame {\n    return _OptikFrame(_optik_ray.origin, _optik_ray.direction, _optik_xform_identity(), _optik_xform_identity());\n}\n",
+                "\nfn _optik_hit_frame() -> _OptikFrame {\n    return _OptikFrame(_optik_ray.origin, _optik_ray.direction, _optik_xform_identity(), _optik_xform_identity());\n}\n",
             );
         }
     }

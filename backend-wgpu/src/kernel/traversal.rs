@@ -340,17 +340,6 @@ fn through_transforms(name: &str, state: &str, compose: bool, out: &mut String) 
 /// §12.3 has what it changed on the H200). The steps are the traversal's own, in the same
 /// order, so the ray is the one it tested.
 fn hit_frame(c: &KernelConfig<'_>, out: &mut String) {
-    out.push_str(
-        r#"// The object space of a hit: the ray in it and the matrices to and from world space.
-struct _OptikFrame {
-    origin: vec3<f32>,
-    direction: vec3<f32>,
-    w2o: _OptikXform,
-    o2w: _OptikXform,
-}
-
-"#,
-    );
     if c.any_graph() {
         through_transforms("_optik_frame_through_transforms", "_OptikFrame", true, out);
     }
