@@ -316,6 +316,12 @@ impl<'d> RayCaster<'d> {
         Ok(total)
     }
 
+    /// The handle of the traversable the rays are cast into (the mesh's structure, or the
+    /// instance structure over it).
+    pub fn handle(&self) -> crate::TraversableHandle {
+        crate::TraversableHandle::from_words(self.handle)
+    }
+
     /// The features the pipeline was compiled with.
     pub fn features(&self) -> Result<crate::FeatureSet> {
         self.device.pipeline_features(self.pipeline)

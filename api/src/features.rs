@@ -232,6 +232,29 @@ impl FeatureSet {
         }
     }
 
+    /// These features less what `scene` cannot call for: the graph shape, primitive types,
+    /// kinds of motion and opacity micromaps no live structure has. A trace can only reach
+    /// live structures (a handle to a destroyed one is refused before its kind is read), so
+    /// code for the rest would never run; backends that compile per launch compile only this
+    /// (docs/wgpu-backend.md §3, "Kernel variants"). What programs see is unchanged: ray
+    /// time, payload, attributes, exceptions and program calls are not narrowed, and a
+    /// narrowing that would leave no primitive type keeps the pipeline's.
+    pub fn narrowed_to(&self, scene: &SceneFeatures) -> FeatureSet {
+        let mut f = *self;
+        f.traversable_graph = self.traversable_graph.min(scene.graph);
+        let types = PrimitiveTypeFlags(self.primitive_types.0 & scene.primitive_types.0);
+        if !types.is_empty() {
+            f.primitive_types = types;
+        }
+        f.motion_kinds = MotionKinds {
+            geometry: self.motion_kinds.geometry && scene.motion.geometry,
+            matrix: self.motion_kinds.matrix && scene.motion.matrix,
+            srt: self.motion_kinds.srt && scene.motion.srt,
+        };
+        f.opacity_micromaps = self.opacity_micromaps && scene.opacity_micromaps;
+        f
+    }
+
     /// Whether instances or transforms are traversed.
     pub fn instancing(&self) -> bool {
         self.traversable_graph != TraversableGraph::SingleGas
@@ -312,5 +335,43 @@ mod tests {
         assert_eq!(top.graph, TraversableGraph::Any);
         assert_eq!(top.depth, 2);
         assert!(top.motion.srt);
+    }
+
+    #[test]
+    fn narrowing_keeps_only_what_the_scene_has_and_what_programs_see() {
+        let all = FeatureSet::everything(2);
+        let flat = SceneFeatures {
+            primitive_types: PrimitiveTypeFlags::TRIANGLE,
+            ..Default::default()
+        };
+        let f = all.narrowed_to(&flat);
+        assert_eq!(f.traversable_graph, TraversableGraph::SingleGas);
+        assert_eq!(f.primitive_types, PrimitiveTypeFlags::TRIANGLE);
+        assert_eq!(f.motion_kinds, MotionKinds::default());
+        assert!(!f.opacity_micromaps);
+        // What programs see stays: ray time, registers, exceptions, program calls.
+        assert!(f.motion && f.any_hit && f.intersection && f.direct_callables);
+        assert_eq!(f.exceptions, ExceptionFlags::ALL);
+        assert_eq!((f.num_payload_values, f.num_attribute_values), (32, 8));
+        // Never wider than the pipeline: a single-GAS triangle pipeline over a scene of
+        // instanced spheres keeps its own features (its kernel misses them, as before).
+        let single = f;
+        let spheres = SceneFeatures::of_parent(
+            &[SceneFeatures {
+                primitive_types: PrimitiveTypeFlags::SPHERE,
+                motion: MotionKinds {
+                    geometry: true,
+                    ..Default::default()
+                },
+                ..Default::default()
+            }],
+            MotionKinds::default(),
+            false,
+        );
+        assert_eq!(single.narrowed_to(&spheres), single);
+        let f = all.narrowed_to(&spheres);
+        assert_eq!(f.traversable_graph, TraversableGraph::SingleLevelInstancing);
+        assert_eq!(f.primitive_types, PrimitiveTypeFlags::SPHERE);
+        assert!(f.motion_kinds.geometry && !f.motion_kinds.srt);
     }
 }

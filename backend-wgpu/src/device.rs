@@ -211,8 +211,9 @@ impl WgpuDeviceExt for WgpuDevice {
         let backend = self.backend();
         let mut objects = self.objects();
         let sizes = scene_sizes(&objects.accels, &backend.lock()?.scene);
+        let content = scene_content(&objects.accels);
         let p = objects.pipelines.get_mut(pipeline)?;
-        Ok(p.variant(&backend.gpu, sizes, false)?.source.clone())
+        Ok(p.variant(&backend.gpu, sizes, content, false)?.source.clone())
     }
 }
 
@@ -304,6 +305,15 @@ pub(crate) fn scene_sizes(accels: &HandleTable<Accel, AccelObject>, scene: &Scen
         stack: stack.div_ceil(8) * 8,
         levels,
     }
+}
+
+/// The union of the live structures' features (`None` when there is none): which of a
+/// pipeline's features a launch's kernel keeps ([`FeatureSet::narrowed_to`]).
+pub(crate) fn scene_content(accels: &HandleTable<Accel, AccelObject>) -> Option<SceneFeatures> {
+    accels
+        .iter()
+        .map(|(_, a)| a.features)
+        .reduce(SceneFeatures::union)
 }
 
 /// What a parent (instance or transform) needs of the child that the traversable `handle`
@@ -777,7 +787,8 @@ impl optik_core::Backend for WgpuBackend {
             self.id.0 & 0xFFFF,
         )?;
         // Compile now, so that errors surface at link time.
-        p.variant(&self.gpu, scene_sizes(&objects.accels, &s.scene), false)?;
+        let sizes = scene_sizes(&objects.accels, &s.scene);
+        p.variant(&self.gpu, sizes, scene_content(&objects.accels), false)?;
         Ok(p)
     }
 

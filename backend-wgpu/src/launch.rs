@@ -5,7 +5,7 @@
 //! so it never exceeds the per-dimension workgroup limit below 2³¹ invocations; the kernel
 //! turns the workgroup position back into a launch index and drops the padding.
 
-use crate::device::{WgpuBackend, WgpuObjects, scene_sizes};
+use crate::device::{WgpuBackend, WgpuObjects, scene_content, scene_sizes};
 use crate::kernel::WORKGROUP_SIZE;
 use optik_api::{
     AddressMode, Error, FilterMode, LaunchSize, Pipeline, Resource, Result, SamplerDesc,
@@ -61,7 +61,12 @@ pub(crate) fn launch(
         objects
             .pipelines
             .get_mut(pipeline)?
-            .variant(gpu, sizes, observe.counters.is_some())?;
+            .variant(
+                gpu,
+                sizes,
+                scene_content(&objects.accels),
+                observe.counters.is_some(),
+            )?;
     // The SBT, from the host copies of its buffers (read back if a launch wrote them).
     let packed = {
         let p = objects.pipelines.get(pipeline)?;

@@ -1,8 +1,9 @@
 //! Pipelines: features resolved, programs lowered, and megakernels compiled per scene size.
 //!
 //! The program part of a kernel is fixed when the pipeline is linked. What depends on the
-//! scene alive at launch (arena chunks, stack depth, instance levels) selects a *variant*,
-//! compiled on first use and cached; a launch after the scene grew compiles a new one.
+//! scene alive at launch (arena chunks, stack depth, instance levels, and which of the
+//! pipeline's features its structures can call for) selects a *variant*, compiled on first
+//! use and cached; a launch after the scene grew compiles a new one.
 
 use crate::gpu::Gpu;
 use crate::kernel::{self, KernelConfig, Sizes, group_flags};
@@ -13,6 +14,7 @@ use crate::program::{GroupObject, ModuleSource};
 use optik_api::{
     Accuracy, Error, ExceptionFlags, FeatureSet, Handle, Module, PipelineLinkOptions,
     ProgramFeatures, ProgramGroup, ProgramGroupDesc, ProgramKind, RawHandle, Result,
+    SceneFeatures,
 };
 use optik_core::frontend::{self, BindingInfo, BindingKind, CompiledModule};
 use std::collections::HashMap;
@@ -46,8 +48,9 @@ pub struct PipelineObject {
     pub(crate) lowered: Lowered,
     /// Per module: its bindings (numbers as the user wrote them) and their offset.
     pub(crate) bindings: Vec<(u32, Vec<BindingInfo>)>,
-    /// Compiled kernels by scene sizes and whether they are the instrumented (counting) one.
-    pub(crate) variants: HashMap<(Sizes, bool), Arc<Variant>>,
+    /// Compiled kernels by scene sizes, the features compiled (the pipeline's, narrowed to
+    /// the live structures) and whether they are the instrumented (counting) one.
+    pub(crate) variants: HashMap<(Sizes, FeatureSet, bool), Arc<Variant>>,
     /// Low 16 bits of the device id.
     pub(crate) device16: u32,
     /// The device whose groups the pipeline links (what SBT headers must name).
@@ -179,20 +182,29 @@ pub(crate) fn link(
 }
 
 impl PipelineObject {
-    /// The kernel for `sizes`, compiled on first use; with `counters`, the instrumented
-    /// kernel of the traffic benchmark (`kernel::counters`).
+    /// The kernel for `sizes` and the live structures' features `scene` (`None`: no
+    /// structure), compiled on first use; with `counters`, the instrumented kernel of the
+    /// traffic benchmark (`kernel::counters`). The kernel holds the pipeline's features
+    /// less those no live structure has ([`FeatureSet::narrowed_to`]): a pipeline forced to
+    /// any graph and every primitive type traces a lone triangle GAS with the kernel an
+    /// `Auto` pipeline would have, and compiles the general one when instances appear.
     pub(crate) fn variant(
         &mut self,
         gpu: &Gpu,
         sizes: Sizes,
+        scene: Option<SceneFeatures>,
         counters: bool,
     ) -> Result<Arc<Variant>> {
-        if let Some(v) = self.variants.get(&(sizes, counters)) {
+        let features = match scene {
+            Some(scene) => self.features.narrowed_to(&scene),
+            None => self.features,
+        };
+        if let Some(v) = self.variants.get(&(sizes, features, counters)) {
             return Ok(v.clone());
         }
         let f64 = gpu.features.contains(wgpu::Features::SHADER_F64);
         let source = kernel::generate(&KernelConfig {
-            features: &self.features,
+            features: &features,
             accuracy: self.accuracy,
             f64,
             device16: self.device16,
@@ -207,7 +219,7 @@ impl PipelineObject {
             write_kernel(dir, &source)?;
         }
         let v = Arc::new(compile(gpu, &source, &self.bindings, sizes, counters)?);
-        self.variants.insert((sizes, counters), v.clone());
+        self.variants.insert((sizes, features, counters), v.clone());
         Ok(v)
     }
 }

@@ -288,3 +288,82 @@ fn kernels_are_written_to_the_kernel_folder() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A pipeline forced to any graph, every primitive type and opacity micromaps traces a lone
+/// triangle GAS with the kernel an `Auto` pipeline gets (FeatureSet::narrowed_to), and
+/// compiles the general kernel once an instance exists, which it then traces.
+#[test]
+fn features_no_live_structure_has_are_left_out_of_the_launchs_kernel() {
+    let dev = optik_wgpu::WgpuBackend::new()
+        .map(optik_wgpu::WgpuDevice::new)
+        .unwrap();
+    let d: &dyn Device = &dev;
+    let gas = triangles(d, &quad(0.0, 1.0, 0.0, 1.0, 0.0), GeometryFlags::NONE);
+    let m = module(d, RAY_LIST);
+    let g = ray_list_groups(d, m, 1, &[]);
+    let auto = pipeline(d, &g, 1);
+    let general = d
+        .create_pipeline(
+            &PipelineCompileOptions {
+                traversable_graph: Setting::Value(TraversableGraph::Any),
+                primitive_types: Setting::Value(PrimitiveTypeFlags::ALL),
+                allow_opacity_micromaps: Setting::Value(true),
+                ..Default::default()
+            },
+            &PipelineLinkOptions::default(),
+            &g.all(),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    // The pipeline keeps what it was asked for; its kernel for this scene does not.
+    let f = d.pipeline_features(general).unwrap();
+    assert_eq!(f.traversable_graph, TraversableGraph::Any);
+    assert_eq!(f.primitive_types, PrimitiveTypeFlags::ALL);
+    let narrowed = dev.kernel_source(general).unwrap();
+    assert_eq!(narrowed, dev.kernel_source(auto).unwrap());
+    for absent in [SPHERES, CURVES, INSTANCES, TRANSFORMS, MICROMAPS] {
+        assert!(!narrowed.contains(absent), "`{absent}` in the narrowed kernel");
+    }
+    // A translated instance appears: the next kernel has instances (one level, so still no
+    // transform chain).
+    let inst = Instance {
+        transform: [1.0, 0.0, 0.0, 2.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+        ..Instance::new(d.traversable_handle(gas).unwrap())
+    };
+    let ib = buffer(d, &[inst]);
+    let ias = d
+        .accel_build(
+            &AccelBuildOptions::default(),
+            &[BuildInput::Instances(InstanceArray {
+                instances: BufferView::new(ib),
+                num_instances: 1,
+            })],
+        )
+        .unwrap();
+    let top = d.traversable_handle(ias).unwrap();
+    let general_kernel = dev.kernel_source(general).unwrap();
+    assert!(general_kernel.contains(INSTANCES));
+    assert!(!general_kernel.contains(TRANSFORMS) && !general_kernel.contains(SPHERES));
+    let table = numbered_sbt(d, &g);
+    let recs = trace_rays(
+        d,
+        general,
+        &table,
+        top,
+        &[
+            Ray::new([2.5, 0.5, 1.0], [0.0, 0.0, -1.0]),
+            Ray::new([0.5, 0.5, 1.0], [0.0, 0.0, -1.0]),
+        ],
+        TraceArgs::default(),
+    );
+    assert!(recs[0].hit() && recs[1].missed());
+    // The GAS alone is still traced by the same pipeline, now with the general kernel.
+    let recs = trace_rays(
+        d,
+        general,
+        &table,
+        d.traversable_handle(gas).unwrap(),
+        &[Ray::new([0.5, 0.5, 1.0], [0.0, 0.0, -1.0])],
+        TraceArgs::default(),
+    );
+    assert!(recs[0].hit());
+}
