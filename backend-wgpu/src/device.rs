@@ -213,7 +213,9 @@ impl WgpuDeviceExt for WgpuDevice {
         let sizes = scene_sizes(&objects.accels, &backend.lock()?.scene);
         let content = scene_content(&objects.accels);
         let p = objects.pipelines.get_mut(pipeline)?;
-        Ok(p.variant(&backend.gpu, sizes, content, false)?.source.clone())
+        Ok(p.variant(&backend.gpu, sizes, content, false)?
+            .source
+            .clone())
     }
 }
 

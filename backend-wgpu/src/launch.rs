@@ -57,16 +57,12 @@ pub(crate) fn launch(
         }
     }
     let sizes = scene_sizes(&objects.accels, &s.scene);
-    let variant =
-        objects
-            .pipelines
-            .get_mut(pipeline)?
-            .variant(
-                gpu,
-                sizes,
-                scene_content(&objects.accels),
-                observe.counters.is_some(),
-            )?;
+    let variant = objects.pipelines.get_mut(pipeline)?.variant(
+        gpu,
+        sizes,
+        scene_content(&objects.accels),
+        observe.counters.is_some(),
+    )?;
     // The SBT, from the host copies of its buffers (read back if a launch wrote them).
     let packed = {
         let p = objects.pipelines.get(pipeline)?;

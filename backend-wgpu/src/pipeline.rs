@@ -13,8 +13,7 @@ use crate::program::instance::{
 use crate::program::{GroupObject, ModuleSource};
 use optik_api::{
     Accuracy, Error, ExceptionFlags, FeatureSet, Handle, Module, PipelineLinkOptions,
-    ProgramFeatures, ProgramGroup, ProgramGroupDesc, ProgramKind, RawHandle, Result,
-    SceneFeatures,
+    ProgramFeatures, ProgramGroup, ProgramGroupDesc, ProgramKind, RawHandle, Result, SceneFeatures,
 };
 use optik_core::frontend::{self, BindingInfo, BindingKind, CompiledModule};
 use std::collections::HashMap;

@@ -584,15 +584,17 @@ fn specialisation(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) 
         // what it costs where a scene has instances.
         let general: Vec<(String, Result<(f64, String)>)> =
             match with_a_transform_alive(device.as_ref(), || {
-                [(2, "+ any graph, a transform alive"), (6, "everything on, a transform alive")]
-                    .map(|(i, name)| {
-                        let options = &pipelines[i].1;
-                        let best = measure(options).and_then(|(s, f)| {
-                            measure(options).map(|(again, _)| (s.min(again), f))
-                        });
-                        (name.to_string(), best)
-                    })
-                    .into()
+                [
+                    (2, "+ any graph, a transform alive"),
+                    (6, "everything on, a transform alive"),
+                ]
+                .map(|(i, name)| {
+                    let options = &pipelines[i].1;
+                    let best = measure(options)
+                        .and_then(|(s, f)| measure(options).map(|(again, _)| (s.min(again), f)));
+                    (name.to_string(), best)
+                })
+                .into()
             }) {
                 Ok(rows) => rows,
                 Err(e) => vec![("a transform alive".into(), Err(e))],

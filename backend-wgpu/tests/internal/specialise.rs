@@ -321,7 +321,10 @@ fn features_no_live_structure_has_are_left_out_of_the_launchs_kernel() {
     let narrowed = dev.kernel_source(general).unwrap();
     assert_eq!(narrowed, dev.kernel_source(auto).unwrap());
     for absent in [SPHERES, CURVES, INSTANCES, TRANSFORMS, MICROMAPS] {
-        assert!(!narrowed.contains(absent), "`{absent}` in the narrowed kernel");
+        assert!(
+            !narrowed.contains(absent),
+            "`{absent}` in the narrowed kernel"
+        );
     }
     // A translated instance appears: the next kernel has instances (one level, so still no
     // transform chain).
