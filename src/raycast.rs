@@ -432,11 +432,15 @@ impl<'d> RayCaster<'d> {
     }
 
     /// Traces `rays` (`RAY_FLOATS` floats each) `repeat` times; returns the hits and the best
-    /// launch time in seconds (0 for no rays).
+    /// launch time in seconds (0 for no rays). With `repeat > 1` (a measurement), untimed
+    /// launches come first, for `optik_core::measure::WARM_UP` (GPU clocks).
     pub fn cast(&mut self, rays: &[f32], repeat: usize) -> Result<(Hits, f64)> {
         let launch = self.upload(rays)?;
         if launch.rays == 0 {
             return Ok((Hits::default(), 0.0));
+        }
+        if repeat > 1 {
+            optik_core::measure::warm_up(|| self.run(&launch))?;
         }
         let mut best = f64::INFINITY;
         for _ in 0..repeat.max(1) {

@@ -18,7 +18,8 @@
 //! - [`sbt`]: the reader of the user's SBT record headers;
 //! - [`features`]: feature resolution, from options, scene and programs ([`Device`] resolves
 //!   every pipeline's features and hands them to the backend);
-//! - [`unwind`]: the exception-unwinding pass on naga IR of the GPU backends.
+//! - [`unwind`]: the exception-unwinding pass on naga IR of the GPU backends;
+//! - [`measure`]: how benchmarks time launches (a warm-up long enough for GPU clocks).
 //!
 //! What stays in the backends: what their objects are (the associated types), state that
 //! is no object (the CPU scene table, the wgpu arena, the Vulkan command pool and
@@ -31,6 +32,7 @@ mod device;
 pub mod features;
 pub mod frontend;
 mod handle_table;
+pub mod measure;
 mod objects;
 pub mod sbt;
 pub mod unwind;

@@ -70,7 +70,8 @@ pub struct BenchConfig {
     pub width: u32,
     /// Launch height.
     pub height: u32,
-    /// Timed launches per ray kind (the median is reported), after one untimed warm-up.
+    /// Timed launches per ray kind (the median is reported), after untimed ones for
+    /// `optik_core::measure::WARM_UP`.
     pub repeats: u32,
     /// The triangle and box tests.
     pub accuracy: Accuracy,
@@ -520,6 +521,10 @@ pub fn bench_trace(
                 if kind == RayKind::Primary {
                     first_launch_seconds = p.pipeline_start.elapsed().as_secs_f64();
                 }
+                optik_core::measure::warm_up(|| {
+                    launch(&params, crate::launch::Observe::default())?;
+                    dev.synchronize()
+                })?;
                 continue;
             }
             wall.push(elapsed);
@@ -625,7 +630,7 @@ pub fn launch_counted(
 }
 
 /// The same rays on any device through the public API, timed with the wall clock around
-/// `launch` + `synchronize` (median of `config.repeats` after a warm-up launch): how the
+/// `launch` + `synchronize` (median of `config.repeats` after `optik_core::measure::warm_up`): how the
 /// Vulkan backend is compared with this one. No traffic counts or bandwidth probe.
 pub fn bench_device(
     dev: &dyn Device,
@@ -656,6 +661,16 @@ pub fn bench_device(
                 if kind == RayKind::Primary {
                     first_launch_seconds = p.pipeline_start.elapsed().as_secs_f64();
                 }
+                optik_core::measure::warm_up(|| {
+                    dev.launch(
+                        p.pipeline,
+                        &params,
+                        &[Resource::buffer(1, p.out)],
+                        &p.table,
+                        size,
+                    )?;
+                    dev.synchronize()
+                })?;
                 continue;
             }
             wall.push(t.elapsed().as_secs_f64());
