@@ -647,8 +647,7 @@ pub fn bench_device(
     for kind in [RayKind::Primary, RayKind::Incoherent] {
         let params = p.params(kind);
         let mut wall = Vec::new();
-        for r in 0..config.repeats.max(1) + 1 {
-            let t = Instant::now();
+        let run = || -> Result<()> {
             dev.launch(
                 p.pipeline,
                 &params,
@@ -656,21 +655,16 @@ pub fn bench_device(
                 &p.table,
                 size,
             )?;
-            dev.synchronize()?;
+            dev.synchronize()
+        };
+        for r in 0..config.repeats.max(1) + 1 {
+            let t = Instant::now();
+            run()?;
             if r == 0 {
                 if kind == RayKind::Primary {
                     first_launch_seconds = p.pipeline_start.elapsed().as_secs_f64();
                 }
-                optik_core::measure::warm_up(|| {
-                    dev.launch(
-                        p.pipeline,
-                        &params,
-                        &[Resource::buffer(1, p.out)],
-                        &p.table,
-                        size,
-                    )?;
-                    dev.synchronize()
-                })?;
+                optik_core::measure::warm_up(run)?;
                 continue;
             }
             wall.push(t.elapsed().as_secs_f64());

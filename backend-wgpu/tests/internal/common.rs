@@ -423,3 +423,27 @@ pub fn numbered_sbt(dev: &dyn Device, g: &Groups) -> ShaderBindingTable {
         GroupRegion::Exception => vec![300],
     })
 }
+
+/// An instance structure holding one instance of `child` placed by `transform` (3×4 rows).
+pub fn one_instance(
+    dev: &dyn Device,
+    child: TraversableHandle,
+    transform: [f32; 12],
+) -> TraversableHandle {
+    let inst = Instance {
+        transform,
+        ..Instance::new(child)
+    };
+    let ib = buffer(dev, &[inst]);
+    let ias = dev
+        .accel_build(
+            &AccelBuildOptions::default(),
+            &[BuildInput::Instances(InstanceArray {
+                instances: BufferView::new(ib),
+                num_instances: 1,
+            })],
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    dev.traversable_handle(ias)
+        .unwrap_or_else(|e| panic!("{e}"))
+}

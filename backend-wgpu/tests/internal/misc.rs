@@ -29,34 +29,12 @@ fn scenes_that_grow_after_linking_get_bigger_kernels() {
     // Now three levels of instances.
     let mut top = d.traversable_handle(gas).unwrap();
     for level in 0..3 {
-        let inst = Instance {
-            transform: [
-                1.0,
-                0.0,
-                0.0,
-                level as f32,
-                0.0,
-                1.0,
-                0.0,
-                0.0,
-                0.0,
-                0.0,
-                1.0,
-                0.0,
-            ],
-            ..Instance::new(top)
-        };
-        let ib = buffer(d, &[inst]);
-        let ias = d
-            .accel_build(
-                &AccelBuildOptions::default(),
-                &[BuildInput::Instances(InstanceArray {
-                    instances: BufferView::new(ib),
-                    num_instances: 1,
-                })],
-            )
-            .unwrap();
-        top = d.traversable_handle(ias).unwrap();
+        let shift = level as f32;
+        top = one_instance(
+            d,
+            top,
+            [1.0, 0.0, 0.0, shift, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+        );
     }
     let after = dev.kernel_source(p).unwrap();
     let levels = |s: &str| {

@@ -328,21 +328,11 @@ fn features_no_live_structure_has_are_left_out_of_the_launchs_kernel() {
     }
     // A translated instance appears: the next kernel has instances (one level, so still no
     // transform chain).
-    let inst = Instance {
-        transform: [1.0, 0.0, 0.0, 2.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
-        ..Instance::new(d.traversable_handle(gas).unwrap())
-    };
-    let ib = buffer(d, &[inst]);
-    let ias = d
-        .accel_build(
-            &AccelBuildOptions::default(),
-            &[BuildInput::Instances(InstanceArray {
-                instances: BufferView::new(ib),
-                num_instances: 1,
-            })],
-        )
-        .unwrap();
-    let top = d.traversable_handle(ias).unwrap();
+    let top = one_instance(
+        d,
+        d.traversable_handle(gas).unwrap(),
+        [1.0, 0.0, 0.0, 2.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+    );
     let general_kernel = dev.kernel_source(general).unwrap();
     assert!(general_kernel.contains(INSTANCES));
     assert!(!general_kernel.contains(TRANSFORMS) && !general_kernel.contains(SPHERES));
