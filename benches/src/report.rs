@@ -578,27 +578,41 @@ fn specialisation(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) 
                 *s = s.min(again);
             }
         }
-        // The forced pipelines again with a transform alive elsewhere on the device: a
-        // launch's kernel keeps only the features some live structure has
-        // (`FeatureSet::narrowed_to`), so only now do these compile the general graph code,
-        // what it costs where a scene has instances.
-        let general: Vec<(String, Result<(f64, String)>)> =
-            match with_a_transform_alive(device.as_ref(), || {
-                [
+        // The forced pipelines again with instances or a transform alive elsewhere on the
+        // device: a launch's kernel keeps only the features some live structure has
+        // (`FeatureSet::narrowed_to`), so only now do these compile the instance code (one
+        // level with an instance structure, any graph with a transform), what that code
+        // costs rays of a flat structure where a scene has instances.
+        let mut general: Vec<(String, Result<(f64, String)>)> = Vec::new();
+        for (alive, rows) in [
+            (
+                Alive::Instance,
+                &[(2, "+ any graph, an instance alive")][..],
+            ),
+            (
+                Alive::Transform,
+                &[
                     (2, "+ any graph, a transform alive"),
                     (6, "everything on, a transform alive"),
-                ]
-                .map(|(i, name)| {
-                    let options = &pipelines[i].1;
-                    let best = measure(options)
-                        .and_then(|(s, f)| measure(options).map(|(again, _)| (s.min(again), f)));
-                    (name.to_string(), best)
-                })
-                .into()
-            }) {
-                Ok(rows) => rows,
-                Err(e) => vec![("a transform alive".into(), Err(e))],
-            };
+                ][..],
+            ),
+        ] {
+            let measured = with_alive(device.as_ref(), alive, || {
+                rows.iter()
+                    .map(|&(i, name)| {
+                        let options = &pipelines[i].1;
+                        let best = measure(options).and_then(|(s, f)| {
+                            measure(options).map(|(again, _)| (s.min(again), f))
+                        });
+                        (name.to_string(), best)
+                    })
+                    .collect::<Vec<_>>()
+            });
+            match measured {
+                Ok(rows) => general.extend(rows),
+                Err(e) => general.push((format!("{alive:?} alive"), Err(e))),
+            }
+        }
         let mut base = None;
         let named = pipelines.iter().map(|(n, _)| n.to_string());
         for (name, measured) in named.zip(measured).chain(general) {
@@ -638,22 +652,35 @@ fn specialisation(opts: &ReportOptions, scene: &Scene, report: &mut Vec<Value>) 
     );
 }
 
-/// Runs `f` while a static transform over a one-triangle structure is alive on `device`,
-/// so that pipelines forced to any graph compile its code (wgpu narrows a launch's kernel to
-/// the live structures).
-fn with_a_transform_alive<T>(device: &dyn Device, f: impl FnOnce() -> T) -> Result<T> {
-    let other = RayCaster::new(
-        device,
-        &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-        &[[0, 1, 2]],
-    )?;
-    let transform = device.create_transform(&TransformDesc::Static {
-        child: other.handle(),
-        object_to_world: IDENTITY_3X4,
-        world_to_object: IDENTITY_3X4,
-    })?;
+/// What [`with_alive`] keeps alive.
+#[derive(Clone, Copy, Debug)]
+enum Alive {
+    /// An instance structure over a one-triangle structure.
+    Instance,
+    /// A static transform over a one-triangle structure.
+    Transform,
+}
+
+/// Runs `f` while `alive` is alive on `device`, so that pipelines forced to any graph
+/// compile its code (wgpu narrows a launch's kernel to the live structures).
+fn with_alive<T>(device: &dyn Device, alive: Alive, f: impl FnOnce() -> T) -> Result<T> {
+    let triangle = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let other = match alive {
+        Alive::Instance => RayCaster::instanced(device, &triangle, &[[0, 1, 2]], &[IDENTITY_3X4])?,
+        Alive::Transform => RayCaster::new(device, &triangle, &[[0, 1, 2]])?,
+    };
+    let transform = match alive {
+        Alive::Instance => None,
+        Alive::Transform => Some(device.create_transform(&TransformDesc::Static {
+            child: other.handle(),
+            object_to_world: IDENTITY_3X4,
+            world_to_object: IDENTITY_3X4,
+        })?),
+    };
     let out = f();
-    device.destroy_accel(transform)?;
+    if let Some(t) = transform {
+        device.destroy_accel(t)?;
+    }
     Ok(out)
 }
 
