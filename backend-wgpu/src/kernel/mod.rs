@@ -88,6 +88,11 @@ impl KernelConfig<'_> {
     fn instancing(&self) -> bool {
         self.features.instancing()
     }
+    /// Instances of geometry structures only (single-level instancing): the walk's levels
+    /// are the root's and one instance's.
+    fn one_level(&self) -> bool {
+        self.instancing() && !self.any_graph()
+    }
     /// Transform traversables and nested instances (any graph).
     fn any_graph(&self) -> bool {
         self.features.traversable_graph == optik_api::TraversableGraph::Any

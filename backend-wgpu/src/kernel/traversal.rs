@@ -44,6 +44,7 @@ fn write_plain(c: &KernelConfig<'_>, out: &mut String) {
     if c.instancing() {
         hit_frame(c, out);
     }
+    root_level(c, out);
     accept(c, out);
     if c.triangles() {
         triangles(c, out);
@@ -74,11 +75,18 @@ fn level_struct(c: &KernelConfig<'_>, out: &mut String) {
     if keyed(c) {
         out.push_str("    key: u32,\n    frac: f32,\n");
     }
-    out.push_str(
-        "    instance_id: u32,\n    instance_index: u32,\n    sbt_offset: u32,\n    inst_flags: u32,\n    flip: bool,\n",
-    );
-    if c.instancing() {
-        out.push_str("    depth: u32,\n");
+    if c.one_level() {
+        // One level of instances: the instance entered (its record, _OPTIK_NONE at the root)
+        // instead of its ids and SBT offset, which only a candidate reads (from the record):
+        // fewer values live across the walk (docs/wgpu-backend.md §12.4).
+        out.push_str("    inst_rec: u32,\n    inst_flags: u32,\n    flip: bool,\n");
+    } else {
+        out.push_str(
+            "    instance_id: u32,\n    instance_index: u32,\n    sbt_offset: u32,\n    inst_flags: u32,\n    flip: bool,\n",
+        );
+        if c.instancing() {
+            out.push_str("    depth: u32,\n");
+        }
     }
     out.push_str("}\n");
 }
@@ -380,19 +388,23 @@ fn accept(c: &KernelConfig<'_>, out: &mut String) {
     var h: _OptikHit;
     h.prim_index = prim;
     h.gas_index = gas_index;
-    h.instance_id = (*lv).instance_id;
-    h.instance_index = (*lv).instance_index;
-    h.record = _optik_hit_record((*lv).sbt_offset, gas_index);
     h.gas = (*lv).header;
     h.slot = slot;
     h.geom_flags = geom;
     h.inst_flags = (*lv).inst_flags;
 "#,
     );
-    if c.instancing() {
-        out.push_str(
-            "    h.root = _optik_root;\n    h.depth = (*lv).depth;\n    h.path = _optik_path;\n",
-        );
+    if c.one_level() {
+        // The instance record's ids and SBT offset (word 6: id, SBT offset, mask and
+        // flags, index); all zero at the root.
+        out.push_str("    var info = vec4<u32>(0u);\n    if (*lv).inst_rec != _OPTIK_NONE {\n        info = _optik_fetch((*lv).inst_rec + 6u);\n    }\n    h.instance_id = info.x;\n    h.instance_index = info.w;\n    h.record = _optik_hit_record(info.y, gas_index);\n    h.root = _optik_root;\n    h.depth = select(0u, 1u, (*lv).inst_rec != _OPTIK_NONE);\n    h.path = _optik_path;\n");
+    } else {
+        out.push_str("    h.instance_id = (*lv).instance_id;\n    h.instance_index = (*lv).instance_index;\n    h.record = _optik_hit_record((*lv).sbt_offset, gas_index);\n");
+        if c.instancing() {
+            out.push_str(
+                "    h.root = _optik_root;\n    h.depth = (*lv).depth;\n    h.path = _optik_path;\n",
+            );
+        }
     }
     out.push_str(
         r#"    return h;
@@ -756,15 +768,22 @@ fn _optik_traverse(handle: vec2<u32>) -> bool {
     var lv: _OptikLevel;
     lv.origin = _optik_ray.origin;
     lv.direction = _optik_ray.direction;
-    lv.instance_id = 0u;
-    lv.instance_index = 0u;
-    lv.sbt_offset = 0u;
     lv.inst_flags = 0u;
     lv.flip = false;
 "#,
     );
+    if c.one_level() {
+        out.push_str("    lv.inst_rec = _OPTIK_NONE;\n");
+    } else {
+        out.push_str(
+            "    lv.instance_id = 0u;\n    lv.instance_index = 0u;\n    lv.sbt_offset = 0u;\n",
+        );
+        if c.instancing() {
+            out.push_str("    lv.depth = 0u;\n");
+        }
+    }
     if c.instancing() {
-        out.push_str("    lv.depth = 0u;\n    _optik_root = root;\n");
+        out.push_str("    _optik_root = root;\n");
     }
     if c.any_graph() {
         out.push_str(
@@ -780,7 +799,9 @@ fn _optik_traverse(handle: vec2<u32>) -> bool {
     var sp = 1u;
 "#,
     );
-    if c.instancing() {
+    if c.one_level() {
+        out.push_str("    var lvl = 0u;\n");
+    } else if c.instancing() {
         out.push_str("    var levels: array<_OptikLevel, _OPTIK_LEVELS>;\n    var lvl = 0u;\n");
     }
     // "While-while" (Aila and Laine 2009): an inner loop tests nodes until this invocation
@@ -806,7 +827,7 @@ fn _optik_traverse(handle: vec2<u32>) -> bool {
     );
     if c.instancing() {
         out.push_str(
-            "            if tag == 3u {\n                lvl = lvl - 1u;\n                lv = levels[lvl];\n                continue;\n            }\n",
+            &format!("            if tag == 3u {{\n                lvl = lvl - 1u;\n                {}\n                continue;\n            }}\n", restore(c)),
         );
     }
     out.push_str(
@@ -891,16 +912,20 @@ fn instance_entry(c: &KernelConfig<'_>, out: &mut String) {
             if lvl >= _OPTIK_LEVELS || sp + 2u > _OPTIK_STACK {
                 continue;
             }
-            // The instance's level is made in place, its parent saved in `levels` and
-            // restored if the instance holds nothing to hit: a second copy of the level
-            // beside the first kept both live at once.
-            levels[lvl] = lv;
-            lv.depth = lv.depth + 1u;
-            lv.origin = _optik_xform_point(iw, lv.origin);
+            // The instance's level is made in place, its parent saved in `levels` (one
+            // level of instances: rebuilt from the world ray instead) and restored if the
+            // instance holds nothing to hit: a second copy of the level beside the first
+            // kept both live at once.
+"#,
+    );
+    if c.one_level() {
+        out.push_str("            lv.inst_rec = rec;\n");
+    } else {
+        out.push_str("            levels[lvl] = lv;\n            lv.depth = lv.depth + 1u;\n            lv.instance_id = info.x;\n            lv.instance_index = info.w;\n            lv.sbt_offset = lv.sbt_offset + info.y;\n");
+    }
+    out.push_str(
+        r#"            lv.origin = _optik_xform_point(iw, lv.origin);
             lv.direction = _optik_canonical_direction(_optik_xform_vector(iw, lv.direction));
-            lv.instance_id = info.x;
-            lv.instance_index = info.w;
-            lv.sbt_offset = lv.sbt_offset + info.y;
             // Nested instances: flips compose, culling and micromap switches accumulate,
             // and the innermost instance that sets DISABLE_ANYHIT or ENFORCE_ANYHIT decides.
             let f = info.z >> 8u;
@@ -913,23 +938,24 @@ fn instance_entry(c: &KernelConfig<'_>, out: &mut String) {
 "#,
     );
     if c.any_graph() {
-        out.push_str("            child = _optik_through_transforms(&lv, child);\n            if child == _OPTIK_NONE {\n                lv = levels[lvl];\n                continue;\n            }\n");
+        out.push_str(&format!("            child = _optik_through_transforms(&lv, child);\n            if child == _OPTIK_NONE {{\n                {}\n                continue;\n            }}\n", restore(c)));
     }
-    out.push_str(
-        r#"            if !_optik_finite3(lv.origin) || !_optik_finite3(lv.direction) {
-                lv = levels[lvl];
+    out.push_str(&format!(
+        r#"            if !_optik_finite3(lv.origin) || !_optik_finite3(lv.direction) {{
+                {r}
                 continue;
-            }
-            if !_optik_enter(&lv, child) {
-                lv = levels[lvl];
+            }}
+            if !_optik_enter(&lv, child) {{
+                {r}
                 continue;
-            }
+            }}
 "#,
-    );
+        r = restore(c)
+    ));
     if !c.any_graph() {
         // Single-level instancing: an instance holds geometry only.
         out.push_str(
-            "            if (lv.kind_word & 15u) == 2u {\n                lv = levels[lvl];\n                continue;\n            }\n",
+            &format!("            if (lv.kind_word & 15u) == 2u {{\n                {}\n                continue;\n            }}\n", restore(c)),
         );
     }
     out.push_str(
@@ -940,4 +966,25 @@ fn instance_entry(c: &KernelConfig<'_>, out: &mut String) {
             sp = sp + 2u;
         }"#,
     );
+}
+
+/// How the walk gets back the level it was in before an instance: from `levels`, or with one
+/// level of instances, the root level rebuilt from the world ray. Saving the level kept it
+/// in local memory and its copy live at the instance entry, where the kernel's registers
+/// peak: rebuilding took `+ any graph, an instance alive` from 1.30–1.36× to 1.13–1.20× on
+/// the H200 (docs/wgpu-backend.md §12.4).
+fn restore(c: &KernelConfig<'_>) -> &'static str {
+    if c.one_level() {
+        "lv = _optik_root_level();"
+    } else {
+        "lv = levels[lvl];"
+    }
+}
+
+/// `_optik_root_level` (one level of instances): the root level as `_optik_traverse` made it
+/// (no transforms lie above it; it was entered successfully, so entering again succeeds).
+fn root_level(c: &KernelConfig<'_>, out: &mut String) {
+    if c.one_level() {
+        out.push_str("fn _optik_root_level() -> _OptikLevel {\n    var lv: _OptikLevel;\n    lv.origin = _optik_ray.origin;\n    lv.direction = _optik_ray.direction;\n    lv.inst_flags = 0u;\n    lv.flip = false;\n    lv.inst_rec = _OPTIK_NONE;\n    _ = _optik_enter(&lv, _optik_root);\n    return lv;\n}\n\n");
+    }
 }

@@ -14,6 +14,10 @@ const ANY_HIT: &str = "fn _optik_ah(";
 const INTERSECTION: &str = "fn _optik_is(";
 const EXCEPTIONS: &str = "_optik_raise(";
 const MICROMAPS: &str = "_optik_micromap_state(";
+/// The walk's saved levels (any graph), and the root level rebuilt instead (one level of
+/// instances; docs/wgpu-backend.md §12.4).
+const SAVED_LEVELS: &str = "var levels: array<_OptikLevel";
+const REBUILT_ROOT: &str = "fn _optik_root_level(";
 
 #[test]
 fn a_triangle_only_single_gas_pipeline_has_nothing_else() {
@@ -131,6 +135,8 @@ fn forcing_every_feature_compiles_every_part() {
             "`{present}` missing from an all-features kernel"
         );
     }
+    // Nested levels cannot be rebuilt from the world ray: any graph saves them.
+    assert!(src.contains(SAVED_LEVELS) && !src.contains(REBUILT_ROOT));
 }
 
 #[test]
@@ -336,6 +342,7 @@ fn features_no_live_structure_has_are_left_out_of_the_launchs_kernel() {
     let general_kernel = dev.kernel_source(general).unwrap();
     assert!(general_kernel.contains(INSTANCES));
     assert!(!general_kernel.contains(TRANSFORMS) && !general_kernel.contains(SPHERES));
+    assert!(general_kernel.contains(REBUILT_ROOT) && !general_kernel.contains(SAVED_LEVELS));
     let table = numbered_sbt(d, &g);
     let recs = trace_rays(
         d,
