@@ -766,22 +766,9 @@ fn _optik_traverse(handle: vec2<u32>) -> bool {
         r#"        return false;
     }
     var lv: _OptikLevel;
-    lv.origin = _optik_ray.origin;
-    lv.direction = _optik_ray.direction;
-    lv.inst_flags = 0u;
-    lv.flip = false;
 "#,
     );
-    if c.one_level() {
-        out.push_str("    lv.inst_rec = _OPTIK_NONE;\n");
-    } else {
-        out.push_str(
-            "    lv.instance_id = 0u;\n    lv.instance_index = 0u;\n    lv.sbt_offset = 0u;\n",
-        );
-        if c.instancing() {
-            out.push_str("    lv.depth = 0u;\n");
-        }
-    }
+    root_fields(c, out);
     if c.instancing() {
         out.push_str("    _optik_root = root;\n");
     }
@@ -981,10 +968,31 @@ fn restore(c: &KernelConfig<'_>) -> &'static str {
     }
 }
 
+/// The root level's fields that do not come from its structure: the world ray, and no
+/// instance entered. `_optik_traverse` starts its walk from them and `_optik_root_level`
+/// rebuilds the same level from them.
+fn root_fields(c: &KernelConfig<'_>, out: &mut String) {
+    out.push_str(
+        "    lv.origin = _optik_ray.origin;\n    lv.direction = _optik_ray.direction;\n    lv.inst_flags = 0u;\n    lv.flip = false;\n",
+    );
+    if c.one_level() {
+        out.push_str("    lv.inst_rec = _OPTIK_NONE;\n");
+    } else {
+        out.push_str(
+            "    lv.instance_id = 0u;\n    lv.instance_index = 0u;\n    lv.sbt_offset = 0u;\n",
+        );
+        if c.instancing() {
+            out.push_str("    lv.depth = 0u;\n");
+        }
+    }
+}
+
 /// `_optik_root_level` (one level of instances): the root level as `_optik_traverse` made it
 /// (no transforms lie above it; it was entered successfully, so entering again succeeds).
 fn root_level(c: &KernelConfig<'_>, out: &mut String) {
     if c.one_level() {
-        out.push_str("fn _optik_root_level() -> _OptikLevel {\n    var lv: _OptikLevel;\n    lv.origin = _optik_ray.origin;\n    lv.direction = _optik_ray.direction;\n    lv.inst_flags = 0u;\n    lv.flip = false;\n    lv.inst_rec = _OPTIK_NONE;\n    _ = _optik_enter(&lv, _optik_root);\n    return lv;\n}\n\n");
+        out.push_str("fn _optik_root_level() -> _OptikLevel {\n    var lv: _OptikLevel;\n");
+        root_fields(c, out);
+        out.push_str("    _ = _optik_enter(&lv, _optik_root);\n    return lv;\n}\n\n");
     }
 }
