@@ -74,13 +74,20 @@ const HOOKS: &[(&str, Counter, &str)] = &[
         Counter::StackPushes,
         "1u",
     ),
+    // An instance entered: its two markers, then its structure's root entry when the first
+    // marker has built its level.
     (
-        "            stack[sp] = vec2<u32>(3u << 30u, 0u);",
+        "            stack[sp] = vec2<u32>(3u << 30u, 0xFF800000u);",
         Counter::StackPushes,
         "2u",
     ),
     (
-        "            let iw = _optik_rows(rec);",
+        "                stack[sp] = vec2<u32>(0u, bitcast<u32>(_optik_ray.tmin));",
+        Counter::StackPushes,
+        "1u",
+    ),
+    (
+        "            _optik_path[lvl] = rec;",
         Counter::Instances,
         "1u",
     ),

@@ -4,12 +4,13 @@
 //! reference and the entry's near distance, to skip entries beyond the closest hit when
 //! they are popped). A reference's top two bits say what it is: 0 an inner BVH4 node, 1 a
 //! geometry leaf and 2 an instance leaf (count − 1 in bits 27..30, first slot below), 3 a
-//! level marker. Entering an instance saves the current level (ray in that level's space, BVH
-//! bases, instance data) in a small array and pushes a marker; popping the marker restores
-//! it. Transform traversables under an instance move the instance level's ray as it is
-//! entered. No composed matrices are kept: a hit records its path, from which the device
-//! functions rebuild its object space (`_optik_hit_frame`). Children are pushed far to
-//! near, so the nearest is visited first.
+//! level marker. Entering an instance puts its record on the path (`_optik_path`) and pushes
+//! two markers: popping the first builds the instance's level (the ray in its space, through
+//! any transform traversables below it, and its structure's bases), popping the second, once
+//! the instance is done, builds its parent's level again. Levels are built from the world
+//! ray along the path (`_optik_level_at`), never saved. No composed matrices are kept: a hit
+//! records its path, from which the device functions rebuild its object space
+//! (`_optik_hit_frame`). Children are pushed far to near, so the nearest is visited first.
 //!
 //! The rules of DESIGN.md §4 are those of `optik_api::semantics`, ported: opacity and
 //! culling (`opacity::resolve`, `opacity::triangle_face_culled`), facing (decided in object
@@ -44,7 +45,9 @@ fn write_plain(c: &KernelConfig<'_>, out: &mut String) {
     if c.instancing() {
         hit_frame(c, out);
     }
-    root_level(c, out);
+    if c.instancing() {
+        level_builder(c, out);
+    }
     accept(c, out);
     if c.triangles() {
         triangles(c, out);
@@ -75,18 +78,15 @@ fn level_struct(c: &KernelConfig<'_>, out: &mut String) {
     if keyed(c) {
         out.push_str("    key: u32,\n    frac: f32,\n");
     }
-    if c.one_level() {
-        // One level of instances: the instance entered (its record, _OPTIK_NONE at the root)
-        // instead of its ids and SBT offset, which only a candidate reads (from the record):
-        // fewer values live across the walk (docs/wgpu-backend.md §12.4).
-        out.push_str("    inst_rec: u32,\n    inst_flags: u32,\n    flip: bool,\n");
+    if c.instancing() {
+        // The instances entered are `_optik_path[0..depth]`; a candidate reads their ids
+        // and SBT offsets from their records, so the level carries only what its tests read
+        // (fewer values live across the walk, docs/wgpu-backend.md §12.4).
+        out.push_str("    inst_flags: u32,\n    flip: bool,\n    depth: u32,\n");
     } else {
         out.push_str(
             "    instance_id: u32,\n    instance_index: u32,\n    sbt_offset: u32,\n    inst_flags: u32,\n    flip: bool,\n",
         );
-        if c.instancing() {
-            out.push_str("    depth: u32,\n");
-        }
     }
     out.push_str("}\n");
 }
@@ -394,17 +394,12 @@ fn accept(c: &KernelConfig<'_>, out: &mut String) {
     h.inst_flags = (*lv).inst_flags;
 "#,
     );
-    if c.one_level() {
-        // The instance record's ids and SBT offset (word 6: id, SBT offset, mask and
-        // flags, index); all zero at the root.
-        out.push_str("    var info = vec4<u32>(0u);\n    if (*lv).inst_rec != _OPTIK_NONE {\n        info = _optik_fetch((*lv).inst_rec + 6u);\n    }\n    h.instance_id = info.x;\n    h.instance_index = info.w;\n    h.record = _optik_hit_record(info.y, gas_index);\n    h.root = _optik_root;\n    h.depth = select(0u, 1u, (*lv).inst_rec != _OPTIK_NONE);\n    h.path = _optik_path;\n");
+    if c.instancing() {
+        // The innermost instance's ids (record word 6: id, SBT offset, mask and flags,
+        // index) and the sum of the path's SBT offsets (`sbt_index`); all zero at the root.
+        out.push_str("    var info = vec4<u32>(0u);\n    var offset = 0u;\n    let depth = min((*lv).depth, _OPTIK_LEVELS);\n    if depth > 0u {\n        info = _optik_fetch(_optik_path[depth - 1u] + 6u);\n        offset = info.y;\n        for (var i = 0u; i + 1u < depth; i = i + 1u) {\n            offset = offset + _optik_fetch(_optik_path[i] + 6u).y;\n        }\n    }\n    h.instance_id = info.x;\n    h.instance_index = info.w;\n    h.record = _optik_hit_record(offset, gas_index);\n    h.root = _optik_root;\n    h.depth = (*lv).depth;\n    h.path = _optik_path;\n");
     } else {
         out.push_str("    h.instance_id = (*lv).instance_id;\n    h.instance_index = (*lv).instance_index;\n    h.record = _optik_hit_record((*lv).sbt_offset, gas_index);\n");
-        if c.instancing() {
-            out.push_str(
-                "    h.root = _optik_root;\n    h.depth = (*lv).depth;\n    h.path = _optik_path;\n",
-            );
-        }
     }
     out.push_str(
         r#"    return h;
@@ -768,28 +763,20 @@ fn _optik_traverse(handle: vec2<u32>) -> bool {
     var lv: _OptikLevel;
 "#,
     );
-    root_fields(c, out);
     if c.instancing() {
-        out.push_str("    _optik_root = root;\n");
-    }
-    if c.any_graph() {
-        out.push_str(
-            "    root = _optik_through_transforms(&lv, root);\n    if root == _OPTIK_NONE || !_optik_finite3(lv.origin) || !_optik_finite3(lv.direction) {\n        return false;\n    }\n",
-        );
+        out.push_str("    _optik_root = root;\n    if !_optik_level_at(&lv, 0u) {\n        return false;\n    }\n");
+    } else {
+        root_fields(c, out);
+        out.push_str("    if !_optik_enter(&lv, root) {\n        return false;\n    }\n");
     }
     out.push_str(
-        r#"    if !_optik_enter(&lv, root) {
-        return false;
-    }
-    var stack: array<vec2<u32>, _OPTIK_STACK>;
+        r#"    var stack: array<vec2<u32>, _OPTIK_STACK>;
     stack[0] = vec2<u32>(0u, bitcast<u32>(_optik_ray.tmin));
     var sp = 1u;
 "#,
     );
-    if c.one_level() {
+    if c.instancing() {
         out.push_str("    var lvl = 0u;\n");
-    } else if c.instancing() {
-        out.push_str("    var levels: array<_OptikLevel, _OPTIK_LEVELS>;\n    var lvl = 0u;\n");
     }
     // "While-while" (Aila and Laine 2009): an inner loop tests nodes until this invocation
     // pops a leaf; the leaf is tested after it. Invocations of a warp that reach a leaf
@@ -812,11 +799,6 @@ fn _optik_traverse(handle: vec2<u32>) -> bool {
             tag = e.x >> 30u;
 "#,
     );
-    if c.instancing() {
-        out.push_str(
-            &format!("            if tag == 3u {{\n                lvl = lvl - 1u;\n                {}\n                continue;\n            }}\n", restore(c)),
-        );
-    }
     out.push_str(
         r#"            if bitcast<f32>(e.y) > _optik_best.t {
                 continue;
@@ -869,16 +851,26 @@ fn _optik_traverse(handle: vec2<u32>) -> bool {
     }
     out.push_str("                default: {}\n            }\n        }");
     if c.instancing() {
-        instance_entry(c, out);
+        out.push_str(" else if tag == 3u {\n            // A marker: bit 0 clear leaves the current level for its parent, set enters the\n            // level of the instance last put on the path.\n            if (e.x & 1u) == 0u {\n                lvl = lvl - 1u;\n            }\n            if _optik_level_at(&lv, lvl) && (e.x & 1u) != 0u {\n                stack[sp] = vec2<u32>(0u, bitcast<u32>(_optik_ray.tmin));\n                sp = sp + 1u;\n            }\n        }");
+    }
+    if c.instancing() {
+        instance_entry(out);
     }
     out.push_str("\n    }\n    return _optik_found;\n}\n\n");
 }
 
-/// Entering an instance popped from the stack (tag 2).
-fn instance_entry(c: &KernelConfig<'_>, out: &mut String) {
+/// Entering an instance popped from the stack (tag 2): the instance goes on the path and two
+/// markers on the stack, the one that builds its level (popped next) above the one that
+/// builds its parent's again when the instance is done. Markers carry -inf as their
+/// distance, so the node loop never skips one, and are handled with the leaves, out of the
+/// node loop: with the level built in one place, outside the loop where the node test's
+/// registers peak, the instance kernels went from 95–118 registers to 72–80 on the H200
+/// and their cost from 1.15–1.36× to 1.00–1.12× (docs/wgpu-backend.md §12.5).
+fn instance_entry(out: &mut String) {
     out.push_str(
-        r#" else {
-            // An instance leaf: enter its first instance, leaving the rest for later.
+        r#" else if tag == 2u {
+            // An instance leaf: enter its first instance, leaving the rest for later. The
+            // instance's level is built when its marker is popped, next.
             let count = ((e.x >> 27u) & 7u) + 1u;
             let slot = e.x & 0x7FFFFFFu;
             if count > 1u && sp < _OPTIK_STACK {
@@ -886,113 +878,87 @@ fn instance_entry(c: &KernelConfig<'_>, out: &mut String) {
                 sp = sp + 1u;
             }
             let rec = lv.prim_base + slot * 8u;
-            let info = _optik_fetch(rec + 6u);
-            if ((info.z & 0xFFu) & _optik_ray.mask) == 0u {
+            if ((_optik_fetch(rec + 6u).z & 0xFFu) & _optik_ray.mask) == 0u {
                 continue;
             }
-            let link = _optik_fetch(rec + 7u);
-            var child = _optik_resolve(link.x, link.y);
-            if child == _OPTIK_NONE {
-                continue;
-            }
-            let iw = _optik_rows(rec);
             if lvl >= _OPTIK_LEVELS || sp + 2u > _OPTIK_STACK {
                 continue;
             }
-            // The instance's level is made in place, its parent saved in `levels` (one
-            // level of instances: rebuilt from the world ray instead) and restored if the
-            // instance holds nothing to hit: a second copy of the level beside the first
-            // kept both live at once.
-"#,
-    );
-    if c.one_level() {
-        out.push_str("            lv.inst_rec = rec;\n");
-    } else {
-        out.push_str("            levels[lvl] = lv;\n            lv.depth = lv.depth + 1u;\n            lv.instance_id = info.x;\n            lv.instance_index = info.w;\n            lv.sbt_offset = lv.sbt_offset + info.y;\n");
-    }
-    out.push_str(
-        r#"            lv.origin = _optik_xform_point(iw, lv.origin);
-            lv.direction = _optik_canonical_direction(_optik_xform_vector(iw, lv.direction));
-            // Nested instances: flips compose, culling and micromap switches accumulate,
-            // and the innermost instance that sets DISABLE_ANYHIT or ENFORCE_ANYHIT decides.
-            let f = info.z >> 8u;
-            lv.flip = lv.flip != ((f & 2u) != 0u);
-            var flags = lv.inst_flags | (f & 49u);
-            if (f & 12u) != 0u {
-                flags = (flags & ~12u) | (f & 12u);
-            }
-            lv.inst_flags = flags;
-"#,
-    );
-    if c.any_graph() {
-        out.push_str(&format!("            child = _optik_through_transforms(&lv, child);\n            if child == _OPTIK_NONE {{\n                {}\n                continue;\n            }}\n", restore(c)));
-    }
-    out.push_str(&format!(
-        r#"            if !_optik_finite3(lv.origin) || !_optik_finite3(lv.direction) {{
-                {r}
-                continue;
-            }}
-            if !_optik_enter(&lv, child) {{
-                {r}
-                continue;
-            }}
-"#,
-        r = restore(c)
-    ));
-    if !c.any_graph() {
-        // Single-level instancing: an instance holds geometry only.
-        out.push_str(
-            &format!("            if (lv.kind_word & 15u) == 2u {{\n                {}\n                continue;\n            }}\n", restore(c)),
-        );
-    }
-    out.push_str(
-        r#"            _optik_path[lvl] = rec;
+            _optik_path[lvl] = rec;
             lvl = lvl + 1u;
-            stack[sp] = vec2<u32>(3u << 30u, 0u);
-            stack[sp + 1u] = vec2<u32>(0u, bitcast<u32>(_optik_ray.tmin));
+            stack[sp] = vec2<u32>(3u << 30u, 0xFF800000u);
+            stack[sp + 1u] = vec2<u32>((3u << 30u) | 1u, 0xFF800000u);
             sp = sp + 2u;
         }"#,
     );
 }
 
-/// How the walk gets back the level it was in before an instance: from `levels`, or with one
-/// level of instances, the root level rebuilt from the world ray. Saving the level kept it
-/// in local memory and its copy live at the instance entry, where the kernel's registers
-/// peak: rebuilding took `+ any graph, an instance alive` from 1.30–1.36× to 1.13–1.20× on
-/// the H200 (docs/wgpu-backend.md §12.4).
-fn restore(c: &KernelConfig<'_>) -> &'static str {
-    if c.one_level() {
-        "lv = _optik_root_level();"
-    } else {
-        "lv = levels[lvl];"
-    }
-}
-
 /// The root level's fields that do not come from its structure: the world ray, and no
-/// instance entered. `_optik_traverse` starts its walk from them and `_optik_root_level`
-/// rebuilds the same level from them.
+/// instance entered. `_optik_traverse` starts a flat walk from them; `_optik_level_at`
+/// starts every level of an instancing walk from them.
 fn root_fields(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(
         "    lv.origin = _optik_ray.origin;\n    lv.direction = _optik_ray.direction;\n    lv.inst_flags = 0u;\n    lv.flip = false;\n",
     );
-    if c.one_level() {
-        out.push_str("    lv.inst_rec = _OPTIK_NONE;\n");
+    if c.instancing() {
+        out.push_str("    lv.depth = 0u;\n");
     } else {
         out.push_str(
             "    lv.instance_id = 0u;\n    lv.instance_index = 0u;\n    lv.sbt_offset = 0u;\n",
         );
-        if c.instancing() {
-            out.push_str("    lv.depth = 0u;\n");
-        }
     }
 }
 
-/// `_optik_root_level` (one level of instances): the root level as `_optik_traverse` made it
-/// (no transforms lie above it; it was entered successfully, so entering again succeeds).
-fn root_level(c: &KernelConfig<'_>, out: &mut String) {
-    if c.one_level() {
-        out.push_str("fn _optik_root_level() -> _OptikLevel {\n    var lv: _OptikLevel;\n");
-        root_fields(c, out);
-        out.push_str("    _ = _optik_enter(&lv, _optik_root);\n    return lv;\n}\n\n");
+/// `_optik_into_instance`: a level's ray, depth and flags moved into an instance (record
+/// `rec`, word 6 `info`).
+const INTO_INSTANCE: &str = r#"fn _optik_into_instance(lv: ptr<function, _OptikLevel>, rec: u32, info: vec4<u32>) {
+    let iw = _optik_rows(rec);
+    (*lv).depth = (*lv).depth + 1u;
+    (*lv).origin = _optik_xform_point(iw, (*lv).origin);
+    (*lv).direction = _optik_canonical_direction(_optik_xform_vector(iw, (*lv).direction));
+    // Nested instances: flips compose, culling and micromap switches accumulate, and the
+    // innermost instance that sets DISABLE_ANYHIT or ENFORCE_ANYHIT decides.
+    let f = info.z >> 8u;
+    (*lv).flip = (*lv).flip != ((f & 2u) != 0u);
+    var flags = (*lv).inst_flags | (f & 49u);
+    if (f & 12u) != 0u {
+        flags = (flags & ~12u) | (f & 12u);
     }
+    (*lv).inst_flags = flags;
+}
+
+"#;
+
+/// `_optik_level_at`: the level at depth `k` of an instancing walk, built from the world ray
+/// by the walk's own steps along `_optik_path` (the root's transforms, then each instance and
+/// its transforms). Every level is built by this one function, the root's when the walk
+/// starts, an instance's when its marker is popped, and its parent's again when the instance
+/// is done: the same steps in the same order give the same ray bit for bit, so no level is
+/// saved (a saved level lived in local memory and its copy in registers at the instance
+/// entry, where the kernel's registers peaked; docs/wgpu-backend.md §12.4–12.5).
+fn level_builder(c: &KernelConfig<'_>, out: &mut String) {
+    out.push_str(INTO_INSTANCE);
+    out.push_str("// Makes `*lv` the level at depth `k` of the current walk from the world ray, by the walk's\n// steps along the path; false when it holds nothing to hit.\nfn _optik_level_at(lv: ptr<function, _OptikLevel>, k: u32) -> bool {\n");
+    let mut fields = String::new();
+    root_fields(c, &mut fields);
+    out.push_str(&fields.replace("    lv.", "    (*lv)."));
+    let follow = |header: &str| {
+        if c.any_graph() {
+            format!("_optik_through_transforms(lv, {header})")
+        } else {
+            header.to_string()
+        }
+    };
+    out.push_str(&format!(
+        "    var header = {};\n    for (var i = 0u; i < min(k, _OPTIK_LEVELS); i = i + 1u) {{\n        if header == _OPTIK_NONE {{\n            return false;\n        }}\n        let rec = _optik_path[i];\n        let link = _optik_fetch(rec + 7u);\n        _optik_into_instance(lv, rec, _optik_fetch(rec + 6u));\n        header = {};\n    }}\n",
+        follow("_optik_root"),
+        follow("_optik_resolve(link.x, link.y)")
+    ));
+    // Single-level instancing: an instance holds geometry only.
+    let nested = if c.one_level() {
+        " && (k == 0u || ((*lv).kind_word & 15u) != 2u)"
+    } else {
+        ""
+    };
+    out.push_str(&format!("    return header != _OPTIK_NONE && _optik_finite3((*lv).origin) && _optik_finite3((*lv).direction) && _optik_enter(lv, header){nested};\n}}\n\n"));
 }

@@ -205,20 +205,21 @@ fn instance_traffic_is_counted() {
     assert_eq!(c.instances, 1, "{c:?}");
     // The root's handle and the entered instance's child.
     assert_eq!(c.handle_reads, 2, "{c:?}");
-    // The instance's world-to-object rows, flags word and child link (5: the object-to-world
-    // rows are read only for a hit's frame) and its child's header words (2); nodes of both
-    // levels (8 each), triangles (3 each) and the IAS's header words (2); the IAS's header
-    // words again (2) when the walk leaves the instance (one level of instances: the root
-    // level is rebuilt, not saved), and the instance record's ids word for the one candidate
-    // (1: read by a candidate, not carried in the level).
+    // The IAS's header words (2) when the walk starts; the instance's flags word for its
+    // mask (1) when its leaf is popped; its child link, world-to-object rows and flags word
+    // (5: the object-to-world rows are read only for a hit's frame) and its child's header
+    // words (2) when its marker builds its level; nodes of both levels (8 each), triangles
+    // (3 each); the instance's ids word for the one candidate (1: read from the path, not
+    // carried in the level); the IAS's header words again (2) when the walk leaves the
+    // instance (levels are built from the world ray, not saved).
     assert_eq!(
         c.arena_fetches,
-        2 + 8 * c.nodes + (5 + 2) + 3 * c.primitives + 2 + 1,
+        2 + 1 + (5 + 2) + 8 * c.nodes + 3 * c.primitives + 1 + 2,
         "{c:?}"
     );
     assert!(c.nodes >= 2, "{c:?}");
     assert_eq!(c.instance_bytes(), 80);
-    // The level marker and the child's root entry are pushes too: all are popped.
+    // The two level markers and the child's root entry are pushes too: all are popped.
     assert_eq!(c.stack_pops, c.stack_pushes + 1, "{c:?}");
     assert!(c.stack_pushes >= 2 + 2, "{c:?}");
 }

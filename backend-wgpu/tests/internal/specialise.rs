@@ -14,10 +14,30 @@ const ANY_HIT: &str = "fn _optik_ah(";
 const INTERSECTION: &str = "fn _optik_is(";
 const EXCEPTIONS: &str = "_optik_raise(";
 const MICROMAPS: &str = "_optik_micromap_state(";
-/// The walk's saved levels (any graph), and the root level rebuilt instead (one level of
-/// instances; docs/wgpu-backend.md §12.4).
+/// A saved copy of the walk's levels, and the one function that builds every level of an
+/// instancing walk instead (docs/wgpu-backend.md §12.5).
 const SAVED_LEVELS: &str = "var levels: array<_OptikLevel";
-const REBUILT_ROOT: &str = "fn _optik_root_level(";
+const LEVEL_BUILDER: &str = "fn _optik_level_at(";
+
+/// Checks that an instancing kernel builds its levels with `_optik_level_at` and saves none,
+/// and that the node loop (from its first pop to its end) neither builds a level nor handles
+/// a marker: both happen with the leaves, out of the loop where the node test's registers
+/// peak.
+fn assert_levels_built_outside_the_node_loop(src: &str) {
+    assert!(src.contains(LEVEL_BUILDER) && !src.contains(SAVED_LEVELS));
+    let walk = &src[src.find("fn _optik_traverse(").expect("the walk")..];
+    let start = walk.find("e = stack[sp];").expect("the node loop's pop");
+    let end = start
+        + walk[start..]
+            .find("if !leaf {")
+            .expect("the node loop's end");
+    let node_loop = &walk[start..end];
+    assert!(
+        !node_loop.contains("_optik_level_at(") && !node_loop.contains("tag == 3u"),
+        "the node loop builds levels: {node_loop}"
+    );
+    assert!(walk[end..].contains("_optik_level_at(&lv, lvl)"));
+}
 
 #[test]
 fn a_triangle_only_single_gas_pipeline_has_nothing_else() {
@@ -41,6 +61,7 @@ fn a_triangle_only_single_gas_pipeline_has_nothing_else() {
         MOTION,
         INSTANCES,
         TRANSFORMS,
+        LEVEL_BUILDER,
         ANY_HIT,
         INTERSECTION,
         EXCEPTIONS,
@@ -135,8 +156,7 @@ fn forcing_every_feature_compiles_every_part() {
             "`{present}` missing from an all-features kernel"
         );
     }
-    // Nested levels cannot be rebuilt from the world ray: any graph saves them.
-    assert!(src.contains(SAVED_LEVELS) && !src.contains(REBUILT_ROOT));
+    assert_levels_built_outside_the_node_loop(&src);
 }
 
 #[test]
@@ -342,7 +362,7 @@ fn features_no_live_structure_has_are_left_out_of_the_launchs_kernel() {
     let general_kernel = dev.kernel_source(general).unwrap();
     assert!(general_kernel.contains(INSTANCES));
     assert!(!general_kernel.contains(TRANSFORMS) && !general_kernel.contains(SPHERES));
-    assert!(general_kernel.contains(REBUILT_ROOT) && !general_kernel.contains(SAVED_LEVELS));
+    assert_levels_built_outside_the_node_loop(&general_kernel);
     let table = numbered_sbt(d, &g);
     let recs = trace_rays(
         d,
