@@ -44,8 +44,6 @@ fn write_plain(c: &KernelConfig<'_>, out: &mut String) {
     }
     if c.instancing() {
         hit_frame(c, out);
-    }
-    if c.instancing() {
         level_builder(c, out);
     }
     accept(c, out);
@@ -81,7 +79,7 @@ fn level_struct(c: &KernelConfig<'_>, out: &mut String) {
     if c.instancing() {
         // The instances entered are `_optik_path[0..depth]`; a candidate reads their ids
         // and SBT offsets from their records, so the level carries only what its tests read
-        // (fewer values live across the walk, docs/wgpu-backend.md §12.4).
+        // (fewer values live across the walk, docs/wgpu-backend.md §12.4–12.5).
         out.push_str("    inst_flags: u32,\n    flip: bool,\n    depth: u32,\n");
     } else {
         out.push_str(
@@ -766,7 +764,7 @@ fn _optik_traverse(handle: vec2<u32>) -> bool {
     if c.instancing() {
         out.push_str("    _optik_root = root;\n    if !_optik_level_at(&lv, 0u) {\n        return false;\n    }\n");
     } else {
-        root_fields(c, out);
+        root_fields(c, "lv", out);
         out.push_str("    if !_optik_enter(&lv, root) {\n        return false;\n    }\n");
     }
     out.push_str(
@@ -851,12 +849,17 @@ fn _optik_traverse(handle: vec2<u32>) -> bool {
     }
     out.push_str("                default: {}\n            }\n        }");
     if c.instancing() {
-        out.push_str(" else if tag == 3u {\n            // A marker: bit 0 clear leaves the current level for its parent, set enters the\n            // level of the instance last put on the path.\n            if (e.x & 1u) == 0u {\n                lvl = lvl - 1u;\n            }\n            if _optik_level_at(&lv, lvl) && (e.x & 1u) != 0u {\n                stack[sp] = vec2<u32>(0u, bitcast<u32>(_optik_ray.tmin));\n                sp = sp + 1u;\n            }\n        }");
-    }
-    if c.instancing() {
+        level_markers(out);
         instance_entry(out);
     }
     out.push_str("\n    }\n    return _optik_found;\n}\n\n");
+}
+
+/// A level marker popped from the stack (tag 3): bit 0 clear rebuilds the parent level of
+/// the instance just done, set builds the level of the instance last put on the path and
+/// pushes its structure's root.
+fn level_markers(out: &mut String) {
+    out.push_str(" else if tag == 3u {\n            // A marker: bit 0 clear leaves the current level for its parent, set enters the\n            // level of the instance last put on the path.\n            if (e.x & 1u) == 0u {\n                lvl = lvl - 1u;\n            }\n            if _optik_level_at(&lv, lvl) && (e.x & 1u) != 0u {\n                stack[sp] = vec2<u32>(0u, bitcast<u32>(_optik_ray.tmin));\n                sp = sp + 1u;\n            }\n        }");
 }
 
 /// Entering an instance popped from the stack (tag 2): the instance goes on the path and two
@@ -896,16 +899,25 @@ fn instance_entry(out: &mut String) {
 /// The root level's fields that do not come from its structure: the world ray, and no
 /// instance entered. `_optik_traverse` starts a flat walk from them; `_optik_level_at`
 /// starts every level of an instancing walk from them.
-fn root_fields(c: &KernelConfig<'_>, out: &mut String) {
-    out.push_str(
-        "    lv.origin = _optik_ray.origin;\n    lv.direction = _optik_ray.direction;\n    lv.inst_flags = 0u;\n    lv.flip = false;\n",
-    );
+/// `level` is the level as the function writing them names it (`lv` or `(*lv)`).
+fn root_fields(c: &KernelConfig<'_>, level: &str, out: &mut String) {
+    let mut fields = vec![
+        ("origin", "_optik_ray.origin"),
+        ("direction", "_optik_ray.direction"),
+        ("inst_flags", "0u"),
+        ("flip", "false"),
+    ];
     if c.instancing() {
-        out.push_str("    lv.depth = 0u;\n");
+        fields.push(("depth", "0u"));
     } else {
-        out.push_str(
-            "    lv.instance_id = 0u;\n    lv.instance_index = 0u;\n    lv.sbt_offset = 0u;\n",
-        );
+        fields.extend([
+            ("instance_id", "0u"),
+            ("instance_index", "0u"),
+            ("sbt_offset", "0u"),
+        ]);
+    }
+    for (field, value) in fields {
+        out.push_str(&format!("    {level}.{field} = {value};\n"));
     }
 }
 
@@ -939,9 +951,7 @@ const INTO_INSTANCE: &str = r#"fn _optik_into_instance(lv: ptr<function, _OptikL
 fn level_builder(c: &KernelConfig<'_>, out: &mut String) {
     out.push_str(INTO_INSTANCE);
     out.push_str("// Makes `*lv` the level at depth `k` of the current walk from the world ray, by the walk's\n// steps along the path; false when it holds nothing to hit.\nfn _optik_level_at(lv: ptr<function, _OptikLevel>, k: u32) -> bool {\n");
-    let mut fields = String::new();
-    root_fields(c, &mut fields);
-    out.push_str(&fields.replace("    lv.", "    (*lv)."));
+    root_fields(c, "(*lv)", out);
     let follow = |header: &str| {
         if c.any_graph() {
             format!("_optik_through_transforms(lv, {header})")
