@@ -1,26 +1,32 @@
-//! Widening the binary BVH to 4-wide nodes: which binary nodes become a wide node's
+//! Widening the binary BVH to wide nodes: which binary nodes become a wide node's
 //! children, and in which order.
 //!
-//! Every backend that walks 4-wide nodes (the CPU traversal, the wgpu megakernel) picks
-//! children here, so both see the same tree and visit equal-distance candidates in the same
-//! order; each keeps its own node encoding.
+//! Every backend that walks wide nodes picks children here, with one rule: the wgpu
+//! megakernel's nodes have [`WIDTH`] (4) children, the CPU traversal's eight
+//! ([`children_up_to`]); each keeps its own node encoding. Opening the widest child first
+//! makes an 8-wide node's children a refinement of the 4-wide node's.
 
 use super::bvh::BvhNode;
 
-/// Children per wide node.
+/// Children per wide node of the GPU backends' 4-wide trees.
 pub const WIDTH: usize = 4;
+
+/// [`children_up_to`] four children ([`WIDTH`]).
+pub fn children(binary: &[BvhNode], source: usize) -> Vec<usize> {
+    children_up_to(binary, source, WIDTH)
+}
 
 /// The binary nodes that become the children of the wide node made from `source`, in lane
 /// order: its two children, then repeatedly the inner one with the largest surface area
-/// replaced in place by its first child, its second appended, until there are four or only
-/// leaves. A leaf `source` is its own only child (a leaf root).
-pub fn children(binary: &[BvhNode], source: usize) -> Vec<usize> {
+/// replaced in place by its first child, its second appended, until there are `width` or
+/// only leaves. A leaf `source` is its own only child (a leaf root).
+pub fn children_up_to(binary: &[BvhNode], source: usize, width: usize) -> Vec<usize> {
     let node = &binary[source];
     if node.is_leaf() {
         return vec![source];
     }
     let mut children = vec![node.first as usize, node.first as usize + 1];
-    while children.len() < WIDTH {
+    while children.len() < width {
         let widest = children
             .iter()
             .enumerate()
@@ -67,6 +73,12 @@ mod tests {
             node(3, 1, 5.0),
         ];
         assert_eq!(children(&bin, 0), vec![4, 6, 7, 5]);
+        assert_eq!(children_up_to(&bin, 0, 3), vec![2, 6, 7]);
+        assert_eq!(
+            children_up_to(&bin, 0, 8),
+            vec![4, 6, 7, 5],
+            "no more than the leaves below"
+        );
         assert_eq!(children(&bin, 4), vec![4], "a leaf is its own child");
         assert_eq!(
             children(&bin, 2),

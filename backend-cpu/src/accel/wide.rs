@@ -1,14 +1,17 @@
-//! The 4-wide BVH the CPU traversal walks, collapsed from optik-accel's binary [`Bvh`] with
+//! The 8-wide BVH the CPU traversal walks, collapsed from optik-accel's binary [`Bvh`] with
 //! its child order (`optik_accel::widen`), and triangles packed four to a block for the
 //! 4-lane triangle test.
 //!
-//! Why: a binary node costs two box tests and a decision per step; a 4-wide node tests its
-//! four children in one 4-lane slab test, so a ray takes about half as many steps, and four
+//! Why: a binary node costs two box tests and a decision per step; an 8-wide node tests its
+//! eight children in one 8-lane slab test (AVX where the CPU has it, two 4-lane halves
+//! elsewhere, bit for bit the same), so a ray takes about a third as many steps, and four
 //! triangles of a leaf share one 4-lane watertight test (docs/cpu-backend.md,
-//! "Performance").
+//! "Performance"). Eight children rather than four: the walk is a chain of dependent
+//! loads and tests, so fewer steps is less waiting (measured in docs/cpu-backend.md, issue
+//! 14 item 3).
 //!
 //! Layout:
-//! - [`WideNode`] (128 bytes, two cache lines): the children's boxes as structure of arrays
+//! - [`WideNode`] (256 bytes, four cache lines): the children's boxes as structure of arrays
 //!   (`min[axis][child]`), then per child `first` and `count`. `count == 0`: an inner child,
 //!   `first` its node index; `count > 0`: a leaf of `count` primitives, `first` its first
 //!   block (triangle structures with blocks) or its first slot (every other structure).
@@ -25,33 +28,52 @@
 //!   structures (one motion key); moving triangles are interpolated per slot instead.
 
 use optik_accel::widen;
+
+/// Lanes of a triangle block.
+const WIDTH: usize = BLOCK_WIDTH;
 use optik_accel::{Aabb, Bvh, GasEncoding, Geometry, PrimitiveInfo};
 
 /// Children per node.
-pub const WIDTH: usize = widen::WIDTH;
+pub const NODE_WIDTH: usize = 8;
 
-/// A node of the 4-wide BVH (see the module docs).
+/// Triangles per block (the lanes of the triangle test).
+pub const BLOCK_WIDTH: usize = 4;
+
+/// A node of the 8-wide BVH (see the module docs).
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WideNode {
     /// `min[axis][child]`: the children's smallest corners.
-    pub min: [[f32; WIDTH]; 3],
+    pub min: [[f32; NODE_WIDTH]; 3],
     /// `max[axis][child]`: the children's largest corners.
-    pub max: [[f32; WIDTH]; 3],
+    pub max: [[f32; NODE_WIDTH]; 3],
     /// Inner child: its node index. Leaf: its first block or first slot.
-    pub first: [u32; WIDTH],
+    pub first: [u32; NODE_WIDTH],
     /// 0 for an inner (or unused) child; the number of primitives of a leaf.
-    pub count: [u32; WIDTH],
+    pub count: [u32; NODE_WIDTH],
 }
+
+// `WideNode::rows` reads `min` and `max` as six consecutive rows.
+const _: () = assert!(std::mem::offset_of!(WideNode, min) == 0);
+const _: () = assert!(std::mem::offset_of!(WideNode, max) == 3 * NODE_WIDTH * 4);
 
 impl WideNode {
     /// A node whose children are all unused.
-    const EMPTY: WideNode = WideNode {
-        min: [[f32::INFINITY; WIDTH]; 3],
-        max: [[f32::NEG_INFINITY; WIDTH]; 3],
-        first: [0; WIDTH],
-        count: [0; WIDTH],
+    pub const EMPTY: WideNode = WideNode {
+        min: [[f32::INFINITY; NODE_WIDTH]; 3],
+        max: [[f32::NEG_INFINITY; NODE_WIDTH]; 3],
+        first: [0; NODE_WIDTH],
+        count: [0; NODE_WIDTH],
     };
+
+    /// The boxes as six rows: `min[0..3]`, then `max[0..3]` (the slab test picks a ray's
+    /// near and far row per axis once, not per node).
+    #[inline(always)]
+    pub fn rows(&self) -> &[[f32; NODE_WIDTH]; 6] {
+        // SAFETY: `repr(C)`: `min` at offset 0 and `max` right after it (asserted above),
+        // both arrays of `[f32; NODE_WIDTH]` rows, so the first six rows are these.
+        unsafe { &*(self as *const WideNode).cast::<[[f32; NODE_WIDTH]; 6]>() }
+    }
 
     fn set_box(&mut self, child: usize, b: &Aabb) {
         for axis in 0..3 {
@@ -98,7 +120,7 @@ pub struct SlotTriangles<'a> {
     pub infos: &'a [PrimitiveInfo],
 }
 
-/// The 4-wide BVH of a geometry structure.
+/// The 8-wide BVH of a geometry structure.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct WideBvh {
     /// Root first; empty when the structure holds no primitive.
@@ -110,7 +132,7 @@ pub struct WideBvh {
 }
 
 impl WideBvh {
-    /// Collapses `bvh` into four-wide nodes. With `triangles` (per slot, the static
+    /// Collapses `bvh` into eight-wide nodes. With `triangles` (per slot, the static
     /// vertices and the primitive records), leaves point to triangle blocks packed from them.
     pub fn build(bvh: &Bvh, triangles: Option<SlotTriangles<'_>>) -> WideBvh {
         let binary = bvh.nodes();
@@ -123,7 +145,7 @@ impl WideBvh {
         let mut stack = vec![(0usize, 0usize, 1u32)];
         while let Some((source, target, level)) = stack.pop() {
             wide.depth = wide.depth.max(level);
-            let children = widen::children(binary, source);
+            let children = widen::children_up_to(binary, source, NODE_WIDTH);
             let mut node = WideNode::EMPTY;
             for (lane, &c) in children.iter().enumerate() {
                 let child = &binary[c];
@@ -221,7 +243,7 @@ mod tests {
         let mut stack = vec![(0usize, Aabb::EMPTY, true)];
         while let Some((n, parent, root)) = stack.pop() {
             let node = &wide.nodes[n];
-            for lane in 0..WIDTH {
+            for lane in 0..NODE_WIDTH {
                 let b = Aabb {
                     min: std::array::from_fn(|a| node.min[a][lane]),
                     max: std::array::from_fn(|a| node.max[a][lane]),

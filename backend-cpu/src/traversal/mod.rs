@@ -21,7 +21,7 @@ pub use curve::{
 };
 pub use engine::{Candidate, CustomPrimitive, HitData, Path, TraceConfig, TraceRay, trace};
 pub use ray::{PreparedRay, SLAB_WIDENING, TriangleLanes, WideRay};
-pub use slab::{entry as slab_entry, entry4 as slab_entry4};
+pub use slab::entry as slab_entry;
 pub use sphere::SphereHit;
 pub use triangle::{
     BlockHits, TriangleHit, moller_trumbore, moller_trumbore4, watertight, watertight4,

@@ -44,7 +44,7 @@ impl PreparedRay {
     pub fn new(origin: [f32; 3], dir: [f32; 3], conservative: bool) -> PreparedRay {
         let dir = canonical(dir);
         let inv = reciprocal(dir);
-        let (axes, shear) = shear_of(dir, inv);
+        let (axes, shear) = shear_of(&dir, &inv);
         PreparedRay {
             origin,
             dir,
@@ -90,7 +90,7 @@ fn moves(dir: [f32; 3]) -> bool {
 /// reciprocal: the axis of largest |direction| last, the other two ordered so the shear
 /// keeps the triangle's winding, and `(dx/dz, dy/dz, 1/dz)` along them.
 #[inline(always)]
-fn shear_of(dir: [f32; 3], inv: [f32; 3]) -> ([usize; 3], [f32; 3]) {
+fn shear_of(dir: &[f32; 3], inv: &[f32; 3]) -> ([usize; 3], [f32; 3]) {
     let abs = [dir[0].abs(), dir[1].abs(), dir[2].abs()];
     let kz = if abs[0] >= abs[1] && abs[0] >= abs[2] {
         0
@@ -109,39 +109,40 @@ fn shear_of(dir: [f32; 3], inv: [f32; 3]) -> ([usize; 3], [f32; 3]) {
     ([kx, ky, kz], [dir[kx] / dz, dir[ky] / dz, inv[kz]])
 }
 
-/// A ray's box-test constants in all four lanes, for the 4-wide node test (only what it
-/// reads, so it stays small to build per ray). The triangle tests' constants are
-/// [`TriangleLanes`], built from it when the ray first reaches a leaf: most rays of a
+/// A ray's constants for the wide node test and the triangle tests' origin lanes (only
+/// what they read, so it stays small to build per ray). The node test splats what it needs
+/// into its own registers ([`super::slab::NodeTest`]); the triangle tests' constants are
+/// [`TriangleLanes`], built from this when the ray first reaches a leaf: most rays of a
 /// mostly empty view never do, and the shear's divisions were a fifth of their trace.
 #[derive(Clone, Copy)]
 pub struct WideRay {
-    /// Origin, per axis.
+    /// Origin, per axis, in four lanes (the triangle tests read it).
     pub origin: [F4; 3],
-    /// Reciprocal direction, per axis.
-    pub inv: [F4; 3],
-    /// The exit scale of the box test.
-    pub exit_scale: F4,
+    /// Origin.
+    pub origin1: [f32; 3],
+    /// Reciprocal of the canonical direction (`+∞` for zero components).
+    pub inv1: [f32; 3],
     /// Per axis, whether the direction is negative.
     pub negative: [bool; 3],
-    /// The canonical direction and its reciprocal, one lane, for [`TriangleLanes::new`].
+    /// The canonical direction, for [`TriangleLanes::new`].
     dir: [f32; 3],
-    inv1: [f32; 3],
 }
 
 impl WideRay {
     /// Prepares `origin`, `dir` (finite) for box tests, bit for bit as [`PreparedRay::new`]
     /// does.
     #[inline(always)]
-    pub fn new(origin: [f32; 3], dir: [f32; 3], conservative: bool) -> WideRay {
+    /// (The node test takes the exit scale from the pipeline's switch, a constant there:
+    /// [`super::slab::NodeTest`].)
+    pub fn new(origin: [f32; 3], dir: [f32; 3]) -> WideRay {
         let dir = canonical(dir);
         let inv = reciprocal(dir);
         WideRay {
             origin: origin.map(F4::splat),
-            inv: inv.map(F4::splat),
-            exit_scale: F4::splat(exit_scale(conservative)),
+            origin1: origin,
+            inv1: inv,
             negative: negative(dir),
             dir,
-            inv1: inv,
         }
     }
 
@@ -150,11 +151,10 @@ impl WideRay {
     pub fn of(ray: &PreparedRay) -> WideRay {
         WideRay {
             origin: ray.origin.map(F4::splat),
-            inv: ray.inv.map(F4::splat),
-            exit_scale: F4::splat(ray.exit_scale),
+            origin1: ray.origin,
+            inv1: ray.inv,
             negative: ray.negative,
             dir: ray.dir,
-            inv1: ray.inv,
         }
     }
 
@@ -162,6 +162,15 @@ impl WideRay {
     #[inline(always)]
     pub fn moves(&self) -> bool {
         moves(self.dir)
+    }
+
+    /// The box test's scalars, `[origin, reciprocal]`, read word by word
+    /// (`traversal::words`): they were stored one by one moments before the walk that reads
+    /// them, and LLVM would otherwise merge the reads into wider loads that wait for every
+    /// store they span.
+    #[inline(always)]
+    pub fn box_constants(&self) -> [[f32; 3]; 2] {
+        [super::words(&self.origin1), super::words(&self.inv1)]
     }
 }
 
@@ -180,7 +189,9 @@ impl TriangleLanes {
     /// The triangle constants of `ray`, bit for bit those [`PreparedRay::new`] computes.
     #[inline(always)]
     pub fn new(ray: &WideRay) -> TriangleLanes {
-        let (axes, shear) = shear_of(ray.dir, ray.inv1);
+        // By reference: indexing copies of the arrays made here would read them back
+        // across the stores that made them (a store-forwarding stall per ray).
+        let (axes, shear) = shear_of(&ray.dir, &ray.inv1);
         TriangleLanes {
             dir: ray.dir.map(F4::splat),
             shear: shear.map(F4::splat),
@@ -222,13 +233,13 @@ mod tests {
             for conservative in [false, true] {
                 let o = [0.25, -7.0, 1e5];
                 let p = PreparedRay::new(o, d, conservative);
-                let w = WideRay::new(o, d, conservative);
+                let w = WideRay::new(o, d);
                 let l = TriangleLanes::new(&w);
                 let bits = |v: [f32; 3]| v.map(f32::to_bits);
                 let lane0 = |v: [F4; 3]| v.map(|x| x.to_array()[0].to_bits());
                 assert_eq!(lane0(w.origin), bits(p.origin), "{d:?}");
-                assert_eq!(lane0(w.inv), bits(p.inv), "{d:?}");
-                assert_eq!(w.exit_scale.to_array()[0], p.exit_scale);
+                assert_eq!(bits(w.origin1), bits(p.origin), "{d:?}");
+                assert_eq!(bits(w.inv1), bits(p.inv), "{d:?}");
                 assert_eq!(w.negative, p.negative);
                 assert_eq!(w.moves(), p.moves, "{d:?}");
                 assert_eq!(lane0(l.dir), bits(p.dir), "{d:?}");

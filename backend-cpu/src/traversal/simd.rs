@@ -1,6 +1,7 @@
 //! Four f32 lanes: SSE on x86-64 (always present there), plain arrays elsewhere.
 //!
-//! Only what the 4-wide box and triangle tests need. Every operation is the IEEE operation
+//! Only what the box and triangle tests need (the 8-lane box test runs as two halves
+//! where it does not run on AVX, `slab::Halves`). Every operation is the IEEE operation
 //! of the scalar code lane by lane, in the same order (no fused multiply-add), so a lane of
 //! a 4-wide test computes bit for bit what the scalar test computes. `min` and `max` are the
 //! scalar code's selections, NaN included: `a.min(b)` is `if a < b { a } else { b }` and
@@ -27,6 +28,13 @@ mod imp {
         pub fn load(a: &[f32; 4]) -> F4 {
             // SAFETY: `a` is 16 readable bytes; the load is unaligned.
             F4(unsafe { _mm_loadu_ps(a.as_ptr()) })
+        }
+
+        /// Lanes `4 * half ..` of an 8-lane row (`half` 0 or 1).
+        #[inline(always)]
+        pub fn load_half(a: &[f32; 8], half: usize) -> F4 {
+            // SAFETY: `4 * (half & 1) + 4 <= 8`: 16 readable bytes; the load is unaligned.
+            F4(unsafe { _mm_loadu_ps(a.as_ptr().add(4 * (half & 1))) })
         }
 
         /// The same value in every lane.
@@ -153,6 +161,12 @@ mod imp {
         #[inline(always)]
         pub fn load(a: &[f32; 4]) -> F4 {
             F4(*a)
+        }
+
+        /// Lanes `4 * half ..` of an 8-lane row (`half` 0 or 1).
+        #[inline(always)]
+        pub fn load_half(a: &[f32; 8], half: usize) -> F4 {
+            F4(std::array::from_fn(|i| a[4 * (half & 1) + i]))
         }
 
         /// The same value in every lane.
