@@ -132,13 +132,21 @@ impl NodeTest for Halves {
 }
 
 #[cfg(target_arch = "x86_64")]
-pub use avx::Avx;
+pub use avx::{Avx, has_avx};
 
 #[cfg(target_arch = "x86_64")]
 mod avx {
     use super::{NearFar, NodeTest, SLAB_WIDENING, WideNode, WideRay};
     use crate::accel::wide::NODE_WIDTH;
     use std::arch::x86_64::*;
+
+    /// Whether this CPU runs [`Avx`] and the bit-counting instructions (`popcnt`, `lzcnt`,
+    /// `tzcnt`) the walk around it is compiled with (checked once, then loads).
+    #[inline(always)]
+    pub fn has_avx() -> bool {
+        use std::arch::is_x86_feature_detected as has;
+        has!("avx") && has!("popcnt") && has!("lzcnt") && has!("bmi1")
+    }
 
     /// The 8-lane node test in one AVX register per row. Its operations are the 4-lane
     /// ones' (`vmaxps`/`vminps` select as `maxps`/`minps` do, NaN included; `_CMP_LE_OQ`
@@ -206,21 +214,6 @@ mod avx {
     }
 }
 
-/// Whether this CPU runs [`Avx`] and the bit-counting instructions (`popcnt`, `lzcnt`,
-/// `tzcnt`) the walk around it is compiled with (checked once, then loads).
-#[inline(always)]
-pub fn has_avx() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::is_x86_feature_detected as has;
-        has!("avx") && has!("popcnt") && has!("lzcnt") && has!("bmi1")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -235,6 +228,7 @@ mod tests {
             (state >> 40) as f32 / (1u64 << 24) as f32
         };
         let specials = [0.0, -0.0, 1.0, f32::INFINITY, f32::NEG_INFINITY];
+        #[cfg(target_arch = "x86_64")]
         let mut avx_checked = 0;
         for i in 0..20000 {
             let mut node = WideNode::EMPTY;
@@ -301,6 +295,7 @@ mod tests {
             }
         }
         // Says in the test output whether this machine checked the AVX form too.
+        #[cfg(target_arch = "x86_64")]
         println!("AVX node test checked against the halves on {avx_checked} rays");
     }
 }
