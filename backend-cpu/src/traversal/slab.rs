@@ -298,4 +298,139 @@ mod tests {
         #[cfg(target_arch = "x86_64")]
         println!("AVX node test checked against the halves on {avx_checked} rays");
     }
+
+    const BOX_MIN: [f32; 3] = [10.0, 0.0, 0.0];
+    const BOX_MAX: [f32; 3] = [10.0, 1.0, 1.0];
+
+    fn both(o: [f32; 3], d: [f32; 3], tmin: f32, tmax: f32) -> [Option<f32>; 2] {
+        [false, true].map(|c| entry(&PreparedRay::new(o, d, c), &BOX_MIN, &BOX_MAX, tmin, tmax))
+    }
+
+    #[test]
+    fn signed_zero_directions_agree() {
+        for o in [
+            [0.0, 1.0, 0.5],
+            [0.0, 0.0, 0.5],
+            [0.0, 0.5, 0.5],
+            [0.0, 1.5, 0.5],
+            [0.0, 1.0, 1.0],
+        ] {
+            for pair in [
+                ([1.0, 0.0, 0.0], [1.0, -0.0, 0.0]),
+                ([1.0, 0.0, -0.0], [1.0, -0.0, 0.0]),
+            ] {
+                assert_eq!(
+                    both(o, pair.0, 0.0, f32::INFINITY),
+                    both(o, pair.1, 0.0, f32::INFINITY),
+                    "origin {o:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn origin_on_slab_plane_of_parallel_ray_is_inside() {
+        // The case obvhs misses (docs/numerics.md F4): origin on the y = 1 plane, d.y = ±0.
+        for d in [[1.0, 0.0, 0.0], [1.0, -0.0, 0.0]] {
+            assert_eq!(
+                both([0.0, 1.0, 0.5], d, 0.0, f32::INFINITY),
+                [Some(10.0), Some(10.0)]
+            );
+            assert_eq!(both([0.0, 0.0, 0.0], d, 0.0, f32::INFINITY)[0], Some(10.0));
+        }
+        assert_eq!(
+            both([0.0, 1.0000001, 0.5], [1.0, 0.0, 0.0], 0.0, f32::INFINITY),
+            [None, None]
+        );
+    }
+
+    #[test]
+    fn widening_constant_is_at_least_two_gamma_three() {
+        let eps = 2.0f64.powi(-24);
+        let gamma3 = 3.0 * eps / (1.0 - 3.0 * eps);
+        assert!(crate::traversal::SLAB_WIDENING as f64 >= 1.0 + 2.0 * gamma3);
+        assert!((crate::traversal::SLAB_WIDENING as f64) < 1.0 + 4.0 * gamma3);
+    }
+
+    #[test]
+    fn near_parallel_ray_one_ulp_inside_hits() {
+        // docs/numerics.md F3: d.y = 1e-9 travelling just inside the y = 1 face.
+        let o = [0.0, 1.0 - f32::EPSILON / 2.0, 0.5];
+        assert!(
+            both(o, [1.0, 1e-9, 0.0], 0.0, f32::INFINITY)
+                .iter()
+                .all(|e| e.is_some())
+        );
+    }
+
+    #[test]
+    fn interval_bounds_are_inclusive() {
+        assert!(
+            both([0.0, 0.5, 0.5], [1.0, 0.0, 0.0], 0.0, 10.0)
+                .iter()
+                .all(|e| e.is_some())
+        );
+        assert!(
+            both([0.0, 0.5, 0.5], [1.0, 0.0, 0.0], 10.0, 20.0)
+                .iter()
+                .all(|e| e.is_some())
+        );
+        assert_eq!(both([0.0, 0.5, 0.5], [1.0, 0.0, 0.0], 0.0, 9.99)[0], None);
+        assert_eq!(both([0.0, 0.5, 0.5], [1.0, 0.0, 0.0], 10.01, 20.0)[1], None);
+        // A box behind the origin misses.
+        assert_eq!(
+            both([20.0, 0.5, 0.5], [1.0, 0.0, 0.0], 0.0, f32::INFINITY),
+            [None, None]
+        );
+    }
+
+    #[test]
+    fn conservative_test_keeps_grazing_boxes_plain_may_lose() {
+        // Rays aimed at the far corner region of a thin box: the conservative test must
+        // report every box that the exact (f64) test hits.
+        let mut state = 12345u64;
+        let mut rnd = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        for _ in 0..20000 {
+            let min = [
+                rnd() * 100.0 - 50.0,
+                rnd() * 100.0 - 50.0,
+                rnd() * 100.0 - 50.0,
+            ];
+            let max = [min[0] + rnd() * 1e-3, min[1] + rnd(), min[2] + rnd() * 10.0];
+            let o = [
+                rnd() * 1e3 - 500.0,
+                rnd() * 1e3 - 500.0,
+                rnd() * 1e3 - 500.0,
+            ];
+            let target = [
+                min[0] + (max[0] - min[0]) * rnd(),
+                max[1],
+                min[2] + (max[2] - min[2]) * rnd(),
+            ];
+            let d = [target[0] - o[0], target[1] - o[1], target[2] - o[2]];
+            // Exact test in f64 on the same f32 inputs.
+            let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+            for a in 0..3 {
+                let inv = 1.0 / d[a] as f64;
+                let (p, q) = (
+                    (min[a] as f64 - o[a] as f64) * inv,
+                    (max[a] as f64 - o[a] as f64) * inv,
+                );
+                t0 = t0.max(p.min(q));
+                t1 = t1.min(p.max(q));
+            }
+            if t0 <= t1 {
+                let r = PreparedRay::new(o, d, true);
+                assert!(
+                    entry(&r, &min, &max, 0.0, f32::INFINITY).is_some(),
+                    "false miss: {o:?} {d:?} {min:?} {max:?}"
+                );
+            }
+        }
+    }
 }
