@@ -28,9 +28,6 @@
 //!   structures (one motion key); moving triangles are interpolated per slot instead.
 
 use optik_accel::widen;
-
-/// Lanes of a triangle block.
-const WIDTH: usize = BLOCK_WIDTH;
 use optik_accel::{Aabb, Bvh, GasEncoding, Geometry, PrimitiveInfo};
 
 /// Children per node.
@@ -88,11 +85,11 @@ impl WideNode {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TriangleBlock {
     /// `vertices[vertex][axis][lane]`.
-    pub vertices: [[[f32; WIDTH]; 3]; 3],
+    pub vertices: [[[f32; BLOCK_WIDTH]; 3]; 3],
     /// The slot of each lane's triangle; `u32::MAX` for an unused lane.
-    pub slots: [u32; WIDTH],
+    pub slots: [u32; BLOCK_WIDTH],
     /// Each lane's `Gas::primitives[slot]` (zeroed for an unused lane).
-    pub infos: [PrimitiveInfo; WIDTH],
+    pub infos: [PrimitiveInfo; BLOCK_WIDTH],
 }
 
 impl TriangleBlock {
@@ -100,14 +97,16 @@ impl TriangleBlock {
     /// bit mask (lane `i` is bit `i`).
     #[inline]
     pub fn lane_mask(count: u32, index: u32) -> u32 {
-        let lanes = count.saturating_sub(index * WIDTH as u32).min(WIDTH as u32);
+        let lanes = count
+            .saturating_sub(index * BLOCK_WIDTH as u32)
+            .min(BLOCK_WIDTH as u32);
         (1 << lanes) - 1
     }
 
     /// The blocks a leaf of `count` triangles has.
     #[inline]
     pub fn blocks_of(count: u32) -> u32 {
-        count.div_ceil(WIDTH as u32)
+        count.div_ceil(BLOCK_WIDTH as u32)
     }
 }
 
@@ -173,12 +172,12 @@ impl WideBvh {
         let start = self.blocks.len() as u32;
         for b in 0..TriangleBlock::blocks_of(count) {
             let mut block = TriangleBlock {
-                vertices: [[[0.0; WIDTH]; 3]; 3],
-                slots: [u32::MAX; WIDTH],
-                infos: [bytemuck::Zeroable::zeroed(); WIDTH],
+                vertices: [[[0.0; BLOCK_WIDTH]; 3]; 3],
+                slots: [u32::MAX; BLOCK_WIDTH],
+                infos: [bytemuck::Zeroable::zeroed(); BLOCK_WIDTH],
             };
-            for lane in 0..WIDTH as u32 {
-                let i = b * WIDTH as u32 + lane;
+            for lane in 0..BLOCK_WIDTH as u32 {
+                let i = b * BLOCK_WIDTH as u32 + lane;
                 if i >= count {
                     break;
                 }

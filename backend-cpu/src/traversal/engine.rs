@@ -418,7 +418,12 @@ impl<S: Spec> Walker<'_, S> {
 }
 
 impl<S: Spec> Walker<'_, S> {
-    /// [`walk_wide`] with this pipeline's box test.
+    /// Walks a wide BVH front to back: at each node the children the ray enters are
+    /// visited nearest first (the others wait on a stack with their entry distances), and
+    /// `leaf(handler, first, count)` is called for every leaf entered before the handler's
+    /// current `t_max`, until the handler is done. The node test is AVX's where the CPU has
+    /// it, else two 4-lane halves: the same bits either way, so the same walk; both use this
+    /// pipeline's box test (`S::CONSERVATIVE`).
     #[inline(always)]
     fn walk<H: Handler>(
         &self,
@@ -428,7 +433,17 @@ impl<S: Spec> Walker<'_, S> {
         h: &mut H,
         leaf: impl FnMut(&mut H, u32, u32),
     ) {
-        walk_wide::<S, H>(wide, ray, tmin, h, leaf)
+        if wide.nodes.is_empty() {
+            return;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if slab::has_avx() && !tests_want_halves() {
+            // SAFETY: the CPU has AVX and the bit-counting instructions `walk_wide_avx`
+            // enables.
+            return unsafe { walk_wide_avx::<S, H>(wide, ray, tmin, h, leaf) };
+        }
+        let test = slab::Halves::new(ray, tmin, S::CONSERVATIVE);
+        walk_wide_on(wide, test, tmin, h, leaf)
     }
 
     /// The triangle blocks of a static triangle structure. Only the box test's
@@ -661,32 +676,7 @@ struct Pending {
 /// seven); deeper ones get a heap stack for the walk.
 const WIDE_STACK: usize = 190;
 
-/// Walks a wide BVH front to back: at each node the children the ray enters are visited
-/// nearest first (the others wait on a stack with their entry distances), and
-/// `leaf(handler, first, count)` is called for every leaf entered before the handler's
-/// current `t_max`, until the handler is done. The node test is AVX's where the CPU has it,
-/// else two 4-lane halves: the same bits either way, so the same walk.
-#[inline(always)]
-fn walk_wide<S: Spec, H: Handler>(
-    wide: &WideBvh,
-    ray: &WideRay,
-    tmin: f32,
-    h: &mut H,
-    leaf: impl FnMut(&mut H, u32, u32),
-) {
-    if wide.nodes.is_empty() {
-        return;
-    }
-    #[cfg(target_arch = "x86_64")]
-    if slab::has_avx() && !tests_want_halves() {
-        // SAFETY: the CPU has AVX and the bit-counting instructions `walk_wide_avx` enables.
-        return unsafe { walk_wide_avx::<S, H>(wide, ray, tmin, h, leaf) };
-    }
-    let test = slab::Halves::new(ray, tmin, S::CONSERVATIVE);
-    walk_wide_on(wide, test, tmin, h, leaf)
-}
-
-/// [`walk_wide`] with the AVX node test: compiled for AVX as a whole, so the test's
+/// [`Walker::walk`] with the AVX node test: compiled for AVX as a whole, so the test's
 /// intrinsics inline into the loop (a `target_feature` function inlines only into callers
 /// with the feature).
 #[cfg(target_arch = "x86_64")]
@@ -721,7 +711,7 @@ fn tests_want_halves() -> bool {
     false
 }
 
-/// [`walk_wide`] with a node test and a stack of enough entries (`7 * depth + 1`: pending
+/// [`Walker::walk`] with a node test and a stack of enough entries (`7 * depth + 1`: pending
 /// children are siblings of the nodes on the path from the root, at most seven per level).
 #[inline(always)]
 fn walk_wide_on<H: Handler, T: slab::NodeTest>(
@@ -741,7 +731,7 @@ fn walk_wide_on<H: Handler, T: slab::NodeTest>(
     }
 }
 
-/// The walk of [`walk_wide`] (`stack` holds `7 * depth + 1` entries).
+/// The walk of [`Walker::walk`] (`stack` holds `7 * depth + 1` entries).
 #[inline(always)]
 fn walk_wide_with<H: Handler, T: slab::NodeTest>(
     wide: &WideBvh,

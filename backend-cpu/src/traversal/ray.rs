@@ -130,10 +130,9 @@ pub struct WideRay {
 
 impl WideRay {
     /// Prepares `origin`, `dir` (finite) for box tests, bit for bit as [`PreparedRay::new`]
-    /// does.
+    /// does. (The node test takes the exit scale from the pipeline's switch, a constant
+    /// there: [`super::slab::NodeTest`].)
     #[inline(always)]
-    /// (The node test takes the exit scale from the pipeline's switch, a constant there:
-    /// [`super::slab::NodeTest`].)
     pub fn new(origin: [f32; 3], dir: [f32; 3]) -> WideRay {
         let dir = canonical(dir);
         let inv = reciprocal(dir);

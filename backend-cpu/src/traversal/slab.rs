@@ -82,7 +82,7 @@ pub struct Halves {
     inv: [F4; 3],
     conservative: bool,
     tmin: F4,
-    rows: NearFar,
+    near_far: NearFar,
 }
 
 impl Halves {
@@ -95,7 +95,7 @@ impl Halves {
             inv: inv.map(F4::splat),
             conservative,
             tmin: F4::splat(tmin),
-            rows: NearFar::of(ray),
+            near_far: NearFar::of(ray),
         }
     }
 }
@@ -111,8 +111,8 @@ impl NodeTest for Halves {
             let mut t0 = self.tmin;
             let mut exit = F4::splat(f32::INFINITY);
             for a in 0..3 {
-                let near = F4::load_half(&rows[self.rows.near[a]], half);
-                let far = F4::load_half(&rows[self.rows.far[a]], half);
+                let near = F4::load_half(&rows[self.near_far.near[a]], half);
+                let far = F4::load_half(&rows[self.near_far.far[a]], half);
                 let tn = (near - self.origin[a]) * self.inv[a];
                 let tf = (far - self.origin[a]) * self.inv[a];
                 t0 = tn.max(t0);
@@ -157,7 +157,7 @@ mod avx {
         inv: [__m256; 3],
         conservative: bool,
         tmin: __m256,
-        rows: NearFar,
+        near_far: NearFar,
     }
 
     impl Avx {
@@ -176,7 +176,7 @@ mod avx {
                     inv: inv.map(|x| _mm256_set1_ps(x)),
                     conservative,
                     tmin: _mm256_set1_ps(tmin),
-                    rows: NearFar::of(ray),
+                    near_far: NearFar::of(ray),
                 }
             }
         }
@@ -193,8 +193,8 @@ mod avx {
                 let mut t0 = self.tmin;
                 let mut exit = _mm256_set1_ps(f32::INFINITY);
                 for a in 0..3 {
-                    let near = _mm256_loadu_ps(rows[self.rows.near[a]].as_ptr());
-                    let far = _mm256_loadu_ps(rows[self.rows.far[a]].as_ptr());
+                    let near = _mm256_loadu_ps(rows[self.near_far.near[a]].as_ptr());
+                    let far = _mm256_loadu_ps(rows[self.near_far.far[a]].as_ptr());
                     let tn = _mm256_mul_ps(_mm256_sub_ps(near, self.origin[a]), self.inv[a]);
                     let tf = _mm256_mul_ps(_mm256_sub_ps(far, self.origin[a]), self.inv[a]);
                     t0 = _mm256_max_ps(tn, t0);
