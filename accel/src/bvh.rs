@@ -17,6 +17,7 @@
 //! test alone decides how conservative traversal is.
 
 use super::aabb::Aabb;
+use super::collapse::LeafCosts;
 use optik_api::{BuildFlags, Error, Result};
 
 /// One BVH node (32 bytes).
@@ -106,8 +107,19 @@ impl BuildQuality {
 
 impl Bvh {
     /// Builds a BVH over the primitives `i` with `boxes[i]` valid and finite; returns it with
-    /// the slot order (`order[slot]` = the primitive's index in `boxes`).
+    /// the slot order (`order[slot]` = the primitive's index in `boxes`). Leaves are priced
+    /// per primitive (obvhs's collapse).
     pub fn build(boxes: &[Aabb], quality: BuildQuality) -> Result<(Bvh, Vec<u32>)> {
+        Bvh::build_with(boxes, quality, None)
+    }
+
+    /// [`Bvh::build`], with leaves priced by `leaf_costs` when given (a backend that tests
+    /// primitives a block at a time: [`LeafCosts`]) instead of per primitive.
+    pub fn build_with(
+        boxes: &[Aabb],
+        quality: BuildQuality,
+        leaf_costs: Option<LeafCosts>,
+    ) -> Result<(Bvh, Vec<u32>)> {
         let included: Vec<u32> = (0..boxes.len() as u32)
             .filter(|&i| boxes[i as usize].is_valid() && boxes[i as usize].is_finite())
             .collect();
@@ -133,11 +145,14 @@ impl Bvh {
             );
             let mut reinsertion = obvhs::bvh2::reinsertion::ReinsertionOptimizer::default();
             reinsertion.run(&mut bvh, params.reinsertion_batch_ratio, None);
-            obvhs::bvh2::leaf_collapser::collapse(
-                &mut bvh,
-                params.max_prims_per_leaf.clamp(1, 255),
-                params.collapse_traversal_cost,
-            );
+            match leaf_costs {
+                Some(costs) => crate::collapse::collapse(&mut bvh, costs),
+                None => obvhs::bvh2::leaf_collapser::collapse(
+                    &mut bvh,
+                    params.max_prims_per_leaf.clamp(1, 255),
+                    params.collapse_traversal_cost,
+                ),
+            }
             reinsertion.run(
                 &mut bvh,
                 params.reinsertion_batch_ratio
@@ -288,6 +303,14 @@ fn convert(src: &obvhs::bvh2::Bvh2) -> (Bvh, Vec<u32>) {
 mod tests {
     use super::*;
 
+    /// Leaves priced as a backend with 4-primitive blocks would (the CPU's constants).
+    const BLOCKS: LeafCosts = LeafCosts {
+        block: 4,
+        visit: 0.0,
+        node: 0.3,
+        max_prims: 24,
+    };
+
     fn unit_box(x: f32) -> Aabb {
         Aabb {
             min: [x, 0.0, 0.0],
@@ -333,10 +356,14 @@ mod tests {
                 BuildQuality::Balanced,
                 BuildQuality::FastTrace,
             ] {
-                let (bvh, order) = Bvh::build(&boxes, q).unwrap();
-                assert_eq!(order.len(), n);
-                check_structure(&bvh, &order, &boxes);
-                assert!(bvh.depth >= 1);
+                for costs in [None, Some(BLOCKS)] {
+                    let (bvh, order) = Bvh::build_with(&boxes, q, costs).unwrap();
+                    assert_eq!(order.len(), n);
+                    check_structure(&bvh, &order, &boxes);
+                    assert!(bvh.depth >= 1);
+                    let most = bvh.nodes().iter().map(|n| n.count).max().unwrap_or(0);
+                    assert!(most <= costs.map_or(255, |c| c.max_prims), "{most}-leaf");
+                }
             }
         }
     }
@@ -368,17 +395,19 @@ mod tests {
                 }
             })
             .collect();
-        for q in [
-            BuildQuality::FastBuild,
-            BuildQuality::Balanced,
-            BuildQuality::FastTrace,
+        for (q, costs) in [
+            (BuildQuality::FastBuild, None),
+            (BuildQuality::Balanced, None),
+            (BuildQuality::FastTrace, None),
+            (BuildQuality::FastTrace, Some(BLOCKS)),
         ] {
             let build = |threads: usize| {
                 let pool = rayon::ThreadPoolBuilder::new()
                     .num_threads(threads)
                     .build()
                     .expect("a thread pool");
-                pool.install(|| Bvh::build(&boxes, q)).expect("a build")
+                pool.install(|| Bvh::build_with(&boxes, q, costs))
+                    .expect("a build")
             };
             let (one, one_order) = build(1);
             check_structure(&one, &one_order, &boxes);

@@ -3,6 +3,7 @@
 
 use super::aabb::Aabb;
 use super::bvh::{BuildQuality, Bvh};
+use super::collapse::LeafCosts;
 use super::curve_basis::BezierSegment;
 use super::micromap::MicromapArrayData;
 use crate::decode::{self, BufferBytes};
@@ -25,6 +26,12 @@ pub trait MicromapLookup {
 pub trait GasEncoding: Clone + std::fmt::Debug + PartialEq + Send + Sync + 'static {
     /// Encodes a structure whose tree, per-slot geometry and records are built.
     fn encode(bvh: &Bvh, geometry: &Geometry, primitives: &[PrimitiveInfo]) -> Self;
+
+    /// How the backend's leaves over `geometry` cost, when it tests them a block of
+    /// primitives at a time; `None` (the default) prices leaves per primitive.
+    fn leaf_costs(_geometry: &Geometry) -> Option<LeafCosts> {
+        None
+    }
 
     /// Bytes the encoding occupies.
     fn size_in_bytes(&self) -> u64;
@@ -544,7 +551,8 @@ impl<E: GasEncoding> Gas<E> {
     ) -> Result<Gas<E>> {
         let decoded = decode_inputs(options, inputs, bytes, micromaps)?;
         let quality = BuildQuality::from_flags(options.flags);
-        let (bvh, order) = Bvh::build(&decoded.boxes, quality)?;
+        let leaf_costs = E::leaf_costs(&decoded.geometry);
+        let (bvh, order) = Bvh::build_with(&decoded.boxes, quality, leaf_costs)?;
         let (motion, _) = motion_of(options);
         let primitives: Vec<PrimitiveInfo> =
             order.iter().map(|&i| decoded.infos[i as usize]).collect();

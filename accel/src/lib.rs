@@ -25,6 +25,7 @@
 
 mod aabb;
 mod bvh;
+mod collapse;
 pub mod curve_basis;
 pub mod decode;
 mod gas;
@@ -35,6 +36,7 @@ pub mod widen;
 
 pub use aabb::Aabb;
 pub use bvh::{BuildQuality, Bvh, BvhNode};
+pub use collapse::LeafCosts;
 pub use decode::BufferBytes;
 pub use gas::{
     Curves, CustomPrimitives, Gas, GasEncoding, Geometry, MicromapLookup, MicromapRef,
