@@ -193,7 +193,12 @@ pub fn trace<S: Spec, H: Handler>(
     match scene.resolve(root) {
         Resolved::Null => {}
         Resolved::Invalid => walker.invalid_traversable(handler),
-        Resolved::Live(t) => walker.visit(t, &Path::root(ray), 1, handler),
+        Resolved::Live(t) => match &**t {
+            // A geometry root (every trace without instancing) is walked here: `visit` is a
+            // call, a depth check and a match more per ray (level 1 is within any limit).
+            Traversable::Geometry(g) => walker.gas(g, &Path::root(ray), handler),
+            _ => walker.visit(t, &Path::root(ray), 1, handler),
+        },
     }
 }
 
@@ -479,9 +484,9 @@ impl<S: Spec> Walker<'_, S> {
                 // Both tests run on the block's four lanes at once (bit for bit as
                 // their scalar forms).
                 let hits = if S::WATERTIGHT {
-                    triangle::watertight4(&wr, lanes_of_ray, block, lanes, tmin, h.t_max())
+                    triangle::watertight4(lanes_of_ray, block, lanes, tmin, h.t_max())
                 } else {
-                    triangle::moller_trumbore4(&wr, lanes_of_ray, block, lanes, tmin, h.t_max())
+                    triangle::moller_trumbore4(lanes_of_ray, block, lanes, tmin, h.t_max())
                 };
                 let mut mask = hits.mask;
                 while mask != 0 {

@@ -116,8 +116,6 @@ fn shear_of(dir: &[f32; 3], inv: &[f32; 3]) -> ([usize; 3], [f32; 3]) {
 /// mostly empty view never do, and the shear's divisions were a fifth of their trace.
 #[derive(Clone, Copy)]
 pub struct WideRay {
-    /// Origin, per axis, in four lanes (the triangle tests read it).
-    pub origin: [F4; 3],
     /// Origin.
     pub origin1: [f32; 3],
     /// Reciprocal of the canonical direction (`+∞` for zero components).
@@ -137,7 +135,6 @@ impl WideRay {
         let dir = canonical(dir);
         let inv = reciprocal(dir);
         WideRay {
-            origin: origin.map(F4::splat),
             origin1: origin,
             inv1: inv,
             negative: negative(dir),
@@ -149,7 +146,6 @@ impl WideRay {
     #[inline(always)]
     pub fn of(ray: &PreparedRay) -> WideRay {
         WideRay {
-            origin: ray.origin.map(F4::splat),
             origin1: ray.origin,
             inv1: ray.inv,
             negative: ray.negative,
@@ -176,6 +172,8 @@ impl WideRay {
 /// The constants of the 4-wide triangle tests for one ray, in all four lanes.
 #[derive(Clone, Copy)]
 pub struct TriangleLanes {
+    /// Origin, per axis (both tests read it).
+    pub origin: [F4; 3],
     /// Canonical direction, per axis (Möller–Trumbore's test reads it).
     pub dir: [F4; 3],
     /// The watertight test's shear constants (as [`PreparedRay::shear`]).
@@ -192,6 +190,7 @@ impl TriangleLanes {
         // across the stores that made them (a store-forwarding stall per ray).
         let (axes, shear) = shear_of(&ray.dir, &ray.inv1);
         TriangleLanes {
+            origin: ray.origin1.map(F4::splat),
             dir: ray.dir.map(F4::splat),
             shear: shear.map(F4::splat),
             axes,
@@ -203,6 +202,7 @@ impl TriangleLanes {
     #[inline(always)]
     pub fn for_moller_trumbore(ray: &WideRay) -> TriangleLanes {
         TriangleLanes {
+            origin: ray.origin1.map(F4::splat),
             dir: ray.dir.map(F4::splat),
             shear: [F4::splat(0.0); 3],
             axes: [0, 1, 2],
@@ -236,7 +236,7 @@ mod tests {
                 let l = TriangleLanes::new(&w);
                 let bits = |v: [f32; 3]| v.map(f32::to_bits);
                 let lane0 = |v: [F4; 3]| v.map(|x| x.to_array()[0].to_bits());
-                assert_eq!(lane0(w.origin), bits(p.origin), "{d:?}");
+                assert_eq!(lane0(l.origin), bits(p.origin), "{d:?}");
                 assert_eq!(bits(w.origin1), bits(p.origin), "{d:?}");
                 assert_eq!(bits(w.inv1), bits(p.inv), "{d:?}");
                 assert_eq!(w.negative, p.negative);

@@ -6,7 +6,7 @@
 //! seen from the origin). Degenerate triangles (zero area), triangles with NaN or infinite
 //! vertices and zero directions never hit; NaNs fall through every comparison to a miss.
 
-use super::ray::{PreparedRay, TriangleLanes, WideRay};
+use super::ray::{PreparedRay, TriangleLanes};
 use super::simd::F4;
 use crate::accel::wide::TriangleBlock;
 
@@ -133,7 +133,6 @@ impl BlockHits {
 /// test's. The ray must move (`WideRay::moves`).
 #[inline(always)]
 pub fn watertight4(
-    ray: &WideRay,
     lanes_of_ray: &TriangleLanes,
     block: &TriangleBlock,
     lanes: u32,
@@ -149,7 +148,7 @@ pub fn watertight4(
     };
     let [kx, ky, kz] = lanes_of_ray.axes;
     let [sx, sy, sz] = lanes_of_ray.shear;
-    let o = &ray.origin;
+    let o = &lanes_of_ray.origin;
     let rel = |v: usize, k: usize| F4::load(&block.vertices[v][k]) - o[k];
     let (a, b, c) = (
         [rel(0, kx), rel(0, ky), rel(0, kz)],
@@ -233,7 +232,6 @@ pub fn watertight4(
 /// replaces, as users expect of the option that gives up watertightness.
 #[inline(always)]
 pub fn moller_trumbore4(
-    ray: &WideRay,
     lanes_of_ray: &TriangleLanes,
     block: &TriangleBlock,
     lanes: u32,
@@ -271,7 +269,7 @@ pub fn moller_trumbore4(
     // product and the dot products, and there is one branch per block instead of four
     // (each value is the scalar test's; only the order of evaluation differs).
     let inv = one / det;
-    let s = sub4(ray.origin, v0);
+    let s = sub4(lanes_of_ray.origin, v0);
     let q = cross4(s, e1);
     let u = dot4(s, p) * inv;
     let v = dot4(lanes_of_ray.dir, q) * inv;
@@ -342,6 +340,7 @@ pub fn moller_trumbore(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::traversal::ray::WideRay;
 
     struct Rng(u64);
     impl Rng {
@@ -554,14 +553,7 @@ mod tests {
             };
             // The lanes as the traversal builds them: box lanes first, triangle lanes later.
             let w = WideRay::new(o, d);
-            let got = watertight4(
-                &w,
-                &TriangleLanes::new(&w),
-                &block(&tris),
-                lanes,
-                tmin,
-                tmax,
-            );
+            let got = watertight4(&TriangleLanes::new(&w), &block(&tris), lanes, tmin, tmax);
             let found =
                 assert_lanes_match(i, &tris, lanes, &got, |t| watertight(&r, t, tmin, tmax));
             hits += found;
@@ -599,7 +591,6 @@ mod tests {
             };
             let w = WideRay::new(o, d);
             let got = moller_trumbore4(
-                &w,
                 &TriangleLanes::for_moller_trumbore(&w),
                 &block(&tris),
                 lanes,
