@@ -67,8 +67,9 @@ struct Closest {
     hit: Option<(f32, u32, u32)>,
     candidates: u32,
     exceptions: Vec<i32>,
-    /// Every candidate's `(t bits, primitive)`, in the order the walk found them.
-    log: Vec<(u32, u32)>,
+    /// Every candidate's `(t, primitive, barycentrics)` (floats as bits), in the order the
+    /// walk found them.
+    log: Vec<(u32, u32, [u32; 2])>,
 }
 
 impl Closest {
@@ -92,7 +93,12 @@ impl Handler for Closest {
     }
     fn candidate<S: Spec>(&mut self, c: &Candidate<'_>, _: &Path, _: CandidateFate) {
         self.candidates += 1;
-        self.log.push((c.t.to_bits(), c.info.primitive_index));
+        let barycentrics = match c.data {
+            HitData::Triangle { barycentrics, .. } => barycentrics.map(f32::to_bits),
+            _ => [0; 2],
+        };
+        self.log
+            .push((c.t.to_bits(), c.info.primitive_index, barycentrics));
         assert!(c.t < self.tmax, "candidates lie before the committed hit");
         self.tmax = c.t;
         self.hit = Some((c.t, c.info.primitive_index, c.hit_kind));
@@ -448,8 +454,9 @@ fn trees_deeper_than_the_inline_stack_are_walked() {
 }
 
 /// The walk visits the same nodes in the same order with either node test (AVX's and the
-/// two 4-lane halves): the same candidates, in the same order, on a soup of random and
-/// exactly overlapping triangles (equal entry distances and equal hit distances).
+/// two 4-lane halves), and the leaves compiled for AVX test triangles as the SSE ones do:
+/// the same candidates (distances and barycentrics bit for bit), in the same order, on a
+/// soup of random and exactly overlapping triangles (equal entry and hit distances).
 #[test]
 fn node_tests_walk_in_the_same_order() {
     let mut rng = Rng(0xa5a5);
