@@ -10,12 +10,20 @@
 //! children are leaves becomes one leaf when
 //! `area(node) · leaf(n) ≤ area(node) · node + area(left) · leaf(n_l) + area(right) · leaf(n_r)`,
 //! `leaf(n) = visit + ceil(n / block)` (one block test costs 1), and `n ≤ max_prims`.
-//! The pass is serial and its result depends only on the tree it is given.
+//! The decisions go bottom-up, the rewrite top-down, both split between threads over the
+//! top `SPLIT_DEPTH` levels (rayon's current pool, as obvhs's own passes); the output layout
+//! is fixed by the tree alone (a node's children pair, then the left child's descendants,
+//! then the right's), so it is the same on any number of threads.
 
 use obvhs::bvh2::{Bvh2, node::Bvh2Node};
+use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
 
 /// The most primitives any leaf holds (obvhs's limit, which the backends' encodings share).
 const MAX_LEAF: u32 = 255;
+
+/// Levels split between threads (at most `2^SPLIT_DEPTH` tasks); below them a subtree is one
+/// task, walked with an explicit stack (trees can be deep).
+const SPLIT_DEPTH: u32 = 8;
 
 /// What a leaf and a node cost, in block tests.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,81 +47,220 @@ impl LeafCosts {
 /// Collapses `bvh`'s leaves by `costs` and rewrites it compactly (root at 0, children after
 /// their parent, primitives of a leaf in the left-to-right order of the subtree it replaces).
 pub fn collapse(bvh: &mut Bvh2, costs: LeafCosts) {
-    let nodes = &bvh.nodes;
-    if nodes.is_empty() || nodes[0].is_leaf() {
-        return;
-    }
-    // Post-order: every node after both its children.
-    let mut post = Vec::with_capacity(nodes.len());
-    let mut stack = vec![0usize];
-    while let Some(i) = stack.pop() {
-        post.push(i);
-        if !nodes[i].is_leaf() {
-            let c = nodes[i].first_index as usize;
-            stack.push(c);
-            stack.push(c + 1);
-        }
-    }
-    // counts[i]: primitives under i if i is (or became) a leaf, 0 if it stays inner.
-    let mut counts = vec![0u32; nodes.len()];
-    for &i in post.iter().rev() {
-        let n = &nodes[i];
-        if n.is_leaf() {
-            counts[i] = n.prim_count;
-            continue;
-        }
-        let c = n.first_index as usize;
-        let (l, r) = (counts[c], counts[c + 1]);
-        let total = l + r;
-        if l == 0 || r == 0 || total > costs.max_prims.min(MAX_LEAF) {
-            continue;
-        }
-        let merged = n.aabb().half_area() * costs.leaf(total);
-        let split = n.aabb().half_area() * costs.node
-            + nodes[c].aabb().half_area() * costs.leaf(l)
-            + nodes[c + 1].aabb().half_area() * costs.leaf(r);
-        if merged <= split {
-            counts[i] = total;
-        }
-    }
-    // Re-emit: a collapsed node becomes a leaf over its subtree's primitives.
-    let mut out_nodes: Vec<Bvh2Node> = Vec::with_capacity(nodes.len());
-    let mut out_prims: Vec<u32> = Vec::with_capacity(bvh.primitive_indices.len());
-    out_nodes.push(nodes[0]);
-    let mut todo = vec![(0usize, 0usize)];
-    let mut gather = Vec::new();
-    while let Some((src, dst)) = todo.pop() {
-        let n = nodes[src];
-        if counts[src] > 0 {
-            let first = out_prims.len() as u32;
-            gather.push(src);
-            while let Some(j) = gather.pop() {
-                let m = &nodes[j];
-                if m.is_leaf() {
-                    let k = m.first_index as usize;
-                    out_prims
-                        .extend_from_slice(&bvh.primitive_indices[k..k + m.prim_count as usize]);
-                } else {
-                    gather.push(m.first_index as usize + 1);
-                    gather.push(m.first_index as usize);
-                }
-            }
-            out_nodes[dst] = Bvh2Node::new(*n.aabb(), out_prims.len() as u32 - first, first);
-        } else {
-            let c = out_nodes.len();
-            out_nodes.push(nodes[n.first_index as usize]);
-            out_nodes.push(nodes[n.first_index as usize + 1]);
-            out_nodes[dst] = Bvh2Node::new(*n.aabb(), 0, c as u32);
-            todo.push((n.first_index as usize + 1, c + 1));
-            todo.push((n.first_index as usize, c));
-        }
-    }
-    bvh.nodes = out_nodes;
-    bvh.primitive_indices = out_prims;
-    bvh.parents.clear();
-    bvh.primitives_to_nodes.clear();
+    collapse_split(bvh, costs, SPLIT_DEPTH)
 }
 
+/// [`collapse`], split between threads over the top `split` levels.
+fn collapse_split(bvh: &mut Bvh2, costs: LeafCosts, split: u32) {
+    if bvh.nodes.is_empty() || bvh.nodes[0].is_leaf() {
+        return;
+    }
+    let per_node = || (0..bvh.nodes.len()).map(|_| AtomicU32::new(0)).collect();
+    let pass = Pass {
+        nodes: &bvh.nodes,
+        prims: &bvh.primitive_indices,
+        costs,
+        split,
+        leaf: per_node(),
+        below: per_node(),
+        under: per_node(),
+    };
+    pass.decide(0, 0);
+    let mut nodes = vec![Bvh2Node::default(); 1 + pass.get(&pass.below, 0) as usize];
+    let mut prims = vec![0u32; pass.get(&pass.under, 0) as usize];
+    let (root, below_root) = nodes.split_at_mut(1);
+    root[0] = pass.emit(0, below_root, 1, &mut prims, 0, 0);
+    bvh.nodes = nodes;
+    bvh.primitive_indices = prims;
+    bvh.parents.clear();
+    bvh.primitives_to_nodes.clear();
+    bvh.children_are_ordered_after_parents = true;
+}
+
+/// One collapse: the tree read, and per node (each written by one task) what the rewrite
+/// needs.
+struct Pass<'a> {
+    nodes: &'a [Bvh2Node],
+    prims: &'a [u32],
+    costs: LeafCosts,
+    /// Levels split between threads.
+    split: u32,
+    /// Its primitives if the node is (or becomes) a leaf, else 0.
+    leaf: Vec<AtomicU32>,
+    /// Output nodes below it.
+    below: Vec<AtomicU32>,
+    /// Primitives below it.
+    under: Vec<AtomicU32>,
+}
+
+impl Pass<'_> {
+    fn get(&self, v: &[AtomicU32], i: usize) -> u32 {
+        v[i].load(Relaxed)
+    }
+
+    /// Decides the subtree of `i` (at `depth`), children before parents.
+    fn decide(&self, i: usize, depth: u32) {
+        if depth >= self.split || self.nodes[i].is_leaf() {
+            return self.decide_serially(i);
+        }
+        let c = self.nodes[i].first_index as usize;
+        rayon::join(
+            || self.decide(c, depth + 1),
+            || self.decide(c + 1, depth + 1),
+        );
+        self.decide_node(i);
+    }
+
+    fn decide_serially(&self, root: usize) {
+        // Pre-order, then decided in reverse: every node after both its children.
+        let mut order = Vec::new();
+        let mut stack = vec![root];
+        while let Some(i) = stack.pop() {
+            order.push(i as u32);
+            let n = &self.nodes[i];
+            if !n.is_leaf() {
+                stack.extend([n.first_index as usize, n.first_index as usize + 1]);
+            }
+        }
+        for &i in order.iter().rev() {
+            self.decide_node(i as usize);
+        }
+    }
+
+    /// The rule of the module docs for node `i`, whose children are decided.
+    fn decide_node(&self, i: usize) {
+        let n = &self.nodes[i];
+        if n.is_leaf() {
+            self.leaf[i].store(n.prim_count, Relaxed);
+            self.under[i].store(n.prim_count, Relaxed);
+            return;
+        }
+        let c = n.first_index as usize;
+        let (l, r) = (self.get(&self.leaf, c), self.get(&self.leaf, c + 1));
+        let total = self.get(&self.under, c) + self.get(&self.under, c + 1);
+        self.under[i].store(total, Relaxed);
+        if l > 0 && r > 0 && total <= self.costs.max_prims.min(MAX_LEAF) {
+            let costs = &self.costs;
+            let merged = n.aabb().half_area() * costs.leaf(total);
+            let split = n.aabb().half_area() * costs.node
+                + self.nodes[c].aabb().half_area() * costs.leaf(l)
+                + self.nodes[c + 1].aabb().half_area() * costs.leaf(r);
+            if merged <= split {
+                self.leaf[i].store(total, Relaxed);
+                return;
+            }
+        }
+        let below = 2 + self.get(&self.below, c) + self.get(&self.below, c + 1);
+        self.below[i].store(below, Relaxed);
+    }
+
+    /// Writes the nodes below `i` to `region` (output index `base` onwards) and its
+    /// primitives to `prims` (from `prim_base`); returns `i`'s own output node.
+    fn emit(
+        &self,
+        i: usize,
+        region: &mut [Bvh2Node],
+        base: usize,
+        prims: &mut [u32],
+        prim_base: u32,
+        depth: u32,
+    ) -> Bvh2Node {
+        let own = self.output_node(i, base, prims, 0, prim_base);
+        if own.is_leaf() {
+            return own;
+        }
+        if depth >= self.split {
+            self.emit_serially(i, region, base, prims, prim_base);
+            return own;
+        }
+        let c = self.nodes[i].first_index as usize;
+        let (pair, rest) = region.split_at_mut(2);
+        let (left, right) = rest.split_at_mut(self.get(&self.below, c) as usize);
+        let (left_prims, right_prims) = prims.split_at_mut(self.get(&self.under, c) as usize);
+        let right_base = base + 2 + left.len();
+        let right_prim_base = prim_base + left_prims.len() as u32;
+        let (a, b) = rayon::join(
+            || self.emit(c, left, base + 2, left_prims, prim_base, depth + 1),
+            || {
+                self.emit(
+                    c + 1,
+                    right,
+                    right_base,
+                    right_prims,
+                    right_prim_base,
+                    depth + 1,
+                )
+            },
+        );
+        pair[0] = a;
+        pair[1] = b;
+        own
+    }
+
+    /// [`Pass::emit`] for an inner node, on one thread.
+    fn emit_serially(
+        &self,
+        root: usize,
+        region: &mut [Bvh2Node],
+        base: usize,
+        prims: &mut [u32],
+        prim_base: u32,
+    ) {
+        // (inner node, output index of its children pair, its first primitive)
+        let mut stack = vec![(root, base, prim_base)];
+        while let Some((i, pair, first_prim)) = stack.pop() {
+            let c = self.nodes[i].first_index as usize;
+            let left_below = pair + 2;
+            let right_below = left_below + self.get(&self.below, c) as usize;
+            let right_prim = first_prim + self.get(&self.under, c);
+            for (k, below, prim) in [
+                (c, left_below, first_prim),
+                (c + 1, right_below, right_prim),
+            ] {
+                let node = self.output_node(k, below, prims, prim - prim_base, prim);
+                region[pair - base + k - c] = node;
+                if !node.is_leaf() {
+                    stack.push((k, below, prim));
+                }
+            }
+        }
+    }
+
+    /// Node `i`'s output: a leaf with its subtree's primitives copied to `prims[at..]`
+    /// (output index `prim`), or an inner node whose children pair is at `pair`.
+    fn output_node(
+        &self,
+        i: usize,
+        pair: usize,
+        prims: &mut [u32],
+        at: u32,
+        prim: u32,
+    ) -> Bvh2Node {
+        let n = &self.nodes[i];
+        let count = self.get(&self.leaf, i);
+        if count == 0 {
+            return Bvh2Node::new(*n.aabb(), 0, pair as u32);
+        }
+        self.gather(i, prims, at as usize);
+        Bvh2Node::new(*n.aabb(), count, prim)
+    }
+
+    /// Copies the primitives of subtree `i`'s leaves, left to right, to `prims[at..]`;
+    /// returns where they end. Recursive: a subtree that becomes one leaf holds at most 255
+    /// primitives, so it is at most 255 levels deep.
+    fn gather(&self, i: usize, prims: &mut [u32], at: usize) -> usize {
+        let n = &self.nodes[i];
+        if n.is_leaf() {
+            let k = n.first_index as usize;
+            let src = &self.prims[k..k + n.prim_count as usize];
+            prims[at..at + src.len()].copy_from_slice(src);
+            return at + src.len();
+        }
+        let c = n.first_index as usize;
+        let at = self.gather(c, prims, at);
+        self.gather(c + 1, prims, at)
+    }
+}
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -194,6 +341,52 @@ mod tests {
         let mut over = two_leaves(cube(0.0, 1.0), 5, cube(0.0, 1.0), 4);
         collapse(&mut over, COSTS);
         assert_eq!(leaves(&over), vec![5, 4]);
+    }
+
+    /// The split rewrite (tasks over the top levels) and the serial one give the same
+    /// tree: a deep random tree (obvhs's, over 20 000 boxes) collapsed with every split
+    /// depth from none to deeper than the tree.
+    #[test]
+    fn split_and_serial_rewrites_agree() {
+        let mut state = 3u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let boxes: Vec<obvhs::aabb::Aabb> = (0..20_000)
+            .map(|_| {
+                let c = [next() * 50.0, next() * 50.0, next() * 50.0];
+                let e = [next(), next(), next()];
+                Aabb {
+                    min: c,
+                    max: [c[0] + e[0], c[1] + e[1], c[2] + e[2]],
+                }
+                .to_obvhs()
+            })
+            .collect();
+        let built = obvhs::ploc::PlocBuilder::with_capacity(boxes.len()).build(
+            obvhs::ploc::PlocSearchDistance::Minimum,
+            &boxes,
+            (0..boxes.len() as u32).collect(),
+            obvhs::ploc::SortPrecision::U64,
+            1,
+        );
+        let bytes = |b: &Bvh2| {
+            (
+                bytemuck::cast_slice::<Bvh2Node, u8>(&b.nodes).to_vec(),
+                b.primitive_indices.clone(),
+            )
+        };
+        let mut serial = built.clone();
+        collapse_split(&mut serial, COSTS, 0);
+        assert!(serial.nodes.len() < built.nodes.len(), "leaves merged");
+        for split in [1, 3, SPLIT_DEPTH, 40] {
+            let mut split_tree = built.clone();
+            collapse_split(&mut split_tree, COSTS, split);
+            assert!(bytes(&split_tree) == bytes(&serial), "split depth {split}");
+        }
     }
 
     /// Merges climb: a merged pair merges again with its sibling when that pays, and the
