@@ -40,7 +40,7 @@ pub const BLOCK_WIDTH: usize = 4;
 /// a leaf costs its blocks (not its triangles), entering it nothing more, a binary node 0.3
 /// of a block test (three binary levels make one 8-wide step), up to six blocks a leaf.
 /// Chosen by measurement (docs/cpu-backend.md, "Leaves priced by the block"): on the
-/// Breakfast Room 12–17 % faster than obvhs's per-triangle pricing, the bunny within noise;
+/// Breakfast Room 14–20 % faster than obvhs's per-triangle pricing, the bunny within 3 %;
 /// node costs from 0.25 to 0.45 all land within 3 % of each other.
 pub const TRIANGLE_LEAF_COSTS: LeafCosts = LeafCosts {
     block: BLOCK_WIDTH as u32,
