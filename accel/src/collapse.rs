@@ -61,7 +61,6 @@ fn collapse_split(bvh: &mut Bvh2, costs: LeafCosts, split: u32) {
         prims: &bvh.primitive_indices,
         costs,
         split,
-        leaf: per_node(),
         below: per_node(),
         under: per_node(),
     };
@@ -85,9 +84,7 @@ struct Pass<'a> {
     costs: LeafCosts,
     /// Levels split between threads.
     split: u32,
-    /// Its primitives if the node is (or becomes) a leaf, else 0.
-    leaf: Vec<AtomicU32>,
-    /// Output nodes below it.
+    /// Output nodes below it: 0 exactly when it is (or becomes) a leaf.
     below: Vec<AtomicU32>,
     /// Primitives below it.
     under: Vec<AtomicU32>,
@@ -96,6 +93,15 @@ struct Pass<'a> {
 impl Pass<'_> {
     fn get(&self, v: &[AtomicU32], i: usize) -> u32 {
         v[i].load(Relaxed)
+    }
+
+    /// Node `i`'s primitives if it is (or becomes) a leaf, else 0 (decided nodes only).
+    fn leaf_prims(&self, i: usize) -> u32 {
+        if self.get(&self.below, i) == 0 {
+            self.get(&self.under, i)
+        } else {
+            0
+        }
     }
 
     /// Decides the subtree of `i` (at `depth`), children before parents.
@@ -131,12 +137,11 @@ impl Pass<'_> {
     fn decide_node(&self, i: usize) {
         let n = &self.nodes[i];
         if n.is_leaf() {
-            self.leaf[i].store(n.prim_count, Relaxed);
             self.under[i].store(n.prim_count, Relaxed);
             return;
         }
         let c = n.first_index as usize;
-        let (l, r) = (self.get(&self.leaf, c), self.get(&self.leaf, c + 1));
+        let (l, r) = (self.leaf_prims(c), self.leaf_prims(c + 1));
         let total = self.get(&self.under, c) + self.get(&self.under, c + 1);
         self.under[i].store(total, Relaxed);
         if l > 0 && r > 0 && total <= self.costs.max_prims.min(MAX_LEAF) {
@@ -146,7 +151,7 @@ impl Pass<'_> {
                 + self.nodes[c].aabb().half_area() * costs.leaf(l)
                 + self.nodes[c + 1].aabb().half_area() * costs.leaf(r);
             if merged <= split {
-                self.leaf[i].store(total, Relaxed);
+                // A leaf now: nothing below it (`below` stays 0).
                 return;
             }
         }
@@ -237,7 +242,7 @@ impl Pass<'_> {
         prim: u32,
     ) -> Bvh2Node {
         let n = &self.nodes[i];
-        let count = self.get(&self.leaf, i);
+        let count = self.leaf_prims(i);
         if count == 0 {
             return Bvh2Node::new(*n.aabb(), 0, pair as u32);
         }

@@ -442,7 +442,7 @@ impl<S: Spec> Walker<'_, S> {
             return;
         }
         #[cfg(target_arch = "x86_64")]
-        if slab::has_avx() && !tests_want_halves() {
+        if walks_with_avx() {
             // SAFETY: the CPU has AVX and the bit-counting instructions `walk_wide_avx`
             // enables.
             return unsafe { walk_wide_avx::<S, H>(wide, ray, tmin, h, leaf) };
@@ -471,7 +471,7 @@ impl<S: Spec> Walker<'_, S> {
         let mut lanes_of_ray: Option<TriangleLanes> = None;
         // The walk and the leaves compiled for AVX where the CPU has it, chosen once.
         #[cfg(target_arch = "x86_64")]
-        if slab::has_avx() && !tests_want_halves() {
+        if walks_with_avx() {
             if wide.nodes.is_empty() {
                 return;
             }
@@ -753,6 +753,14 @@ fn walk_wide_avx<S: Spec, H: Handler>(
     // by `slab::has_avx`).
     let test = unsafe { slab::Avx::new(ray, tmin, S::CONSERVATIVE) };
     walk_wide_on(wide, test, tmin, h, leaf)
+}
+
+/// Whether walks (and their triangle leaves) run compiled for AVX: the CPU has it, and no
+/// test asked for the 4-lane halves.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn walks_with_avx() -> bool {
+    slab::has_avx() && !tests_want_halves()
 }
 
 #[cfg(test)]
