@@ -44,9 +44,12 @@ pub const NO_HIT: u32 = u32::MAX;
 /// The programs: the ray layout above in, the hit record out.
 pub const PROGRAMS: &str = r#"
 struct Params { scene: vec2<u32>, count: u32, width: u32 }
+// A ray as two vectors (origin, tmin; direction, tmax) and a hit as one struct: each is read
+// or written with one bounds check instead of one per word.
+struct Hit { t: u32, prim: u32, inst: u32, u: u32, v: u32 }
 @group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> rays: array<f32>;
-@group(0) @binding(2) var<storage, read_write> hits: array<u32>;
+@group(0) @binding(1) var<storage, read> rays: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> hits: array<Hit>;
 
 const MISS_T: u32 = 0x7f800000u;      // +inf
 const NO_PRIMITIVE: u32 = 0xFFFFFFFFu;
@@ -55,9 +58,8 @@ fn raygen__cast() {
     let id = rt_launch_index();
     let i = id.y * params.width + id.x;
     if i >= params.count { return; }
-    let b = i * 8u;
-    let origin = vec3<f32>(rays[b], rays[b + 1u], rays[b + 2u]);
-    let direction = vec3<f32>(rays[b + 4u], rays[b + 5u], rays[b + 6u]);
+    let start = rays[2u * i];
+    let along = rays[2u * i + 1u];
     // Invalid rays run no program (DESIGN.md §4): the payload keeps these miss values.
     var p: RtPayload;
     p[0] = MISS_T;
@@ -65,14 +67,9 @@ fn raygen__cast() {
     p[2] = NO_PRIMITIVE;
     p[3] = 0u;
     p[4] = 0u;
-    rt_trace(params.scene, origin, direction, rays[b + 3u], rays[b + 7u], 0.0,
+    rt_trace(params.scene, start.xyz, along.xyz, start.w, along.w, 0.0,
              0xFFu, RT_RAY_FLAG_DISABLE_ANYHIT, 0u, 1u, 0u, &p);
-    let o = i * 5u;
-    hits[o] = p[0];
-    hits[o + 1u] = p[1];
-    hits[o + 2u] = p[2];
-    hits[o + 3u] = p[3];
-    hits[o + 4u] = p[4];
+    hits[i] = Hit(p[0], p[1], p[2], p[3], p[4]);
 }
 
 fn closesthit__record() {
