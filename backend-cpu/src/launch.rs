@@ -8,7 +8,7 @@ use crate::program::abi::Bindings;
 use crate::sbt::ResolvedSbt;
 use crate::traversal::TraceConfig;
 use optik_api::{FeatureSet, PipelineLinkOptions};
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::AtomicU32;
 
 /// Launch indices one rayon task runs: enough to make scheduling cheap per ray, few enough
 /// to balance rays of very different cost over the threads.
@@ -49,15 +49,11 @@ pub(crate) fn run(shared: &LaunchShared<'_>, pool: &rayon::ThreadPool) {
                 // divisions per invocation cost more than the rest of a missed ray's launch
                 // bookkeeping).
                 let f = first as u64;
-                let mut index = [(f % w) as u32, ((f / w) % h) as u32, (f / (w * h)) as u32];
-                let mut invocation = Invocation::new(shared);
-                for _ in first..(first + INDICES_PER_TASK).min(count) {
-                    if shared.stop.load(Ordering::Relaxed) != 0 {
-                        return;
-                    }
-                    invocation.run_raygen(index, raygen);
-                    index = next_index(index, w as u32, h as u32);
-                }
+                let index = [(f % w) as u32, ((f / w) % h) as u32, (f / (w * h)) as u32];
+                let indices = (first + INDICES_PER_TASK).min(count) - first;
+                Invocation::new(shared).run_raygens(raygen, index, indices, |i| {
+                    next_index(i, w as u32, h as u32)
+                });
             })
     });
 }

@@ -156,7 +156,7 @@ impl ProgramCode {
     }
 }
 
-impl Callable<'_> {
+impl<'l> Callable<'l> {
     /// Runs the program with the launch's bindings; `state` is what `calls.state()`
     /// returns (compiled programs read it without asking), `trace` the runtime's own
     /// `rt_trace` for `calls` (compiled programs call it instead of `calls.trace`).
@@ -181,6 +181,33 @@ impl Callable<'_> {
         }
     }
 
+    /// The program ready for many calls in a row by one invocation with the same
+    /// `bindings`, `state`, `stop` flag and `trace` entry (as [`Callable::call`] takes them):
+    /// compiled code gets its call context built once. `calls` is the first caller.
+    #[inline]
+    pub fn repeated(
+        self,
+        bindings: &'l Bindings<'l>,
+        calls: &mut (dyn DeviceCalls + 'l),
+        state: *const crate::program::abi::DeviceState,
+        stop: *const std::sync::atomic::AtomicU32,
+        trace: crate::program::abi::TraceEntry,
+    ) -> RepeatedCallable<'l> {
+        #[cfg(feature = "jit")]
+        if let Callable::Jit(f, prepared) = self
+            && let Some(call) = f.repeated(prepared, calls, state, stop, Some(trace))
+        {
+            return RepeatedCallable::Jit(call);
+        }
+        let _ = (calls, stop);
+        RepeatedCallable::Each {
+            program: self,
+            bindings,
+            state,
+            trace,
+        }
+    }
+
     /// Whether calling the program has no effect (an empty WGSL program), so it can be
     /// skipped.
     #[inline]
@@ -200,6 +227,39 @@ impl Callable<'_> {
             #[cfg(feature = "jit")]
             Callable::Jit(f, _) => f.state_bits(),
             Callable::Native(_) => 0,
+        }
+    }
+}
+
+/// A program called many times in a row by one invocation ([`Callable::repeated`]).
+pub enum RepeatedCallable<'l> {
+    /// Compiled code with its call context built once.
+    #[cfg(feature = "jit")]
+    Jit(crate::program::RepeatedCall<'l>),
+    /// A native program (or compiled code whose bindings are laid out per call): each call
+    /// is a [`Callable::call`].
+    Each {
+        program: Callable<'l>,
+        bindings: &'l Bindings<'l>,
+        state: *const crate::program::abi::DeviceState,
+        trace: crate::program::abi::TraceEntry,
+    },
+}
+
+impl<'l> RepeatedCallable<'l> {
+    /// Runs the program once for `calls` (whose state and stop flag are the ones given to
+    /// [`Callable::repeated`]).
+    #[inline]
+    pub fn call(&mut self, calls: &mut (dyn DeviceCalls + 'l)) {
+        match self {
+            #[cfg(feature = "jit")]
+            RepeatedCallable::Jit(call) => call.call(calls),
+            RepeatedCallable::Each {
+                program,
+                bindings,
+                state,
+                trace,
+            } => program.call(bindings, calls, *state, *trace),
         }
     }
 }

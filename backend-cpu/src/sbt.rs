@@ -35,6 +35,20 @@ impl<'l> RecordPrograms<'l> {
 pub(crate) struct Record<'l> {
     pub programs: RecordPrograms<'l>,
     pub data: Vec<u8>,
+    /// Whether `programs.main` exists and does something: asked once here rather than per
+    /// trace (most camera rays miss, and a miss program that keeps the payload is common).
+    pub main_runs: bool,
+}
+
+impl<'l> Record<'l> {
+    fn new(programs: RecordPrograms<'l>, data: Vec<u8>) -> Record<'l> {
+        let main_runs = programs.main.is_some_and(|p| !p.does_nothing());
+        Record {
+            programs,
+            data,
+            main_runs,
+        }
+    }
 }
 
 impl Record<'_> {
@@ -101,10 +115,10 @@ impl<'l> Reader<'_, 'l> {
         let start = offset as usize;
         let data_start = start + SBT_RECORD_HEADER_SIZE as usize;
         let data_end = (data_start + data_len.min(self.max_data)).min(bytes.len());
-        Ok(Record {
-            programs: RecordPrograms::of(&group.programs, self.prepared)?,
-            data: bytes[data_start..data_end].to_vec(),
-        })
+        Ok(Record::new(
+            RecordPrograms::of(&group.programs, self.prepared)?,
+            bytes[data_start..data_end].to_vec(),
+        ))
     }
 
     fn region(
@@ -170,9 +184,6 @@ pub(crate) fn resolve<'l>(
         miss: r.region("sbt.miss", &table.miss, GroupRegion::Miss)?,
         hitgroup: r.region("sbt.hitgroup", &table.hitgroup, GroupRegion::HitGroup)?,
         callables: r.region("sbt.callables", &table.callables, GroupRegion::Callables)?,
-        null_hit: Record {
-            programs: RecordPrograms::default(),
-            data: Vec::new(),
-        },
+        null_hit: Record::new(RecordPrograms::default(), Vec::new()),
     })
 }

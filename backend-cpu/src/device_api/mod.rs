@@ -136,6 +136,82 @@ impl View<'_> {
     };
 }
 
+/// What programs query, from the view alone (the `DeviceCalls` getters and the state
+/// `fill_state` writes both read these).
+impl View<'_> {
+    #[inline(always)]
+    fn ray(&self) -> &TraceRay {
+        // SAFETY: a view's ray is `NO_RAY` or the ray of the trace that runs the program,
+        // in the frame of `trace_ray`, which outlives the program.
+        unsafe { &*self.ray }
+    }
+
+    #[inline(always)]
+    fn hit(&self) -> Option<&HitState> {
+        // SAFETY: a view's hit is kept alive by the caller of the program's `run` for as
+        // long as the program runs (see `View::hit`).
+        unsafe { self.hit.as_ref() }
+    }
+
+    /// The instances above the hit, if any.
+    #[inline(always)]
+    fn path(&self) -> Option<&Path> {
+        // SAFETY: as for the hit (see `View::path`).
+        unsafe { self.path.as_ref() }
+    }
+
+    #[inline(always)]
+    fn object_ray(&self) -> ([f32; 3], [f32; 3]) {
+        match self.path() {
+            Some(p) => (p.object_origin, p.object_direction),
+            None => (self.ray().origin, self.ray().direction),
+        }
+    }
+
+    #[inline(always)]
+    fn primitive_index(&self) -> u32 {
+        self.hit().map_or(0, |h| h.primitive_index)
+    }
+
+    #[inline(always)]
+    fn sbt_gas_index(&self) -> u32 {
+        self.hit().map_or(0, |h| h.sbt_gas_index)
+    }
+
+    #[inline(always)]
+    fn instance_id(&self) -> u32 {
+        self.path().map_or(0, |p| p.instance_id)
+    }
+
+    #[inline(always)]
+    fn instance_index(&self) -> u32 {
+        self.path().map_or(0, |p| p.instance_index)
+    }
+
+    #[inline(always)]
+    fn hit_kind(&self) -> u32 {
+        self.hit().map_or(0, |h| h.hit_kind)
+    }
+
+    #[inline(always)]
+    fn triangle_barycentrics(&self) -> [f32; 2] {
+        match self.hit().and_then(|h| h.data) {
+            Some(HitData::Triangle { barycentrics, .. }) => barycentrics,
+            _ => [0.0; 2],
+        }
+    }
+
+    #[inline(always)]
+    fn object_to_world(&self) -> [f32; 12] {
+        self.path().map_or(IDENTITY_3X4, |p| p.object_to_world)
+    }
+
+    #[inline(always)]
+    fn world_to_object(&self) -> [f32; 12] {
+        self.path().map_or(IDENTITY_3X4, |p| p.world_to_object)
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum AnyHitOutcome {
     Accept,
@@ -267,25 +343,67 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec>(
 }
 
 impl<'l> Invocation<'l> {
-    /// Runs launch index `index`: its ray generation program `raygen`, and everything that
-    /// calls.
+    /// Runs `count` launch indices from `index` (a launch task's, stepped by `next`): the
+    /// ray generation program `raygen` for each, and everything that calls, until the
+    /// launch's stop flag is raised.
     ///
-    /// An invocation runs one launch index after another (a launch task's), so it is set
-    /// up once per task: every run leaves it as it found it (depths, the innermost view,
-    /// trace and payload are restored on the way out) but for `ending`, reset here.
-    #[inline]
-    pub(crate) fn run_raygen(&mut self, index: [u32; 3], raygen: Callable<'l>) {
-        self.index = index;
-        self.ending = false;
-        let view = View {
+    /// The program's view, state and call context are built once for the task (they are
+    /// the same for every index but the index, written per run): every run leaves the
+    /// invocation as it found it (depths, the innermost view, trace and payload are
+    /// restored on the way out) but for `ending`, reset per index.
+    pub(crate) fn run_raygens(
+        &mut self,
+        raygen: Callable<'l>,
+        mut index: [u32; 3],
+        count: usize,
+        next: impl Fn([u32; 3]) -> [u32; 3],
+    ) {
+        let shared = self.shared;
+        if raygen.does_nothing() {
+            return;
+        }
+        let mut view = View {
             kind: ProgramKind::Raygen,
-            record: Some(&self.shared.sbt.raygen),
+            record: Some(&shared.sbt.raygen),
             ..View::EMPTY
         };
-        self.run(raygen, view);
+        // Compiled code reads the state through a raw pointer: only written fields are read.
+        let mut state = std::mem::MaybeUninit::<DeviceState>::uninit();
+        self.view = &mut view;
+        self.state = state.as_mut_ptr();
+        let bits = raygen.state_bits();
+        let stop = shared.stop;
+        let mut call = raygen.repeated(
+            shared.bindings,
+            self,
+            state.as_ptr(),
+            stop,
+            shared.trace.entry,
+        );
+        // Everything in the state but the launch index is the same for the whole task.
+        self.index = index;
+        self.fill_state(bits);
+        for _ in 0..count {
+            if stop.load(std::sync::atomic::Ordering::Relaxed) != 0 {
+                break;
+            }
+            // Word by word (`traversal::words`): `next` stored the index one word at a time
+            // (an 8-byte read across two of those stores stalls every launch index).
+            self.index = traversal::words(&index);
+            self.ending = false;
+            if bits & DeviceState::LAUNCH_INDEX != 0 {
+                // SAFETY: `state` is the program's state (set above), written word by word
+                // as `fill_state` does.
+                unsafe { (*self.state).launch_index = traversal::words(&self.index) };
+            }
+            call.call(self);
+            index = next(index);
+        }
+        self.view = std::ptr::null_mut();
+        self.state = std::ptr::null_mut();
     }
 
-    /// An invocation for the launch indices of one task ([`Invocation::run_raygen`]).
+    /// An invocation for the launch indices of one task ([`Invocation::run_raygens`]).
     pub(crate) fn new(shared: &'l LaunchShared<'l>) -> Invocation<'l> {
         Invocation {
             shared,
@@ -321,9 +439,7 @@ impl<'l> Invocation<'l> {
     /// The ray the running program sees.
     #[inline]
     fn ray(&self) -> &TraceRay {
-        // SAFETY: a view's ray is `NO_RAY` or the ray of the trace that runs the program,
-        // in the frame of `trace_ray`, which outlives the program.
-        unsafe { &*self.view().ray }
+        self.view().ray()
     }
 
     /// The innermost trace's ray.
@@ -419,19 +535,23 @@ impl<'l> Invocation<'l> {
         type S = DeviceState;
         // SAFETY (every write below): as in `fill_state`.
         let s = self.state;
+        // A copy of the view: the writes below go through a raw pointer the compiler cannot
+        // tell from the view it points to, so reading `self.view` between them repeats its
+        // loads (and null checks) after every write (~50 instructions a closest hit).
+        let view = *self.view();
         if bits & S::WORLD_RAY != 0 {
             // The ray's words were stored one by one by the trace (as the launch index).
             unsafe {
-                (*s).world_ray_origin = traversal::words(&self.ray().origin);
-                (*s).world_ray_direction = traversal::words(&self.ray().direction);
+                (*s).world_ray_origin = traversal::words(&view.ray().origin);
+                (*s).world_ray_direction = traversal::words(&view.ray().direction);
             }
         }
         if bits & S::OBJECT_RAY != 0 {
-            let (origin, direction) = match self.path() {
+            let (origin, direction) = match view.path() {
                 Some(p) => (p.object_origin, p.object_direction),
                 None => (
-                    traversal::words(&self.ray().origin),
-                    traversal::words(&self.ray().direction),
+                    traversal::words(&view.ray().origin),
+                    traversal::words(&view.ray().direction),
                 ),
             };
             unsafe {
@@ -440,32 +560,42 @@ impl<'l> Invocation<'l> {
             }
         }
         if bits & S::RAY != 0 {
+            let ray = view.ray();
+            let (tmin, time, flags, mask) = (ray.tmin, ray.time, ray.flags.0, ray.mask);
             unsafe {
-                (*s).ray_tmin = self.ray_tmin();
-                (*s).ray_tmax = self.ray_tmax();
-                (*s).ray_time = self.ray_time();
-                (*s).ray_flags = self.ray_flags();
-                (*s).ray_mask = self.ray_mask();
+                (*s).ray_tmin = tmin;
+                (*s).ray_tmax = view.tmax;
+                (*s).ray_time = time;
+                (*s).ray_flags = flags;
+                (*s).ray_mask = mask;
             }
         }
         if bits & S::PRIMITIVE != 0 {
+            let values = (
+                view.primitive_index(),
+                view.sbt_gas_index(),
+                view.instance_id(),
+                view.instance_index(),
+            );
             unsafe {
-                (*s).primitive_index = self.primitive_index();
-                (*s).sbt_gas_index = self.sbt_gas_index();
-                (*s).instance_id = self.instance_id();
-                (*s).instance_index = self.instance_index();
+                (*s).primitive_index = values.0;
+                (*s).sbt_gas_index = values.1;
+                (*s).instance_id = values.2;
+                (*s).instance_index = values.3;
             }
         }
         if bits & S::HIT != 0 {
+            let (kind, barycentrics) = (view.hit_kind(), view.triangle_barycentrics());
             unsafe {
-                (*s).hit_kind = self.hit_kind();
-                (*s).triangle_barycentrics = self.triangle_barycentrics();
+                (*s).hit_kind = kind;
+                (*s).triangle_barycentrics = barycentrics;
             }
         }
         if bits & S::TRANSFORMS != 0 {
+            let (o2w, w2o) = (view.object_to_world(), view.world_to_object());
             unsafe {
-                (*s).object_to_world = self.object_to_world();
-                (*s).world_to_object = self.world_to_object();
+                (*s).object_to_world = o2w;
+                (*s).world_to_object = w2o;
             }
         }
         if bits & S::TRACE_DEPTH != 0 {
@@ -488,10 +618,8 @@ impl<'l> Invocation<'l> {
             .get(sbt_index::miss_record_index(miss_index) as usize)
         {
             Some(record) => {
-                if let Some(ms) = record.programs.main
-                    && !ms.does_nothing()
-                {
-                    self.miss(ms, record, world);
+                if record.main_runs {
+                    self.miss(record, world);
                 }
             }
             None => {
@@ -537,9 +665,12 @@ impl<'l> Invocation<'l> {
         }
     }
 
-    /// Runs a miss program that does something.
+    /// Runs the miss program of `record` (one that does something).
     #[inline(never)]
-    fn miss(&mut self, program: Callable<'l>, record: &'l Record<'l>, world: &TraceRay) {
+    fn miss(&mut self, record: &'l Record<'l>, world: &TraceRay) {
+        let Some(program) = record.programs.main else {
+            return;
+        };
         self.run_program(
             program,
             View {
@@ -622,16 +753,7 @@ impl<'l> Invocation<'l> {
 
     #[inline]
     fn hit(&self) -> Option<&HitState> {
-        // SAFETY: a view's hit is kept alive by the caller of the program's `run` for as
-        // long as the program runs (see `View::hit`).
-        unsafe { self.view().hit.as_ref() }
-    }
-
-    /// The instances above the hit the running program sees, if any.
-    #[inline]
-    fn path(&self) -> Option<&Path> {
-        // SAFETY: as for the hit (see `View::path`).
-        unsafe { self.view().path.as_ref() }
+        self.view().hit()
     }
 
     /// `rt_trace` (`DeviceCalls::trace`, and compiled programs' entry), with `walk` the
@@ -871,13 +993,12 @@ impl DeviceCalls for Invocation<'_> {
 
     #[inline]
     fn object_ray_origin(&self) -> [f32; 3] {
-        self.path().map_or(self.ray().origin, |p| p.object_origin)
+        self.view().object_ray().0
     }
 
     #[inline]
     fn object_ray_direction(&self) -> [f32; 3] {
-        self.path()
-            .map_or(self.ray().direction, |p| p.object_direction)
+        self.view().object_ray().1
     }
 
     #[inline]
@@ -907,27 +1028,27 @@ impl DeviceCalls for Invocation<'_> {
 
     #[inline]
     fn primitive_index(&self) -> u32 {
-        self.hit().map_or(0, |h| h.primitive_index)
+        self.view().primitive_index()
     }
 
     #[inline]
     fn sbt_gas_index(&self) -> u32 {
-        self.hit().map_or(0, |h| h.sbt_gas_index)
+        self.view().sbt_gas_index()
     }
 
     #[inline]
     fn instance_id(&self) -> u32 {
-        self.path().map_or(0, |p| p.instance_id)
+        self.view().instance_id()
     }
 
     #[inline]
     fn instance_index(&self) -> u32 {
-        self.path().map_or(0, |p| p.instance_index)
+        self.view().instance_index()
     }
 
     #[inline]
     fn hit_kind(&self) -> u32 {
-        self.hit().map_or(0, |h| h.hit_kind)
+        self.view().hit_kind()
     }
 
     fn is_front_face_hit(&self) -> bool {
@@ -937,10 +1058,7 @@ impl DeviceCalls for Invocation<'_> {
 
     #[inline]
     fn triangle_barycentrics(&self) -> [f32; 2] {
-        match self.hit().and_then(|h| h.data) {
-            Some(HitData::Triangle { barycentrics, .. }) => barycentrics,
-            _ => [0.0; 2],
-        }
+        self.view().triangle_barycentrics()
     }
 
     fn triangle_vertices(&self) -> [[f32; 3]; 3] {
@@ -966,12 +1084,12 @@ impl DeviceCalls for Invocation<'_> {
 
     #[inline]
     fn object_to_world(&self) -> [f32; 12] {
-        self.path().map_or(IDENTITY_3X4, |p| p.object_to_world)
+        self.view().object_to_world()
     }
 
     #[inline]
     fn world_to_object(&self) -> [f32; 12] {
-        self.path().map_or(IDENTITY_3X4, |p| p.world_to_object)
+        self.view().world_to_object()
     }
 
     fn sbt_data_u32(&self, i: u32) -> u32 {

@@ -14,6 +14,7 @@ use optik_api::{Error, OptLevel, Result};
 use optik_core::frontend::CompiledModule;
 use std::collections::HashMap;
 use std::path::PathBuf;
+use std::sync::atomic::AtomicU32;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -238,6 +239,36 @@ impl ProgramFn<'_> {
         }
     }
 
+    /// The context of a call.
+    fn context<'a>(
+        &self,
+        table: *const BufferSlot,
+        bindings: &Bindings<'a>,
+        calls: &mut (dyn DeviceCalls + 'a),
+        state: *const DeviceState,
+        stop: *const AtomicU32,
+        trace: Option<TraceEntry>,
+    ) -> CallContext<'a> {
+        CallContext {
+            buffers: table,
+            zero_page: ZERO_PAGE.as_ptr(),
+            state: if state.is_null() {
+                &DeviceState::EMPTY
+            } else {
+                state
+            },
+            stop: if !self.loops || stop.is_null() {
+                &NEVER_STOP
+            } else {
+                stop
+            },
+            calls: calls as *mut (dyn DeviceCalls + 'a),
+            trace,
+            bindings: bindings as *const Bindings<'a>,
+            panic: None,
+        }
+    }
+
     fn run(&self, table: *const BufferSlot, bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
         let state = if self.state_bits != 0 {
             calls.state()
@@ -255,32 +286,80 @@ impl ProgramFn<'_> {
         state: *const DeviceState,
         trace: Option<TraceEntry>,
     ) {
-        let mut ctx = CallContext {
-            buffers: table,
-            zero_page: ZERO_PAGE.as_ptr(),
-            state: if state.is_null() {
-                &DeviceState::EMPTY
-            } else {
-                state
-            },
-            stop: {
-                let stop = if self.loops {
-                    calls.stop_flag()
-                } else {
-                    std::ptr::null()
-                };
-                if stop.is_null() { &NEVER_STOP } else { stop }
-            },
-            calls: calls as *mut dyn DeviceCalls,
-            trace,
-            bindings: bindings as *const Bindings<'_>,
-            panic: None,
+        let stop = if self.loops {
+            calls.stop_flag()
+        } else {
+            std::ptr::null()
         };
+        let mut ctx = self.context(table, bindings, calls, state, stop, trace);
         // SAFETY: `entry` is finalized code of a live module (borrowed by `self`) with the
         // signature `extern "C-unwind" fn(*mut CallContext)`; the context, the buffer table (as
         // long as the module's slots) and what they point to outlive the call.
         unsafe { (self.entry)(&mut ctx) };
         if let Some(payload) = ctx.panic.take() {
+            std::panic::resume_unwind(payload);
+        }
+    }
+}
+
+impl<'m> ProgramFn<'m> {
+    /// The program's call context for many calls in a row by one caller, built once
+    /// ([`RepeatedCall`]): a launch task runs its ray generation program once per launch
+    /// index with the same bindings, state, stop flag and trace entry. `None` when
+    /// `prepared` was laid out for another module (then [`ProgramFn::call_prepared`] lays
+    /// the bindings out per call).
+    ///
+    /// `state` and `stop` are what `calls.state()` and `calls.stop_flag()` return for every
+    /// call made through the result (null: none), and `trace`, if any, is the runtime's own
+    /// `rt_trace` for those calls ([`TraceEntry`]: its contract is the caller's to keep).
+    /// `calls` is the first caller's; [`RepeatedCall::call`] takes each call's.
+    pub fn repeated<'a>(
+        &self,
+        prepared: &'a PreparedBindings<'a>,
+        calls: &mut (dyn DeviceCalls + 'a),
+        state: *const DeviceState,
+        stop: *const AtomicU32,
+        trace: Option<TraceEntry>,
+    ) -> Option<RepeatedCall<'a>>
+    where
+        'm: 'a,
+    {
+        if !std::ptr::eq(prepared.layout, self.slot_bindings) {
+            return None;
+        }
+        Some(RepeatedCall {
+            entry: self.entry,
+            ctx: self.context(
+                prepared.table.as_ptr(),
+                prepared.bindings,
+                calls,
+                state,
+                stop,
+                trace,
+            ),
+        })
+    }
+}
+
+/// A program's call context built once for many calls ([`ProgramFn::repeated`]).
+pub struct RepeatedCall<'a> {
+    entry: EntryFn,
+    ctx: CallContext<'a>,
+}
+
+impl<'a> RepeatedCall<'a> {
+    /// Runs the program once, answering device-API calls with `calls` (whose `state()` and
+    /// `stop_flag()` are the ones the context was built with). A panic inside `calls`
+    /// propagates to the caller.
+    #[inline]
+    pub fn call(&mut self, calls: &mut (dyn DeviceCalls + 'a)) {
+        // Set per call: the caller uses `calls` itself between calls.
+        self.ctx.calls = calls;
+        // SAFETY: as in `ProgramFn::run_with_state`: `entry` is finalized code of a live
+        // module (the bindings the context borrows come from it), and the context, its
+        // buffer table, state and stop flag outlive the call.
+        unsafe { (self.entry)(&mut self.ctx) };
+        if let Some(payload) = self.ctx.panic.take() {
             std::panic::resume_unwind(payload);
         }
     }

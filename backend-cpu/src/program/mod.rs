@@ -50,7 +50,9 @@ pub mod texture;
 mod unwind_tables;
 
 #[cfg(feature = "jit")]
-pub use jit::{CompileStats, DiskCache, JitModule, JitOptions, PreparedBindings, ProgramFn};
+pub use jit::{
+    CompileStats, DiskCache, JitModule, JitOptions, PreparedBindings, ProgramFn, RepeatedCall,
+};
 
 #[cfg(all(test, feature = "jit"))]
 mod tests;

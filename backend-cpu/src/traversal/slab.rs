@@ -141,9 +141,25 @@ mod avx {
     use std::arch::x86_64::*;
 
     /// Whether this CPU runs [`Avx`] and the bit-counting instructions (`popcnt`, `lzcnt`,
-    /// `tzcnt`) the walk around it is compiled with (checked once, then loads).
+    /// `tzcnt`) the walk around it is compiled with: detected once, then one load (every
+    /// trace asks; four feature lookups cost ~15 instructions a ray).
     #[inline(always)]
     pub fn has_avx() -> bool {
+        use std::sync::atomic::{AtomicU8, Ordering};
+        // 0: not detected yet, 1: no, 2: yes.
+        static DETECTED: AtomicU8 = AtomicU8::new(0);
+        match DETECTED.load(Ordering::Relaxed) {
+            0 => {
+                let has = detect_avx();
+                DETECTED.store(1 + has as u8, Ordering::Relaxed);
+                has
+            }
+            known => known == 2,
+        }
+    }
+
+    #[cold]
+    fn detect_avx() -> bool {
         use std::arch::is_x86_feature_detected as has;
         has!("avx") && has!("popcnt") && has!("lzcnt") && has!("bmi1")
     }

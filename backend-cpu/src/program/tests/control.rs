@@ -382,4 +382,20 @@ fn prepared_bindings_give_the_same_results_and_survive_a_module_mix_up() {
     let wrong = other.prepare(&bindings);
     f.call_prepared(&wrong, &mut Mock::default());
     assert_eq!(prepared_out, direct);
+    // A context built once serves call after call (a launch task's ray generation runs).
+    let mut mock = Mock::default();
+    let null = std::ptr::null();
+    let mut repeated = f
+        .repeated(&prepared, &mut mock, null, std::ptr::null(), None)
+        .expect("bindings prepared for the program's own module");
+    for _ in 0..3 {
+        prepared_out.iter_mut().for_each(|w| *w = 0);
+        repeated.call(&mut mock);
+        assert_eq!(prepared_out, direct);
+    }
+    // Bindings of another layout get no repeated context (the caller lays them out per call).
+    assert!(
+        f.repeated(&wrong, &mut mock, null, std::ptr::null(), None)
+            .is_none()
+    );
 }

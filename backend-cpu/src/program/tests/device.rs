@@ -401,6 +401,15 @@ fn a_panic_in_device_calls_reaches_the_caller() {
         .downcast::<&str>()
         .map(|s| *s);
     assert_eq!(message.ok(), Some("launch index exploded"));
+    // The same through a context built once for repeated calls.
+    let caught = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        buffers.run_repeated(&module, "closesthit__all", &mut Panicking, 2);
+    }));
+    let message = caught
+        .expect_err("the panic comes back")
+        .downcast::<&str>()
+        .map(|s| *s);
+    assert_eq!(message.ok(), Some("launch index exploded"));
 }
 
 /// A state whose every value differs from what the mock's methods return.

@@ -79,6 +79,40 @@ impl Buffers {
             calls,
         );
     }
+
+    /// [`Buffers::run`] through a context built once ([`ProgramFn::repeated`]), called
+    /// `times` times.
+    pub fn run_repeated(
+        &mut self,
+        module: &JitModule,
+        program: &str,
+        calls: &mut dyn DeviceCalls,
+        times: usize,
+    ) {
+        let f = module
+            .program(program)
+            .unwrap_or_else(|| panic!("no program {program}"));
+        let mut resources = vec![BoundResource::Buffer(BoundBuffer {
+            ptr: self.params.as_mut_ptr().cast(),
+            len: self.params.len() * 4,
+        })];
+        for (w, &len) in self.words.iter_mut().zip(&self.bound) {
+            resources.push(BoundResource::Buffer(BoundBuffer {
+                ptr: w.as_mut_ptr().cast(),
+                len,
+            }));
+        }
+        let bindings = Bindings {
+            resources: &resources,
+        };
+        let prepared = module.prepare(&bindings);
+        let mut call = f
+            .repeated(&prepared, calls, std::ptr::null(), std::ptr::null(), None)
+            .expect("bindings prepared for the program's module");
+        for _ in 0..times {
+            call.call(calls);
+        }
+    }
 }
 
 /// Runs `program` with `words` as buffers 1.. and a default mock; returns the buffers.
