@@ -203,12 +203,12 @@ impl View<'_> {
 
     #[inline(always)]
     fn object_to_world(&self) -> [f32; 12] {
-        self.path().map_or(IDENTITY_3X4, |p| p.object_to_world)
+        self.path().map_or(IDENTITY_3X4, |p| p.object_to_world())
     }
 
     #[inline(always)]
     fn world_to_object(&self) -> [f32; 12] {
-        self.path().map_or(IDENTITY_3X4, |p| p.world_to_object)
+        self.path().map_or(IDENTITY_3X4, |p| p.world_to_object())
     }
 }
 

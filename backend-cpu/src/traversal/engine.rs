@@ -50,13 +50,21 @@ pub struct TraceConfig {
     pub max_graph_depth: u32,
 }
 
-/// The instances and transforms above a candidate.
+/// The matrices of a path below at least one instance or transform.
 #[derive(Clone, Copy, Debug)]
-pub struct Path {
+pub struct PathTransforms {
     /// Object-to-world of the whole path.
     pub object_to_world: Matrix3x4,
     /// World-to-object of the whole path.
     pub world_to_object: Matrix3x4,
+}
+
+/// The instances and transforms above a candidate.
+#[derive(Clone, Copy, Debug)]
+pub struct Path {
+    /// The path's matrices; `None` at the root (identity), so that a trace without
+    /// instances writes no matrices (24 floats a ray).
+    pub transforms: Option<PathTransforms>,
     /// `rt_instance_id` of the innermost instance (0 without instances).
     pub instance_id: u32,
     /// `rt_instance_index` of the innermost instance (0 without instances).
@@ -77,8 +85,7 @@ pub struct Path {
 impl Path {
     fn root(ray: &TraceRay) -> Path {
         Path {
-            object_to_world: IDENTITY_3X4,
-            world_to_object: IDENTITY_3X4,
+            transforms: None,
             instance_id: 0,
             instance_index: 0,
             sbt_offset: 0,
@@ -89,6 +96,16 @@ impl Path {
             object_origin: super::words(&ray.origin),
             object_direction: super::words(&ray.direction),
         }
+    }
+
+    /// Object-to-world of the whole path.
+    pub fn object_to_world(&self) -> Matrix3x4 {
+        self.transforms.map_or(IDENTITY_3X4, |t| t.object_to_world)
+    }
+
+    /// World-to-object of the whole path.
+    pub fn world_to_object(&self) -> Matrix3x4 {
+        self.transforms.map_or(IDENTITY_3X4, |t| t.world_to_object)
     }
 
     /// The path below a transform with these matrices; `None` when the object-space ray is
@@ -103,9 +120,13 @@ impl Path {
         if !origin.iter().chain(direction.iter()).all(|v| v.is_finite()) {
             return None;
         }
+        // Composed with the identity at the root, as a path that kept its matrices would
+        // (the product, not the matrix itself: it differs in the sign of zeros).
         Some(Path {
-            object_to_world: affine::mul(&self.object_to_world, object_to_world),
-            world_to_object: affine::mul(world_to_object, &self.world_to_object),
+            transforms: Some(PathTransforms {
+                object_to_world: affine::mul(&self.object_to_world(), object_to_world),
+                world_to_object: affine::mul(world_to_object, &self.world_to_object()),
+            }),
             object_origin: origin,
             object_direction: direction,
             ..*self
@@ -752,6 +773,13 @@ fn walk_wide_avx<S: Spec, H: Handler>(
     // SAFETY: this function runs only on CPUs with AVX (its `target_feature`s, all checked
     // by `slab::has_avx`).
     let test = unsafe { slab::Avx::new(ray, tmin, S::CONSERVATIVE) };
+    // A ray that misses the root's children (most of a camera's, around a small model)
+    // leaves before the walk sets up its stack and spills the test's constants.
+    if let Some(root) = wide.nodes.first()
+        && slab::NodeTest::entry(&test, root, h.t_max()).0 == 0
+    {
+        return;
+    }
     walk_wide_on(wide, test, tmin, h, leaf)
 }
 
