@@ -53,6 +53,8 @@ impl MicromapState {
 ///
 /// `micromap` is the opacity micromap state at the hit, when the triangle has one and the
 /// instance does not disable micromaps.
+// Inlined: backends call it per candidate, from another crate.
+#[inline]
 pub fn resolve(
     geometry: GeometryFlags,
     instance: InstanceFlags,
@@ -97,6 +99,7 @@ pub fn resolve(
 
 /// Whether a triangle that faces front (`front`, after instance flipping) is dropped by the
 /// ray's face-culling flags, given the geometry's and instance's culling overrides.
+#[inline]
 pub fn triangle_face_culled(
     front: bool,
     geometry: GeometryFlags,

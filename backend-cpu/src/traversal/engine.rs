@@ -469,7 +469,7 @@ impl<S: Spec> Walker<'_, S> {
             return unsafe { walk_wide_avx::<S, H>(wide, ray, tmin, h, leaf) };
         }
         let test = slab::Halves::new(ray, tmin, S::CONSERVATIVE);
-        walk_wide_on(wide, test, tmin, h, leaf)
+        walk_wide_on(wide, test, h, leaf)
     }
 
     /// The triangle blocks of a static triangle structure. Only the box test's
@@ -773,14 +773,7 @@ fn walk_wide_avx<S: Spec, H: Handler>(
     // SAFETY: this function runs only on CPUs with AVX (its `target_feature`s, all checked
     // by `slab::has_avx`).
     let test = unsafe { slab::Avx::new(ray, tmin, S::CONSERVATIVE) };
-    // A ray that misses the root's children (most of a camera's, around a small model)
-    // leaves before the walk sets up its stack and spills the test's constants.
-    if let Some(root) = wide.nodes.first()
-        && slab::NodeTest::entry(&test, root, h.t_max()).0 == 0
-    {
-        return;
-    }
-    walk_wide_on(wide, test, tmin, h, leaf)
+    walk_wide_on(wide, test, h, leaf)
 }
 
 /// Whether walks (and their triangle leaves) run compiled for AVX: the CPU has it, and no
@@ -814,108 +807,120 @@ fn tests_want_halves() -> bool {
 fn walk_wide_on<H: Handler, T: slab::NodeTest>(
     wide: &WideBvh,
     test: T,
-    tmin: f32,
     h: &mut H,
     leaf: impl FnMut(&mut H, u32, u32),
 ) {
+    let Some(root) = wide.nodes.first() else {
+        return;
+    };
+    // The root's children first: a ray that misses them all (most of a camera's around a
+    // small model) leaves before the walk sets up its stack.
+    let children = test.entry(root, h.t_max());
+    if children.0 == 0 {
+        return;
+    }
     let needed = (NODE_WIDTH - 1) * wide.depth as usize + 1;
     if needed <= WIDE_STACK {
         let mut stack = [const { std::mem::MaybeUninit::<Pending>::uninit() }; WIDE_STACK];
-        walk_wide_with(wide, test, tmin, h, leaf, &mut stack);
+        walk_wide_with(wide, test, h, leaf, children, &mut stack);
     } else {
         let mut heap: Vec<Pending> = Vec::with_capacity(needed);
-        walk_wide_with(wide, test, tmin, h, leaf, heap.spare_capacity_mut());
+        walk_wide_with(wide, test, h, leaf, children, heap.spare_capacity_mut());
     }
 }
 
-/// The walk of [`Walker::walk`] (`stack` holds `7 * depth + 1` entries).
+/// The walk of [`Walker::walk`] from the root, whose children `children` (mask and entry
+/// distances) are already tested (`stack` holds `7 * depth + 1` entries).
 #[inline(always)]
 fn walk_wide_with<H: Handler, T: slab::NodeTest>(
     wide: &WideBvh,
     test: T,
-    tmin: f32,
     h: &mut H,
     mut leaf: impl FnMut(&mut H, u32, u32),
+    children: (u32, [f32; NODE_WIDTH]),
     stack: &mut [std::mem::MaybeUninit<Pending>],
 ) {
     let nodes = wide.nodes.as_slice();
     let mut len = 0usize;
-    let mut current = Pending {
-        first: 0,
-        count: 0,
-        entry: tmin,
-    };
+    let mut node = &nodes[0];
+    let (mut mask, mut entry) = children;
     loop {
+        // The children of `node` the ray enters (`mask`, at `entry`): the nearest next,
+        // the others onto the stack.
+        let child = |lane: u32| Pending {
+            first: node.first[lane as usize],
+            count: node.count[lane as usize],
+            entry: entry[lane as usize],
+        };
         let mut next = None;
-        if current.count > 0 {
-            leaf(h, current.first, current.count);
+        match mask.count_ones() {
+            0 => {}
+            1 => next = Some(child(mask.trailing_zeros())),
+            2 => {
+                // The common case, without a data-dependent branch: the nearer next,
+                // the farther waits (ties keep child order).
+                let a = child(mask.trailing_zeros());
+                let b = child(31 - mask.leading_zeros());
+                let (near, far) = if b.entry < a.entry { (b, a) } else { (a, b) };
+                stack[len].write(far);
+                len += 1;
+                next = Some(near);
+            }
+            _ => {
+                // Three to eight, sorted into the top of the stack as they come, the
+                // nearest on top (insertion; ties keep child order, the lower lane
+                // nearer the top, so the walk is deterministic); the top goes next.
+                let base = len;
+                let mut bits = mask;
+                while bits != 0 {
+                    let c = child(bits.trailing_zeros());
+                    bits &= bits - 1;
+                    let mut i = len;
+                    // SAFETY: entries from `base` to `len` were written above.
+                    while i > base && unsafe { stack[i - 1].assume_init() }.entry <= c.entry {
+                        stack[i] = stack[i - 1];
+                        i -= 1;
+                    }
+                    stack[i].write(c);
+                    len += 1;
+                }
+                len -= 1;
+                // SAFETY: written by the loop above (three or more entries).
+                next = Some(unsafe { stack[len].assume_init() });
+            }
+        }
+        // The next inner node to test: leaves on the way are run, and a child entered
+        // beyond the closest hit found since it was pushed can hold nothing nearer.
+        let mut current = next;
+        let inner = loop {
+            let c = match current {
+                Some(c) => c,
+                None => loop {
+                    if len == 0 {
+                        return;
+                    }
+                    len -= 1;
+                    // SAFETY: entries below `len` were written by a push.
+                    let popped = unsafe { stack[len].assume_init() };
+                    if popped.entry <= h.t_max() {
+                        break popped;
+                    }
+                },
+            };
+            if c.count == 0 {
+                break c;
+            }
+            leaf(h, c.first, c.count);
             if h.done() {
                 return;
             }
-        } else {
-            let node = &nodes[current.first as usize];
-            // The children's indices sit in the node's fourth cache line, which the box test
-            // does not read: asked for now, it arrives while the test runs instead of after.
-            prefetch(&node.first);
-            let (mask, entry) = test.entry(node, h.t_max());
-            let child = |lane: u32| Pending {
-                first: node.first[lane as usize],
-                count: node.count[lane as usize],
-                entry: entry[lane as usize],
-            };
-            match mask.count_ones() {
-                0 => {}
-                1 => next = Some(child(mask.trailing_zeros())),
-                2 => {
-                    // The common case, without a data-dependent branch: the nearer next,
-                    // the farther waits (ties keep child order).
-                    let a = child(mask.trailing_zeros());
-                    let b = child(31 - mask.leading_zeros());
-                    let (near, far) = if b.entry < a.entry { (b, a) } else { (a, b) };
-                    stack[len].write(far);
-                    len += 1;
-                    next = Some(near);
-                }
-                _ => {
-                    // Three to eight, sorted into the top of the stack as they come, the
-                    // nearest on top (insertion; ties keep child order, the lower lane
-                    // nearer the top, so the walk is deterministic); the top goes next.
-                    let base = len;
-                    let mut bits = mask;
-                    while bits != 0 {
-                        let c = child(bits.trailing_zeros());
-                        bits &= bits - 1;
-                        let mut i = len;
-                        // SAFETY: entries from `base` to `len` were written above.
-                        while i > base && unsafe { stack[i - 1].assume_init() }.entry <= c.entry {
-                            stack[i] = stack[i - 1];
-                            i -= 1;
-                        }
-                        stack[i].write(c);
-                        len += 1;
-                    }
-                    len -= 1;
-                    // SAFETY: written by the loop above (three or more entries).
-                    next = Some(unsafe { stack[len].assume_init() });
-                }
-            }
-        }
-        current = match next {
-            Some(c) => c,
-            None => loop {
-                if len == 0 {
-                    return;
-                }
-                len -= 1;
-                // SAFETY: entries below `len` were written by a push.
-                let popped = unsafe { stack[len].assume_init() };
-                // A child entered beyond the closest hit found since it was pushed can hold
-                // nothing nearer.
-                if popped.entry <= h.t_max() {
-                    break popped;
-                }
-            },
+            current = None;
         };
+        node = &nodes[inner.first as usize];
+        // The children's indices sit in the node's fourth cache line, which the box test
+        // does not read: asked for now, it arrives while the test runs instead of after.
+        prefetch(&node.first);
+        (mask, entry) = test.entry(node, h.t_max());
     }
 }
 
