@@ -57,11 +57,8 @@ impl Buffers {
         }
     }
 
-    /// Runs `program` of `module` once with these buffers.
-    pub fn run(&mut self, module: &JitModule, program: &str, calls: &mut dyn DeviceCalls) {
-        let f = module
-            .program(program)
-            .unwrap_or_else(|| panic!("no program {program}"));
+    /// The params and the buffers, bound at 0 and 1.. (pointing into `self`).
+    fn resources(&mut self) -> Vec<BoundResource> {
         let mut resources = vec![BoundResource::Buffer(BoundBuffer {
             ptr: self.params.as_mut_ptr().cast(),
             len: self.params.len() * 4,
@@ -72,6 +69,15 @@ impl Buffers {
                 len,
             }));
         }
+        resources
+    }
+
+    /// Runs `program` of `module` once with these buffers.
+    pub fn run(&mut self, module: &JitModule, program: &str, calls: &mut dyn DeviceCalls) {
+        let f = module
+            .program(program)
+            .unwrap_or_else(|| panic!("no program {program}"));
+        let resources = self.resources();
         f.call(
             &Bindings {
                 resources: &resources,
@@ -92,16 +98,7 @@ impl Buffers {
         let f = module
             .program(program)
             .unwrap_or_else(|| panic!("no program {program}"));
-        let mut resources = vec![BoundResource::Buffer(BoundBuffer {
-            ptr: self.params.as_mut_ptr().cast(),
-            len: self.params.len() * 4,
-        })];
-        for (w, &len) in self.words.iter_mut().zip(&self.bound) {
-            resources.push(BoundResource::Buffer(BoundBuffer {
-                ptr: w.as_mut_ptr().cast(),
-                len,
-            }));
-        }
+        let resources = self.resources();
         let bindings = Bindings {
             resources: &resources,
         };
