@@ -68,6 +68,16 @@ const _: () = assert!(std::mem::offset_of!(WideNode, min) == 0);
 const _: () = assert!(std::mem::offset_of!(WideNode, max) == 3 * NODE_WIDTH * 4);
 
 impl WideNode {
+    /// The union of the children's boxes, `[min, max]` (unused children change nothing).
+    pub fn union(&self) -> [[f32; 3]; 2] {
+        [
+            self.min
+                .map(|row| row.into_iter().fold(f32::INFINITY, f32::min)),
+            self.max
+                .map(|row| row.into_iter().fold(f32::NEG_INFINITY, f32::max)),
+        ]
+    }
+
     /// A node whose children are all unused.
     pub const EMPTY: WideNode = WideNode {
         min: [[f32::INFINITY; NODE_WIDTH]; 3],
@@ -141,6 +151,9 @@ pub struct WideBvh {
     pub blocks: Vec<TriangleBlock>,
     /// The deepest leaf's level (the root's children are level 1); sizes traversal stacks.
     pub depth: u32,
+    /// The union of the root node's child boxes, `[min, max]`, as `build` made them (`None`:
+    /// not known, as for a structure made by hand; traversal then never skips by it).
+    pub root_bounds: Option<[[f32; 3]; 2]>,
 }
 
 impl WideBvh {
@@ -176,6 +189,7 @@ impl WideBvh {
             }
             wide.nodes[target] = node;
         }
+        wide.root_bounds = Some(wide.nodes[0].union());
         wide
     }
 

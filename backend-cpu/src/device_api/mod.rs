@@ -42,6 +42,13 @@ use optik_api::semantics::{self, facing, sbt_index};
 use optik_api::{ExceptionFlags, IDENTITY_3X4, ProgramKind, RayFlags, TraversableHandle};
 use std::sync::atomic::AtomicU32;
 
+/// Traces that find nothing before the root check is armed again, once it let a ray into
+/// the root's box (`Invocation::trace_ray`).
+const ROOT_CHECK_PAUSE: u32 = 32;
+
+/// `[min, max]` of the box around a root's children (`traversal::root_bounds`).
+type RootBounds = [[f32; 3]; 2];
+
 /// Most payload (and callable argument) registers.
 const MAX_PAYLOAD: usize = 32;
 
@@ -281,6 +288,14 @@ pub(crate) struct Invocation<'l> {
     /// The payload registers of the innermost trace or callable call (null outside them).
     payload: *mut u32,
     payload_len: usize,
+    /// The next trace is first checked against the root's boxes (`Invocation::trace_ray`):
+    /// armed by a trace that found nothing, disarmed by one that found something.
+    root_check_armed: bool,
+    /// Traces that find nothing before the check is armed again, after it let a ray in.
+    root_check_rearm_in: u32,
+    /// The root those checks last looked up and its children's bounds
+    /// (`traversal::root_bounds`); the scene does not change during a launch.
+    root_bounds: Option<([u32; 2], Option<RootBounds>)>,
 }
 
 /// Traces for a pipeline compiled as `S`.
@@ -337,9 +352,40 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec>(
             payload_len as usize,
             true,
             trace_with::<S>,
+            misses_root_with::<S>,
         )
     };
     inv.unwinding() as u32
+}
+
+/// Whether a trace from the root `handle` certainly finds nothing, for a pipeline compiled
+/// as `S`: the ray misses the box around the root's children (`traversal::root_bounds`,
+/// looked up once per root and invocation, and `traversal::misses_bounds`). Not inlined:
+/// most traces do not ask, and inlined it slowed those that do not (the Breakfast Room's
+/// rays by 2 %).
+#[inline(never)]
+fn misses_root_with<S: Spec>(inv: &mut Invocation<'_>, handle: [u32; 2], ray: &TraceRay) -> bool {
+    let bounds = match inv.root_bounds {
+        Some((cached, bounds)) if cached == handle => bounds,
+        _ => {
+            let shared = inv.shared;
+            let bounds = traversal::root_bounds::<S>(
+                shared.scene,
+                TraversableHandle::from_words(handle),
+                &shared.config,
+            );
+            inv.root_bounds = Some((handle, bounds));
+            bounds
+        }
+    };
+    bounds.is_some_and(|b| {
+        // Word by word (`traversal::words`): the ray was stored one scalar at a time.
+        let (origin, direction) = (
+            traversal::words(&ray.origin),
+            traversal::words(&ray.direction),
+        );
+        traversal::misses_bounds::<S>(&b, origin, direction, ray.tmin, ray.tmax)
+    })
 }
 
 impl<'l> Invocation<'l> {
@@ -417,6 +463,9 @@ impl<'l> Invocation<'l> {
             trace: std::ptr::null_mut(),
             payload: std::ptr::null_mut(),
             payload_len: 0,
+            root_check_armed: false,
+            root_check_rearm_in: 0,
+            root_bounds: None,
         }
     }
 
@@ -609,7 +658,13 @@ impl<'l> Invocation<'l> {
     #[inline(always)]
     fn finish_trace(&mut self, world: &TraceRay, miss_index: u32) {
         if self.tr().committed_record.is_some() {
+            self.root_check_armed = false;
             return self.closest_hit(world);
+        }
+        if self.root_check_rearm_in > 0 {
+            self.root_check_rearm_in -= 1;
+        } else {
+            self.root_check_armed = true;
         }
         let shared = self.shared;
         match shared
@@ -628,6 +683,17 @@ impl<'l> Invocation<'l> {
                 }
             }
         }
+    }
+
+    /// Whether a miss with `miss_index` runs no program and raises nothing: its record
+    /// exists and its program (if any) does nothing.
+    #[inline(always)]
+    fn miss_runs_nothing(&self, miss_index: u32) -> bool {
+        self.shared
+            .sbt
+            .miss
+            .get(sbt_index::miss_record_index(miss_index) as usize)
+            .is_some_and(|record| !record.main_runs)
     }
 
     /// Runs the closest-hit program of the trace's committed hit (there is one).
@@ -780,6 +846,7 @@ impl<'l> Invocation<'l> {
         payload_len: usize,
         in_place: bool,
         walk: impl FnOnce(&mut Self, &TraceRay, TraversableHandle),
+        misses_root: impl FnOnce(&mut Self, [u32; 2], &TraceRay) -> bool,
     ) {
         if self.ending {
             return;
@@ -807,6 +874,19 @@ impl<'l> Invocation<'l> {
             mask,
             flags: RayFlags(flags),
         };
+        // After a trace that found nothing, the next (a camera's neighbour, often as empty)
+        // is first tested against the root's boxes: when it misses them all and a miss runs
+        // no program, the trace has no effect and ends here, before its state is set up.
+        // The state that arms the test is kept on the hit and miss paths only, and the test
+        // rests after letting a ray in: rays that enter the root and find nothing (from
+        // inside a model, or around a large one) would pay for it twice at every trace.
+        if self.root_check_armed && self.miss_runs_nothing(miss_index) {
+            if misses_root(self, handle, &world) {
+                return;
+            }
+            self.root_check_armed = false;
+            self.root_check_rearm_in = ROOT_CHECK_PAUSE;
+        }
         let n = payload_len.min(MAX_PAYLOAD);
         // Registers past `n` are never read (accesses check `payload_len`), so only the
         // caller's words are copied in.
@@ -897,6 +977,7 @@ impl DeviceCalls for Invocation<'_> {
                 payload.len(),
                 false,
                 walk,
+                |_, _, _| false,
             )
         }
     }

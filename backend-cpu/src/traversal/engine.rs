@@ -223,6 +223,77 @@ pub fn trace<S: Spec, H: Handler>(
     }
 }
 
+/// The box around the root's children of a static triangle structure at `root` (the
+/// union of the root node's child boxes), where [`misses_bounds`] decides that a ray finds
+/// nothing as surely as the walk would; `None` for any other root (or an empty one).
+pub fn root_bounds<S: Spec>(
+    scene: &SceneTable,
+    root: TraversableHandle,
+    config: &TraceConfig,
+) -> Option<[[f32; 3]; 2]> {
+    let Resolved::Live(t) = scene.resolve(root) else {
+        return None;
+    };
+    let Traversable::Geometry(g) = &**t else {
+        return None;
+    };
+    // The conditions under which `Walker::gas` walks the triangle blocks from this node.
+    let wide = &g.encoding;
+    if !config.primitive_types.contains(g.geometry.primitive_type())
+        || (S::MOTION && g.motion.is_some())
+        || !matches!(g.geometry, Geometry::Triangles(_))
+        || wide.blocks.is_empty()
+    {
+        return None;
+    }
+    wide.root_bounds
+}
+
+/// Whether a ray certainly enters none of the root's children whose union is `bounds`
+/// ([`root_bounds`]), so that a trace from that root finds nothing.
+///
+/// The root node's test, in scalar form on the union box: the same canonical direction and
+/// reciprocal, the same near and far planes by direction sign, `max`/`min` that keep the
+/// running value when a distance is NaN (as `maxps`/`minps` with these operands do), the
+/// same exit widening and interval. Each distance is a rounded difference times a
+/// reciprocal, monotone in the plane, so the union's entry is at most and its exit at least
+/// every child's: a ray the union test rejects, the node test rejects in every lane.
+#[inline(always)]
+pub fn misses_bounds<S: Spec>(
+    bounds: &[[f32; 3]; 2],
+    origin: [f32; 3],
+    direction: [f32; 3],
+    tmin: f32,
+    tmax: f32,
+) -> bool {
+    let wr = WideRay::new(origin, direction);
+    if !wr.moves() {
+        // No built-in primitive is hit by a ray without direction (as the walk decides).
+        return true;
+    }
+    let mut entry = tmin;
+    let mut exit = f32::INFINITY;
+    let [lo, hi] = bounds;
+    for a in 0..3 {
+        let (near, far) = if wr.negative[a] {
+            (hi[a], lo[a])
+        } else {
+            (lo[a], hi[a])
+        };
+        let tn = (near - wr.origin1[a]) * wr.inv1[a];
+        let tf = (far - wr.origin1[a]) * wr.inv1[a];
+        entry = if tn > entry { tn } else { entry };
+        exit = if tf < exit { tf } else { exit };
+    }
+    if S::CONSERVATIVE {
+        exit *= super::SLAB_WIDENING;
+    }
+    let exit = if exit < tmax { exit } else { tmax };
+    // Entered when `entry <= exit`; both are numbers here (a NaN distance never replaces
+    // them), so "not entered" is `entry > exit`.
+    entry > exit
+}
+
 struct Walker<'a, S: Spec> {
     scene: &'a SceneTable,
     ray: &'a TraceRay,

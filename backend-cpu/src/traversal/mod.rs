@@ -19,7 +19,10 @@ mod triangle;
 pub use curve::{
     CURVE_TOLERANCE_RADIUS, CURVE_TOLERANCE_SIZE, CurveHit, MAX_DEPTH as CURVE_MAX_DEPTH,
 };
-pub use engine::{Candidate, CustomPrimitive, HitData, Path, TraceConfig, TraceRay, trace};
+pub use engine::{
+    Candidate, CustomPrimitive, HitData, Path, TraceConfig, TraceRay, misses_bounds, root_bounds,
+    trace,
+};
 pub use ray::{PreparedRay, SLAB_WIDENING, TriangleLanes, WideRay};
 pub use slab::entry as slab_entry;
 pub use sphere::SphereHit;

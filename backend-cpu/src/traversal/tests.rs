@@ -412,6 +412,7 @@ fn trees_deeper_than_the_inline_stack_are_walked() {
         nodes: vec![empty; n as usize],
         blocks: Vec::new(),
         depth: n,
+        root_bounds: None,
     };
     for (i, tri) in slots.iter().enumerate() {
         let mut block = TriangleBlock {
@@ -495,4 +496,76 @@ fn node_tests_walk_in_the_same_order() {
         candidates > 1000,
         "the rays hit the soup ({candidates} candidates)"
     );
+}
+
+/// `misses_bounds` on a node's union box never rejects a ray the node test lets into a
+/// child: random nodes and rays, with axis-parallel directions (zero, negative zero, tiny)
+/// and origins on the planes of a child or of the union (the NaN distances), both exit
+/// widenings, and intervals that start or end inside the boxes.
+#[test]
+fn the_root_check_rejects_only_rays_the_node_test_rejects() {
+    use crate::accel::wide::{NODE_WIDTH, WideNode};
+    use slab::NodeTest;
+    type Plain = Specialised<false, false, false, true, false>;
+    type Conservative = Specialised<false, false, false, true, true>;
+    let mut state = 7u64;
+    let mut rnd = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let specials = [0.0, -0.0, 1e-40, -1e-40];
+    let (mut rejected, mut entered) = (0, 0);
+    for i in 0..40000 {
+        let mut node = WideNode::EMPTY;
+        for lane in 0..NODE_WIDTH {
+            if (i + lane) % 5 == 0 {
+                continue; // an unused child
+            }
+            for a in 0..3 {
+                let lo = (rnd() - 0.5) * 10.0;
+                node.min[a][lane] = lo;
+                node.max[a][lane] = lo + rnd() * 4.0;
+            }
+        }
+        let bounds = node.union();
+        let mut o: [f32; 3] = std::array::from_fn(|_| (rnd() - 0.5) * 40.0);
+        // Towards a point among the boxes, so that many rays enter some.
+        let mut d: [f32; 3] = std::array::from_fn(|a| (rnd() - 0.5) * 12.0 - o[a]);
+        if i % 3 == 0 {
+            let a = (i / 3) % 3;
+            d[(a + 1) % 3] = specials[i % 4];
+            // On a plane of the union (i even) or of a child.
+            o[(a + 1) % 3] = if i % 2 == 0 {
+                bounds[i % 4 / 2][(a + 1) % 3]
+            } else {
+                node.max[(a + 1) % 3][i % NODE_WIDTH]
+            };
+        }
+        let (tmin, tmax) = match i % 4 {
+            0 => (3.0, 9.0),
+            1 => (0.0, 2.0),
+            _ => (0.0, f32::INFINITY),
+        };
+        for conservative in [false, true] {
+            let wide = WideRay::new(o, d);
+            let (mask, _) = slab::Halves::new(&wide, tmin, conservative).entry(&node, tmax);
+            let skipped = if conservative {
+                misses_bounds::<Conservative>(&bounds, o, d, tmin, tmax)
+            } else {
+                misses_bounds::<Plain>(&bounds, o, d, tmin, tmax)
+            };
+            if wide.moves() {
+                assert!(
+                    !(skipped && mask != 0),
+                    "{o:?} {d:?} [{tmin}, {tmax}] conservative {conservative}: rejected a ray that enters children {mask:#b}"
+                );
+            }
+            rejected += skipped as u32;
+            entered += (mask != 0) as u32;
+        }
+    }
+    // Both outcomes are common, so the check is exercised both ways.
+    assert!(rejected > 10000 && entered > 10000, "{rejected} {entered}");
 }
