@@ -252,12 +252,12 @@ pub fn root_bounds<S: Spec>(
 /// Whether a ray certainly enters none of the root's children whose union is `bounds`
 /// ([`root_bounds`]), so that a trace from that root finds nothing.
 ///
-/// The root node's test, in scalar form on the union box: the same canonical direction and
-/// reciprocal, the same near and far planes by direction sign, `max`/`min` that keep the
-/// running value when a distance is NaN (as `maxps`/`minps` with these operands do), the
-/// same exit widening and interval. Each distance is a rounded difference times a
-/// reciprocal, monotone in the plane, so the union's entry is at most and its exit at least
-/// every child's: a ray the union test rejects, the node test rejects in every lane.
+/// The root node's test ([`slab::entry_wide`], its lanes' arithmetic) on the union box: the
+/// same canonical direction and reciprocal, near and far planes by direction sign, NaN
+/// distances ignored, the same exit widening and interval. Each distance is a rounded
+/// difference times a reciprocal, monotone in the plane, so the union's entry is at most and
+/// its exit at least every child's: a ray the union test rejects, the node test rejects in
+/// every lane.
 #[inline(always)]
 pub fn misses_bounds<S: Spec>(
     bounds: &[[f32; 3]; 2],
@@ -271,27 +271,13 @@ pub fn misses_bounds<S: Spec>(
         // No built-in primitive is hit by a ray without direction (as the walk decides).
         return true;
     }
-    let mut entry = tmin;
-    let mut exit = f32::INFINITY;
+    let scale = if S::CONSERVATIVE {
+        super::SLAB_WIDENING
+    } else {
+        1.0
+    };
     let [lo, hi] = bounds;
-    for a in 0..3 {
-        let (near, far) = if wr.negative[a] {
-            (hi[a], lo[a])
-        } else {
-            (lo[a], hi[a])
-        };
-        let tn = (near - wr.origin1[a]) * wr.inv1[a];
-        let tf = (far - wr.origin1[a]) * wr.inv1[a];
-        entry = if tn > entry { tn } else { entry };
-        exit = if tf < exit { tf } else { exit };
-    }
-    if S::CONSERVATIVE {
-        exit *= super::SLAB_WIDENING;
-    }
-    let exit = if exit < tmax { exit } else { tmax };
-    // Entered when `entry <= exit`; both are numbers here (a NaN distance never replaces
-    // them), so "not entered" is `entry > exit`.
-    entry > exit
+    slab::entry_wide(&wr, scale, lo, hi, tmin, tmax).is_none()
 }
 
 struct Walker<'a, S: Spec> {

@@ -21,23 +21,62 @@ pub fn entry(
     tmin: f32,
     tmax: f32,
 ) -> Option<f32> {
+    let constants = [ray.origin, ray.inv];
+    entry_with(
+        constants,
+        ray.negative,
+        ray.exit_scale,
+        [min, max],
+        [tmin, tmax],
+    )
+}
+
+/// [`entry`] for a [`WideRay`] and an exit scale (`SLAB_WIDENING` or 1): the arithmetic of
+/// each lane of the node tests, in scalar form.
+#[inline(always)]
+pub fn entry_wide(
+    ray: &WideRay,
+    exit_scale: f32,
+    min: &[f32; 3],
+    max: &[f32; 3],
+    tmin: f32,
+    tmax: f32,
+) -> Option<f32> {
+    let constants = [ray.origin1, ray.inv1];
+    entry_with(
+        constants,
+        ray.negative,
+        exit_scale,
+        [min, max],
+        [tmin, tmax],
+    )
+}
+
+#[inline(always)]
+fn entry_with(
+    [origin, inv]: [[f32; 3]; 2],
+    negative: [bool; 3],
+    exit_scale: f32,
+    [min, max]: [&[f32; 3]; 2],
+    [tmin, tmax]: [f32; 2],
+) -> Option<f32> {
     let mut t0 = tmin;
     let mut exit = f32::INFINITY;
     for a in 0..3 {
-        let (near, far) = if ray.negative[a] {
+        let (near, far) = if negative[a] {
             (max[a], min[a])
         } else {
             (min[a], max[a])
         };
-        let tn = (near - ray.origin[a]) * ray.inv[a];
-        let tf = (far - ray.origin[a]) * ray.inv[a];
+        let tn = (near - origin[a]) * inv[a];
+        let tf = (far - origin[a]) * inv[a];
         // `x > t0` is false for NaN: a NaN distance does not constrain the interval.
         t0 = if tn > t0 { tn } else { t0 };
         exit = if tf < exit { tf } else { exit };
     }
     // Widening the exit (not the ray's tmax) makes the test conservative; a negative exit
     // only grows more negative, so boxes behind the origin still miss.
-    let scaled = exit * ray.exit_scale;
+    let scaled = exit * exit_scale;
     let t1 = if scaled < tmax { scaled } else { tmax };
     if t0 <= t1 { Some(t0) } else { None }
 }
