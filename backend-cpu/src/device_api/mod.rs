@@ -666,12 +666,7 @@ impl<'l> Invocation<'l> {
         } else {
             self.root_check_armed = true;
         }
-        let shared = self.shared;
-        match shared
-            .sbt
-            .miss
-            .get(sbt_index::miss_record_index(miss_index) as usize)
-        {
+        match self.miss_record(miss_index) {
             Some(record) => {
                 if record.main_runs {
                     self.miss(record, world);
@@ -689,11 +684,18 @@ impl<'l> Invocation<'l> {
     /// exists and its program (if any) does nothing.
     #[inline(always)]
     fn miss_runs_nothing(&self, miss_index: u32) -> bool {
-        self.shared
+        self.miss_record(miss_index)
+            .is_some_and(|record| !record.main_runs)
+    }
+
+    /// The miss record `miss_index` selects, if the table has it.
+    #[inline(always)]
+    fn miss_record(&self, miss_index: u32) -> Option<&'l Record<'l>> {
+        let shared = self.shared;
+        shared
             .sbt
             .miss
             .get(sbt_index::miss_record_index(miss_index) as usize)
-            .is_some_and(|record| !record.main_runs)
     }
 
     /// Runs the closest-hit program of the trace's committed hit (there is one).

@@ -291,14 +291,12 @@ impl ProgramFn<'_> {
         } else {
             std::ptr::null()
         };
-        let mut ctx = self.context(table, bindings, calls, state, stop, trace);
-        // SAFETY: `entry` is finalized code of a live module (borrowed by `self`) with the
-        // signature `extern "C-unwind" fn(*mut CallContext)`; the context, the buffer table (as
-        // long as the module's slots) and what they point to outlive the call.
-        unsafe { (self.entry)(&mut ctx) };
-        if let Some(payload) = ctx.panic.take() {
-            std::panic::resume_unwind(payload);
+        let ctx = self.context(table, bindings, calls, state, stop, trace);
+        RepeatedCall {
+            entry: self.entry,
+            ctx,
         }
+        .call(calls);
     }
 }
 
@@ -355,9 +353,10 @@ impl<'a> RepeatedCall<'a> {
     pub fn call(&mut self, calls: &mut (dyn DeviceCalls + 'a)) {
         // Set per call: the caller uses `calls` itself between calls.
         self.ctx.calls = calls;
-        // SAFETY: as in `ProgramFn::run_with_state`: `entry` is finalized code of a live
-        // module (the bindings the context borrows come from it), and the context, its
-        // buffer table, state and stop flag outlive the call.
+        // SAFETY: `entry` is finalized code of a live module (borrowed by the `ProgramFn`
+        // that built this call, for as long as its bindings) with the signature
+        // `extern "C-unwind" fn(*mut CallContext)`; the context, the buffer table (as long as
+        // the module's slots), the state and the stop flag outlive the call.
         unsafe { (self.entry)(&mut self.ctx) };
         if let Some(payload) = self.ctx.panic.take() {
             std::panic::resume_unwind(payload);

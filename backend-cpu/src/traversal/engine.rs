@@ -238,15 +238,20 @@ pub fn root_bounds<S: Spec>(
         return None;
     };
     // The conditions under which `Walker::gas` walks the triangle blocks from this node.
-    let wide = &g.encoding;
     if !config.primitive_types.contains(g.geometry.primitive_type())
         || (S::MOTION && g.motion.is_some())
-        || !matches!(g.geometry, Geometry::Triangles(_))
-        || wide.blocks.is_empty()
+        || !walks_triangle_blocks(g)
     {
         return None;
     }
-    wide.root_bounds
+    g.encoding.root_bounds
+}
+
+/// Whether a walk of `g` runs over its triangle blocks (static triangles packed four to a
+/// block), not per primitive.
+#[inline(always)]
+fn walks_triangle_blocks(g: &Gas) -> bool {
+    matches!(g.geometry, Geometry::Triangles(_)) && !g.encoding.blocks.is_empty()
 }
 
 /// Whether a ray certainly enters none of the root's children whose union is `bounds`
@@ -271,12 +276,8 @@ pub fn misses_bounds<S: Spec>(
         // No built-in primitive is hit by a ray without direction (as the walk decides).
         return true;
     }
-    let scale = if S::CONSERVATIVE {
-        super::SLAB_WIDENING
-    } else {
-        1.0
-    };
     let [lo, hi] = bounds;
+    let scale = super::ray::exit_scale(S::CONSERVATIVE);
     slab::entry_wide(&wr, scale, lo, hi, tmin, tmax).is_none()
 }
 
@@ -386,7 +387,7 @@ impl<S: Spec> Walker<'_, S> {
         let tmin = self.ray.tmin;
         let flags = self.ray.flags;
         let wide = &g.encoding;
-        if matches!(g.geometry, Geometry::Triangles(_)) && !wide.blocks.is_empty() {
+        if walks_triangle_blocks(g) {
             return self.triangle_blocks(g, path, h);
         }
         let pr = PreparedRay::new(path.object_origin, path.object_direction, S::CONSERVATIVE);
@@ -516,9 +517,6 @@ impl<S: Spec> Walker<'_, S> {
         h: &mut H,
         leaf: impl FnMut(&mut H, u32, u32),
     ) {
-        if wide.nodes.is_empty() {
-            return;
-        }
         #[cfg(target_arch = "x86_64")]
         if walks_with_avx() {
             // SAFETY: the CPU has AVX and the bit-counting instructions `walk_wide_avx`
@@ -550,9 +548,6 @@ impl<S: Spec> Walker<'_, S> {
         // The walk and the leaves compiled for AVX where the CPU has it, chosen once.
         #[cfg(target_arch = "x86_64")]
         if walks_with_avx() {
-            if wide.nodes.is_empty() {
-                return;
-            }
             let leaf = |h: &mut H, first, count| {
                 // SAFETY: the CPU has AVX and the bit-counting instructions (checked above).
                 unsafe { self.leaf_blocks_avx(g, path, &wr, &mut lanes_of_ray, h, first, count) }

@@ -69,8 +69,9 @@ fn reciprocal(dir: [f32; 3]) -> [f32; 3] {
     [1.0 / dir[0], 1.0 / dir[1], 1.0 / dir[2]]
 }
 
+/// Factor on a box's exit distance: [`SLAB_WIDENING`] for the conservative test, else 1.
 #[inline(always)]
-fn exit_scale(conservative: bool) -> f32 {
+pub(super) fn exit_scale(conservative: bool) -> f32 {
     if conservative { SLAB_WIDENING } else { 1.0 }
 }
 
