@@ -94,12 +94,17 @@ pub trait NodeTest: Copy {
 }
 
 /// Per axis, the row of [`WideNode::rows`] holding the near planes and the one holding the
-/// far planes for a ray's direction signs: chosen once per ray, not per node.
+/// far planes for a ray's direction signs: chosen once per ray, not per node, and kept as
+/// byte offsets into the node (an index would be scaled by the row's size at every load: six
+/// shifts a node).
 #[derive(Clone, Copy)]
 struct NearFar {
     near: [usize; 3],
     far: [usize; 3],
 }
+
+/// The bytes of one row of [`WideNode::rows`].
+const ROW_BYTES: usize = std::mem::size_of::<[f32; NODE_WIDTH]>();
 
 impl NearFar {
     #[inline(always)]
@@ -108,8 +113,23 @@ impl NearFar {
         // and a wider load would wait for all of them.
         let negative = super::words(&ray.negative).map(usize::from);
         NearFar {
-            near: std::array::from_fn(|a| a + 3 * negative[a]),
-            far: std::array::from_fn(|a| a + 3 - 3 * negative[a]),
+            near: std::array::from_fn(|a| (a + 3 * negative[a]) * ROW_BYTES),
+            far: std::array::from_fn(|a| (a + 3 - 3 * negative[a]) * ROW_BYTES),
+        }
+    }
+
+    /// The row of `node` at byte offset `offset` (one of `near` and `far`).
+    #[inline(always)]
+    fn row(node: &WideNode, offset: usize) -> &[f32; NODE_WIDTH] {
+        debug_assert!(offset.is_multiple_of(ROW_BYTES) && offset < 6 * ROW_BYTES);
+        // SAFETY: `offset` is one that `of` made: `row * ROW_BYTES` for a row below six
+        // (`a < 3` and a flag of 0 or 1), and the first six rows of a node are its boxes
+        // (`WideNode::rows`), so this is a whole row of the node.
+        unsafe {
+            &*std::ptr::from_ref(node.rows())
+                .cast::<u8>()
+                .add(offset)
+                .cast::<[f32; NODE_WIDTH]>()
         }
     }
 }
@@ -142,7 +162,6 @@ impl Halves {
 impl NodeTest for Halves {
     #[inline(always)]
     fn entry(&self, node: &WideNode, tmax: f32) -> (u32, [f32; NODE_WIDTH]) {
-        let rows = node.rows();
         let tmax = F4::splat(tmax);
         let mut mask = 0;
         let mut entry = [0.0; NODE_WIDTH];
@@ -150,8 +169,8 @@ impl NodeTest for Halves {
             let mut t0 = self.tmin;
             let mut exit = F4::splat(f32::INFINITY);
             for a in 0..3 {
-                let near = F4::load_half(&rows[self.near_far.near[a]], half);
-                let far = F4::load_half(&rows[self.near_far.far[a]], half);
+                let near = F4::load_half(NearFar::row(node, self.near_far.near[a]), half);
+                let far = F4::load_half(NearFar::row(node, self.near_far.far[a]), half);
                 let tn = (near - self.origin[a]) * self.inv[a];
                 let tf = (far - self.origin[a]) * self.inv[a];
                 t0 = tn.max(t0);
@@ -240,7 +259,6 @@ mod avx {
     impl NodeTest for Avx {
         #[inline(always)]
         fn entry(&self, node: &WideNode, tmax: f32) -> (u32, [f32; NODE_WIDTH]) {
-            let rows = node.rows();
             let mut entry = [0.0; NODE_WIDTH];
             // SAFETY: an `Avx` exists only where the CPU has AVX (`Avx::new`); the loads
             // read whole rows of the node (32 bytes each), the store the 32-byte `entry`.
@@ -248,8 +266,9 @@ mod avx {
                 let mut t0 = self.tmin;
                 let mut exit = _mm256_set1_ps(f32::INFINITY);
                 for a in 0..3 {
-                    let near = _mm256_loadu_ps(rows[self.near_far.near[a]].as_ptr());
-                    let far = _mm256_loadu_ps(rows[self.near_far.far[a]].as_ptr());
+                    let near = NearFar::row(node, self.near_far.near[a]).as_ptr();
+                    let far = NearFar::row(node, self.near_far.far[a]).as_ptr();
+                    let (near, far) = (_mm256_loadu_ps(near), _mm256_loadu_ps(far));
                     let tn = _mm256_mul_ps(_mm256_sub_ps(near, self.origin[a]), self.inv[a]);
                     let tf = _mm256_mul_ps(_mm256_sub_ps(far, self.origin[a]), self.inv[a]);
                     t0 = _mm256_max_ps(tn, t0);
