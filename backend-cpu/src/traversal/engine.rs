@@ -2,8 +2,14 @@
 //! primitive tests, culling and flag resolution.
 
 use super::ray::{PreparedRay, TriangleLanes, WideRay};
+#[cfg(target_arch = "x86_64")]
+use super::simd::F8;
+use super::simd::Lanes;
+use super::triangle::BlockHits;
 use super::{Handler, Spec, curve, slab, sphere, triangle};
 use crate::accel::curve_basis::BezierSegment;
+#[cfg(target_arch = "x86_64")]
+use crate::accel::wide::BLOCK_WIDTH;
 use crate::accel::wide::{NODE_WIDTH, TriangleBlock, WideBvh};
 use crate::accel::{
     Aabb, Bvh, Gas, Geometry, Ias, InstanceRecord, MicromapRef, PrimitiveInfo, Resolved,
@@ -556,14 +562,15 @@ impl<S: Spec> Walker<'_, S> {
             return unsafe { walk_wide_avx::<S, H>(wide, &wr, tmin, h, leaf) };
         }
         self.walk(wide, &wr, tmin, h, |h, first, count| {
-            self.leaf_blocks(g, path, &wr, &mut lanes_of_ray, h, first, count)
+            self.leaf_blocks::<H, false>(g, path, &wr, &mut lanes_of_ray, h, first, count)
         })
     }
 
-    /// [`Walker::leaf_blocks`] compiled for AVX: the same 4-lane operations, VEX-encoded
-    /// (three operands, without the register copies two-operand SSE needs: Breakfast Room
-    /// camera rays 2155 → 2097 instructions each). No fused multiply-add is enabled, so
-    /// every lane computes what the SSE form does, bit for bit. Not inlined into the walk
+    /// [`Walker::leaf_blocks`] compiled for AVX: a leaf's blocks two at a time in eight
+    /// lanes (`PAIRS`; an odd last block in four), the 4-lane operations VEX-encoded (three
+    /// operands, without the register copies two-operand SSE needs: Breakfast Room camera
+    /// rays 2155 → 2097 instructions each). No fused multiply-add is enabled, so every lane
+    /// computes what the SSE form does, bit for bit. Not inlined into the walk
     /// (which has the same features): the walk's loop is faster without a leaf's registers
     /// in it (the leaf inlined into the walk measured 3–15 % slower, docs/cpu-backend.md).
     ///
@@ -583,14 +590,15 @@ impl<S: Spec> Walker<'_, S> {
         first: u32,
         count: u32,
     ) {
-        self.leaf_blocks(g, path, wr, lanes_of_ray, h, first, count)
+        self.leaf_blocks::<H, true>(g, path, wr, lanes_of_ray, h, first, count)
     }
 
     /// The leaf of `count` triangles from block `first`: its blocks tested four lanes at a
-    /// time, their hits reported in lane order.
+    /// time, or with `PAIRS` (only where the CPU has AVX) two blocks at a time in eight
+    /// lanes, their hits reported in lane order (block by block, as one at a time would).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn leaf_blocks<H: Handler>(
+    fn leaf_blocks<H: Handler, const PAIRS: bool>(
         &self,
         g: &Gas,
         path: &Path,
@@ -610,7 +618,34 @@ impl<S: Spec> Walker<'_, S> {
                 TriangleLanes::for_moller_trumbore(wr)
             }
         });
-        for k in 0..TriangleBlock::blocks_of(count) {
+        let blocks = TriangleBlock::blocks_of(count);
+        let mut k = 0;
+        #[cfg(target_arch = "x86_64")]
+        if PAIRS && blocks >= 2 {
+            // SAFETY: `PAIRS` only from `leaf_blocks_avx`, whose callers checked for AVX.
+            let lanes_of_ray = unsafe { lanes_of_ray.widen() };
+            while k + 2 <= blocks {
+                let pair = [
+                    &wide.blocks[(first + k) as usize],
+                    &wide.blocks[(first + k + 1) as usize],
+                ];
+                let lanes = TriangleBlock::lane_mask(count, k)
+                    | TriangleBlock::lane_mask(count, k + 1) << BLOCK_WIDTH;
+                // A hit of the second block that the first block's commits moved beyond
+                // the interval is dropped in `report_block_hits`, as testing the second
+                // block after them would have: the same hits, bit for bit.
+                let hits = if S::WATERTIGHT {
+                    triangle::watertight8(&lanes_of_ray, pair, lanes, tmin, h.t_max())
+                } else {
+                    triangle::moller_trumbore8(&lanes_of_ray, pair, lanes, tmin, h.t_max())
+                };
+                if hits.mask != 0 && self.report_pair_hits(g, path, h, &hits, pair) {
+                    return;
+                }
+                k += 2;
+            }
+        }
+        while k < blocks {
             let block = &wide.blocks[(first + k) as usize];
             let lanes = TriangleBlock::lane_mask(count, k);
             // Both tests run on the block's four lanes at once (bit for bit as their
@@ -620,29 +655,64 @@ impl<S: Spec> Walker<'_, S> {
             } else {
                 triangle::moller_trumbore4(lanes_of_ray, block, lanes, tmin, h.t_max())
             };
-            let mut mask = hits.mask;
-            while mask != 0 {
-                let lane = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                let hit = hits.lane(lane);
-                // A hit an earlier lane's commit moved beyond the interval is one the
-                // scalar order would not have found (`t` of a hit is a number, so `>=` is
-                // `!<`).
-                if hit.t >= h.t_max() {
-                    continue;
-                }
-                let s = block.slots[lane] as usize;
-                // The block holds the vertices key 0 holds (bit for bit), in lines already
-                // loaded: reading the slot's key-0 copy cost a cache miss per candidate.
-                let tri =
-                    std::array::from_fn(|v| std::array::from_fn(|a| block.vertices[v][a][lane]));
-                let info = &block.infos[lane];
-                self.triangle_hit_at(g, s, info, tri, hit, path, h);
-                if h.done() {
-                    return;
-                }
+            if self.report_block_hits(g, path, h, &hits, |lane| (block, lane)) {
+                return;
+            }
+            k += 1;
+        }
+    }
+
+    /// Hands a block test's hits to the handler in lane order (`in_block(lane)`: the block
+    /// and the lane within it); whether the handler is done.
+    #[inline(always)]
+    fn report_block_hits<'b, H: Handler, L: Lanes>(
+        &self,
+        g: &Gas,
+        path: &Path,
+        h: &mut H,
+        hits: &BlockHits<L>,
+        in_block: impl Fn(usize) -> (&'b TriangleBlock, usize),
+    ) -> bool {
+        let mut mask = hits.mask;
+        while mask != 0 {
+            let lane = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let hit = hits.lane(lane);
+            // A hit an earlier lane's commit moved beyond the interval is one the scalar
+            // order would not have found (`t` of a hit is a number, so `>=` is `!<`).
+            if hit.t >= h.t_max() {
+                continue;
+            }
+            let (block, lane) = in_block(lane);
+            let s = block.slots[lane] as usize;
+            // The block holds the vertices key 0 holds (bit for bit), in lines already
+            // loaded: reading the slot's key-0 copy cost a cache miss per candidate.
+            let tri = std::array::from_fn(|v| std::array::from_fn(|a| block.vertices[v][a][lane]));
+            let info = &block.infos[lane];
+            self.triangle_hit_at(g, s, info, tri, hit, path, h);
+            if h.done() {
+                return true;
             }
         }
+        false
+    }
+
+    /// [`Walker::report_block_hits`] for a pair of blocks. Not inlined: the hit handling
+    /// inlined into both block loops crowded them with its loads and spills (Breakfast Room
+    /// camera rays: 1900 instructions each with both inlined, 1867 with neither), and the
+    /// single-block loop, which most leaves take, is faster with it inlined.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(never)]
+    fn report_pair_hits<H: Handler>(
+        &self,
+        g: &Gas,
+        path: &Path,
+        h: &mut H,
+        hits: &BlockHits<F8>,
+        pair: [&TriangleBlock; 2],
+    ) -> bool {
+        let in_block = |lane: usize| (pair[lane / BLOCK_WIDTH], lane % BLOCK_WIDTH);
+        self.report_block_hits(g, path, h, hits, in_block)
     }
 
     /// A triangle's hit (with the slot's record and the vertices it was tested with):

@@ -7,6 +7,8 @@
 //! the reciprocal `+∞` and its near plane is the box's minimum.
 
 use super::simd::F4;
+#[cfg(target_arch = "x86_64")]
+use super::simd::F8;
 
 /// The factor the conservative box test applies to a box's exit distance: `1 + 2γ(3)` with
 /// `γ(n) = nε / (1 − nε)`, `ε = 2⁻²⁴` (pbrt-v4's `Bounds3::IntersectP`, docs/numerics.md, "Conservative slab test").
@@ -170,20 +172,38 @@ impl WideRay {
     }
 }
 
-/// The constants of the 4-wide triangle tests for one ray, in all four lanes.
+/// The constants of the block triangle tests for one ray, in every lane (four lanes for one
+/// block; eight, [`TriangleLanes::widen`], for two blocks at once).
 #[derive(Clone, Copy)]
-pub struct TriangleLanes {
+pub struct TriangleLanes<L = F4> {
     /// Origin, per axis (both tests read it).
-    pub origin: [F4; 3],
+    pub origin: [L; 3],
     /// Canonical direction, per axis (Möller–Trumbore's test reads it).
-    pub dir: [F4; 3],
+    pub dir: [L; 3],
     /// The watertight test's shear constants (as [`PreparedRay::shear`]).
-    pub shear: [F4; 3],
+    pub shear: [L; 3],
     /// The watertight test's axes (as [`PreparedRay::axes`]).
     pub axes: [usize; 3],
 }
 
 impl TriangleLanes {
+    /// The same constants in eight lanes, for the tests of two blocks at once.
+    ///
+    /// # Safety
+    /// The CPU has AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub unsafe fn widen(&self) -> TriangleLanes<F8> {
+        // SAFETY: AVX by the contract.
+        let wide = |x: [F4; 3]| x.map(|x| unsafe { F8::from_f4(x) });
+        TriangleLanes {
+            origin: wide(self.origin),
+            dir: wide(self.dir),
+            shear: wide(self.shear),
+            axes: self.axes,
+        }
+    }
+
     /// The triangle constants of `ray`, bit for bit those [`PreparedRay::new`] computes.
     #[inline(always)]
     pub fn new(ray: &WideRay) -> TriangleLanes {

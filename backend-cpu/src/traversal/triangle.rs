@@ -7,7 +7,9 @@
 //! vertices and zero directions never hit; NaNs fall through every comparison to a miss.
 
 use super::ray::{PreparedRay, TriangleLanes};
-use super::simd::F4;
+#[cfg(target_arch = "x86_64")]
+use super::simd::F8;
+use super::simd::{F4, Lanes};
 use crate::accel::wide::TriangleBlock;
 
 /// A triangle hit.
@@ -100,29 +102,41 @@ pub fn watertight(
     })
 }
 
-/// Hits of a 4-wide triangle test, lane by lane.
+/// Hits of a block triangle test, lane by lane (four lanes: one block; eight: two).
 #[derive(Clone, Copy, Debug)]
-pub struct BlockHits {
+pub struct BlockHits<L: Lanes = F4> {
     /// Lanes that hit (bit `i` for lane `i`).
     pub mask: u32,
     /// Per lane, as [`TriangleHit`] (meaningful in hit lanes only).
-    pub t: [f32; 4],
+    pub t: L::Array,
     /// Weights of vertex 1.
-    pub u: [f32; 4],
+    pub u: L::Array,
     /// Weights of vertex 2.
-    pub v: [f32; 4],
+    pub v: L::Array,
     /// Lanes whose triangle faces the ray.
     pub front: u32,
 }
 
-impl BlockHits {
+impl<L: Lanes> BlockHits<L> {
+    /// No lane hits.
+    #[inline(always)]
+    fn none() -> BlockHits<L> {
+        BlockHits {
+            mask: 0,
+            t: L::Array::default(),
+            u: L::Array::default(),
+            v: L::Array::default(),
+            front: 0,
+        }
+    }
+
     /// Lane `lane`'s hit.
     #[inline(always)]
     pub fn lane(&self, lane: usize) -> TriangleHit {
         TriangleHit {
-            t: self.t[lane],
-            u: self.u[lane],
-            v: self.v[lane],
+            t: self.t.as_ref()[lane],
+            u: self.u.as_ref()[lane],
+            v: self.v.as_ref()[lane],
             front: self.front >> lane & 1 == 1,
         }
     }
@@ -139,17 +153,44 @@ pub fn watertight4(
     tmin: f32,
     tmax: f32,
 ) -> BlockHits {
-    let none = BlockHits {
-        mask: 0,
-        t: [0.0; 4],
-        u: [0.0; 4],
-        v: [0.0; 4],
-        front: 0,
+    let vertex = |v: usize, k: usize| F4::load(&block.vertices[v][k]);
+    watertight_lanes(lanes_of_ray, vertex, lanes, tmin, tmax)
+}
+
+/// [`watertight4`] for two blocks at once: lanes 0–3 are `blocks[0]`'s, 4–7 `blocks[1]`'s
+/// (`lanes` has bit `4 + i` for lane `i` of the second), each bit for bit the scalar test's.
+/// An eight-lane test costs about what a four-lane one does, so a leaf of several blocks
+/// takes half the tests.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub fn watertight8(
+    lanes_of_ray: &TriangleLanes<F8>,
+    blocks: [&TriangleBlock; 2],
+    lanes: u32,
+    tmin: f32,
+    tmax: f32,
+) -> BlockHits<F8> {
+    // SAFETY: `lanes_of_ray` holds `F8`s, which exist only where the CPU has AVX.
+    let vertex = |v: usize, k: usize| unsafe {
+        F8::pair(&blocks[0].vertices[v][k], &blocks[1].vertices[v][k])
     };
+    watertight_lanes(lanes_of_ray, vertex, lanes, tmin, tmax)
+}
+
+/// The watertight block test on lanes of any width; `vertex(v, axis)` loads coordinate
+/// `axis` of vertex `v` of every lane's triangle.
+#[inline(always)]
+fn watertight_lanes<L: Lanes>(
+    lanes_of_ray: &TriangleLanes<L>,
+    vertex: impl Fn(usize, usize) -> L,
+    lanes: u32,
+    tmin: f32,
+    tmax: f32,
+) -> BlockHits<L> {
     let [kx, ky, kz] = lanes_of_ray.axes;
     let [sx, sy, sz] = lanes_of_ray.shear;
     let o = &lanes_of_ray.origin;
-    let rel = |v: usize, k: usize| F4::load(&block.vertices[v][k]) - o[k];
+    let rel = |v: usize, k: usize| vertex(v, k) - o[k];
     let (a, b, c) = (
         [rel(0, kx), rel(0, ky), rel(0, kz)],
         [rel(1, kx), rel(1, ky), rel(1, kz)],
@@ -161,67 +202,65 @@ pub fn watertight4(
     let mut u = cx * by - cy * bx;
     let mut v = ax * cy - ay * cx;
     let mut w = bx * ay - by * ax;
-    let zero = F4::splat(0.0);
-    let exact = (u.eq(zero) | v.eq(zero) | w.eq(zero)).bits() & lanes;
+    let zero = L::splat(0.0);
+    let exact = L::bits(u.eq(zero) | v.eq(zero) | w.eq(zero)) & lanes;
     // The signs the inside test reads: the edge functions, with exact zeros tie-broken.
     let (mut su, mut sv, mut sw) = (u, v, w);
     if exact != 0 {
         // Edge functions exactly zero: recomputed in f64 and tie-broken, as the scalar test
         // does.
-        let [ax, ay, bx, by, cx, cy] = [ax, ay, bx, by, cx, cy].map(F4::to_array);
+        let [ax, ay, bx, by, cx, cy] = [ax, ay, bx, by, cx, cy].map(L::to_array);
+        let [ax, ay, bx, by, cx, cy] = [&ax, &ay, &bx, &by, &cx, &cy].map(|x| x.as_ref());
         let (mut uu, mut vv, mut ww) = (u.to_array(), v.to_array(), w.to_array());
         let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
         let (mut s_u, mut s_v, mut s_w) = (uu, vv, ww);
-        for lane in 0..4 {
+        for lane in 0..L::N {
             if exact >> lane & 1 == 1 {
-                uu[lane] = f(cx[lane], by[lane], cy[lane], bx[lane]);
-                vv[lane] = f(ax[lane], cy[lane], ay[lane], cx[lane]);
-                ww[lane] = f(bx[lane], ay[lane], by[lane], ax[lane]);
+                let (u, v, w) = (
+                    f(cx[lane], by[lane], cy[lane], bx[lane]),
+                    f(ax[lane], cy[lane], ay[lane], cx[lane]),
+                    f(bx[lane], ay[lane], by[lane], ax[lane]),
+                );
                 let (pa, pb, pc) = (
                     (ax[lane], ay[lane]),
                     (bx[lane], by[lane]),
                     (cx[lane], cy[lane]),
                 );
-                s_u[lane] = if uu[lane] == 0.0 {
-                    pushed_sign(pc, pb)
-                } else {
-                    uu[lane]
-                };
-                s_v[lane] = if vv[lane] == 0.0 {
-                    pushed_sign(pa, pc)
-                } else {
-                    vv[lane]
-                };
-                s_w[lane] = if ww[lane] == 0.0 {
-                    pushed_sign(pb, pa)
-                } else {
-                    ww[lane]
-                };
+                uu.as_mut()[lane] = u;
+                vv.as_mut()[lane] = v;
+                ww.as_mut()[lane] = w;
+                s_u.as_mut()[lane] = if u == 0.0 { pushed_sign(pc, pb) } else { u };
+                s_v.as_mut()[lane] = if v == 0.0 { pushed_sign(pa, pc) } else { v };
+                s_w.as_mut()[lane] = if w == 0.0 { pushed_sign(pb, pa) } else { w };
             }
         }
-        (u, v, w) = (F4::load(&uu), F4::load(&vv), F4::load(&ww));
-        (su, sv, sw) = (F4::load(&s_u), F4::load(&s_v), F4::load(&s_w));
+        (u, v, w) = (L::from_array(&uu), L::from_array(&vv), L::from_array(&ww));
+        (su, sv, sw) = (
+            L::from_array(&s_u),
+            L::from_array(&s_v),
+            L::from_array(&s_w),
+        );
     }
     let negative = su.lt(zero) | sv.lt(zero) | sw.lt(zero);
     let positive = su.gt(zero) | sv.gt(zero) | sw.gt(zero);
     let det = u + v + w;
-    let inside = lanes & !(negative & positive).bits() & !det.eq(zero).bits();
+    let inside = lanes & !L::bits(negative & positive) & !L::bits(det.eq(zero));
     if inside == 0 {
-        return none;
+        return BlockHits::none();
     }
     let (az, bz, cz) = (sz * a[2], sz * b[2], sz * c[2]);
     let t = (u * az + v * bz + w * cz) / det;
-    let mask = inside & (t.gt(F4::splat(tmin)) & t.lt(F4::splat(tmax))).bits();
+    let mask = inside & L::bits(t.gt(L::splat(tmin)) & t.lt(L::splat(tmax)));
     if mask == 0 {
-        return none;
+        return BlockHits::none();
     }
-    let inv = F4::splat(1.0) / det;
+    let inv = L::splat(1.0) / det;
     BlockHits {
         mask,
         t: t.to_array(),
         u: (v * inv).to_array(),
         v: (w * inv).to_array(),
-        front: det.gt(zero).bits(),
+        front: L::bits(det.gt(zero)),
     }
 }
 
@@ -238,33 +277,57 @@ pub fn moller_trumbore4(
     tmin: f32,
     tmax: f32,
 ) -> BlockHits {
-    let none = BlockHits {
-        mask: 0,
-        t: [0.0; 4],
-        u: [0.0; 4],
-        v: [0.0; 4],
-        front: 0,
+    let vertex = |v: usize, k: usize| F4::load(&block.vertices[v][k]);
+    moller_trumbore_lanes(lanes_of_ray, vertex, lanes, tmin, tmax)
+}
+
+/// [`moller_trumbore4`] for two blocks at once, laid out as [`watertight8`]'s.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub fn moller_trumbore8(
+    lanes_of_ray: &TriangleLanes<F8>,
+    blocks: [&TriangleBlock; 2],
+    lanes: u32,
+    tmin: f32,
+    tmax: f32,
+) -> BlockHits<F8> {
+    // SAFETY: `lanes_of_ray` holds `F8`s, which exist only where the CPU has AVX.
+    let vertex = |v: usize, k: usize| unsafe {
+        F8::pair(&blocks[0].vertices[v][k], &blocks[1].vertices[v][k])
     };
-    let vertex = |v: usize| [0, 1, 2].map(|k| F4::load(&block.vertices[v][k]));
+    moller_trumbore_lanes(lanes_of_ray, vertex, lanes, tmin, tmax)
+}
+
+/// The Möller–Trumbore block test on lanes of any width (`vertex` as in
+/// [`watertight_lanes`]).
+#[inline(always)]
+fn moller_trumbore_lanes<L: Lanes>(
+    lanes_of_ray: &TriangleLanes<L>,
+    vertex: impl Fn(usize, usize) -> L,
+    lanes: u32,
+    tmin: f32,
+    tmax: f32,
+) -> BlockHits<L> {
+    let vertex = |v: usize| [0, 1, 2].map(|k| vertex(v, k));
     let (v0, v1, v2) = (vertex(0), vertex(1), vertex(2));
-    let sub4 = |a: [F4; 3], b: [F4; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    let cross4 = |a: [F4; 3], b: [F4; 3]| {
+    let sub4 = |a: [L; 3], b: [L; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let cross4 = |a: [L; 3], b: [L; 3]| {
         [
             a[1] * b[2] - a[2] * b[1],
             a[2] * b[0] - a[0] * b[2],
             a[0] * b[1] - a[1] * b[0],
         ]
     };
-    let dot4 = |a: [F4; 3], b: [F4; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let dot4 = |a: [L; 3], b: [L; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     let e1 = sub4(v1, v0);
     let e2 = sub4(v2, v0);
     let p = cross4(lanes_of_ray.dir, e2);
     let det = dot4(e1, p);
-    let (zero, one) = (F4::splat(0.0), F4::splat(1.0));
+    let (zero, one) = (L::splat(0.0), L::splat(1.0));
     // Finite and non-zero (NaN fails both comparisons).
-    let inf = F4::splat(f32::INFINITY);
-    let finite = det.lt(inf) & F4::splat(f32::NEG_INFINITY).lt(det);
-    let usable = !det.eq(zero).bits() & finite.bits();
+    let inf = L::splat(f32::INFINITY);
+    let finite = det.lt(inf) & L::splat(f32::NEG_INFINITY).lt(det);
+    let usable = !L::bits(det.eq(zero)) & L::bits(finite);
     // Everything at once, tested once: the division's latency overlaps the second cross
     // product and the dot products, and there is one branch per block instead of four
     // (each value is the scalar test's; only the order of evaluation differs).
@@ -275,17 +338,17 @@ pub fn moller_trumbore4(
     let v = dot4(lanes_of_ray.dir, q) * inv;
     let t = dot4(e2, q) * inv;
     let inside = zero.le(u) & u.le(one) & zero.le(v) & (u + v).le(one);
-    let within = t.gt(F4::splat(tmin)) & t.lt(F4::splat(tmax));
-    let mask = lanes & usable & (inside & within).bits();
+    let within = t.gt(L::splat(tmin)) & t.lt(L::splat(tmax));
+    let mask = lanes & usable & L::bits(inside & within);
     if mask == 0 {
-        return none;
+        return BlockHits::none();
     }
     BlockHits {
         mask,
         t: t.to_array(),
         u: u.to_array(),
         v: v.to_array(),
-        front: det.gt(zero).bits(),
+        front: L::bits(det.gt(zero)),
     }
 }
 
@@ -492,11 +555,11 @@ mod tests {
 
     /// Checks a block test's hits against its scalar form, lane by lane and bit for bit
     /// (masked lanes have none); the number of hits.
-    fn assert_lanes_match(
+    fn assert_lanes_match<L: Lanes>(
         block_index: usize,
         tris: &[[[f32; 3]; 3]],
         lanes: u32,
-        got: &BlockHits,
+        got: &BlockHits<L>,
         scalar: impl Fn(&[[f32; 3]; 3]) -> Option<TriangleHit>,
     ) -> u32 {
         let bits = |h: Option<TriangleHit>| {
@@ -512,28 +575,65 @@ mod tests {
         hits
     }
 
-    #[test]
-    fn four_lanes_agree_with_the_scalar_test_bit_for_bit() {
-        let mut rng = Rng(5);
+    /// The block tests on eight triangles: `four` on each block of four, and (where the CPU
+    /// has AVX) `eight` on both blocks at once, every lane checked against `scalar`
+    /// (`lanes`: bit `i` for triangle `i`). The hits found, and whether `eight` ran.
+    fn check_blocks(
+        case: usize,
+        tris: &[[[f32; 3]; 3]; 8],
+        lanes: u32,
+        four: impl Fn(&TriangleBlock, u32) -> BlockHits,
+        eight: impl Fn([&TriangleBlock; 2], u32) -> Option<EightLanes>,
+        scalar: impl Fn(&[[f32; 3]; 3]) -> Option<TriangleHit>,
+    ) -> (u32, bool) {
+        let (low, high) = (block(&tris[..4]), block(&tris[4..]));
         let mut hits = 0;
-        let mut exact = 0;
+        for (k, (b, t)) in [(&low, &tris[..4]), (&high, &tris[4..])]
+            .into_iter()
+            .enumerate()
+        {
+            let l = lanes >> (4 * k) & 0xF;
+            hits += assert_lanes_match(2 * case + k, t, l, &four(b, l), &scalar);
+        }
+        if let Some(got) = eight([&low, &high], lanes) {
+            assert_eq!(assert_lanes_match(case, tris, lanes, &got, &scalar), hits);
+            return (hits, true);
+        }
+        (hits, false)
+    }
+
+    /// What an eight-lane block test gives (no such test off x86-64: never made there).
+    #[cfg(target_arch = "x86_64")]
+    type EightLanes = BlockHits<F8>;
+    #[cfg(not(target_arch = "x86_64"))]
+    type EightLanes = BlockHits;
+
+    /// The ray's lanes widened to eight, where the CPU has AVX.
+    #[cfg(target_arch = "x86_64")]
+    fn widened(l: &TriangleLanes) -> Option<TriangleLanes<F8>> {
+        // SAFETY: AVX checked first.
+        std::arch::is_x86_feature_detected!("avx").then(|| unsafe { l.widen() })
+    }
+
+    #[test]
+    fn block_lanes_agree_with_the_scalar_test_bit_for_bit() {
+        let mut rng = Rng(5);
+        let (mut hits, mut exact, mut eight_lane_cases) = (0, 0, 0);
         for i in 0..20000 {
-            // Every fourth block shares edges on an integer grid, where edge functions are
+            // Every fourth case shares edges on an integer grid, where edge functions are
             // exactly zero and the f64 fallback decides.
-            let tris: Vec<[[f32; 3]; 3]> = (0..4)
-                .map(|k| {
-                    if i % 4 == 0 {
-                        let (x, y) = ((k % 2) as f32, (k / 2) as f32);
-                        [[x, y, 3.0], [x + 1.0, y, 3.0], [x + 1.0, y + 1.0, 3.0]]
-                    } else {
-                        [rng.v(2.0), rng.v(2.0), rng.v(2.0)]
-                    }
-                })
-                .collect();
+            let tris: [[[f32; 3]; 3]; 8] = std::array::from_fn(|k| {
+                if i % 4 == 0 {
+                    let (x, y) = ((k % 2) as f32, (k / 2) as f32);
+                    [[x, y, 3.0], [x + 1.0, y, 3.0], [x + 1.0, y + 1.0, 3.0]]
+                } else {
+                    [rng.v(2.0), rng.v(2.0), rng.v(2.0)]
+                }
+            });
             let (o, d) = if i % 4 == 0 {
                 let o = [
                     (rng.f() * 4.0).round() * 0.5,
-                    (rng.f() * 4.0).round() * 0.5,
+                    (rng.f() * 8.0).round() * 0.5,
                     0.0,
                 ];
                 (o, [0.0, if i % 8 == 0 { -0.0 } else { 0.0 }, 1.0])
@@ -545,63 +645,104 @@ mod tests {
             if !r.moves {
                 continue;
             }
-            let lanes = if i % 3 == 0 { 0b0111 } else { 0b1111 };
-            let (tmin, tmax) = if i % 5 == 0 {
-                (1.0, 4.0)
-            } else {
-                (0.0, f32::INFINITY)
+            // Leaves end inside a block: its last lanes (and a pair's whole second block)
+            // are masked.
+            let lanes = [0xFF, 0x7F, 0x0F, 0x3F, 0xF7][i % 5];
+            // Grid hits lie at exactly t = 3: intervals ending there are open at both ends.
+            let (tmin, tmax) = match i % 10 {
+                0 | 5 => (1.0, 4.0),
+                4 => (3.0, 4.0),
+                8 => (1.0, 3.0),
+                _ => (0.0, f32::INFINITY),
             };
             // The lanes as the traversal builds them: box lanes first, triangle lanes later.
             let w = WideRay::new(o, d);
-            let got = watertight4(&TriangleLanes::new(&w), &block(&tris), lanes, tmin, tmax);
-            let found =
-                assert_lanes_match(i, &tris, lanes, &got, |t| watertight(&r, t, tmin, tmax));
+            let four_lanes = TriangleLanes::new(&w);
+            let (found, eight) = check_blocks(
+                i,
+                &tris,
+                lanes,
+                |b, l| watertight4(&four_lanes, b, l, tmin, tmax),
+                |_pair, _l| {
+                    #[cfg(target_arch = "x86_64")]
+                    return widened(&four_lanes).map(|l8| watertight8(&l8, _pair, _l, tmin, tmax));
+                    #[cfg(not(target_arch = "x86_64"))]
+                    None
+                },
+                |t| watertight(&r, t, tmin, tmax),
+            );
             hits += found;
             exact += if i % 4 == 0 { found } else { 0 };
+            eight_lane_cases += eight as u32;
         }
-        assert!(hits > 2000 && exact > 500, "{hits} {exact}");
+        assert!(hits > 4000 && exact > 1000, "{hits} {exact}");
+        println!("eight-lane test checked on {eight_lane_cases} cases");
     }
 
     #[test]
-    fn four_lane_moller_trumbore_agrees_with_the_scalar_test_bit_for_bit() {
+    fn block_lanes_of_moller_trumbore_agree_with_the_scalar_test_bit_for_bit() {
         let mut rng = Rng(11);
-        let mut hits = 0;
+        let (mut hits, mut eight_lane_cases) = (0, 0);
         for i in 0..20000 {
             // Some lanes degenerate (a repeated vertex) or not finite, as the scalar test
             // rejects them.
-            let tris: Vec<[[f32; 3]; 3]> = (0..4)
-                .map(|k| {
-                    let t = [rng.v(2.0), rng.v(2.0), rng.v(2.0)];
-                    match (i + k) % 23 {
-                        0 => [t[0], t[0], t[2]],
-                        1 => [t[0], [f32::INFINITY, 0.0, 0.0], t[2]],
-                        2 => [t[0], t[1], [f32::NAN, 0.0, 0.0]],
-                        _ => t,
-                    }
-                })
-                .collect();
-            let o = rng.v(8.0);
-            let d = sub(rng.v(1.0), o);
-            let r = ray(o, d);
-            let lanes = if i % 3 == 0 { 0b1011 } else { 0b1111 };
-            let (tmin, tmax) = if i % 5 == 0 {
-                (1.0, 4.0)
+            // Every fourth case on an integer grid, rays along an axis through its edges and
+            // vertices: barycentrics exactly 0 or 1, where the inside test's `<=` decides.
+            let grid = i % 4 == 0;
+            let tris: [[[f32; 3]; 3]; 8] = std::array::from_fn(|k| {
+                let t = [rng.v(2.0), rng.v(2.0), rng.v(2.0)];
+                if grid {
+                    let (x, y) = ((k % 2) as f32, (k / 2) as f32);
+                    return [[x, y, 3.0], [x + 1.0, y, 3.0], [x + 1.0, y + 1.0, 3.0]];
+                }
+                match (i + k) % 23 {
+                    0 => [t[0], t[0], t[2]],
+                    1 => [t[0], [f32::INFINITY, 0.0, 0.0], t[2]],
+                    2 => [t[0], t[1], [f32::NAN, 0.0, 0.0]],
+                    _ => t,
+                }
+            });
+            let (o, d) = if grid {
+                let o = [
+                    (rng.f() * 4.0).round() * 0.5,
+                    (rng.f() * 8.0).round() * 0.5,
+                    0.0,
+                ];
+                (o, [0.0, 0.0, 1.0])
             } else {
-                (0.0, f32::INFINITY)
+                let o = rng.v(8.0);
+                (o, sub(rng.v(1.0), o))
+            };
+            let r = ray(o, d);
+            let lanes = [0xFF, 0xBF, 0x0B, 0x3F][i % 4];
+            // Grid hits lie at exactly t = 3: intervals ending there are open at both ends.
+            let (tmin, tmax) = match i % 10 {
+                0 | 5 => (1.0, 4.0),
+                4 => (3.0, 4.0),
+                8 => (1.0, 3.0),
+                _ => (0.0, f32::INFINITY),
             };
             let w = WideRay::new(o, d);
-            let got = moller_trumbore4(
-                &TriangleLanes::for_moller_trumbore(&w),
-                &block(&tris),
+            let four_lanes = TriangleLanes::for_moller_trumbore(&w);
+            let (found, eight) = check_blocks(
+                i,
+                &tris,
                 lanes,
-                tmin,
-                tmax,
+                |b, l| moller_trumbore4(&four_lanes, b, l, tmin, tmax),
+                |_pair, _l| {
+                    #[cfg(target_arch = "x86_64")]
+                    return widened(&four_lanes)
+                        .map(|l8| moller_trumbore8(&l8, _pair, _l, tmin, tmax));
+                    #[cfg(not(target_arch = "x86_64"))]
+                    None
+                },
+                |t| moller_trumbore(&r, t, tmin, tmax),
             );
-            hits += assert_lanes_match(i, &tris, lanes, &got, |t| {
-                moller_trumbore(&r, t, tmin, tmax)
-            });
+            hits += found;
+            eight_lane_cases += eight as u32;
         }
-        assert!(hits > 2000, "{hits}");
+        assert!(hits > 4000, "{hits}");
+        println!("eight-lane test checked on {eight_lane_cases} cases");
     }
 
     #[test]
