@@ -194,8 +194,10 @@ impl TriangleLanes {
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     pub unsafe fn widen(&self) -> TriangleLanes<F8> {
-        // SAFETY: AVX by the contract.
-        let wide = |x: [F4; 3]| x.map(|x| unsafe { F8::from_f4(x) });
+        // SAFETY: AVX by the contract. Written out, not `map`ped: a closure given to `map`
+        // is not always inlined into the AVX leaf that calls this.
+        let wide =
+            |x: [F4; 3]| unsafe { [F8::from_f4(x[0]), F8::from_f4(x[1]), F8::from_f4(x[2])] };
         TriangleLanes {
             origin: wide(self.origin),
             dir: wide(self.dir),

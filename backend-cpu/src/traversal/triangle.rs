@@ -209,8 +209,23 @@ fn watertight_lanes<L: Lanes>(
     if exact != 0 {
         // Edge functions exactly zero: recomputed in f64 and tie-broken, as the scalar test
         // does.
-        let [ax, ay, bx, by, cx, cy] = [ax, ay, bx, by, cx, cy].map(L::to_array);
-        let [ax, ay, bx, by, cx, cy] = [&ax, &ay, &bx, &by, &cx, &cy].map(|x| x.as_ref());
+        // Written out, not `map`ped (see `moller_trumbore_lanes`).
+        let [ax, ay, bx, by, cx, cy] = [
+            ax.to_array(),
+            ay.to_array(),
+            bx.to_array(),
+            by.to_array(),
+            cx.to_array(),
+            cy.to_array(),
+        ];
+        let [ax, ay, bx, by, cx, cy] = [
+            ax.as_ref(),
+            ay.as_ref(),
+            bx.as_ref(),
+            by.as_ref(),
+            cx.as_ref(),
+            cy.as_ref(),
+        ];
         let (mut uu, mut vv, mut ww) = (u.to_array(), v.to_array(), w.to_array());
         let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
         let (mut s_u, mut s_v, mut s_w) = (uu, vv, ww);
@@ -308,21 +323,16 @@ fn moller_trumbore_lanes<L: Lanes>(
     tmin: f32,
     tmax: f32,
 ) -> BlockHits<L> {
-    let vertex = |v: usize| [0, 1, 2].map(|k| vertex(v, k));
-    let (v0, v1, v2) = (vertex(0), vertex(1), vertex(2));
-    let sub4 = |a: [L; 3], b: [L; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    let cross4 = |a: [L; 3], b: [L; 3]| {
-        [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ]
-    };
-    let dot4 = |a: [L; 3], b: [L; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let e1 = sub4(v1, v0);
-    let e2 = sub4(v2, v0);
-    let p = cross4(lanes_of_ray.dir, e2);
-    let det = dot4(e1, p);
+    // Vector helpers as `#[inline(always)]` functions, arrays written out, no `map`: a
+    // closure is not always inlined into the AVX leaf, and the eight-lane operations it
+    // calls are then calls too (closures here made the eight-lane test 1.8× slower).
+    let v0 = [vertex(0, 0), vertex(0, 1), vertex(0, 2)];
+    let v1 = [vertex(1, 0), vertex(1, 1), vertex(1, 2)];
+    let v2 = [vertex(2, 0), vertex(2, 1), vertex(2, 2)];
+    let e1 = sub3(v1, v0);
+    let e2 = sub3(v2, v0);
+    let p = cross3(lanes_of_ray.dir, e2);
+    let det = dot3(e1, p);
     let (zero, one) = (L::splat(0.0), L::splat(1.0));
     // Finite and non-zero (NaN fails both comparisons).
     let inf = L::splat(f32::INFINITY);
@@ -332,11 +342,11 @@ fn moller_trumbore_lanes<L: Lanes>(
     // product and the dot products, and there is one branch per block instead of four
     // (each value is the scalar test's; only the order of evaluation differs).
     let inv = one / det;
-    let s = sub4(lanes_of_ray.origin, v0);
-    let q = cross4(s, e1);
-    let u = dot4(s, p) * inv;
-    let v = dot4(lanes_of_ray.dir, q) * inv;
-    let t = dot4(e2, q) * inv;
+    let s = sub3(lanes_of_ray.origin, v0);
+    let q = cross3(s, e1);
+    let u = dot3(s, p) * inv;
+    let v = dot3(lanes_of_ray.dir, q) * inv;
+    let t = dot3(e2, q) * inv;
     let inside = zero.le(u) & u.le(one) & zero.le(v) & (u + v).le(one);
     let within = t.gt(L::splat(tmin)) & t.lt(L::splat(tmax));
     let mask = lanes & usable & L::bits(inside & within);
@@ -350,6 +360,28 @@ fn moller_trumbore_lanes<L: Lanes>(
         v: v.to_array(),
         front: L::bits(det.gt(zero)),
     }
+}
+
+/// `a − b` per axis.
+#[inline(always)]
+fn sub3<L: Lanes>(a: [L; 3], b: [L; 3]) -> [L; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// `a × b`, in the scalar test's order of operations.
+#[inline(always)]
+fn cross3<L: Lanes>(a: [L; 3], b: [L; 3]) -> [L; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// `a · b`, in the scalar test's order of operations.
+#[inline(always)]
+fn dot3<L: Lanes>(a: [L; 3], b: [L; 3]) -> L {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// Möller–Trumbore: faster, not watertight (rays through shared edges can slip between
