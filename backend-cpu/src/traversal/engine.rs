@@ -4,7 +4,7 @@
 use super::ray::{PreparedRay, TriangleLanes, WideRay};
 #[cfg(target_arch = "x86_64")]
 use super::simd::F8;
-use super::simd::Lanes;
+use super::simd::{F4, Lanes};
 use super::triangle::BlockHits;
 use super::{Handler, Spec, curve, slab, sphere, triangle};
 use crate::accel::curve_basis::BezierSegment;
@@ -263,12 +263,17 @@ fn walks_triangle_blocks(g: &Gas) -> bool {
 /// Whether a ray certainly enters none of the root's children whose union is `bounds`
 /// ([`root_bounds`]), so that a trace from that root finds nothing.
 ///
-/// The root node's test ([`slab::entry_wide`], its lanes' arithmetic) on the union box: the
+/// The root node's test (`slab::entry_wide`, its lanes' arithmetic) on the union box: the
 /// same canonical direction and reciprocal, near and far planes by direction sign, NaN
 /// distances ignored, the same exit widening and interval. Each distance is a rounded
 /// difference times a reciprocal, monotone in the plane, so the union's entry is at most and
 /// its exit at least every child's: a ray the union test rejects, the node test rejects in
 /// every lane.
+///
+/// The three axes' preparation and distances run in three lanes of one [`F4`] (each lane the
+/// scalar operation, so the same bits as `entry_wide`, which the tests hold it to), near and
+/// far selected without a branch: one division instead of three (a check ~85 → ~70
+/// instructions with its root look-up).
 #[inline(always)]
 pub fn misses_bounds<S: Spec>(
     bounds: &[[f32; 3]; 2],
@@ -277,14 +282,36 @@ pub fn misses_bounds<S: Spec>(
     tmin: f32,
     tmax: f32,
 ) -> bool {
-    let wr = WideRay::new(origin, direction);
-    if !wr.moves() {
+    let lanes = |v: &[f32; 3]| F4::load(&[v[0], v[1], v[2], 0.0]);
+    let zero = F4::splat(0.0);
+    // Canonical (`-0` made `+0`), as `WideRay::new`.
+    let dir = lanes(&direction) + zero;
+    let axes = 0b111;
+    if dir.eq(zero).bits() & axes == axes {
         // No built-in primitive is hit by a ray without direction (as the walk decides).
         return true;
     }
+    let inv = F4::splat(1.0) / dir;
+    let o = lanes(&origin);
     let [lo, hi] = bounds;
-    let scale = super::ray::exit_scale(S::CONSERVATIVE);
-    slab::entry_wide(&wr, scale, lo, hi, tmin, tmax).is_none()
+    let (to_lo, to_hi) = ((lanes(lo) - o) * inv, (lanes(hi) - o) * inv);
+    // Near and far by direction sign, selected without a branch (signs vary across a view).
+    let negative = dir.lt(zero);
+    let near = F4::select(negative, to_hi, to_lo).to_array();
+    let far = F4::select(negative, to_lo, to_hi).to_array();
+    let mut t0 = tmin;
+    let mut exit = f32::INFINITY;
+    for a in 0..3 {
+        let (tn, tf) = (near[a], far[a]);
+        // `x > t0` is false for NaN: a NaN distance does not constrain the interval.
+        t0 = if tn > t0 { tn } else { t0 };
+        exit = if tf < exit { tf } else { exit };
+    }
+    let scaled = exit * super::ray::exit_scale(S::CONSERVATIVE);
+    let t1 = if scaled < tmax { scaled } else { tmax };
+    // Neither is NaN (each is a number or replaced only by a number), so this is the
+    // node test's `!(t0 <= t1)`.
+    t0 > t1
 }
 
 struct Walker<'a, S: Spec> {

@@ -159,6 +159,12 @@ mod imp {
         pub fn eq(self, b: F4) -> M4 {
             M4(unsafe { _mm_cmpeq_ps(self.0, b.0) })
         }
+
+        /// Per lane, `a` where `mask` is set, else `b` (no branch).
+        #[inline(always)]
+        pub fn select(mask: M4, a: F4, b: F4) -> F4 {
+            F4(unsafe { _mm_or_ps(_mm_and_ps(mask.0, a.0), _mm_andnot_ps(mask.0, b.0)) })
+        }
     }
 
     impl std::ops::Add for F4 {
@@ -436,6 +442,14 @@ mod imp {
         pub fn eq(self, b: F4) -> M4 {
             self.test(b, |x, y| x == y)
         }
+
+        /// Per lane, `a` where `mask` is set, else `b`.
+        #[inline(always)]
+        pub fn select(mask: M4, a: F4, b: F4) -> F4 {
+            F4(std::array::from_fn(
+                |i| if mask.0[i] { a.0[i] } else { b.0[i] },
+            ))
+        }
     }
 
     impl std::ops::Add for F4 {
@@ -534,6 +548,12 @@ mod tests {
         assert_eq!(a.eq(b).bits(), 0b1000);
         assert_eq!((a.lt(b) | a.eq(b)).bits(), 0b1001);
         assert_eq!((a.le(b) & a.eq(b)).bits(), 0b1000);
+        // `select` takes `a` in mask lanes, `b` elsewhere, NaN and signed zero kept as bits.
+        let picked = F4::select(a.lt(b) | a.eq(b), a, b).to_array();
+        let want = [1.0, 5.0, nan, -0.0];
+        assert_eq!(picked.map(f32::to_bits)[..2], want.map(f32::to_bits)[..2]);
+        assert!(picked[2].is_nan());
+        assert_eq!(picked[3].to_bits(), (-0.0f32).to_bits());
         let q = (a * b + F4::splat(1.0) - b / F4::splat(2.0)).to_array();
         assert_eq!(q[0], 1.0 * 2.0 + 1.0 - 1.0);
         assert!(q[1].is_nan());

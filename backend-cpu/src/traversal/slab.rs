@@ -32,8 +32,9 @@ pub fn entry(
 }
 
 /// [`entry`] for a [`WideRay`] and an exit scale (`SLAB_WIDENING` or 1): the arithmetic of
-/// each lane of the node tests, in scalar form.
-#[inline(always)]
+/// each lane of the node tests, in scalar form (the reference the tests hold the node tests
+/// and `traversal::misses_bounds` to).
+#[cfg(test)]
 pub fn entry_wide(
     ray: &WideRay,
     exit_scale: f32,

@@ -556,6 +556,14 @@ fn the_root_check_rejects_only_rays_the_node_test_rejects() {
             } else {
                 misses_bounds::<Plain>(&bounds, o, d, tmin, tmax)
             };
+            // Bit for bit the scalar test on the union box (the vectorised form's promise).
+            let scale = super::ray::exit_scale(conservative);
+            let scalar = slab::entry_wide(&wide, scale, &bounds[0], &bounds[1], tmin, tmax);
+            assert_eq!(
+                skipped,
+                !wide.moves() || scalar.is_none(),
+                "{o:?} {d:?} [{tmin}, {tmax}] conservative {conservative}"
+            );
             if wide.moves() {
                 assert!(
                     !(skipped && mask != 0),
