@@ -209,23 +209,11 @@ fn watertight_lanes<L: Lanes>(
     if exact != 0 {
         // Edge functions exactly zero: recomputed in f64 and tie-broken, as the scalar test
         // does.
-        // Written out, not `map`ped (see `moller_trumbore_lanes`).
-        let [ax, ay, bx, by, cx, cy] = [
-            ax.to_array(),
-            ay.to_array(),
-            bx.to_array(),
-            by.to_array(),
-            cx.to_array(),
-            cy.to_array(),
-        ];
-        let [ax, ay, bx, by, cx, cy] = [
-            ax.as_ref(),
-            ay.as_ref(),
-            bx.as_ref(),
-            by.as_ref(),
-            cx.as_ref(),
-            cy.as_ref(),
-        ];
+        // `map` is fine here, unlike in the hot paths (`moller_trumbore_lanes`): this branch
+        // is rare, and written out its arrays cost the common path 18 instructions a
+        // Breakfast Room camera ray (the leaf's register allocation).
+        let [ax, ay, bx, by, cx, cy] = [ax, ay, bx, by, cx, cy].map(L::to_array);
+        let [ax, ay, bx, by, cx, cy] = [&ax, &ay, &bx, &by, &cx, &cy].map(|x| x.as_ref());
         let (mut uu, mut vv, mut ww) = (u.to_array(), v.to_array(), w.to_array());
         let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
         let (mut s_u, mut s_v, mut s_w) = (uu, vv, ww);
