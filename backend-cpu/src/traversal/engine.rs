@@ -666,16 +666,10 @@ impl<S: Spec> Walker<'_, S> {
                     &wide.blocks[(first + k) as usize],
                     &wide.blocks[(first + k + 1) as usize],
                 ];
-                let lanes = TriangleBlock::lane_mask(count, k)
-                    | TriangleBlock::lane_mask(count, k + 1) << BLOCK_WIDTH;
                 // A hit of the second block that the first block's commits moved beyond
                 // the interval is dropped in `report_block_hits`, as testing the second
                 // block after them would have: the same hits, bit for bit.
-                let hits = if S::WATERTIGHT {
-                    triangle::watertight8(&lanes_of_ray, pair, lanes, tmin, h.t_max())
-                } else {
-                    triangle::moller_trumbore8(&lanes_of_ray, pair, lanes, tmin, h.t_max())
-                };
+                let hits = Self::pair_test(&lanes_of_ray, pair, count, k, tmin, h.t_max());
                 if hits.mask != 0 && self.report_pair_hits(g, path, h, &hits, pair) {
                     return;
                 }
@@ -708,6 +702,27 @@ impl<S: Spec> Walker<'_, S> {
             triangle::watertight4(lanes_of_ray, block, lanes, tmin, tmax)
         } else {
             triangle::moller_trumbore4(lanes_of_ray, block, lanes, tmin, tmax)
+        }
+    }
+
+    /// [`Walker::block_test`] on blocks `k` and `k + 1` (`pair`) of a leaf of `count`
+    /// triangles, in eight lanes (the first block's in lanes 0–3).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn pair_test(
+        lanes_of_ray: &TriangleLanes<F8>,
+        pair: [&TriangleBlock; 2],
+        count: u32,
+        k: u32,
+        tmin: f32,
+        tmax: f32,
+    ) -> BlockHits<F8> {
+        let lanes = TriangleBlock::lane_mask(count, k)
+            | TriangleBlock::lane_mask(count, k + 1) << BLOCK_WIDTH;
+        if S::WATERTIGHT {
+            triangle::watertight8(lanes_of_ray, pair, lanes, tmin, tmax)
+        } else {
+            triangle::moller_trumbore8(lanes_of_ray, pair, lanes, tmin, tmax)
         }
     }
 
@@ -747,9 +762,10 @@ impl<S: Spec> Walker<'_, S> {
     }
 
     /// [`Walker::report_block_hits`] for a pair of blocks. Not inlined: the hit handling
-    /// inlined into both block loops crowded them with its loads and spills (Breakfast Room
-    /// camera rays: 1900 instructions each with both inlined, 1867 with neither), and the
-    /// single-block loop, which most leaves take, is faster with it inlined.
+    /// inlined into the pair loop too crowded the leaf with its loads and spills (Breakfast
+    /// Room camera rays: 1900 instructions each with it inlined in both loops, 1867 with it
+    /// in neither); single blocks, most leaves, keep it inlined (a call per candidate there
+    /// measured +16 to +51 instructions a ray).
     #[cfg(target_arch = "x86_64")]
     #[inline(never)]
     fn report_pair_hits<H: Handler>(

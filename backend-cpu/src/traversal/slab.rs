@@ -292,16 +292,12 @@ mod avx {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::traversal::tests::Rng;
 
     #[test]
     fn node_tests_agree_with_the_scalar_test_bit_for_bit() {
-        let mut state = 99u64;
-        let mut rnd = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rng = Rng(99);
+        let mut rnd = || rng.f();
         let specials = [0.0, -0.0, 1.0, f32::INFINITY, f32::NEG_INFINITY];
         #[cfg(target_arch = "x86_64")]
         let mut avx_checked = 0;
@@ -463,13 +459,8 @@ mod tests {
     fn conservative_test_keeps_grazing_boxes_plain_may_lose() {
         // Rays aimed at the far corner region of a thin box: the conservative test must
         // report every box that the exact (f64) test hits.
-        let mut state = 12345u64;
-        let mut rnd = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rng = Rng(12345);
+        let mut rnd = || rng.f();
         for _ in 0..20000 {
             let min = [
                 rnd() * 100.0 - 50.0,

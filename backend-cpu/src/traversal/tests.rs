@@ -144,13 +144,24 @@ fn closest<S: Spec>(scene: &SceneTable, root: TraversableHandle, r: &TraceRay) -
     h
 }
 
-struct Rng(u64);
+/// The traversal tests' xorshift generator (seeded per test, so each test's cases are fixed).
+pub(super) struct Rng(pub(super) u64);
 impl Rng {
-    fn f(&mut self) -> f32 {
+    /// A number in `[0, 1)`.
+    pub(super) fn f(&mut self) -> f32 {
         self.0 ^= self.0 << 13;
         self.0 ^= self.0 >> 7;
         self.0 ^= self.0 << 17;
         (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// A point with coordinates in `[-s/2, s/2)`.
+    pub(super) fn v(&mut self, s: f32) -> [f32; 3] {
+        [
+            (self.f() - 0.5) * s,
+            (self.f() - 0.5) * s,
+            (self.f() - 0.5) * s,
+        ]
     }
 }
 
@@ -508,13 +519,8 @@ fn the_root_check_rejects_only_rays_the_node_test_rejects() {
     use slab::NodeTest;
     type Plain = Specialised<false, false, false, true, false>;
     type Conservative = Specialised<false, false, false, true, true>;
-    let mut state = 7u64;
-    let mut rnd = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut rng = Rng(7);
+    let mut rnd = || rng.f();
     let specials = [0.0, -0.0, 1e-40, -1e-40];
     let (mut rejected, mut entered) = (0, 0);
     for i in 0..40000 {

@@ -425,22 +425,7 @@ mod tests {
     use super::*;
     use crate::traversal::ray::WideRay;
 
-    struct Rng(u64);
-    impl Rng {
-        fn f(&mut self) -> f32 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 40) as f32 / (1u64 << 24) as f32
-        }
-        fn v(&mut self, s: f32) -> [f32; 3] {
-            [
-                (self.f() - 0.5) * s,
-                (self.f() - 0.5) * s,
-                (self.f() - 0.5) * s,
-            ]
-        }
-    }
+    use crate::traversal::tests::Rng;
 
     type Test = fn(&PreparedRay, &[[f32; 3]; 3], f32, f32) -> Option<TriangleHit>;
     const TESTS: [(&str, Test); 2] = [
