@@ -12,6 +12,7 @@ use optik_api::{
     AccelBuildOptions, BuildInput, CurveEndcaps, CurveType, Error, GeometryFlags, MicromapArray,
     MotionOptions, PrimitiveTypeFlags, Result, SceneFeatures,
 };
+use rayon::prelude::*;
 use std::sync::Arc;
 
 /// Looks up opacity micromap arrays named by triangle inputs.
@@ -190,12 +191,10 @@ impl Geometry {
         }
     }
 
-    /// The same geometry with slot `s` taken from position `order[s]`.
+    /// The same geometry with slot `s` taken from position `order[s]` (gathered on the
+    /// current rayon pool).
     fn permuted(&self, order: &[u32]) -> Geometry {
-        fn pick<T: Copy>(v: &[T], order: &[u32]) -> Vec<T> {
-            order.iter().map(|&i| v[i as usize]).collect()
-        }
-        fn keys<T: Copy>(k: &[Vec<T>], order: &[u32]) -> Vec<Vec<T>> {
+        fn keys<T: Copy + Send + Sync>(k: &[Vec<T>], order: &[u32]) -> Vec<Vec<T>> {
             k.iter().map(|v| pick(v, order)).collect()
         }
         match self {
@@ -219,6 +218,13 @@ impl Geometry {
             }),
         }
     }
+}
+
+/// `v[order[s]]` for every `s`, gathered on the current rayon pool: the build's
+/// permutations read in random order from arrays of up to millions of entries, a serial
+/// share that grew with the thread count (docs/cpu-backend.md, "Builds on many threads").
+fn pick<T: Copy + Send + Sync>(v: &[T], order: &[u32]) -> Vec<T> {
+    order.par_iter().map(|&i| v[i as usize]).collect()
 }
 
 /// A built geometry acceleration structure, with a backend's encoding `E`.
@@ -320,22 +326,32 @@ fn decode_inputs(
                 let mut some_key_has_area = vec![false; n as usize];
                 for (k, key) in tri_keys.iter_mut().enumerate() {
                     let d = decode::triangles(t, k, bytes).map_err(ctx(i))?;
-                    for (p, idx) in d.indices.iter().enumerate() {
-                        let tri = [
-                            d.vertices[idx[0] as usize],
-                            d.vertices[idx[1] as usize],
-                            d.vertices[idx[2] as usize],
-                        ];
-                        if tri.iter().all(primitive::finite_point) {
-                            some_key_has_area[p] |= !primitive::zero_area(&tri);
-                            let b = &mut boxes[first_prim + p];
-                            for v in tri {
-                                b.grow(v);
+                    // Triangle by triangle on the current rayon pool (each writes only its
+                    // own entries): the decoding is a serial share of the build otherwise.
+                    let tris: Vec<[[f32; 3]; 3]> = d
+                        .indices
+                        .par_iter()
+                        .map(|idx| idx.map(|v| d.vertices[v as usize]))
+                        .collect();
+                    boxes[first_prim..]
+                        .par_iter_mut()
+                        .zip(usable.par_iter_mut())
+                        .zip(some_key_has_area.par_iter_mut())
+                        .zip(tris.par_iter())
+                        .for_each(|(((b, usable), has_area), tri)| {
+                            if tri.iter().all(primitive::finite_point) {
+                                *has_area |= !primitive::zero_area(tri);
+                                for &v in tri {
+                                    b.grow(v);
+                                }
+                            } else {
+                                *usable = false;
                             }
-                        } else {
-                            usable[p] = false;
-                        }
-                        key.push(tri);
+                        });
+                    if key.is_empty() {
+                        *key = tris;
+                    } else {
+                        key.extend_from_slice(&tris);
                     }
                 }
                 for p in 0..n as usize {
@@ -554,8 +570,7 @@ impl<E: GasEncoding> Gas<E> {
         let leaf_costs = E::leaf_costs(&decoded.geometry);
         let (bvh, order) = Bvh::build_with(&decoded.boxes, quality, leaf_costs)?;
         let (motion, _) = motion_of(options);
-        let primitives: Vec<PrimitiveInfo> =
-            order.iter().map(|&i| decoded.infos[i as usize]).collect();
+        let primitives = pick(&decoded.infos, &order);
         let geometry = decoded.geometry.permuted(&order);
         Ok(Gas {
             bounds: bvh.bounds(),
@@ -584,7 +599,7 @@ impl<E: GasEncoding> Gas<E> {
         let order = &self.primitive_order;
         let boxes = &decoded.boxes;
         self.geometry = decoded.geometry.permuted(order);
-        self.primitives = order.iter().map(|&i| decoded.infos[i as usize]).collect();
+        self.primitives = pick(&decoded.infos, order);
         self.bvh.refit(|slot| boxes[order[slot] as usize]);
         self.encoding = E::encode(&self.bvh, &self.geometry, &self.primitives);
         self.bounds = self.bvh.bounds();

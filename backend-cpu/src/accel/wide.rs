@@ -29,6 +29,7 @@
 
 use optik_accel::widen;
 use optik_accel::{Aabb, Bvh, GasEncoding, Geometry, LeafCosts, PrimitiveInfo};
+use rayon::prelude::*;
 
 /// Children per node.
 pub const NODE_WIDTH: usize = 8;
@@ -116,6 +117,28 @@ pub struct TriangleBlock {
 }
 
 impl TriangleBlock {
+    /// The block of the `lanes` triangles from slot `first` (at most [`BLOCK_WIDTH`]); the
+    /// lanes beyond hold no triangle.
+    fn of_slots(tris: &SlotTriangles<'_>, first: u32, lanes: u32) -> TriangleBlock {
+        let mut block = TriangleBlock {
+            vertices: [[[0.0; BLOCK_WIDTH]; 3]; 3],
+            slots: [u32::MAX; BLOCK_WIDTH],
+            infos: [bytemuck::Zeroable::zeroed(); BLOCK_WIDTH],
+        };
+        for lane in 0..lanes.min(BLOCK_WIDTH as u32) as usize {
+            let slot = first + lane as u32;
+            let tri = &tris.vertices[slot as usize];
+            for (v, vertex) in tri.iter().enumerate() {
+                for (axis, &c) in vertex.iter().enumerate() {
+                    block.vertices[v][axis][lane] = c;
+                }
+            }
+            block.slots[lane] = slot;
+            block.infos[lane] = tris.infos[slot as usize];
+        }
+        block
+    }
+
     /// Lanes holding triangles in block `index` of a leaf of `count` triangles, as a
     /// bit mask (lane `i` is bit `i`).
     #[inline]
@@ -159,12 +182,18 @@ pub struct WideBvh {
 impl WideBvh {
     /// Collapses `bvh` into eight-wide nodes. With `triangles` (per slot, the static
     /// vertices and the primitive records), leaves point to triangle blocks packed from them.
+    ///
+    /// The nodes are made in one pass over the tree, which also gives each leaf its range of
+    /// blocks (in the order the pass meets the leaves); the blocks are then filled on the
+    /// current rayon pool, each from its own slots: the same layout on any number of threads.
     pub fn build(bvh: &Bvh, triangles: Option<SlotTriangles<'_>>) -> WideBvh {
         let binary = bvh.nodes();
         let mut wide = WideBvh::default();
         if binary.is_empty() {
             return wide;
         }
+        // Per block: its leaf's first slot in the block and the triangles it holds.
+        let mut block_slots: Vec<(u32, u32)> = Vec::new();
         wide.nodes.push(WideNode::EMPTY);
         // (binary node, wide node it becomes, level of its children)
         let mut stack = vec![(0usize, 0usize, 1u32)];
@@ -178,7 +207,15 @@ impl WideBvh {
                 if child.is_leaf() {
                     node.count[lane] = child.count;
                     node.first[lane] = match triangles {
-                        Some(tris) => wide.push_blocks(&tris, child.first, child.count),
+                        Some(_) => {
+                            let start = block_slots.len() as u32;
+                            for b in 0..TriangleBlock::blocks_of(child.count) {
+                                let done = b * BLOCK_WIDTH as u32;
+                                let lanes = (child.count - done).min(BLOCK_WIDTH as u32);
+                                block_slots.push((child.first + done, lanes));
+                            }
+                            start
+                        }
                         None => child.first,
                     };
                 } else {
@@ -189,38 +226,14 @@ impl WideBvh {
             }
             wide.nodes[target] = node;
         }
+        if let Some(tris) = triangles {
+            block_slots
+                .par_iter()
+                .map(|&(first, lanes)| TriangleBlock::of_slots(&tris, first, lanes))
+                .collect_into_vec(&mut wide.blocks);
+        }
         wide.root_bounds = Some(wide.nodes[0].union());
         wide
-    }
-
-    /// Appends the blocks of the leaf holding slots `first .. first + count`; returns the
-    /// index of its first block.
-    fn push_blocks(&mut self, tris: &SlotTriangles<'_>, first: u32, count: u32) -> u32 {
-        let start = self.blocks.len() as u32;
-        for b in 0..TriangleBlock::blocks_of(count) {
-            let mut block = TriangleBlock {
-                vertices: [[[0.0; BLOCK_WIDTH]; 3]; 3],
-                slots: [u32::MAX; BLOCK_WIDTH],
-                infos: [bytemuck::Zeroable::zeroed(); BLOCK_WIDTH],
-            };
-            for lane in 0..BLOCK_WIDTH as u32 {
-                let i = b * BLOCK_WIDTH as u32 + lane;
-                if i >= count {
-                    break;
-                }
-                let slot = first + i;
-                let tri = &tris.vertices[slot as usize];
-                for (v, vertex) in tri.iter().enumerate() {
-                    for (axis, &c) in vertex.iter().enumerate() {
-                        block.vertices[v][axis][lane as usize] = c;
-                    }
-                }
-                block.slots[lane as usize] = slot;
-                block.infos[lane as usize] = tris.infos[slot as usize];
-            }
-            self.blocks.push(block);
-        }
-        start
     }
 
     /// Bytes the nodes and blocks occupy.
@@ -379,6 +392,25 @@ mod tests {
                 }
             }
         }
+        // The blocks are filled on the current rayon pool: the same structure, block
+        // layout included, on one thread as on four.
+        let on = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                WideBvh::build(
+                    &bvh,
+                    Some(SlotTriangles {
+                        vertices: &slotted,
+                        infos: &infos,
+                    }),
+                )
+            })
+        };
+        assert_eq!(on(1), wide);
+        assert_eq!(on(4), wide);
         assert_eq!(WideBvh::build(&Bvh::default(), None), WideBvh::default());
     }
 
