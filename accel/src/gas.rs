@@ -222,7 +222,8 @@ impl Geometry {
 
 /// `v[order[s]]` for every `s`, gathered on the current rayon pool: the build's
 /// permutations read in random order from arrays of up to millions of entries, a serial
-/// share that grew with the thread count (docs/cpu-backend.md, "Builds on many threads").
+/// share that grew with the thread count (docs/cpu-backend.md, "Issue 14: pushed children
+/// prefetched, builds on the pool").
 fn pick<T: Copy + Send + Sync>(v: &[T], order: &[u32]) -> Vec<T> {
     order.par_iter().map(|&i| v[i as usize]).collect()
 }

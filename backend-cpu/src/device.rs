@@ -412,7 +412,12 @@ impl optik_core::Backend for CpuBackend {
             (Traversable::Instances(ias), BuildInput::Instances(ia)) => {
                 ias.refit(ia, &data, &st.scene, self.props.max_traversable_graph_depth)?
             }
-            (Traversable::Geometry(gas), _) => gas.refit(&built_with, inputs, &data, &data)?,
+            // A refit decodes and permutes on the current rayon pool, as a build does:
+            // the device's launch pool.
+            (Traversable::Geometry(gas), _) => {
+                let pool = self.pool.lock().unwrap_or_else(|e| e.into_inner()).clone();
+                pool.install(|| gas.refit(&built_with, inputs, &data, &data))?
+            }
             _ => {
                 return Err(Error::invalid(
                     "accel_update: the inputs' kind differs from the build's",
