@@ -106,7 +106,11 @@ pub enum TriangleTest {
     /// edges and vertices never leak.
     #[default]
     Watertight,
-    /// Möller–Trumbore: faster, not watertight.
+    /// Möller–Trumbore: not watertight (rays through shared edges can slip between
+    /// neighbours). Cheaper per triangle where triangles are tested one at a time; the CPU
+    /// backend's four- and eight-lane block tests price it within a few percent of the
+    /// watertight test, on either side by machine (`optik bench-report` measures it;
+    /// docs/cpu-backend.md §8).
     MollerTrumbore,
     /// The device's own triangle test; Vulkan only (the driver's native triangles, its
     /// fastest path: watertightness is whatever the driver gives). The CPU and wgpu backends
