@@ -169,6 +169,12 @@ impl CpuBackend {
             .current_num_threads()
     }
 
+    /// The launch pool (shared: a launch or build keeps it while `set_threads` replaces it).
+    /// Builds and refits run on it too, so a device set to one thread builds on one.
+    fn launch_pool(&self) -> Arc<rayon::ThreadPool> {
+        self.pool.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
     fn state(&self) -> MutexGuard<'_, State> {
         // A panic inside a call never leaves the tables half-updated (objects are inserted
         // whole), so a poisoned lock is safe to keep using.
@@ -362,7 +368,7 @@ impl optik_core::Backend for CpuBackend {
         };
         // obvhs builds in parallel on the current rayon pool: the device's launch pool, so a
         // device set to one thread builds on one (the tree is the same on any number).
-        let pool = self.pool.lock().unwrap_or_else(|e| e.into_inner()).clone();
+        let pool = self.launch_pool();
         let traversable = pool.install(|| -> Result<Traversable> {
             Ok(match &inputs[0] {
                 BuildInput::Instances(ia) => Traversable::Instances(Ias::build(
@@ -415,7 +421,7 @@ impl optik_core::Backend for CpuBackend {
             // A refit decodes and permutes on the current rayon pool, as a build does:
             // the device's launch pool.
             (Traversable::Geometry(gas), _) => {
-                let pool = self.pool.lock().unwrap_or_else(|e| e.into_inner()).clone();
+                let pool = self.launch_pool();
                 pool.install(|| gas.refit(&built_with, inputs, &data, &data))?
             }
             _ => {
@@ -634,7 +640,7 @@ impl optik_core::Backend for CpuBackend {
         size: LaunchSize,
         options: &LaunchOptions,
     ) -> Result<()> {
-        let pool = self.pool.lock().unwrap_or_else(|e| e.into_inner()).clone();
+        let pool = self.launch_pool();
         let st = self.state();
         let pipeline = objects.pipelines.get(pipeline)?.clone();
         if size.is_empty() {

@@ -1108,7 +1108,7 @@ fn walk_wide_with<H: Handler, T: slab::NodeTest>(
         node = &nodes[inner.first as usize];
         // The children's indices sit in the node's fourth cache line, which the box test
         // does not read: asked for now, it arrives while the test runs instead of after.
-        prefetch(&node.first);
+        prefetch_at(&node.first, 0);
         (mask, entry) = test.entry(node, h.t_max());
     }
 }
@@ -1118,7 +1118,7 @@ fn walk_wide_with<H: Handler, T: slab::NodeTest>(
 /// triangle leaf's first block's vertices (bytes 0–143 of a 16-byte-aligned block, three
 /// lines at most). A hint: no effect on results. Popped children waited on these loads
 /// (the hottest instructions of the walk and of the leaf on incoherent rays); asked for at
-/// the push, bunny incoherent rays run 5–9 % faster, the Breakfast Room's 3–4 %
+/// the push, bunny incoherent rays run 5–10 % faster, the Breakfast Room's 3–4 %
 /// (docs/cpu-backend.md).
 #[inline(always)]
 fn prefetch_child(wide: &WideBvh, first: u32, count: u32) {
@@ -1137,31 +1137,22 @@ fn prefetch_child(wide: &WideBvh, first: u32, count: u32) {
 /// for `last` up to 143 at any 16-byte alignment and up to 191 at a 64-byte one.
 #[inline(always)]
 fn prefetch_span<T>(value: &T, last: usize) {
-    debug_assert!(last < std::mem::size_of::<T>());
     debug_assert!((value as *const T as usize % 64) + last < 192);
-    let p = (value as *const T).cast::<i8>();
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: the addresses are within `value` (`last` is below its size); a prefetch
-    // reads nothing into the program.
-    unsafe {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        _mm_prefetch::<_MM_HINT_T0>(p);
-        _mm_prefetch::<_MM_HINT_T0>(p.add(64));
-        _mm_prefetch::<_MM_HINT_T0>(p.add(last));
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = p;
+    prefetch_at(value, 0);
+    prefetch_at(value, 64);
+    prefetch_at(value, last);
 }
 
-/// Asks for the cache line holding `value` (a hint: no effect on results).
+/// Asks for the cache line holding byte `offset` of `value` (a hint: no effect on results).
 #[inline(always)]
-fn prefetch<T>(value: &T) {
+fn prefetch_at<T>(value: &T, offset: usize) {
+    debug_assert!(offset < std::mem::size_of::<T>());
     #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch of a valid address; it reads nothing into the program.
+    // SAFETY: an address within `value`; a prefetch reads nothing into the program.
     unsafe {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        _mm_prefetch::<_MM_HINT_T0>((value as *const T).cast::<i8>());
+        _mm_prefetch::<_MM_HINT_T0>((value as *const T).cast::<i8>().add(offset));
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = value;
+    let _ = (value, offset);
 }
