@@ -106,6 +106,11 @@ pub fn triangle_face_culled(
     instance: InstanceFlags,
     ray: RayFlags,
 ) -> bool {
+    // Most rays cull no faces: their flags decide first (one test per candidate).
+    if !ray.intersects(RayFlags::CULL_FRONT_FACING_TRIANGLES | RayFlags::CULL_BACK_FACING_TRIANGLES)
+    {
+        return false;
+    }
     if geometry.contains(GeometryFlags::DISABLE_TRIANGLE_FACE_CULLING)
         || instance.contains(InstanceFlags::DISABLE_TRIANGLE_FACE_CULLING)
     {

@@ -16,7 +16,7 @@ use crate::accel::{
     SceneTable, Transform, Traversable,
 };
 use optik_api::semantics::motion::{self, KeyPosition};
-use optik_api::semantics::opacity::{self, CandidateFate};
+use optik_api::semantics::opacity::{self, CandidateFate, MicromapState};
 use optik_api::semantics::{affine, exception, facing, sbt_index};
 use optik_api::{
     IDENTITY_3X4, InstanceFlags, Matrix3x4, PrimitiveTypeFlags, RayFlags, TraversableHandle,
@@ -418,7 +418,6 @@ impl<S: Spec> Walker<'_, S> {
             _ => KeyPosition { key: 0, t: 0.0 },
         };
         let tmin = self.ray.tmin;
-        let flags = self.ray.flags;
         let wide = &g.encoding;
         if walks_triangle_blocks(g) {
             return self.triangle_blocks(g, path, h);
@@ -457,7 +456,7 @@ impl<S: Spec> Walker<'_, S> {
                             continue;
                         }
                         let info = &g.primitives[s];
-                        let fate = opacity::resolve(info.flags(), path.flags, flags, None);
+                        let fate = self.fate(info, path, None);
                         if fate == CandidateFate::Culled {
                             continue;
                         }
@@ -478,7 +477,7 @@ impl<S: Spec> Walker<'_, S> {
                         continue;
                     };
                     let info = &g.primitives[s];
-                    let fate = opacity::resolve(info.flags(), path.flags, flags, None);
+                    let fate = self.fate(info, path, None);
                     if fate == CandidateFate::Culled {
                         continue;
                     }
@@ -510,7 +509,7 @@ impl<S: Spec> Walker<'_, S> {
                         continue;
                     };
                     let info = &g.primitives[s];
-                    let fate = opacity::resolve(info.flags(), path.flags, flags, None);
+                    let fate = self.fate(info, path, None);
                     if fate == CandidateFate::Culled {
                         continue;
                     }
@@ -780,6 +779,26 @@ impl<S: Spec> Walker<'_, S> {
         self.report_block_hits(g, path, h, hits, in_block)
     }
 
+    /// The fate of a candidate of `info` below `path` (`micromap`: the opacity micromap
+    /// state at the hit, where one applies): `semantics::opacity::resolve`, except that a
+    /// pipeline without any-hit programs accepts opaque and non-opaque candidates alike, so
+    /// when the ray culls neither kind and no micromap applies there is nothing to resolve
+    /// (every such candidate is accepted, as `Opaque`).
+    #[inline(always)]
+    fn fate(
+        &self,
+        info: &PrimitiveInfo,
+        path: &Path,
+        micromap: Option<MicromapState>,
+    ) -> CandidateFate {
+        let flags = self.ray.flags;
+        let culls = RayFlags::CULL_DISABLED_ANYHIT | RayFlags::CULL_ENFORCED_ANYHIT;
+        if !S::ANY_HIT && micromap.is_none() && !flags.intersects(culls) {
+            return CandidateFate::Opaque;
+        }
+        opacity::resolve(info.flags(), path.flags, flags, micromap)
+    }
+
     /// A triangle's hit (with the slot's record and the vertices it was tested with):
     /// facing, culling, micromap and flag resolution, then the handler's candidate.
     #[allow(clippy::too_many_arguments)]
@@ -812,7 +831,7 @@ impl<S: Spec> Walker<'_, S> {
             },
             _ => None,
         };
-        let fate = opacity::resolve(info.flags(), path.flags, flags, micromap);
+        let fate = self.fate(info, path, micromap);
         if fate == CandidateFate::Culled {
             return;
         }

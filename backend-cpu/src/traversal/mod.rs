@@ -83,7 +83,8 @@ pub trait Handler {
     /// Whether traversal must stop (terminated ray, or an exception ended the invocation).
     fn done(&self) -> bool;
     /// A built-in primitive (triangle, sphere, curve) hit that passed culling; `fate` is
-    /// `Opaque` or `NonOpaque` after flag resolution.
+    /// `Opaque` or `NonOpaque` after flag resolution (with `S::ANY_HIT` false, where both
+    /// are accepted alike, `Opaque` unless a micromap or the ray's cull flags needed it).
     fn candidate<S: Spec>(&mut self, candidate: &Candidate<'_>, path: &Path, fate: CandidateFate);
     /// A custom primitive whose box the ray meets (and whose flags do not cull it): run its
     /// intersection program, whose reports carry `fate`.

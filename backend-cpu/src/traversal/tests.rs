@@ -583,3 +583,41 @@ fn the_root_check_rejects_only_rays_the_node_test_rejects() {
     // Both outcomes are common, so the check is exercised both ways.
     assert!(rejected > 10000 && entered > 10000, "{rejected} {entered}");
 }
+
+/// A pipeline without any-hit programs accepts opaque and non-opaque candidates alike, but
+/// still drops the ones the ray's cull flags name (its candidates skip the flag resolution
+/// only when the ray culls neither kind): the geometry here is opaque (`DISABLE_ANYHIT`).
+/// Face culling drops one side and keeps the other.
+#[test]
+fn cull_flags_drop_candidates_without_any_hit_programs() {
+    const { assert!(!<Robust as Spec>::ANY_HIT) };
+    let gas = triangle_gas(
+        &[[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0]],
+        &[[0, 1, 2]],
+    );
+    let (scene, root) = scene_of(gas);
+    let hits = |flags: RayFlags, dz: f32| {
+        let r = TraceRay {
+            flags,
+            ..ray([0.0, 0.0, -dz], [0.0, 0.0, dz])
+        };
+        closest::<Robust>(&scene, root, &r).hit.is_some()
+    };
+    assert!(hits(RayFlags::NONE, 1.0));
+    assert!(!hits(RayFlags::CULL_DISABLED_ANYHIT, 1.0), "opaque culled");
+    assert!(hits(RayFlags::CULL_ENFORCED_ANYHIT, 1.0), "opaque kept");
+    let enforced = RayFlags::ENFORCE_ANYHIT;
+    assert!(
+        !hits(enforced | RayFlags::CULL_ENFORCED_ANYHIT, 1.0),
+        "non-opaque culled"
+    );
+    assert!(
+        hits(enforced | RayFlags::CULL_DISABLED_ANYHIT, 1.0),
+        "non-opaque kept"
+    );
+    for dz in [1.0, -1.0] {
+        let front = hits(RayFlags::CULL_BACK_FACING_TRIANGLES, dz);
+        let back = hits(RayFlags::CULL_FRONT_FACING_TRIANGLES, dz);
+        assert!(front != back, "one side culled, the other kept ({dz})");
+    }
+}
