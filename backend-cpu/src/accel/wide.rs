@@ -18,7 +18,9 @@
 //!   Unused children have the empty box (`+∞` minimum, `−∞` maximum), which no ray enters.
 //! - `nodes[0]` is the root; children come after parents.
 //! - Every child box is the box of the binary node it came from, so the wide BVH is exactly
-//!   as conservative as the binary one (boxes are exact unions of primitive boxes).
+//!   as conservative as the binary one (boxes are exact unions of primitive boxes). In a
+//!   triangle structure a binary node whose wide node would hold only a few triangles'
+//!   leaves is a leaf itself, of its subtree's consecutive slots ([`MERGED_LEAF_MOST`]).
 //! - [`TriangleBlock`]: the vertices of up to four triangles of one leaf, as
 //!   `vertices[vertex][axis][lane]`, their slots, and a copy of their [`PrimitiveInfo`]s
 //!   (what a hit needs next: its flags, indices; reading it from `Gas::primitives` cost a
@@ -28,7 +30,7 @@
 //!   structures (one motion key); moving triangles are interpolated per slot instead.
 
 use optik_accel::widen;
-use optik_accel::{Aabb, Bvh, GasEncoding, Geometry, LeafCosts, PrimitiveInfo};
+use optik_accel::{Aabb, Bvh, BvhNode, GasEncoding, Geometry, LeafCosts, PrimitiveInfo};
 use rayon::prelude::*;
 
 /// Children per node.
@@ -36,6 +38,16 @@ pub const NODE_WIDTH: usize = 8;
 
 /// Triangles per block (the lanes of the triangle test).
 pub const BLOCK_WIDTH: usize = 4;
+
+/// The most triangles of a leaf merged from a node that has only leaves below it (three
+/// blocks). Such a node is common at the bottom of the tree (two leaves under one binary
+/// node, widened into a node of two children: 40 % of the bunny's nodes) and costs an
+/// 8-lane node test and a 256-byte node; its blocks tested directly (two at a time in eight
+/// lanes where the CPU has AVX) cost about what the node test and the leaves it lets in do.
+/// Chosen by measurement (docs/cpu-backend.md, "Small all-leaf nodes merged"): limits of 8,
+/// 12 and 16 triangles all ran 2–6 % faster on the four bench sets; 12 left the bunny
+/// 2853 of its 7084 nodes and the Breakfast Room 10531 of 25501.
+pub const MERGED_LEAF_MOST: u32 = 3 * BLOCK_WIDTH as u32;
 
 /// How the builder prices leaves of static triangles, which the walk tests a block at a time:
 /// a leaf costs its blocks (not its triangles), entering it nothing more, a binary node 0.3
@@ -181,12 +193,20 @@ pub struct WideBvh {
 
 impl WideBvh {
     /// Collapses `bvh` into eight-wide nodes. With `triangles` (per slot, the static
-    /// vertices and the primitive records), leaves point to triangle blocks packed from them.
+    /// vertices and the primitive records), leaves point to triangle blocks packed from them,
+    /// and a node that would have only leaves below it, of at most [`MERGED_LEAF_MOST`]
+    /// triangles in all, is one leaf of its parent instead.
     ///
     /// The nodes are made in one pass over the tree, which also gives each leaf its range of
     /// blocks (in the order the pass meets the leaves); the blocks are then filled on the
     /// current rayon pool, each from its own slots: the same layout on any number of threads.
     pub fn build(bvh: &Bvh, triangles: Option<SlotTriangles<'_>>) -> WideBvh {
+        WideBvh::build_merging(bvh, triangles, MERGED_LEAF_MOST)
+    }
+
+    /// [`WideBvh::build`], merging small all-leaf nodes of triangle structures into leaves
+    /// of up to `merge_limit` triangles ([`MERGED_LEAF_MOST`]; 0: none).
+    fn build_merging(bvh: &Bvh, triangles: Option<SlotTriangles<'_>>, merge_limit: u32) -> WideBvh {
         let binary = bvh.nodes();
         let mut wide = WideBvh::default();
         if binary.is_empty() {
@@ -204,19 +224,24 @@ impl WideBvh {
             for (lane, &c) in children.iter().enumerate() {
                 let child = &binary[c];
                 node.set_box(lane, &child.aabb());
-                if child.is_leaf() {
-                    node.count[lane] = child.count;
+                let merged = match triangles {
+                    Some(_) if !child.is_leaf() => merged_leaf(binary, c, merge_limit),
+                    _ => None,
+                };
+                if child.is_leaf() || merged.is_some() {
+                    let (first, count) = merged.unwrap_or((child.first, child.count));
+                    node.count[lane] = count;
                     node.first[lane] = match triangles {
                         Some(_) => {
                             let start = block_slots.len() as u32;
-                            for b in 0..TriangleBlock::blocks_of(child.count) {
+                            for b in 0..TriangleBlock::blocks_of(count) {
                                 let done = b * BLOCK_WIDTH as u32;
-                                let lanes = (child.count - done).min(BLOCK_WIDTH as u32);
-                                block_slots.push((child.first + done, lanes));
+                                let lanes = (count - done).min(BLOCK_WIDTH as u32);
+                                block_slots.push((first + done, lanes));
                             }
                             start
                         }
-                        None => child.first,
+                        None => first,
                     };
                 } else {
                     node.first[lane] = wide.nodes.len() as u32;
@@ -241,6 +266,28 @@ impl WideBvh {
         (self.nodes.len() * std::mem::size_of::<WideNode>()
             + self.blocks.len() * std::mem::size_of::<TriangleBlock>()) as u64
     }
+}
+
+/// The slots of binary node `c` as one leaf (first slot, count), where the wide node it
+/// would become has only leaves below it, at most `limit` triangles in all (consecutive
+/// slots, as a subtree's are), in no more blocks than its leaves take apart.
+fn merged_leaf(binary: &[BvhNode], c: usize, limit: u32) -> Option<(u32, u32)> {
+    let leaves = widen::children_up_to(binary, c, NODE_WIDTH);
+    if leaves.iter().any(|&k| !binary[k].is_leaf()) {
+        return None;
+    }
+    let first = leaves.iter().map(|&k| binary[k].first).min()?;
+    let end = leaves
+        .iter()
+        .map(|&k| binary[k].first + binary[k].count)
+        .max()?;
+    let count: u32 = leaves.iter().map(|&k| binary[k].count).sum();
+    let apart: u32 = leaves
+        .iter()
+        .map(|&k| TriangleBlock::blocks_of(binary[k].count))
+        .sum();
+    (count <= limit && end - first == count && TriangleBlock::blocks_of(count) <= apart)
+        .then_some((first, count))
 }
 
 impl GasEncoding for WideBvh {
@@ -412,6 +459,62 @@ mod tests {
         assert_eq!(on(1), wide);
         assert_eq!(on(4), wide);
         assert_eq!(WideBvh::build(&Bvh::default(), None), WideBvh::default());
+    }
+
+    /// Triangles of one unit square's size scattered over a 101 × 97 grid.
+    fn scattered(i: usize) -> [[f32; 3]; 3] {
+        let (x, y) = ((i * 37 % 101) as f32, (i * 53 % 97) as f32);
+        [[x, y, 0.0], [x + 1.0, y, 0.5], [x, y + 1.0, 1.0]]
+    }
+
+    /// A node that would have only leaves below it, of at most `MERGED_LEAF_MOST` triangles,
+    /// is a leaf of its parent: exactly those nodes are gone, no block is added, and every
+    /// slot is still reached once, inside its leaf's box.
+    #[test]
+    fn small_all_leaf_nodes_become_leaves() {
+        let tris: Vec<[[f32; 3]; 3]> = (0..2000).map(scattered).collect();
+        let b: Vec<Aabb> = tris
+            .iter()
+            .map(|t| {
+                let mut b = Aabb::EMPTY;
+                t.iter().for_each(|&p| b.grow(p));
+                b
+            })
+            .collect();
+        let (bvh, order) =
+            Bvh::build_with(&b, BuildQuality::FastTrace, Some(TRIANGLE_LEAF_COSTS)).unwrap();
+        let slotted: Vec<[[f32; 3]; 3]> = order.iter().map(|&i| tris[i as usize]).collect();
+        let infos = vec![bytemuck::Zeroable::zeroed(); tris.len()];
+        let triangles = || {
+            Some(SlotTriangles {
+                vertices: &slotted,
+                infos: &infos,
+            })
+        };
+        let merged = WideBvh::build(&bvh, triangles());
+        let apart = WideBvh::build_merging(&bvh, triangles(), 0);
+        check(&merged, b.len(), |s| b[order[s] as usize]);
+        check(&apart, b.len(), |s| b[order[s] as usize]);
+        // A node of `apart` that `build` merges: its used lanes all leaves, of few triangles
+        // in no more blocks together than apart.
+        let mergeable = |node: &WideNode| {
+            let lanes: Vec<usize> = (0..NODE_WIDTH)
+                .filter(|&l| node.min[0][l] <= node.max[0][l])
+                .collect();
+            let count: u32 = lanes.iter().map(|&l| node.count[l]).sum();
+            let blocks: u32 = lanes
+                .iter()
+                .map(|&l| TriangleBlock::blocks_of(node.count[l]))
+                .sum();
+            lanes.iter().all(|&l| node.count[l] > 0)
+                && count <= MERGED_LEAF_MOST
+                && TriangleBlock::blocks_of(count) <= blocks
+        };
+        let small = apart.nodes[1..].iter().filter(|n| mergeable(n)).count();
+        assert!(small > 0, "the tree has nodes to merge");
+        assert_eq!(merged.nodes.len(), apart.nodes.len() - small);
+        assert!(merged.blocks.len() <= apart.blocks.len());
+        assert!(merged.depth <= apart.depth);
     }
 
     /// Static triangles get leaves priced by the block (40 triangles with one box merge into
