@@ -378,6 +378,17 @@ mod tests {
         assert!(seen.iter().all(|&k| k == 1), "{seen:?}");
     }
 
+    /// Each triangle's box.
+    fn boxes_of(tris: &[[[f32; 3]; 3]]) -> Vec<Aabb> {
+        tris.iter()
+            .map(|t| {
+                let mut b = Aabb::EMPTY;
+                t.iter().for_each(|&p| b.grow(p));
+                b
+            })
+            .collect()
+    }
+
     #[test]
     fn collapse_keeps_every_slot_once() {
         for n in [1usize, 2, 3, 5, 17, 1000] {
@@ -399,14 +410,7 @@ mod tests {
                 [[x, 0.0, 0.0], [x + 1.0, 0.0, 0.5], [x, 1.0, 1.0]]
             })
             .collect();
-        let b: Vec<Aabb> = tris
-            .iter()
-            .map(|t| {
-                let mut b = Aabb::EMPTY;
-                t.iter().for_each(|&p| b.grow(p));
-                b
-            })
-            .collect();
+        let b = boxes_of(&tris);
         let (bvh, order) = Bvh::build(&b, BuildQuality::FastTrace).unwrap();
         let slotted: Vec<[[f32; 3]; 3]> = order.iter().map(|&i| tris[i as usize]).collect();
         let infos: Vec<PrimitiveInfo> = (0..n as u32)
@@ -473,14 +477,7 @@ mod tests {
     #[test]
     fn small_all_leaf_nodes_become_leaves() {
         let tris: Vec<[[f32; 3]; 3]> = (0..2000).map(scattered).collect();
-        let b: Vec<Aabb> = tris
-            .iter()
-            .map(|t| {
-                let mut b = Aabb::EMPTY;
-                t.iter().for_each(|&p| b.grow(p));
-                b
-            })
-            .collect();
+        let b = boxes_of(&tris);
         let (bvh, order) =
             Bvh::build_with(&b, BuildQuality::FastTrace, Some(TRIANGLE_LEAF_COSTS)).unwrap();
         let slotted: Vec<[[f32; 3]; 3]> = order.iter().map(|&i| tris[i as usize]).collect();
