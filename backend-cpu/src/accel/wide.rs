@@ -215,20 +215,28 @@ impl WideBvh {
         // Per block: its leaf's first slot in the block and the triangles it holds.
         let mut block_slots: Vec<(u32, u32)> = Vec::new();
         wide.nodes.push(WideNode::EMPTY);
-        // (binary node, wide node it becomes, level of its children)
-        let mut stack = vec![(0usize, 0usize, 1u32)];
-        while let Some((source, target, level)) = stack.pop() {
+        // (the binary nodes that become a wide node's children, that wide node, the level of
+        // those children)
+        let mut stack = vec![(widen::children_up_to(binary, 0, NODE_WIDTH), 0usize, 1u32)];
+        while let Some((children, target, level)) = stack.pop() {
             wide.depth = wide.depth.max(level);
-            let children = widen::children_up_to(binary, source, NODE_WIDTH);
             let mut node = WideNode::EMPTY;
             for (lane, &c) in children.iter().enumerate() {
                 let child = &binary[c];
                 node.set_box(lane, &child.aabb());
-                let merged = match triangles {
-                    Some(_) if !child.is_leaf() => merged_leaf(binary, c, merge_limit),
+                // An inner child's own children, chosen once: they are its wide node's, or
+                // the leaves it merges into one.
+                let below =
+                    (!child.is_leaf()).then(|| widen::children_up_to(binary, c, NODE_WIDTH));
+                let merged = match (triangles, &below) {
+                    (Some(_), Some(below)) => merged_leaf(binary, below, merge_limit),
                     _ => None,
                 };
-                if child.is_leaf() || merged.is_some() {
+                if let (Some(below), None) = (below, merged) {
+                    node.first[lane] = wide.nodes.len() as u32;
+                    wide.nodes.push(WideNode::EMPTY);
+                    stack.push((below, node.first[lane] as usize, level + 1));
+                } else {
                     let (first, count) = merged.unwrap_or((child.first, child.count));
                     node.count[lane] = count;
                     node.first[lane] = match triangles {
@@ -243,10 +251,6 @@ impl WideBvh {
                         }
                         None => first,
                     };
-                } else {
-                    node.first[lane] = wide.nodes.len() as u32;
-                    wide.nodes.push(WideNode::EMPTY);
-                    stack.push((c, node.first[lane] as usize, level + 1));
                 }
             }
             wide.nodes[target] = node;
@@ -268,11 +272,10 @@ impl WideBvh {
     }
 }
 
-/// The slots of binary node `c` as one leaf (first slot, count), where the wide node it
-/// would become has only leaves below it, at most `limit` triangles in all (consecutive
-/// slots, as a subtree's are), in no more blocks than its leaves take apart.
-fn merged_leaf(binary: &[BvhNode], c: usize, limit: u32) -> Option<(u32, u32)> {
-    let leaves = widen::children_up_to(binary, c, NODE_WIDTH);
+/// The slots of a binary node as one leaf (first slot, count), where the children its wide
+/// node would have (`leaves`) are all leaves, of at most `limit` triangles in all
+/// (consecutive slots, as a subtree's are), in no more blocks than they take apart.
+fn merged_leaf(binary: &[BvhNode], leaves: &[usize], limit: u32) -> Option<(u32, u32)> {
     if leaves.iter().any(|&k| !binary[k].is_leaf()) {
         return None;
     }
