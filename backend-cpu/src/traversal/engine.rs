@@ -1167,10 +1167,12 @@ fn prefetch_span<T>(value: &T, last: usize) {
 fn prefetch_at<T>(value: &T, offset: usize) {
     debug_assert!(offset < std::mem::size_of::<T>());
     #[cfg(target_arch = "x86_64")]
-    // SAFETY: an address within `value`; a prefetch reads nothing into the program.
+    // SAFETY: a prefetch reads nothing into the program and faults on no address; the
+    // address is computed without `add`'s in-bounds requirement (callers keep it within
+    // `value`, as the debug assertion checks, but nothing unsafe depends on it).
     unsafe {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        _mm_prefetch::<_MM_HINT_T0>((value as *const T).cast::<i8>().add(offset));
+        _mm_prefetch::<_MM_HINT_T0>((value as *const T).cast::<i8>().wrapping_add(offset));
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = (value, offset);
