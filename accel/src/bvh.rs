@@ -114,7 +114,10 @@ impl Bvh {
     }
 
     /// [`Bvh::build`], with leaves priced by `leaf_costs` when given (a backend that tests
-    /// primitives a block at a time: [`LeafCosts`]) instead of per primitive.
+    /// primitives a block at a time: [`LeafCosts`]) instead of per primitive. Such a tree is
+    /// built top-down by the block-priced binned SAH ([`crate::sah`]) unless `quality` asks
+    /// for the fastest build (then, as every other tree, by obvhs's PLOC); the reinsertion
+    /// passes and the collapse are the same for both.
     pub fn build_with(
         boxes: &[Aabb],
         quality: BuildQuality,
@@ -136,13 +139,18 @@ impl Bvh {
             .collect();
         // obvhs asserts on inputs it does not expect; a panic must not cross the API.
         let built = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            let mut bvh = obvhs::ploc::PlocBuilder::with_capacity(included.len()).build(
-                params.ploc_search_distance,
-                &obvhs_boxes,
-                (0..included.len() as u32).collect(),
-                params.sort_precision,
-                params.search_depth_threshold,
-            );
+            let mut bvh = match leaf_costs {
+                Some(costs) if quality != BuildQuality::FastBuild => {
+                    crate::sah::build(&obvhs_boxes, costs.block)
+                }
+                _ => obvhs::ploc::PlocBuilder::with_capacity(included.len()).build(
+                    params.ploc_search_distance,
+                    &obvhs_boxes,
+                    (0..included.len() as u32).collect(),
+                    params.sort_precision,
+                    params.search_depth_threshold,
+                ),
+            };
             let mut reinsertion = obvhs::bvh2::reinsertion::ReinsertionOptimizer::default();
             reinsertion.run(&mut bvh, params.reinsertion_batch_ratio, None);
             match leaf_costs {
@@ -161,7 +169,7 @@ impl Bvh {
             );
             bvh
         }))
-        .map_err(|_| Error::backend("the BVH builder (obvhs) failed on these primitives"))?;
+        .map_err(|_| Error::backend("the BVH builder failed on these primitives"))?;
         let (mut bvh, order) = convert(&built);
         let order: Vec<u32> = order.iter().map(|&k| included[k as usize]).collect();
         if order.len() != included.len() {

@@ -32,6 +32,7 @@ mod gas;
 pub mod handle;
 mod instances;
 pub mod micromap;
+mod sah;
 pub mod widen;
 
 pub use aabb::Aabb;

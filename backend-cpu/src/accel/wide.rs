@@ -517,10 +517,10 @@ mod tests {
         assert!(merged.depth <= apart.depth);
     }
 
-    /// Static triangles get leaves priced by the block (40 triangles with one box merge into
-    /// leaves of up to 24, where the per-primitive pricing stops at 8); moving triangles
-    /// and other primitives keep the per-primitive pricing, as their leaves are tested one
-    /// primitive at a time.
+    /// Static triangles get leaves priced by the block (48 triangles with one box, which the
+    /// block-priced build halves, make leaves of 24, where the per-primitive pricing stops
+    /// at 8); moving triangles and other primitives keep the per-primitive pricing, as their
+    /// leaves are tested one primitive at a time.
     #[test]
     fn static_triangle_leaves_are_priced_by_the_block() {
         let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
@@ -541,7 +541,7 @@ mod tests {
         );
         assert_eq!(<WideBvh as GasEncoding>::leaf_costs(&two_keys), None);
         assert_eq!(<WideBvh as GasEncoding>::leaf_costs(&custom), None);
-        let b = vec![Aabb::from_six([0.0, 0.0, 0.0, 1.0, 1.0, 0.0]); 40];
+        let b = vec![Aabb::from_six([0.0, 0.0, 0.0, 1.0, 1.0, 0.0]); 48];
         let largest = |costs| {
             let (bvh, _) = Bvh::build_with(&b, BuildQuality::FastTrace, costs).unwrap();
             bvh.nodes().iter().map(|n| n.count).max().unwrap()
