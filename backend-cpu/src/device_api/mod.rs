@@ -31,6 +31,7 @@
 mod candidates;
 mod exceptions;
 
+use crate::accel::Gas;
 use crate::launch::LaunchShared;
 use crate::pipeline::Callable;
 use crate::program::abi::{DeviceCalls, DeviceState};
@@ -45,9 +46,6 @@ use std::sync::atomic::AtomicU32;
 /// Traces that find nothing before the root check is armed again, once it let a ray into
 /// the root's box (`Invocation::trace_ray`).
 const ROOT_CHECK_PAUSE: u32 = 32;
-
-/// `[min, max]` of the box around a root's children (`traversal::root_bounds`).
-type RootBounds = [[f32; 3]; 2];
 
 /// Most payload (and callable argument) registers.
 const MAX_PAYLOAD: usize = 32;
@@ -293,19 +291,25 @@ pub(crate) struct Invocation<'l> {
     root_check_armed: bool,
     /// Traces that find nothing before the check is armed again, after it let a ray in.
     root_check_rearm_in: u32,
-    /// The root those checks last looked up and its children's bounds
-    /// (`traversal::root_bounds`); the scene does not change during a launch.
-    root_bounds: Option<([u32; 2], Option<RootBounds>)>,
+    /// The root last traced from, and its structure when traces from it walk triangle
+    /// blocks straight away (`traversal::blocks_root`): looked up at the first trace from it
+    /// (the scene does not change during a launch).
+    root: Option<([u32; 2], Option<&'l Gas>)>,
 }
 
-/// Traces for a pipeline compiled as `S`.
+/// Traces for a pipeline compiled as `S`: from a root of triangle blocks (every trace
+/// without instancing), straight into its walk (`traversal::trace_blocks`: the root's look-up
+/// and checks were made at the first trace from it).
 pub(crate) fn trace_with<S: Spec>(
     inv: &mut Invocation<'_>,
     ray: &TraceRay,
     root: TraversableHandle,
 ) {
     let shared = inv.shared;
-    traversal::trace::<S, _>(shared.scene, root, ray, &shared.config, inv);
+    match inv.blocks_root::<S>(root.to_words()) {
+        Some(g) => traversal::trace_blocks::<S, _>(shared.scene, g, ray, &shared.config, inv),
+        None => traversal::trace::<S, _>(shared.scene, root, ray, &shared.config, inv),
+    }
 }
 
 /// `rt_trace` of compiled programs for a pipeline compiled as `S` (an
@@ -359,25 +363,15 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec>(
 }
 
 /// Whether a trace from the root `handle` certainly finds nothing, for a pipeline compiled
-/// as `S`: the ray misses the box around the root's children (`traversal::root_bounds`,
-/// looked up once per root and invocation, and `traversal::misses_bounds`). Not inlined:
-/// most traces do not ask, and inlined it slowed those that do not (the Breakfast Room's
-/// rays by 2 %).
+/// as `S`: the ray misses the box around the root's children (`WideBvh::root_bounds` of a
+/// root of triangle blocks, `Invocation::blocks_root`, and `traversal::misses_bounds`). Not
+/// inlined: most traces do not ask, and inlined it slowed those that do not (the Breakfast
+/// Room's rays by 2 %).
 #[inline(never)]
 fn misses_root_with<S: Spec>(inv: &mut Invocation<'_>, handle: [u32; 2], ray: &TraceRay) -> bool {
-    let bounds = match inv.root_bounds {
-        Some((cached, bounds)) if cached == handle => bounds,
-        _ => {
-            let shared = inv.shared;
-            let bounds = traversal::root_bounds::<S>(
-                shared.scene,
-                TraversableHandle::from_words(handle),
-                &shared.config,
-            );
-            inv.root_bounds = Some((handle, bounds));
-            bounds
-        }
-    };
+    let bounds = inv
+        .blocks_root::<S>(handle)
+        .and_then(|g| g.encoding.root_bounds);
     bounds.is_some_and(|b| {
         // Word by word (`traversal::words`): the ray was stored one scalar at a time.
         let (origin, direction) = (
@@ -465,12 +459,32 @@ impl<'l> Invocation<'l> {
             payload_len: 0,
             root_check_armed: false,
             root_check_rearm_in: 0,
-            root_bounds: None,
+            root: None,
         }
     }
 
     fn exceptions(&self) -> ExceptionFlags {
         self.shared.features.exceptions
+    }
+
+    /// The structure at the root `handle` when traces from it walk triangle blocks straight
+    /// away (`traversal::blocks_root`), looked up at the first trace from it and kept while
+    /// traces come from the same root.
+    #[inline]
+    fn blocks_root<S: Spec>(&mut self, handle: [u32; 2]) -> Option<&'l Gas> {
+        match self.root {
+            Some((cached, gas)) if cached == handle => gas,
+            _ => {
+                let shared = self.shared;
+                let gas = traversal::blocks_root::<S>(
+                    shared.scene,
+                    TraversableHandle::from_words(handle),
+                    &shared.config,
+                );
+                self.root = Some((handle, gas));
+                gas
+            }
+        }
     }
 
     /// What the running program sees.

@@ -229,14 +229,16 @@ pub fn trace<S: Spec, H: Handler>(
     }
 }
 
-/// The box around the root's children of a static triangle structure at `root` (the
-/// union of the root node's child boxes), where [`misses_bounds`] decides that a ray finds
-/// nothing as surely as the walk would; `None` for any other root (or an empty one).
-pub fn root_bounds<S: Spec>(
-    scene: &SceneTable,
+/// The static triangle structure at `root` when a trace from it walks the triangle blocks
+/// straight away (a geometry root of triangles this pipeline traces, without motion keys it
+/// interpolates): [`trace_blocks`] then traces it as [`trace`] would. `None` for any other
+/// root (or an empty one). The scene does not change during a launch, so a launch looks this
+/// up once per root.
+pub fn blocks_root<'s, S: Spec>(
+    scene: &'s SceneTable,
     root: TraversableHandle,
     config: &TraceConfig,
-) -> Option<[[f32; 3]; 2]> {
+) -> Option<&'s Gas> {
     let Resolved::Live(t) = scene.resolve(root) else {
         return None;
     };
@@ -250,7 +252,25 @@ pub fn root_bounds<S: Spec>(
     {
         return None;
     }
-    g.encoding.root_bounds
+    Some(g)
+}
+
+/// [`trace`] from a root that [`blocks_root`] gave `g` for: the same walk, without looking
+/// the root up again.
+pub fn trace_blocks<S: Spec, H: Handler>(
+    scene: &SceneTable,
+    g: &Gas,
+    ray: &TraceRay,
+    config: &TraceConfig,
+    handler: &mut H,
+) {
+    let walker = Walker::<S> {
+        scene,
+        ray,
+        config,
+        _spec: std::marker::PhantomData,
+    };
+    walker.triangle_blocks(g, &Path::root(ray), handler)
 }
 
 /// Whether a walk of `g` runs over its triangle blocks (static triangles packed four to a
@@ -261,7 +281,8 @@ fn walks_triangle_blocks(g: &Gas) -> bool {
 }
 
 /// Whether a ray certainly enters none of the root's children whose union is `bounds`
-/// ([`root_bounds`]), so that a trace from that root finds nothing.
+/// (`WideBvh::root_bounds` of a [`blocks_root`]), so that a trace from that root finds
+/// nothing.
 ///
 /// The root node's test (`slab::entry_wide`, its lanes' arithmetic) on the union box: the
 /// same canonical direction and reciprocal, near and far planes by direction sign, NaN

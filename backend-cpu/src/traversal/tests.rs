@@ -621,3 +621,38 @@ fn cull_flags_drop_candidates_without_any_hit_programs() {
         assert!(front != back, "one side culled, the other kept ({dz})");
     }
 }
+
+/// `blocks_root` names the roots whose traces walk triangle blocks straight away, and
+/// `trace_blocks` from one finds what `trace` finds, candidate for candidate; every other
+/// root (null, stale, foreign, triangles the pipeline does not trace) is left to `trace`,
+/// which reports them.
+#[test]
+fn blocks_roots_trace_as_trace_does() {
+    let mut rng = Rng(11);
+    let (v, idx) = jittered_sphere([0.0; 3], 1.0, &mut rng);
+    let (scene, root) = scene_of(triangle_gas(&v, &idx));
+    let g = blocks_root::<Robust>(&scene, root, &CONFIG).expect("static triangles walk blocks");
+    let mut hits = 0;
+    for i in 0..2000 {
+        let r = TraceRay {
+            tmin: if i % 4 == 0 { 0.5 } else { 0.0 },
+            ..ray(rng.v(4.0), rng.v(2.0))
+        };
+        let mut h = Closest::new(r.tmax);
+        trace_blocks::<Robust, _>(&scene, g, &r, &CONFIG, &mut h);
+        let expected = closest::<Robust>(&scene, root, &r);
+        assert_eq!(h.log, expected.log, "ray {i}");
+        hits += h.hit.is_some() as u32;
+    }
+    assert!(hits > 200, "{hits} of the rays hit the sphere");
+    let stale = crate::accel::handle::encode(DeviceId(7), 0, 1);
+    let foreign = crate::accel::handle::encode(DeviceId(8), 0, 0);
+    for other in [TraversableHandle::NULL, stale, foreign] {
+        assert!(blocks_root::<Robust>(&scene, other, &CONFIG).is_none());
+    }
+    let spheres_only = TraceConfig {
+        primitive_types: PrimitiveTypeFlags::SPHERE,
+        ..CONFIG
+    };
+    assert!(blocks_root::<Robust>(&scene, root, &spheres_only).is_none());
+}
