@@ -211,12 +211,7 @@ pub fn trace<S: Spec, H: Handler>(
     config: &TraceConfig,
     handler: &mut H,
 ) {
-    let walker = Walker::<S> {
-        scene,
-        ray,
-        config,
-        _spec: std::marker::PhantomData,
-    };
+    let walker = Walker::<S>::new(scene, ray, config);
     match scene.resolve(root) {
         Resolved::Null => {}
         Resolved::Invalid => walker.invalid_traversable(handler),
@@ -264,12 +259,7 @@ pub fn trace_blocks<S: Spec, H: Handler>(
     config: &TraceConfig,
     handler: &mut H,
 ) {
-    let walker = Walker::<S> {
-        scene,
-        ray,
-        config,
-        _spec: std::marker::PhantomData,
-    };
+    let walker = Walker::<S>::new(scene, ray, config);
     walker.triangle_blocks(g, &Path::root(ray), handler)
 }
 
@@ -344,6 +334,17 @@ struct Walker<'a, S: Spec> {
 
 /// Entries of the BVH walk's stack: a node and the distance where the ray enters it.
 const INLINE_STACK: usize = 64;
+
+impl<'a, S: Spec> Walker<'a, S> {
+    fn new(scene: &'a SceneTable, ray: &'a TraceRay, config: &'a TraceConfig) -> Walker<'a, S> {
+        Walker {
+            scene,
+            ray,
+            config,
+            _spec: std::marker::PhantomData,
+        }
+    }
+}
 
 impl<S: Spec> Walker<'_, S> {
     fn invalid_traversable<H: Handler>(&self, h: &mut H) {
