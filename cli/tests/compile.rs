@@ -15,12 +15,27 @@ fn optik(args: &[&str]) -> (i32, String, String) {
     )
 }
 
-fn write_temp(name: &str, text: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("optik-cli-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
+/// A module written for one test; its folder is removed when the test drops it.
+struct TempModule {
+    _dir: tempfile::TempDir,
+    path: std::path::PathBuf,
+}
+
+impl std::ops::Deref for TempModule {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.path
+    }
+}
+
+fn write_temp(name: &str, text: &str) -> TempModule {
+    let dir = tempfile::Builder::new()
+        .prefix("optik-cli-test-")
+        .tempdir()
+        .unwrap();
+    let path = dir.path().join(name);
     std::fs::write(&path, text).unwrap();
-    path
+    TempModule { _dir: dir, path }
 }
 
 #[test]

@@ -12,10 +12,11 @@ pub(crate) fn spirv_tool(
     words: &[u32],
     what: &str,
 ) -> std::process::Output {
-    let dir = std::env::temp_dir().join(format!("optik-spirv-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(format!(
-        "{tool}-{}.spv",
+    // Straight in the temporary folder (the file is removed below; a folder of our own
+    // would be left behind).
+    let path = std::env::temp_dir().join(format!(
+        "optik-spirv-{}-{tool}-{}.spv",
+        std::process::id(),
         what.replace(['/', ' ', '.', ':'], "_")
     ));
     std::fs::write(
