@@ -202,21 +202,16 @@ impl Build<'_> {
         lo: [f32; 3],
         hi: [f32; 3],
     ) -> Option<(usize, usize, f32, usize)> {
-        let n_bins = N;
         let mut bins = [[Bin::EMPTY; N]; 3];
         let scale: [f32; 3] = std::array::from_fn(|k| {
             let extent = hi[k] - lo[k];
-            if extent > 0.0 {
-                n_bins as f32 / extent
-            } else {
-                0.0
-            }
+            if extent > 0.0 { N as f32 / extent } else { 0.0 }
         });
         for &p in prims {
             let b = &self.boxes[p as usize];
             for k in 0..3 {
                 if scale[k] > 0.0 {
-                    let bin = &mut bins[k][self.bin_of(p, k, lo[k], scale[k], n_bins)];
+                    let bin = &mut bins[k][self.bin_of(p, k, lo[k], scale[k], N)];
                     bin.bounds = bin.bounds.union(b);
                     bin.count += 1;
                 }
@@ -228,10 +223,11 @@ impl Build<'_> {
             if scale[k] <= 0.0 {
                 continue;
             }
-            // Right sides, from the top bin down: `right[i]` holds bins `i..`.
+            // The right sides' costs, from the top bin down: `right_cost[i]` prices bins
+            // `i..` (NaN: all empty).
             let mut right_cost = [0.0f32; N];
             let (mut bounds, mut count) = (Aabb::INVALID, 0u32);
-            for i in (1..n_bins).rev() {
+            for i in (1..N).rev() {
                 bounds = bounds.union(&bins[k][i].bounds);
                 count += bins[k][i].count;
                 right_cost[i] = if count > 0 {
@@ -241,7 +237,7 @@ impl Build<'_> {
                 };
             }
             let (mut bounds, mut count) = (Aabb::INVALID, 0u32);
-            for i in 0..n_bins - 1 {
+            for i in 0..N - 1 {
                 bounds = bounds.union(&bins[k][i].bounds);
                 count += bins[k][i].count;
                 let right = right_cost[i + 1];
