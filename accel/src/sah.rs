@@ -51,10 +51,7 @@ fn build_binned_to(boxes: &[Aabb], block: u32, binned_depth: u32) -> Bvh2 {
     if boxes.is_empty() {
         return bvh;
     }
-    let centroids: Vec<[f32; 3]> = boxes
-        .iter()
-        .map(|b| std::array::from_fn(|k| 0.5 * (b.min[k] + b.max[k])))
-        .collect();
+    let centroids: Vec<[f32; 3]> = boxes.iter().map(|b| b.center().into()).collect();
     let build = Build {
         boxes,
         centroids: &centroids,
