@@ -39,13 +39,19 @@ pub(crate) fn compile(
         })
         .collect();
     let stats = jit.stats();
-    let log = format!(
+    let mut log = format!(
         "{}: {} programs compiled ({} from the disk cache) in {:.1} ms",
         compiled.file_name,
         stats.functions,
         stats.disk_cache_hits,
         stats.time.as_secs_f64() * 1e3
     );
+    if stats.closest_hits_inlined > 0 {
+        log += &format!(
+            "; the closest-hit program inlined after the traces of {} ray generation programs",
+            stats.closest_hits_inlined
+        );
+    }
     Ok((
         ModuleObject {
             compiled: Some(compiled),

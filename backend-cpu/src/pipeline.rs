@@ -219,6 +219,17 @@ impl<'l> Callable<'l> {
         }
     }
 
+    /// The address of its compiled code (null for a native program): what a compiled
+    /// caller that inlined it names it by ([`abi::TraceEntry`](crate::program::abi::TraceEntry)).
+    #[inline]
+    pub fn entry_address(&self) -> *const u8 {
+        match self {
+            #[cfg(feature = "jit")]
+            Callable::Jit(f, _) => f.entry_address(),
+            Callable::Native(_) => std::ptr::null(),
+        }
+    }
+
     /// The `DeviceState` bits the program may read (0: it reads none, or is native and
     /// calls the methods).
     #[inline]

@@ -34,7 +34,7 @@ mod exceptions;
 use crate::accel::Gas;
 use crate::launch::LaunchShared;
 use crate::pipeline::Callable;
-use crate::program::abi::{DeviceCalls, DeviceState};
+use crate::program::abi::{self, DeviceCalls, DeviceState};
 use crate::sbt::Record;
 use crate::traversal::{self, Candidate, HitData, Path, Spec, TraceRay};
 use optik_api::semantics::exception as code;
@@ -49,6 +49,21 @@ const ROOT_CHECK_PAUSE: u32 = 32;
 
 /// Most payload (and callable argument) registers.
 const MAX_PAYLOAD: usize = 32;
+
+/// The closest-hit program a compiled caller of `rt_trace` inlined after the call, and the
+/// state its code reads ([`abi::TraceEntry`]); null for callers without one.
+#[derive(Clone, Copy)]
+struct Inlined {
+    closest_hit: *const u8,
+    state: *mut DeviceState,
+}
+
+impl Inlined {
+    const NONE: Inlined = Inlined {
+        closest_hit: std::ptr::null(),
+        state: std::ptr::null_mut(),
+    };
+}
 
 /// The ray of programs that trace no ray (raygen, callables of raygen): every getter reads 0.
 static NO_RAY: TraceRay = TraceRay {
@@ -340,12 +355,18 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec>(
     miss_index: u32,
     payload: *mut u32,
     payload_len: u32,
+    inlined_closest_hit: *const u8,
+    inlined_state: *mut DeviceState,
 ) -> u32 {
     // SAFETY: `run_program` hands this entry to programs it calls with the invocation as
     // their `DeviceCalls`, whose data pointer `calls` is; the invocation outlives the call.
     let inv = unsafe { &mut *calls.cast::<Invocation<'_>>() };
+    let inlined = Inlined {
+        closest_hit: inlined_closest_hit,
+        state: inlined_state,
+    };
     // SAFETY: the caller's registers, as the contract says.
-    unsafe {
+    let run_inlined = unsafe {
         inv.trace_ray(
             [handle_lo, handle_hi],
             [ox, oy, oz],
@@ -355,11 +376,18 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec>(
             payload,
             payload_len as usize,
             true,
+            inlined,
             trace_with::<S>,
             misses_root_with::<S>,
         )
     };
-    inv.unwinding() as u32
+    if inv.unwinding() {
+        abi::TRACE_RETURN
+    } else if run_inlined {
+        abi::TRACE_RUN_INLINED
+    } else {
+        abi::TRACE_GO_ON
+    }
 }
 
 /// Whether a trace from the root `handle` certainly finds nothing, for a pipeline compiled
@@ -681,10 +709,10 @@ impl<'l> Invocation<'l> {
     /// of a camera miss, and their usual miss program (one that keeps the payload) does
     /// nothing, which costs a record lookup here instead of a call.
     #[inline(always)]
-    fn finish_trace(&mut self, world: &TraceRay, miss_index: u32) {
+    fn finish_trace(&mut self, world: &TraceRay, miss_index: u32, inlined: Inlined) -> bool {
         if self.tr().committed_record.is_some() {
             self.root_check_armed = false;
-            return self.closest_hit(world);
+            return self.closest_hit(world, inlined);
         }
         if self.root_check_rearm_in > 0 {
             self.root_check_rearm_in -= 1;
@@ -703,6 +731,7 @@ impl<'l> Invocation<'l> {
                 }
             }
         }
+        false
     }
 
     /// Whether a miss with `miss_index` runs no program and raises nothing: its record
@@ -723,12 +752,14 @@ impl<'l> Invocation<'l> {
             .get(sbt_index::miss_record_index(miss_index) as usize)
     }
 
-    /// Runs the closest-hit program of the trace's committed hit (there is one).
+    /// Runs the closest-hit program of the trace's committed hit (there is one), or, when
+    /// it is the program the caller inlined (`inlined`), writes that code's state and
+    /// returns true: the caller runs it.
     #[inline(never)]
-    fn closest_hit(&mut self, world: &TraceRay) {
+    fn closest_hit(&mut self, world: &TraceRay, inlined: Inlined) -> bool {
         let tr = self.tr();
         let Some(record) = tr.committed_record else {
-            return;
+            return false;
         };
         // SAFETY: written with the record (`commit`).
         let hit = unsafe { tr.committed_hit.assume_init_ref() };
@@ -738,26 +769,29 @@ impl<'l> Invocation<'l> {
             std::ptr::null()
         };
         if world.flags.contains(RayFlags::DISABLE_CLOSESTHIT) {
-            return;
+            return false;
         }
-        if let Some(ch) = record.programs.main
-            && !ch.does_nothing()
-        {
-            let tmax = hit.t;
-            let hit: *const HitState = hit;
-            self.run_program_inline(
-                ch,
-                View {
-                    kind: ProgramKind::ClosestHit,
-                    record: Some(record),
-                    ray: world,
-                    tmax,
-                    hit,
-                    path,
-                    exception_code: 0,
-                },
-            );
+        let Some(ch) = record.programs.main.filter(|ch| !ch.does_nothing()) else {
+            return false;
+        };
+        let view = View {
+            kind: ProgramKind::ClosestHit,
+            record: Some(record),
+            ray: world,
+            tmax: hit.t,
+            hit,
+            path,
+            exception_code: 0,
+        };
+        if !inlined.closest_hit.is_null() && ch.entry_address() == inlined.closest_hit {
+            // What `run_program` would write for the program, in the caller's memory.
+            let own = std::mem::replace(&mut self.state, inlined.state);
+            self.fill_state(ch.state_bits(), &view);
+            self.state = own;
+            return true;
         }
+        self.run_program_inline(ch, view);
+        false
     }
 
     /// Runs the miss program of `record` (one that does something).
@@ -860,8 +894,15 @@ impl<'l> Invocation<'l> {
     /// for callers that read nothing of their payload once the index ends (compiled
     /// programs return at once when `unwinding`), so no one sees the difference.
     ///
+    /// `inlined`: the caller's inlined closest hit. Returns true when the committed hit's
+    /// program is that one: its state is then written to `inlined.state` (everything it
+    /// reads, as `run_program` would write it; the payload in place) instead of the program
+    /// running here, and the caller runs it. It asks nothing of the runtime (see
+    /// `lower::inlinable_closest_hit`), so no one sees that it ran after the trace.
+    ///
     /// # Safety
-    /// `payload` points to `payload_len` registers, valid and unaliased for the call.
+    /// `payload` points to `payload_len` registers, valid and unaliased for the call;
+    /// a non-null `inlined.state` is valid for writes of a `DeviceState`.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     unsafe fn trace_ray(
@@ -874,24 +915,25 @@ impl<'l> Invocation<'l> {
         payload: *mut u32,
         payload_len: usize,
         in_place: bool,
+        inlined: Inlined,
         walk: impl FnOnce(&mut Self, &TraceRay, TraversableHandle),
         misses_root: impl FnOnce(&mut Self, [u32; 2], &TraceRay) -> bool,
-    ) {
+    ) -> bool {
         if self.ending {
-            return;
+            return false;
         }
         let features = self.shared.features;
         if self.depth >= features.max_trace_depth {
             if features.exceptions.contains(ExceptionFlags::TRACE_DEPTH) {
                 self.raise(code::TRACE_DEPTH_EXCEEDED);
             }
-            return;
+            return false;
         }
         if !semantics::ray::is_valid(origin, direction, tmin, tmax) {
             if features.exceptions.contains(ExceptionFlags::DEBUG) {
                 self.raise(code::INVALID_RAY);
             }
-            return;
+            return false;
         }
         let time = if features.motion { time } else { 0.0 };
         let world = TraceRay {
@@ -911,7 +953,7 @@ impl<'l> Invocation<'l> {
         // inside a model, or around a large one) would pay for it twice at every trace.
         if self.root_check_armed && self.miss_runs_nothing(miss_index) {
             if misses_root(self, handle, &world) {
-                return;
+                return false;
             }
             self.root_check_armed = false;
             self.root_check_rearm_in = ROOT_CHECK_PAUSE;
@@ -951,9 +993,7 @@ impl<'l> Invocation<'l> {
         (self.payload, self.payload_len) = (registers_at, n);
         self.depth += 1;
         walk(self, &world, TraversableHandle::from_words(handle));
-        if !self.ending {
-            self.finish_trace(&world, miss_index);
-        }
+        let run_inlined = !self.ending && self.finish_trace(&world, miss_index, inlined);
         self.depth -= 1;
         self.trace = saved_trace;
         (self.payload, self.payload_len) = saved_payload;
@@ -964,6 +1004,7 @@ impl<'l> Invocation<'l> {
                 unsafe { *payload.add(i) = r.assume_init() };
             }
         }
+        run_inlined
     }
 }
 
@@ -1005,10 +1046,11 @@ impl DeviceCalls for Invocation<'_> {
                 payload.as_mut_ptr(),
                 payload.len(),
                 false,
+                Inlined::NONE,
                 walk,
                 |_, _, _| false,
             )
-        }
+        };
     }
 
     fn get_payload(&self, i: u32) -> u32 {

@@ -157,8 +157,15 @@ pub trait DeviceCalls {
 ///
 /// `calls` is the data pointer of the `&mut dyn DeviceCalls` the program was called with;
 /// the entry must do exactly what that object's `trace` followed by `unwinding` does, and
-/// return whether the program must return (1) or go on (0). `payload` points to
-/// `payload_len` registers the caller owns, as the slice `trace` takes.
+/// return whether the program must return ([`TRACE_RETURN`]) or go on ([`TRACE_GO_ON`]).
+/// `payload` points to `payload_len` registers the caller owns, as the slice `trace` takes.
+///
+/// `inlined_closest_hit` is the entry of a closest-hit program the caller has inlined
+/// after the call (or null), with `inlined_state` the `DeviceState` that inlined code reads.
+/// When the trace's closest hit would run exactly that program, the entry may instead
+/// write `inlined_state` as it would the program's own state (its payload in place) and
+/// return [`TRACE_RUN_INLINED`]: the caller then runs the program's code itself, which
+/// saves the call (docs/cpu-backend.md §8).
 pub type TraceEntry = unsafe extern "C-unwind" fn(
     calls: *mut (),
     handle_lo: u32,
@@ -179,7 +186,17 @@ pub type TraceEntry = unsafe extern "C-unwind" fn(
     miss_index: u32,
     payload: *mut u32,
     payload_len: u32,
+    inlined_closest_hit: *const u8,
+    inlined_state: *mut DeviceState,
 ) -> u32;
+
+/// A [`TraceEntry`]'s result: the program goes on.
+pub const TRACE_GO_ON: u32 = 0;
+/// A [`TraceEntry`]'s result: the program must return (`DeviceCalls::unwinding`).
+pub const TRACE_RETURN: u32 = 1;
+/// A [`TraceEntry`]'s result: the caller runs its inlined closest-hit program on the
+/// state the entry wrote.
+pub const TRACE_RUN_INLINED: u32 = 2;
 
 /// Device-API values a runtime may hand to programs as memory ([`DeviceCalls::state`]).
 /// Each group of fields has a bit in `present`; a getter whose bit is clear calls its

@@ -241,8 +241,10 @@ unsafe extern "C-unwind" fn rt_throw_exception(ctx: *mut CallContext<'_>, code: 
     unsafe { with_calls(ctx, (), |c| c.throw_exception(code)) }
 }
 
-/// `rt_trace`: the payload is the caller's `RtPayload` array in its own memory. Returns
-/// whether the program must return (`DeviceCalls::unwinding`), as the callables do.
+/// `rt_trace`: the payload is the caller's `RtPayload` array in its own memory. Returns a
+/// [`TraceEntry`] result: whether the program must return (`DeviceCalls::unwinding`), as
+/// the callables do, or run the closest-hit program it inlined (only the runtime's entry
+/// asks that).
 #[allow(clippy::too_many_arguments)]
 unsafe extern "C-unwind" fn rt_trace(
     ctx: *mut CallContext<'_>,
@@ -264,6 +266,8 @@ unsafe extern "C-unwind" fn rt_trace(
     miss_index: u32,
     payload: *mut u32,
     payload_len: u32,
+    inlined_closest_hit: *const u8,
+    inlined_state: *mut super::abi::DeviceState,
 ) -> u32 {
     // Where panics unwind through compiled code, the runtime's entry takes the call as it
     // came (elsewhere `with_calls` must catch them, so the trait's path is taken).
@@ -293,9 +297,13 @@ unsafe extern "C-unwind" fn rt_trace(
                 miss_index,
                 payload,
                 payload_len,
+                inlined_closest_hit,
+                inlined_state,
             )
         };
     }
+    // The trait's `trace` runs every closest hit itself.
+    let _ = (inlined_closest_hit, inlined_state);
     // SAFETY: compiled code passes the address and length of a `array<u32, N>` it owns.
     let payload = unsafe { std::slice::from_raw_parts_mut(payload, payload_len as usize) };
     unsafe {
@@ -612,7 +620,7 @@ host_fns! {
     ignore_intersection => rt_ignore_intersection, CTX, NONE;
     terminate_ray => rt_terminate_ray, CTX, NONE;
     throw_exception => rt_throw_exception, &[P, I32], NONE;
-    trace => rt_trace, &[P, I32, I32, F32, F32, F32, F32, F32, F32, F32, F32, F32, I32, I32, I32, I32, I32, P, I32], U1;
+    trace => rt_trace, &[P, I32, I32, F32, F32, F32, F32, F32, F32, F32, F32, F32, I32, I32, I32, I32, I32, P, I32, P, P], U1;
     direct_call => rt_direct_call, &[P, I32, P, I32], U1;
     continuation_call => rt_continuation_call, &[P, I32, P, I32], U1;
     texture_sample => optik_texture_sample, &[P, I32, I32, F32, F32, F32, I32, I32, P], NONE;

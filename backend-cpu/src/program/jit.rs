@@ -10,8 +10,8 @@ use cranelift_codegen::{Context, ir, isa::OwnedTargetIsa};
 use cranelift_frontend::FunctionBuilderContext;
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::{FuncId, Linkage, Module, ModuleReloc, default_libcall_names};
-use optik_api::{Error, OptLevel, Result};
-use optik_core::frontend::CompiledModule;
+use optik_api::{Error, OptLevel, ProgramKind, Result};
+use optik_core::frontend::{CompiledModule, DeviceFunction};
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicU32;
@@ -47,6 +47,9 @@ pub struct CompileStats {
     pub functions: usize,
     /// Of those, how many came from the disk cache.
     pub disk_cache_hits: usize,
+    /// Ray generation programs with the module's closest-hit program compiled in after
+    /// their traces (`InlinedClosestHit`; docs/cpu-backend.md §5).
+    pub closest_hits_inlined: usize,
     /// Wall time of the whole compile.
     pub time: Duration,
 }
@@ -167,6 +170,12 @@ impl ProgramFn<'_> {
     #[inline]
     pub fn state_bits(&self) -> u32 {
         self.state_bits
+    }
+
+    /// The address of the compiled code.
+    #[inline]
+    pub fn entry_address(&self) -> *const u8 {
+        self.entry as *const u8
     }
 
     /// Whether calling the program can have no effect: its body is empty (expressions
@@ -505,13 +514,28 @@ fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner
     let mut fctx = FunctionBuilderContext::new();
     let mut ctx = jit.make_context();
     let mut ids = Vec::new();
+    let mut sig = ir::Signature::new(call_conv);
+    sig.params.push(ir::AbiParam::new(ir::types::I64));
+    let mut program_ids = HashMap::new();
     for program in &module.programs {
-        let mut sig = ir::Signature::new(call_conv);
-        sig.params.push(ir::AbiParam::new(ir::types::I64));
         let id = jit
             .declare_function(&program.name, Linkage::Local, &sig)
             .map_err(module_err)?;
+        program_ids.insert(program.function, id);
+    }
+    let inlined_closest_hit = lower::inlinable_closest_hit(module);
+    for program in &module.programs {
+        let id = program_ids[&program.function];
         ctx.func.signature.call_conv = call_conv;
+        let inline = inlined_closest_hit
+            .filter(|_| program.kind == ProgramKind::Raygen && program.calls(DeviceFunction::Trace))
+            .map(|ch| {
+                (
+                    ch,
+                    jit.declare_func_in_func(program_ids[&ch], &mut ctx.func),
+                )
+            });
+        stats.closest_hits_inlined += inline.is_some() as usize;
         {
             let jit = &mut jit;
             let host_ids = &host_ids;
@@ -523,6 +547,7 @@ fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner
                 &mut ctx.func,
                 &mut fctx,
                 &mut import,
+                inline,
             )
             .map_err(|e| lowering_error(module, &program.name, e))?;
         }

@@ -7,6 +7,7 @@
 //! - `determinism`: results do not depend on the number of launch threads;
 //! - `features`: pipelines compile what their scene and programs use;
 //! - `handles`: structures checked at trace time (foreign, destroyed, reused slots);
+//! - `inlined`: a module's closest-hit program compiled into its ray generation programs;
 //! - `native`: native (Rust closure) programs, this backend's own program API, and the
 //!   helpers the tests above share.
 
@@ -14,6 +15,8 @@ mod cancel;
 mod determinism;
 mod features;
 mod handles;
+#[cfg(feature = "jit")]
+mod inlined;
 #[cfg(feature = "jit")]
 mod jit;
 mod native;

@@ -12,13 +12,15 @@
 
 use super::place::Place;
 use super::{LResult, LowerError, Lowered, Lowerer};
-use crate::program::abi::DeviceState;
+use crate::program::abi::{self, DeviceState};
 use crate::program::host::{CallContext, HostFn, REPORT_ACCEPTED, REPORT_UNWINDING};
 use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::types::{F32, I32, I64};
 use cranelift_codegen::ir::{BlockArg, InstBuilder, MemFlagsData, Type, Value};
 use naga::{Expression, Handle, TypeInner};
+use optik_api::ProgramKind;
 use optik_core::frontend::DeviceFunction as D;
+use optik_core::frontend::{CompiledModule, ProgramInfo};
 
 impl Lowerer<'_, '_> {
     /// Lowers a call of the device function `df`.
@@ -118,16 +120,7 @@ impl Lowerer<'_, '_> {
                 None
             }
             D::Trace => {
-                let mut call_args = vec![ctx];
-                for &a in &args[..11] {
-                    call_args.extend(self.values(a)?);
-                }
-                let mut unwinding = None;
-                self.with_payload(args[11], |s, ptr, len| {
-                    call_args.extend([ptr, len]);
-                    unwinding = Some(s.call_host(HostFn::trace, &call_args)[0]);
-                })?;
-                self.return_if(unwinding.expect("with_payload calls back"));
+                self.trace(args)?;
                 None
             }
             D::DirectCall | D::ContinuationCall => {
@@ -140,6 +133,7 @@ impl Lowerer<'_, '_> {
                 let mut unwinding = None;
                 self.with_payload(args[1], |s, ptr, len| {
                     unwinding = Some(s.call_host(f, &[ctx, index, ptr, len])[0]);
+                    Ok(())
                 })?;
                 self.return_if(unwinding.expect("with_payload calls back"));
                 None
@@ -188,11 +182,7 @@ impl Lowerer<'_, '_> {
         }
         // The pointer is fixed for the call; the fields are not (report_intersection
         // updates tmax), so they are loaded where used.
-        let pointer_flags = MemFlagsData::trusted().with_readonly().with_can_move();
-        let state = self
-            .b
-            .ins()
-            .load(I64, pointer_flags, self.ctx, CallContext::STATE_OFFSET);
+        let state = self.state_pointer();
         let present = self.b.ins().load(I32, MemFlagsData::trusted(), state, 0);
         let has = self.b.ins().band_imm_u(present, bit as i64);
         let (fast, slow, merge) = (
@@ -225,6 +215,71 @@ impl Lowerer<'_, '_> {
         self.b.block_params(merge).to_vec()
     }
 
+    /// The `DeviceState` the code being lowered reads: the call's, or an inlined closest
+    /// hit's.
+    fn state_pointer(&mut self) -> Value {
+        if let Some(state) = self.state_override {
+            return state;
+        }
+        // Fixed for the call (the fields are not: report_intersection updates tmax, so
+        // they are loaded where used).
+        let pointer_flags = MemFlagsData::trusted().with_readonly().with_can_move();
+        self.b
+            .ins()
+            .load(I64, pointer_flags, self.ctx, CallContext::STATE_OFFSET)
+    }
+
+    /// `rt_trace`, and the closest-hit program inlined after it, if any: run when the
+    /// runtime's entry asks for it (`TRACE_RUN_INLINED`), on the state it wrote.
+    fn trace(&mut self, args: &[Handle<Expression>]) -> LResult<()> {
+        let ctx = self.ctx;
+        let mut call_args = vec![ctx];
+        for &a in &args[..11] {
+            call_args.extend(self.values(a)?);
+        }
+        // Not inside an inlined closest hit (it does not trace; see `inlinable_closest_hit`).
+        let inlined = self
+            .inlined_closest_hit
+            .filter(|_| self.state_override.is_none());
+        let (entry, state) = match inlined {
+            Some(ch) => (
+                self.b.ins().func_addr(I64, ch.entry),
+                self.b.ins().stack_addr(I64, ch.state, 0),
+            ),
+            None => {
+                let null = self.b.ins().iconst(I64, 0);
+                (null, null)
+            }
+        };
+        self.with_payload(args[11], |s, ptr, len| {
+            call_args.extend([ptr, len, entry, state]);
+            let result = s.call_host(HostFn::trace, &call_args)[0];
+            let unwinding =
+                s.b.ins()
+                    .icmp_imm_u(IntCC::Equal, result, abi::TRACE_RETURN as i64);
+            s.return_if(unwinding);
+            let Some(ch) = inlined else {
+                return Ok(());
+            };
+            // Inside the payload's call, so a payload spilled for it is read back after.
+            let run =
+                s.b.ins()
+                    .icmp_imm_u(IntCC::Equal, result, abi::TRACE_RUN_INLINED as i64);
+            let (body, after) = (s.b.create_block(), s.b.create_block());
+            s.branch(run, body, after);
+            s.b.seal_block(body);
+            s.enter(body);
+            s.state_override = Some(state);
+            let lowered = s.inline_call(ch.function, &[], None);
+            s.state_override = None;
+            lowered?;
+            s.goto(after, &[]);
+            s.b.seal_block(after);
+            s.enter(after);
+            Ok(())
+        })
+    }
+
     /// `rt_get_payload(i)` (`value` is `None`; returns the register) or
     /// `rt_set_payload(i, value)`: in the runtime's payload memory when its `DeviceState`
     /// offers it, else through the methods. Registers past the length read 0 and ignore
@@ -241,11 +296,7 @@ impl Lowerer<'_, '_> {
         if !self.live {
             return call(self);
         }
-        let pointer_flags = MemFlagsData::trusted().with_readonly().with_can_move();
-        let state = self
-            .b
-            .ins()
-            .load(I64, pointer_flags, ctx, CallContext::STATE_OFFSET);
+        let state = self.state_pointer();
         let present = self.b.ins().load(I32, MemFlagsData::trusted(), state, 0);
         let has = self
             .b
@@ -360,7 +411,7 @@ impl Lowerer<'_, '_> {
     fn with_payload(
         &mut self,
         pointer: Handle<Expression>,
-        call: impl FnOnce(&mut Self, Value, Value),
+        call: impl FnOnce(&mut Self, Value, Value) -> LResult<()>,
     ) -> LResult<()> {
         let pointee = self.pointee(pointer)?;
         let TypeInner::Array {
@@ -376,7 +427,7 @@ impl Lowerer<'_, '_> {
         match self.place(pointer)? {
             Place::Memory(m) => {
                 let ptr = self.address(&m);
-                call(self, ptr, len);
+                call(self, ptr, len)?;
             }
             place @ Place::Vars(_) => {
                 let values = self.load(&place, &pointee)?;
@@ -386,7 +437,7 @@ impl Lowerer<'_, '_> {
                         .ins()
                         .store(MemFlagsData::trusted(), v, at, 4 * i as i32);
                 }
-                call(self, at, len);
+                call(self, at, len)?;
                 let back: Vec<Value> = (0..values.len())
                     .map(|i| {
                         self.b
@@ -521,6 +572,47 @@ fn columns_4x3(row_major: &[Value]) -> Vec<Value> {
         .flat_map(|j| (0..3).map(move |r| r * 4 + j))
         .map(|i| row_major[i])
         .collect()
+}
+
+/// The closest-hit program of `module` that its ray generation programs inline after
+/// each `rt_trace` ([`InlinedClosestHit`](super::InlinedClosestHit)), if exactly one
+/// qualifies: everything it asks of the device comes from the state or the payload (so
+/// the runtime writes it all before the body runs, and the body never calls the runtime:
+/// no trace, callable, exception, attribute or record data), it keeps no private or
+/// workgroup variables (an inlined body would share the caller's), and it is small
+/// (at most `MAX_INLINED_EXPRESSIONS` expressions with its helpers: it is copied to every
+/// trace).
+pub(crate) fn inlinable_closest_hit(module: &CompiledModule) -> Option<Handle<naga::Function>> {
+    const MAX_INLINED_EXPRESSIONS: usize = 512;
+    let ir = &module.module;
+    let qualifies = |p: &ProgramInfo| {
+        let from_state = p
+            .device_functions
+            .iter()
+            .all(|&f| state_field(f).is_some() || matches!(f, D::GetPayload | D::SetPayload));
+        let uses = &module.info[p.function];
+        let no_privates = ir.global_variables.iter().all(|(g, var)| {
+            !matches!(
+                var.space,
+                naga::AddressSpace::Private | naga::AddressSpace::WorkGroup
+            ) || uses[g].is_empty()
+        });
+        let helpers = ir
+            .functions
+            .iter()
+            .filter(|(_, f)| f.name.as_ref().is_some_and(|n| p.helpers.contains(n)))
+            .map(|(_, f)| f.expressions.len());
+        let size = ir.functions[p.function].expressions.len() + helpers.sum::<usize>();
+        from_state && no_privates && size <= MAX_INLINED_EXPRESSIONS
+    };
+    let mut found = module
+        .programs
+        .iter()
+        .filter(|p| p.kind == ProgramKind::ClosestHit && qualifies(p));
+    match (found.next(), found.next()) {
+        (Some(p), None) => Some(p.function),
+        _ => None,
+    }
 }
 
 /// The `DeviceState` bits a device function reads when present (0: none).

@@ -20,6 +20,7 @@ mod place;
 mod stmt;
 pub(crate) mod types;
 
+use super::abi::DeviceState;
 use super::host::{CallContext, HostFn};
 use cranelift_codegen::ir::types::I64;
 use cranelift_codegen::ir::{
@@ -28,7 +29,7 @@ use cranelift_codegen::ir::{
 };
 use cranelift_codegen::isa::TargetFrontendConfig;
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
-pub(crate) use device::state_bits;
+pub(crate) use device::{inlinable_closest_hit, state_bits};
 use naga::{Expression, Function, GlobalVariable, Handle};
 use optik_core::frontend::{CompiledModule, DeviceFunction};
 pub(crate) use place::Place;
@@ -182,6 +183,25 @@ pub(crate) struct Lowerer<'m, 'b> {
     runtime_depth: u32,
     /// Expressions lowered so far: bounds the code loop unrolling may add.
     lowered_exprs: usize,
+    /// The closest-hit program inlined after each `rt_trace` (see [`InlinedClosestHit`]).
+    inlined_closest_hit: Option<InlinedClosestHit>,
+    /// The state the code being lowered reads instead of the call's (`CallContext::state`):
+    /// an inlined closest hit's.
+    state_override: Option<Value>,
+}
+
+/// A closest-hit program compiled into its callers of `rt_trace`: when the runtime's trace
+/// entry answers `TRACE_RUN_INLINED`, the caller runs the program's body right there, on
+/// the state the entry wrote into `state` (a slot of the caller's frame), instead of the
+/// runtime calling the program (docs/cpu-backend.md §8: the call cost more than the body).
+#[derive(Clone, Copy)]
+pub(crate) struct InlinedClosestHit {
+    /// The program.
+    pub function: Handle<Function>,
+    /// Its own compiled code, by which the runtime recognises it.
+    pub entry: FuncRef,
+    /// Where the entry writes its state.
+    pub state: StackSlot,
 }
 
 /// Bytes of the scratch slot: at least the largest host-call result (`rt_object_to_world`,
@@ -196,6 +216,7 @@ pub(crate) fn lower_program<'m>(
     func: &mut ir::Function,
     fctx: &mut FunctionBuilderContext,
     import: &mut dyn FnMut(HostFn, &mut ir::Function) -> FuncRef,
+    inline_closest_hit: Option<(Handle<Function>, FuncRef)>,
 ) -> LResult<()> {
     func.signature.params.push(AbiParam::new(I64));
     let mut b = FunctionBuilder::new(func, fctx);
@@ -236,6 +257,15 @@ pub(crate) fn lower_program<'m>(
         4,
     ));
     let exit = b.create_block();
+    let inlined_closest_hit = inline_closest_hit.map(|(function, entry)| InlinedClosestHit {
+        function,
+        entry,
+        state: b.create_sized_stack_slot(StackSlotData::new(
+            StackSlotKind::ExplicitSlot,
+            std::mem::size_of::<DeviceState>() as u32,
+            3,
+        )),
+    });
     let mut lowerer = Lowerer {
         env,
         b,
@@ -254,6 +284,8 @@ pub(crate) fn lower_program<'m>(
         live_blocks: HashSet::new(),
         runtime_depth: 0,
         lowered_exprs: 0,
+        inlined_closest_hit,
+        state_override: None,
     };
     lowerer.init_privates(function)?;
     let body = &env.module.functions[function];

@@ -211,7 +211,7 @@ impl<'m> Lowerer<'m, '_> {
     }
 
     /// Inlines a call of a user function (or the prelude's `rt_offset_ray`).
-    fn inline_call(
+    pub(super) fn inline_call(
         &mut self,
         callee: Handle<naga::Function>,
         arguments: &[Handle<Expression>],
