@@ -450,7 +450,7 @@ impl<'l> Invocation<'l> {
         );
         // Everything in the state but the launch index is the same for the whole task.
         self.index = index;
-        self.fill_state(bits, &view);
+        self.fill_state(self.state, bits, &view);
         for _ in 0..count {
             if stop.load(std::sync::atomic::Ordering::Relaxed) != 0 {
                 break;
@@ -582,7 +582,7 @@ impl<'l> Invocation<'l> {
             std::mem::replace(&mut self.view, &mut view),
             std::mem::replace(&mut self.state, state.as_mut_ptr()),
         );
-        self.fill_state(program.state_bits(), &shown);
+        self.fill_state(self.state, program.state_bits(), &shown);
         let bindings = self.shared.bindings;
         let state = self.state;
         let trace = self.shared.trace.entry;
@@ -590,15 +590,15 @@ impl<'l> Invocation<'l> {
         (self.view, self.state) = saved;
     }
 
-    /// Writes the values of `bits` for the running program into its `DeviceState`: the
-    /// same answers the `DeviceCalls` methods give, read as memory by compiled code.
+    /// Writes the values of `bits` for a program that runs with `view` into its
+    /// `DeviceState` `s` (the running program's, or an inlined closest hit's): the same
+    /// answers the `DeviceCalls` methods give, read as memory by compiled code.
     #[inline(always)]
-    fn fill_state(&mut self, bits: u32, view: &View<'l>) {
+    fn fill_state(&mut self, s: *mut DeviceState, bits: u32, view: &View<'l>) {
         type S = DeviceState;
-        // SAFETY (every write below): `state` is the running program's state, set by `run`;
-        // nothing else refers to it, and the fields are plain data written through the
-        // pointer (never read before they are written).
-        let s = self.state;
+        // SAFETY (every write below): `s` is the program's state; nothing else refers to
+        // it, and the fields are plain data written through the pointer (never read before
+        // they are written).
         unsafe { (*s).present = bits & !S::PAYLOAD };
         if bits & S::LAUNCH_INDEX != 0 {
             // The launch loop has just written the index as three 4-byte words; copying it
@@ -618,7 +618,7 @@ impl<'l> Invocation<'l> {
             | S::TRANSFORMS
             | S::TRACE_DEPTH;
         if bits & TRACE_VALUES != 0 {
-            self.fill_trace_values(bits, view);
+            self.fill_trace_values(s, bits, view);
         }
         // Writes in place are right only while they are not dropped (before an exception
         // ends the index; no program starts after that).
@@ -632,10 +632,9 @@ impl<'l> Invocation<'l> {
     }
     /// `fill_state`'s values of the trace that runs the program.
     #[inline(always)]
-    fn fill_trace_values(&mut self, bits: u32, view: &View<'l>) {
+    fn fill_trace_values(&mut self, s: *mut DeviceState, bits: u32, view: &View<'l>) {
         type S = DeviceState;
         // SAFETY (every write below): as in `fill_state`.
-        let s = self.state;
         // A copy of the caller's view (not `self.view`, which points to its stack copy):
         // the writes below go through a raw pointer the compiler cannot tell from the view,
         // so reading through a pointer between them repeats its loads (and null checks)
@@ -771,7 +770,7 @@ impl<'l> Invocation<'l> {
         if world.flags.contains(RayFlags::DISABLE_CLOSESTHIT) {
             return false;
         }
-        let Some(ch) = record.programs.main.filter(|ch| !ch.does_nothing()) else {
+        let Some(ch) = record.programs.main.as_ref().filter(|ch| !ch.does_nothing()) else {
             return false;
         };
         let view = View {
@@ -785,12 +784,10 @@ impl<'l> Invocation<'l> {
         };
         if !inlined.closest_hit.is_null() && ch.entry_address() == inlined.closest_hit {
             // What `run_program` would write for the program, in the caller's memory.
-            let own = std::mem::replace(&mut self.state, inlined.state);
-            self.fill_state(ch.state_bits(), &view);
-            self.state = own;
+            self.fill_state(inlined.state, ch.state_bits(), &view);
             return true;
         }
-        self.run_program_inline(ch, view);
+        self.run_program_inline(*ch, view);
         false
     }
 
