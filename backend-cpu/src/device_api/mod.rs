@@ -770,7 +770,12 @@ impl<'l> Invocation<'l> {
         if world.flags.contains(RayFlags::DISABLE_CLOSESTHIT) {
             return false;
         }
-        let Some(ch) = record.programs.main.as_ref().filter(|ch| !ch.does_nothing()) else {
+        let Some(ch) = record
+            .programs
+            .main
+            .as_ref()
+            .filter(|ch| !ch.does_nothing())
+        else {
             return false;
         };
         let view = View {

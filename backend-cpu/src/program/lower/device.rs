@@ -16,7 +16,7 @@ use crate::program::abi::{self, DeviceState};
 use crate::program::host::{CallContext, HostFn, REPORT_ACCEPTED, REPORT_UNWINDING};
 use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::types::{F32, I32, I64};
-use cranelift_codegen::ir::{BlockArg, InstBuilder, MemFlagsData, Type, Value};
+use cranelift_codegen::ir::{Block, BlockArg, InstBuilder, MemFlagsData, Type, Value};
 use naga::{Expression, Handle, TypeInner};
 use optik_api::ProgramKind;
 use optik_core::frontend::DeviceFunction as D;
@@ -193,10 +193,7 @@ impl Lowerer<'_, '_> {
         for _ in 0..n {
             self.b.append_block_param(merge, ty);
         }
-        self.live_blocks.extend([fast, slow, merge]);
-        self.b.ins().brif(has, fast, &[], slow, &[]);
-        self.b.seal_block(fast);
-        self.b.seal_block(slow);
+        self.present_or_call(has, fast, slow, merge);
         self.b.switch_to_block(fast);
         let loaded: Vec<BlockArg> = (0..n)
             .map(|i| {
@@ -280,6 +277,21 @@ impl Lowerer<'_, '_> {
         })
     }
 
+    /// Branches to `fast` when the state has the value (`has`), else to `slow`; in an
+    /// inlined closest hit always to `fast` (`TRACE_RUN_INLINED` promises every value the
+    /// program reads: `slow` is left without a predecessor, and Cranelift drops it).
+    fn present_or_call(&mut self, has: Value, fast: Block, slow: Block, merge: Block) {
+        if self.state_override.is_some() {
+            self.live_blocks.extend([fast, merge]);
+            self.b.ins().jump(fast, &[]);
+        } else {
+            self.live_blocks.extend([fast, slow, merge]);
+            self.b.ins().brif(has, fast, &[], slow, &[]);
+        }
+        self.b.seal_block(fast);
+        self.b.seal_block(slow);
+    }
+
     /// `rt_get_payload(i)` (`value` is `None`; returns the register) or
     /// `rt_set_payload(i, value)`: in the runtime's payload memory when its `DeviceState`
     /// offers it, else through the methods. Registers past the length read 0 and ignore
@@ -308,10 +320,7 @@ impl Lowerer<'_, '_> {
             self.b.create_block(),
         );
         self.b.append_block_param(merge, I32);
-        self.live_blocks.extend([fast, slow, merge]);
-        self.b.ins().brif(has, fast, &[], slow, &[]);
-        self.b.seal_block(fast);
-        self.b.seal_block(slow);
+        self.present_or_call(has, fast, slow, merge);
 
         self.b.switch_to_block(fast);
         let len = self.b.ins().load(
