@@ -195,7 +195,8 @@ pub const TRACE_GO_ON: u32 = 0;
 /// A [`TraceEntry`]'s result: the program must return (`DeviceCalls::unwinding`).
 pub const TRACE_RETURN: u32 = 1;
 /// A [`TraceEntry`]'s result: the caller runs its inlined closest-hit program on the
-/// state the entry wrote.
+/// state the entry wrote, which holds every value the program reads (the inlined code
+/// does not check `present`).
 pub const TRACE_RUN_INLINED: u32 = 2;
 
 /// Device-API values a runtime may hand to programs as memory ([`DeviceCalls::state`]).

@@ -50,13 +50,13 @@ fn closesthit__all() {
     rt_set_payload(4u, rt_primitive_index());
     rt_set_payload(5u, rt_sbt_gas_index());
     rt_set_payload(6u, rt_instance_id());
-    rt_set_payload(7u, rt_instance_index());
+    rt_set_payload(7u, rt_instance_index() + bitcast<u32>(rt_world_to_object()[3].y + rt_object_to_world()[1].y));
     rt_set_payload(8u, rt_hit_kind());
     rt_set_payload(9u, rt_ray_flags());
     rt_set_payload(10u, rt_ray_mask());
     rt_set_payload(11u, bitcast<u32>(rt_world_ray_origin().x));
     rt_set_payload(12u, bitcast<u32>(rt_object_ray_direction().z));
-    rt_set_payload(13u, rt_launch_index().x);
+    rt_set_payload(13u, rt_launch_index().x + 100u * rt_launch_dimensions().x);
     rt_set_payload(14u, rt_remaining_trace_depth());
     // The caller's register, read in place.
     rt_set_payload(15u, rt_get_payload(15u) + 1u);
@@ -207,10 +207,11 @@ fn an_inlined_closest_hit_gives_what_the_called_program_gives() {
             (0xFE, 0, 0xFF),
             "kind, flags, mask of {x}"
         );
+        assert_eq!(f32::from_bits(p[7]), 1.0, "transforms of {x}");
         assert_eq!(
             (p[13], p[15]),
-            (x as u32, 0xAAAA_AAAB),
-            "index, register of {x}"
+            (x as u32 + 600, 0xAAAA_AAAB),
+            "index, dimensions, register of {x}"
         );
     }
 }
