@@ -72,25 +72,17 @@ fn closesthit__other() {
 
 /// Two triangles side by side at z = 5.
 fn two_triangles(dev: &CpuDevice) -> TraversableHandle {
-    let tris: [[f32; 3]; 6] = [
-        [0.0, 0.0, 5.0],
-        [0.0, 4.0, 5.0],
-        [3.0, 0.0, 5.0],
-        [3.0, 0.0, 5.0],
-        [3.0, 4.0, 5.0],
-        [6.0, 0.0, 5.0],
-    ];
-    let vb = dev.create_buffer(72).unwrap();
-    dev.write_buffer(vb, 0, bytemuck::cast_slice(&tris))
-        .unwrap();
-    let input = TriangleArray::new(BufferView::new(vb), 6, GeometryFlags::DISABLE_ANYHIT);
-    let accel = dev
-        .accel_build(
-            &AccelBuildOptions::default(),
-            &[BuildInput::Triangles(input)],
-        )
-        .unwrap();
-    dev.traversable_handle(accel).unwrap()
+    crate::jit::triangles(
+        dev,
+        &[
+            [0.0, 0.0, 5.0],
+            [0.0, 4.0, 5.0],
+            [3.0, 0.0, 5.0],
+            [3.0, 0.0, 5.0],
+            [3.0, 4.0, 5.0],
+            [6.0, 0.0, 5.0],
+        ],
+    )
 }
 
 /// Compiles `source`; returns the module and its log.
@@ -128,28 +120,7 @@ fn launch(
     let pipeline = dev
         .create_pipeline(&options(), &PipelineLinkOptions::default(), &groups)
         .unwrap();
-    let mut table = Vec::new();
-    for g in &groups {
-        table.extend_from_slice(&dev.sbt_record_pack_header(*g).unwrap());
-    }
-    let sbt_buffer = dev.create_buffer(table.len() as u64).unwrap();
-    dev.write_buffer(sbt_buffer, 0, &table).unwrap();
-    let region = |i: u64| SbtRegion {
-        buffer: sbt_buffer,
-        offset: 32 * i,
-        stride: 32,
-        count: 1,
-    };
-    let sbt = ShaderBindingTable {
-        raygen: SbtRecord {
-            buffer: sbt_buffer,
-            offset: 0,
-        },
-        exception: None,
-        miss: Some(region(1)),
-        hitgroup: Some(region(2)),
-        callables: None,
-    };
+    let sbt = crate::jit::sbt_of(dev, &groups);
     let words = RAYS * 2 * WORDS;
     let out = dev.create_buffer(words as u64 * 4).unwrap();
     dev.launch(

@@ -177,8 +177,27 @@ fn launch_once(
     let pipeline = dev
         .create_pipeline(&p.options, &PipelineLinkOptions::default(), &groups)
         .unwrap();
+    let sbt = sbt_of(dev, &groups);
+    let out = dev.create_buffer(words as u64 * 4).unwrap();
+    let params = handle.to_words();
+    dev.launch(
+        pipeline,
+        bytemuck::cast_slice(&params),
+        &[Resource::buffer(1, out)],
+        &sbt,
+        LaunchSize::new(1, 1, 1),
+    )
+    .unwrap();
+    let mut bytes = vec![0u8; words * 4];
+    dev.read_buffer(out, 0, &mut bytes).unwrap();
+    bytemuck::cast_slice(&bytes).to_vec()
+}
+
+/// A table of one header-only record per group of `groups`: raygen, miss, hit group and,
+/// when there is a fourth, exception.
+pub fn sbt_of(dev: &CpuDevice, groups: &[ProgramGroup]) -> ShaderBindingTable {
     let mut table = Vec::new();
-    for g in &groups {
+    for g in groups {
         table.extend_from_slice(&dev.sbt_record_pack_header(*g).unwrap());
     }
     let sbt_buffer = dev.create_buffer(table.len() as u64).unwrap();
@@ -193,26 +212,13 @@ fn launch_once(
         stride: 32,
         count: 1,
     };
-    let sbt = ShaderBindingTable {
+    ShaderBindingTable {
         raygen: record(0),
-        exception: p.exception.map(|_| record(3)),
+        exception: (groups.len() > 3).then(|| record(3)),
         miss: Some(region(1)),
         hitgroup: Some(region(2)),
         callables: None,
-    };
-    let out = dev.create_buffer(words as u64 * 4).unwrap();
-    let params = handle.to_words();
-    dev.launch(
-        pipeline,
-        bytemuck::cast_slice(&params),
-        &[Resource::buffer(1, out)],
-        &sbt,
-        LaunchSize::new(1, 1, 1),
-    )
-    .unwrap();
-    let mut bytes = vec![0u8; words * 4];
-    dev.read_buffer(out, 0, &mut bytes).unwrap();
-    bytemuck::cast_slice(&bytes).to_vec()
+    }
 }
 
 const THROW_IN_CLOSEST_HIT: &str = r#"
@@ -244,10 +250,19 @@ fn exception__record() {
 "#;
 
 fn one_triangle(dev: &CpuDevice) -> TraversableHandle {
-    let tri: [[f32; 3]; 3] = [[0.0, 0.0, 5.0], [0.0, 4.0, 5.0], [4.0, 0.0, 5.0]];
-    let vb = dev.create_buffer(36).unwrap();
-    dev.write_buffer(vb, 0, bytemuck::cast_slice(&tri)).unwrap();
-    let input = TriangleArray::new(BufferView::new(vb), 3, GeometryFlags::DISABLE_ANYHIT);
+    triangles(dev, &[[0.0, 0.0, 5.0], [0.0, 4.0, 5.0], [4.0, 0.0, 5.0]])
+}
+
+/// A structure of the opaque triangles `vertices` (three a triangle).
+pub fn triangles(dev: &CpuDevice, vertices: &[[f32; 3]]) -> TraversableHandle {
+    let vb = dev.create_buffer(12 * vertices.len() as u64).unwrap();
+    dev.write_buffer(vb, 0, bytemuck::cast_slice(vertices))
+        .unwrap();
+    let input = TriangleArray::new(
+        BufferView::new(vb),
+        vertices.len() as u32,
+        GeometryFlags::DISABLE_ANYHIT,
+    );
     let accel = dev
         .accel_build(
             &AccelBuildOptions::default(),
