@@ -221,6 +221,10 @@ fn closest_hits_that_ask_the_runtime_are_not_inlined() {
             "var<private> seen: u32;\nfn closesthit__private() { seen += 1u; rt_set_payload(0u, seen); }",
         ),
         (
+            "a private variable of a helper",
+            "var<private> seen: u32;\nfn bump() -> u32 { seen += 1u; return seen; }\nfn closesthit__helper() { rt_set_payload(0u, bump()); }",
+        ),
+        (
             "a trace",
             "fn closesthit__again() { var r: RtPayload; rt_trace(handle, vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), 0.0, 1.0, 0.0, 0xFFu, 0u, 0u, 1u, 0u, &r); }",
         ),
