@@ -6,7 +6,9 @@
 //! `rt_trace`, `rt_direct_call` and `rt_continuation_call` pass the address and length of
 //! the caller's `RtPayload`; the runtime copies in and out. These three and
 //! `rt_report_intersection` also tell whether the runtime is unwinding
-//! (`DeviceCalls::unwinding`); the program then returns at once. The terminators
+//! (`DeviceCalls::unwinding`); the program then returns at once. `rt_trace` may also ask
+//! the caller to run the closest-hit program it inlined (`InlinedClosestHit`, lowered by
+//! `trace` on the state the runtime wrote, without presence checks). The terminators
 //! (`rt_ignore_intersection`, `rt_terminate_ray`, `rt_throw_exception`) call the host and
 //! then jump to the program's exit, whichever inlined helper they are in.
 
