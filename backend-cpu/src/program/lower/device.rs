@@ -185,8 +185,6 @@ impl Lowerer<'_, '_> {
         // The pointer is fixed for the call; the fields are not (report_intersection
         // updates tmax), so they are loaded where used.
         let state = self.state_pointer();
-        let present = self.b.ins().load(I32, MemFlagsData::trusted(), state, 0);
-        let has = self.b.ins().band_imm_u(present, bit as i64);
         let (fast, slow, merge) = (
             self.b.create_block(),
             self.b.create_block(),
@@ -195,7 +193,7 @@ impl Lowerer<'_, '_> {
         for _ in 0..n {
             self.b.append_block_param(merge, ty);
         }
-        self.present_or_call(has, fast, slow, merge);
+        self.present_or_call(state, bit, fast, slow, merge);
         self.b.switch_to_block(fast);
         let loaded: Vec<BlockArg> = (0..n)
             .map(|i| {
@@ -279,14 +277,17 @@ impl Lowerer<'_, '_> {
         })
     }
 
-    /// Branches to `fast` when the state has the value (`has`), else to `slow`; in an
-    /// inlined closest hit always to `fast` (`TRACE_RUN_INLINED` promises every value the
-    /// program reads: `slow` is left without a predecessor, and Cranelift drops it).
-    fn present_or_call(&mut self, has: Value, fast: Block, slow: Block, merge: Block) {
+    /// Branches to `fast` when `state`'s `present` word has `bit`, else to `slow`; in an
+    /// inlined closest hit always to `fast`, without reading `present`
+    /// (`TRACE_RUN_INLINED` promises every value the program reads: `slow` is left without
+    /// a predecessor, and Cranelift drops it).
+    fn present_or_call(&mut self, state: Value, bit: u32, fast: Block, slow: Block, merge: Block) {
         if self.state_override.is_some() {
             self.live_blocks.extend([fast, merge]);
             self.b.ins().jump(fast, &[]);
         } else {
+            let present = self.b.ins().load(I32, MemFlagsData::trusted(), state, 0);
+            let has = self.b.ins().band_imm_u(present, bit as i64);
             self.live_blocks.extend([fast, slow, merge]);
             self.b.ins().brif(has, fast, &[], slow, &[]);
         }
@@ -311,18 +312,13 @@ impl Lowerer<'_, '_> {
             return call(self);
         }
         let state = self.state_pointer();
-        let present = self.b.ins().load(I32, MemFlagsData::trusted(), state, 0);
-        let has = self
-            .b
-            .ins()
-            .band_imm_u(present, DeviceState::PAYLOAD as i64);
         let (fast, slow, merge) = (
             self.b.create_block(),
             self.b.create_block(),
             self.b.create_block(),
         );
         self.b.append_block_param(merge, I32);
-        self.present_or_call(has, fast, slow, merge);
+        self.present_or_call(state, DeviceState::PAYLOAD, fast, slow, merge);
 
         self.b.switch_to_block(fast);
         let len = self.b.ins().load(
