@@ -303,23 +303,23 @@ pub fn misses_bounds<S: Spec>(
         return true;
     }
     let inv = F4::splat(1.0) / dir;
+    // As `ray::far_reciprocal`, lane by lane.
+    let inv_far = inv * F4::splat(super::ray::exit_scale(S::CONSERVATIVE));
     let o = lanes(&origin);
     let [lo, hi] = bounds;
-    let (to_lo, to_hi) = ((lanes(lo) - o) * inv, (lanes(hi) - o) * inv);
+    let (lo, hi) = (lanes(lo) - o, lanes(hi) - o);
     // Near and far by direction sign, selected without a branch (signs vary across a view).
     let negative = dir.lt(zero);
-    let near = F4::select(negative, to_hi, to_lo).to_array();
-    let far = F4::select(negative, to_lo, to_hi).to_array();
+    let near = (F4::select(negative, hi, lo) * inv).to_array();
+    let far = (F4::select(negative, lo, hi) * inv_far).to_array();
     let mut t0 = tmin;
-    let mut exit = f32::INFINITY;
+    let mut t1 = tmax;
     for a in 0..3 {
         let (tn, tf) = (near[a], far[a]);
         // `x > t0` is false for NaN: a NaN distance does not constrain the interval.
         t0 = if tn > t0 { tn } else { t0 };
-        exit = if tf < exit { tf } else { exit };
+        t1 = if tf < t1 { tf } else { t1 };
     }
-    let scaled = exit * super::ray::exit_scale(S::CONSERVATIVE);
-    let t1 = if scaled < tmax { scaled } else { tmax };
     // Neither is NaN (each is a number or replaced only by a number), so this is the
     // node test's `!(t0 <= t1)`.
     t0 > t1

@@ -27,8 +27,9 @@ pub struct PreparedRay {
     pub dir: [f32; 3],
     /// Reciprocal of the canonical direction (`+∞` for zero components).
     pub inv: [f32; 3],
-    /// Factor on a box's exit distance: [`SLAB_WIDENING`] when conservative, else 1.
-    pub exit_scale: f32,
+    /// Reciprocal for a box's far planes (`inv` times [`exit_scale`]): the exit distances
+    /// come out widened without a multiply per box.
+    pub inv_far: [f32; 3],
     /// Per axis, whether the direction is negative (near plane = box maximum).
     pub negative: [bool; 3],
     /// Watertight test: the axis of largest |direction|, then the other two, ordered so
@@ -51,7 +52,7 @@ impl PreparedRay {
             origin,
             dir,
             inv,
-            exit_scale: exit_scale(conservative),
+            inv_far: far_reciprocal(inv, conservative),
             negative: negative(dir),
             axes,
             shear,
@@ -75,6 +76,18 @@ fn reciprocal(dir: [f32; 3]) -> [f32; 3] {
 #[inline(always)]
 pub(super) fn exit_scale(conservative: bool) -> f32 {
     if conservative { SLAB_WIDENING } else { 1.0 }
+}
+
+/// The reciprocal the slab tests multiply a far plane's distance by: `inv` times the exit
+/// scale, rounded once per ray. The product `(far − o) · inv_far` carries the same rounding
+/// errors as widening `(far − o) · inv` by the scale afterwards (one subtraction, the
+/// reciprocal, two roundings of products, each within a factor `1 ± ε/2`), so it keeps every
+/// box the exact test hits; folded here it takes a multiply off every node test's chain of
+/// dependent operations (docs/cpu-backend.md, "The slab test's chain").
+#[inline(always)]
+pub(super) fn far_reciprocal(inv: [f32; 3], conservative: bool) -> [f32; 3] {
+    let scale = exit_scale(conservative);
+    inv.map(|x| x * scale)
 }
 
 /// Per axis, whether a canonical direction is negative (the near plane is the box maximum).

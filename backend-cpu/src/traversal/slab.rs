@@ -1,13 +1,14 @@
 //! The ray/box slab test.
 //!
-//! `entry = max(tmin, near distances)`, `exit = min(tmax, far distances · s)`, hit when
-//! `entry <= exit`, where `s` is the [`PreparedRay`]'s exit scale: `1 + 2γ(3)` for the
-//! conservative test (one multiply per box), 1 for the plain one (folded away). A NaN distance arises only
+//! `entry = max(tmin, near distances)`, `exit = min(tmax, far distances)`, hit when
+//! `entry <= exit`, where a far distance is `(far − o) · inv_far`, the reciprocal times the
+//! exit scale `s` ([`PreparedRay::inv_far`]: `1 + 2γ(3)` for the conservative test, 1 for the
+//! plain one), rounded once per ray. A NaN distance arises only
 //! from `0 · ∞`, an origin exactly on a slab plane of a ray parallel to it; the comparisons
 //! below ignore it, so such a ray counts as inside the slab (boxes are closed), the same for
 //! `+0.0` and `-0.0` directions.
 
-use super::ray::{PreparedRay, SLAB_WIDENING, WideRay};
+use super::ray::{PreparedRay, WideRay, far_reciprocal};
 use super::simd::F4;
 use crate::accel::wide::{NODE_WIDTH, WideNode};
 
@@ -21,48 +22,37 @@ pub fn entry(
     tmin: f32,
     tmax: f32,
 ) -> Option<f32> {
-    let constants = [ray.origin, ray.inv];
-    entry_with(
-        constants,
-        ray.negative,
-        ray.exit_scale,
-        [min, max],
-        [tmin, tmax],
-    )
+    let constants = [ray.origin, ray.inv, ray.inv_far];
+    entry_with(constants, ray.negative, [min, max], [tmin, tmax])
 }
 
-/// [`entry`] for a [`WideRay`] and an exit scale (`SLAB_WIDENING` or 1): the arithmetic of
-/// each lane of the node tests, in scalar form (the reference the tests hold the node tests
-/// and `traversal::misses_bounds` to).
+/// [`entry`] for a [`WideRay`], conservative or not: the arithmetic of each lane of the node
+/// tests, in scalar form (the reference the tests hold the node tests and
+/// `traversal::misses_bounds` to).
 #[cfg(test)]
 pub fn entry_wide(
     ray: &WideRay,
-    exit_scale: f32,
+    conservative: bool,
     min: &[f32; 3],
     max: &[f32; 3],
     tmin: f32,
     tmax: f32,
 ) -> Option<f32> {
-    let constants = [ray.origin1, ray.inv1];
-    entry_with(
-        constants,
-        ray.negative,
-        exit_scale,
-        [min, max],
-        [tmin, tmax],
-    )
+    let inv_far = super::ray::far_reciprocal(ray.inv1, conservative);
+    let constants = [ray.origin1, ray.inv1, inv_far];
+    entry_with(constants, ray.negative, [min, max], [tmin, tmax])
 }
 
 #[inline(always)]
 fn entry_with(
-    [origin, inv]: [[f32; 3]; 2],
+    [origin, inv, inv_far]: [[f32; 3]; 3],
     negative: [bool; 3],
-    exit_scale: f32,
     [min, max]: [&[f32; 3]; 2],
     [tmin, tmax]: [f32; 2],
 ) -> Option<f32> {
+    // The exit starts at `tmax` (never widened) and each far distance comes out widened.
     let mut t0 = tmin;
-    let mut exit = f32::INFINITY;
+    let mut t1 = tmax;
     for a in 0..3 {
         let (near, far) = if negative[a] {
             (max[a], min[a])
@@ -70,15 +60,13 @@ fn entry_with(
             (min[a], max[a])
         };
         let tn = (near - origin[a]) * inv[a];
-        let tf = (far - origin[a]) * inv[a];
+        let tf = (far - origin[a]) * inv_far[a];
         // `x > t0` is false for NaN: a NaN distance does not constrain the interval.
         t0 = if tn > t0 { tn } else { t0 };
-        exit = if tf < exit { tf } else { exit };
+        t1 = if tf < t1 { tf } else { t1 };
     }
-    // Widening the exit (not the ray's tmax) makes the test conservative; a negative exit
-    // only grows more negative, so boxes behind the origin still miss.
-    let scaled = exit * exit_scale;
-    let t1 = if scaled < tmax { scaled } else { tmax };
+    // Widening the far distances (not the ray's tmax) makes the test conservative; a
+    // negative one only grows more negative, so boxes behind the origin still miss.
     if t0 <= t1 { Some(t0) } else { None }
 }
 
@@ -87,8 +75,8 @@ fn entry_with(
 /// entry distances. Two forms, bit for bit the same ([`Halves`] on every CPU, [`Avx`] where
 /// the CPU has AVX); a walk uses one for all its nodes.
 ///
-/// The exit scale (the conservative widening, or none) is the pipeline's compile-time
-/// switch: `new` takes it as a constant, so the plain test has no multiply at all.
+/// The conservative widening (or none) is in the far reciprocals `new` prepares once per
+/// ray: no node test multiplies by it.
 pub trait NodeTest: Copy {
     /// Tests `node`'s children within `[tmin, tmax]` (`tmin` as given when prepared).
     fn entry(&self, node: &WideNode, tmax: f32) -> (u32, [f32; NODE_WIDTH]);
@@ -140,20 +128,21 @@ impl NearFar {
 pub struct Halves {
     origin: [F4; 3],
     inv: [F4; 3],
-    conservative: bool,
+    inv_far: [F4; 3],
     tmin: F4,
     near_far: NearFar,
 }
 
 impl Halves {
-    /// The test's constants for `ray` from `tmin`, conservative ([`SLAB_WIDENING`]) or not.
+    /// The test's constants for `ray` from `tmin`, conservative (widened far distances,
+    /// `ray::far_reciprocal`) or not.
     #[inline(always)]
     pub fn new(ray: &WideRay, tmin: f32, conservative: bool) -> Halves {
         let [origin, inv] = ray.box_constants();
         Halves {
             origin: origin.map(F4::splat),
             inv: inv.map(F4::splat),
-            conservative,
+            inv_far: far_reciprocal(inv, conservative).map(F4::splat),
             tmin: F4::splat(tmin),
             near_far: NearFar::of(ray),
         }
@@ -168,21 +157,15 @@ impl NodeTest for Halves {
         let mut entry = [0.0; NODE_WIDTH];
         for half in 0..2 {
             let mut t0 = self.tmin;
-            let mut exit = F4::splat(f32::INFINITY);
+            let mut t1 = tmax;
             for a in 0..3 {
                 let near = F4::load_half(NearFar::row(node, self.near_far.near[a]), half);
                 let far = F4::load_half(NearFar::row(node, self.near_far.far[a]), half);
                 let tn = (near - self.origin[a]) * self.inv[a];
-                let tf = (far - self.origin[a]) * self.inv[a];
+                let tf = (far - self.origin[a]) * self.inv_far[a];
                 t0 = tn.max(t0);
-                exit = tf.min(exit);
+                t1 = tf.min(t1);
             }
-            let exit = if self.conservative {
-                exit * F4::splat(SLAB_WIDENING)
-            } else {
-                exit
-            };
-            let t1 = exit.min(tmax);
             mask |= t0.le(t1).bits() << (4 * half);
             entry[4 * half..4 * half + 4].copy_from_slice(&t0.to_array());
         }
@@ -195,7 +178,7 @@ pub use avx::{Avx, has_avx};
 
 #[cfg(target_arch = "x86_64")]
 mod avx {
-    use super::{NearFar, NodeTest, SLAB_WIDENING, WideNode, WideRay};
+    use super::{NearFar, NodeTest, WideNode, WideRay, far_reciprocal};
     use crate::accel::wide::NODE_WIDTH;
     use std::arch::x86_64::*;
 
@@ -230,7 +213,7 @@ mod avx {
     pub struct Avx {
         origin: [__m256; 3],
         inv: [__m256; 3],
-        conservative: bool,
+        inv_far: [__m256; 3],
         tmin: __m256,
         near_far: NearFar,
     }
@@ -249,7 +232,7 @@ mod avx {
                 Avx {
                     origin: origin.map(|x| _mm256_set1_ps(x)),
                     inv: inv.map(|x| _mm256_set1_ps(x)),
-                    conservative,
+                    inv_far: far_reciprocal(inv, conservative).map(|x| _mm256_set1_ps(x)),
                     tmin: _mm256_set1_ps(tmin),
                     near_far: NearFar::of(ray),
                 }
@@ -265,22 +248,16 @@ mod avx {
             // read whole rows of the node (32 bytes each), the store the 32-byte `entry`.
             let mask = unsafe {
                 let mut t0 = self.tmin;
-                let mut exit = _mm256_set1_ps(f32::INFINITY);
+                let mut t1 = _mm256_set1_ps(tmax);
                 for a in 0..3 {
                     let near = NearFar::row(node, self.near_far.near[a]).as_ptr();
                     let far = NearFar::row(node, self.near_far.far[a]).as_ptr();
                     let (near, far) = (_mm256_loadu_ps(near), _mm256_loadu_ps(far));
                     let tn = _mm256_mul_ps(_mm256_sub_ps(near, self.origin[a]), self.inv[a]);
-                    let tf = _mm256_mul_ps(_mm256_sub_ps(far, self.origin[a]), self.inv[a]);
+                    let tf = _mm256_mul_ps(_mm256_sub_ps(far, self.origin[a]), self.inv_far[a]);
                     t0 = _mm256_max_ps(tn, t0);
-                    exit = _mm256_min_ps(tf, exit);
+                    t1 = _mm256_min_ps(tf, t1);
                 }
-                let exit = if self.conservative {
-                    _mm256_mul_ps(exit, _mm256_set1_ps(SLAB_WIDENING))
-                } else {
-                    exit
-                };
-                let t1 = _mm256_min_ps(exit, _mm256_set1_ps(tmax));
                 _mm256_storeu_ps(entry.as_mut_ptr(), t0);
                 _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32
             };

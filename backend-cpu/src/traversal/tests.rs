@@ -563,8 +563,7 @@ fn the_root_check_rejects_only_rays_the_node_test_rejects() {
                 misses_bounds::<Plain>(&bounds, o, d, tmin, tmax)
             };
             // Bit for bit the scalar test on the union box (the vectorised form's promise).
-            let scale = super::ray::exit_scale(conservative);
-            let scalar = slab::entry_wide(&wide, scale, &bounds[0], &bounds[1], tmin, tmax);
+            let scalar = slab::entry_wide(&wide, conservative, &bounds[0], &bounds[1], tmin, tmax);
             assert_eq!(
                 skipped,
                 !wide.moves() || scalar.is_none(),
