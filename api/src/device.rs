@@ -124,7 +124,10 @@ pub enum BoxTest {
     /// Slab test widened by 1 + 2γ(3) (pbrt-v4, Embree's robust mode): no false misses.
     #[default]
     Conservative,
-    /// Plain slab test: faster, may miss boxes a ray grazes.
+    /// Plain slab test: may miss boxes a ray grazes. Faster where the widening is a multiply
+    /// per box test (wgpu); the CPU backend widens once per ray (the far planes' reciprocal),
+    /// so there it runs in the same time as the conservative test (docs/cpu-backend.md §8,
+    /// "The slab test's chain").
     Plain,
 }
 
