@@ -325,6 +325,32 @@ pub fn misses_bounds<S: Spec>(
     t0 > t1
 }
 
+/// What the leaf calls of one walk share, handed to each by one pointer: the walk keeps one
+/// word for them instead of five, and a call passes four arguments in registers instead of
+/// eight, two of them on the stack (Breakfast Room rays 1–3 % faster, docs/cpu-backend.md).
+struct LeafContext<'w, 'a, S: Spec> {
+    /// The trace's walker.
+    walker: &'w Walker<'a, S>,
+    /// The structure walked.
+    g: &'w Gas,
+    /// The path to it from the trace's root.
+    path: &'w Path,
+    /// The ray in the structure's space.
+    wr: &'w WideRay,
+    /// The triangle tests' constants, made at the first leaf.
+    lanes_of_ray: Option<TriangleLanes>,
+}
+
+impl<S: Spec> LeafContext<'_, '_, S> {
+    /// [`Walker::leaf_blocks`] with this walk's shared values.
+    #[inline(always)]
+    fn leaf_blocks<H: Handler, const PAIRS: bool>(&mut self, h: &mut H, first: u32, count: u32) {
+        let (g, path, wr) = (self.g, self.path, self.wr);
+        self.walker
+            .leaf_blocks::<H, PAIRS>(g, path, wr, &mut self.lanes_of_ray, h, first, count)
+    }
+}
+
 struct Walker<'a, S: Spec> {
     scene: &'a SceneTable,
     ray: &'a TraceRay,
@@ -598,19 +624,25 @@ impl<S: Spec> Walker<'_, S> {
         }
         let tmin = self.ray.tmin;
         let wide = &g.encoding;
-        let mut lanes_of_ray: Option<TriangleLanes> = None;
+        let mut context = LeafContext {
+            walker: self,
+            g,
+            path,
+            wr: &wr,
+            lanes_of_ray: None,
+        };
         // The walk and the leaves compiled for AVX where the CPU has it, chosen once.
         #[cfg(target_arch = "x86_64")]
         if walks_with_avx() {
             let leaf = |h: &mut H, first, count| {
                 // SAFETY: the CPU has AVX and the bit-counting instructions (checked above).
-                unsafe { self.leaf_blocks_avx(g, path, &wr, &mut lanes_of_ray, h, first, count) }
+                unsafe { Self::leaf_blocks_avx(&mut context, h, first, count) }
             };
             // SAFETY: as above.
             return unsafe { walk_wide_avx::<S, H>(wide, &wr, tmin, h, leaf) };
         }
         self.walk(wide, &wr, tmin, h, |h, first, count| {
-            self.leaf_blocks::<H, false>(g, path, &wr, &mut lanes_of_ray, h, first, count)
+            context.leaf_blocks::<H, false>(h, first, count)
         })
     }
 
@@ -626,19 +658,14 @@ impl<S: Spec> Walker<'_, S> {
     /// The CPU has AVX, popcnt, lzcnt and bmi1 (`slab::has_avx`).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx,popcnt,lzcnt,bmi1")]
-    #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     unsafe fn leaf_blocks_avx<H: Handler>(
-        &self,
-        g: &Gas,
-        path: &Path,
-        wr: &WideRay,
-        lanes_of_ray: &mut Option<TriangleLanes>,
+        context: &mut LeafContext<'_, '_, S>,
         h: &mut H,
         first: u32,
         count: u32,
     ) {
-        self.leaf_blocks::<H, true>(g, path, wr, lanes_of_ray, h, first, count)
+        context.leaf_blocks::<H, true>(h, first, count)
     }
 
     /// The leaf of `count` triangles from block `first`: its blocks tested four lanes at a
