@@ -1217,7 +1217,9 @@ impl DeviceCalls for Invocation<'_> {
 
     fn triangle_vertices(&self) -> [[f32; 3]; 3] {
         match self.hit().and_then(|h| h.data) {
-            Some(HitData::Triangle { vertices, .. }) => vertices,
+            // SAFETY: the hit is the running trace's, whose structures the launch keeps
+            // alive.
+            Some(HitData::Triangle { vertices, .. }) => unsafe { vertices.get() },
             _ => [[0.0; 3]; 3],
         }
     }

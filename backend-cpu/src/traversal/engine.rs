@@ -165,7 +165,7 @@ pub enum HitData {
     /// barycentrics.
     Triangle {
         /// The vertices.
-        vertices: [[f32; 3]; 3],
+        vertices: TriangleVertices,
         /// Weights of vertices 1 and 2.
         barycentrics: [f32; 2],
     },
@@ -179,6 +179,53 @@ pub enum HitData {
         /// In [0, 1].
         u: f32,
     },
+}
+
+/// Where a triangle hit's object-space vertices are: a copy (moving triangles, interpolated
+/// at the ray's time), or a lane of the triangle block the test read, gathered only when a
+/// program asks for them. Every candidate and committed hit carries its vertices, and few
+/// programs read them: copying the nine words out of the block's lanes cost ~35 instructions
+/// a hit (docs/cpu-backend.md §8).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriangleVertices(VertexSource);
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum VertexSource {
+    Copied([[f32; 3]; 3]),
+    /// Lane `lane` of `block`, a block of the structure walked.
+    Lane {
+        block: *const TriangleBlock,
+        lane: usize,
+    },
+}
+
+impl TriangleVertices {
+    /// The vertices themselves.
+    pub fn copied(vertices: [[f32; 3]; 3]) -> TriangleVertices {
+        TriangleVertices(VertexSource::Copied(vertices))
+    }
+
+    /// Lane `lane` of `block`, read when asked.
+    fn of_lane(block: &TriangleBlock, lane: usize) -> TriangleVertices {
+        TriangleVertices(VertexSource::Lane { block, lane })
+    }
+
+    /// The vertices.
+    ///
+    /// # Safety
+    /// The structure whose walk reported this hit is alive (as it is while the trace, or
+    /// the launch, that walked it runs).
+    pub unsafe fn get(&self) -> [[f32; 3]; 3] {
+        match self.0 {
+            VertexSource::Copied(v) => v,
+            VertexSource::Lane { block, lane } => {
+                // SAFETY: `block` is a block of the structure walked (`of_lane`), alive as
+                // the caller promises.
+                let block = unsafe { &*block };
+                std::array::from_fn(|v| std::array::from_fn(|a| block.vertices[v][a][lane]))
+            }
+        }
+    }
 }
 
 /// A built-in primitive hit found by the traversal.
@@ -484,6 +531,7 @@ impl<S: Spec> Walker<'_, S> {
                         triangle::moller_trumbore(&pr, &tri, tmin, h.t_max())
                     };
                     let Some(hit) = hit else { continue };
+                    let tri = TriangleVertices::copied(tri);
                     self.triangle_hit_at(g, s, &g.primitives[s], tri, hit, path, h);
                     if h.done() {
                         return;
@@ -799,7 +847,7 @@ impl<S: Spec> Walker<'_, S> {
             let s = block.slots[lane] as usize;
             // The block holds the vertices key 0 holds (bit for bit), in lines already
             // loaded: reading the slot's key-0 copy cost a cache miss per candidate.
-            let tri = std::array::from_fn(|v| std::array::from_fn(|a| block.vertices[v][a][lane]));
+            let tri = TriangleVertices::of_lane(block, lane);
             let info = &block.infos[lane];
             self.triangle_hit_at(g, s, info, tri, hit, path, h);
             if h.done() {
@@ -857,7 +905,7 @@ impl<S: Spec> Walker<'_, S> {
         g: &Gas,
         s: usize,
         info: &PrimitiveInfo,
-        tri: [[f32; 3]; 3],
+        tri: TriangleVertices,
         hit: triangle::TriangleHit,
         path: &Path,
         h: &mut H,

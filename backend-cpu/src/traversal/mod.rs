@@ -20,8 +20,8 @@ pub use curve::{
     CURVE_TOLERANCE_RADIUS, CURVE_TOLERANCE_SIZE, CurveHit, MAX_DEPTH as CURVE_MAX_DEPTH,
 };
 pub use engine::{
-    Candidate, CustomPrimitive, HitData, Path, TraceConfig, TraceRay, blocks_root, misses_bounds,
-    trace, trace_blocks,
+    Candidate, CustomPrimitive, HitData, Path, TraceConfig, TraceRay, TriangleVertices,
+    blocks_root, misses_bounds, trace, trace_blocks,
 };
 pub use ray::{PreparedRay, SLAB_WIDENING, TriangleLanes, WideRay};
 pub use slab::entry as slab_entry;
