@@ -63,14 +63,14 @@ def main():
     scene.run(origins[:1], directions[:1], dists=dists[:1])
     build_s = time.perf_counter() - start
 
-    def trace(lo, hi):
-        return scene.run(origins[lo:hi], directions[lo:hi], dists=dists[lo:hi], query="INTERSECT", output=1)
+    def trace(o, d, t):
+        return scene.run(o, d, dists=t, query="INTERSECT", output=1)
 
     n = len(rays)
     best1 = float("inf")
     for _ in range(max(1, a.repeat)):
         t0 = time.perf_counter()
-        res = trace(0, n)
+        res = trace(origins, directions, dists)
         best1 = min(best1, time.perf_counter() - t0)
 
     # One chunk per thread: each `scene.run` call holds the GIL while it converts its inputs
@@ -93,15 +93,11 @@ def main():
         print(json.dumps({"error": "the threads' chunks do not cover the rays once"}))
         sys.exit(2)
 
-    def trace_chunk(chunk):
-        o, d, t = chunk
-        return scene.run(o, d, dists=t, query="INTERSECT", output=1)
-
     bestn = float("inf")
     with ThreadPoolExecutor(max_workers=a.threads) as pool:
         for _ in range(max(1, a.repeat)):
             t0 = time.perf_counter()
-            list(pool.map(trace_chunk, work))
+            list(pool.map(lambda chunk: trace(*chunk), work))
             bestn = min(bestn, time.perf_counter() - t0)
 
     prim = res["primID"].astype(np.int64)
