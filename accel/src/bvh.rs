@@ -19,6 +19,7 @@
 use super::aabb::Aabb;
 use super::collapse::LeafCosts;
 use optik_api::{BuildFlags, Error, Result};
+use rayon::prelude::*;
 
 /// One BVH node (32 bytes).
 #[repr(C)]
@@ -123,7 +124,10 @@ impl Bvh {
         quality: BuildQuality,
         leaf_costs: Option<LeafCosts>,
     ) -> Result<(Bvh, Vec<u32>)> {
+        // Primitive by primitive on the current rayon pool (in order, each entry its own),
+        // as the steps after obvhs's: otherwise a serial share of every build.
         let included: Vec<u32> = (0..boxes.len() as u32)
+            .into_par_iter()
             .filter(|&i| boxes[i as usize].is_valid() && boxes[i as usize].is_finite())
             .collect();
         if included.is_empty() {
@@ -132,9 +136,9 @@ impl Bvh {
         let params = quality.params();
         // obvhs reads every box it is given, so it only sees the included ones, scaled so
         // that no surface area it computes overflows (see `topology_scale`).
-        let scale = topology_scale(included.iter().map(|&i| &boxes[i as usize]));
+        let scale = topology_scale(largest_magnitude(boxes, &included));
         let obvhs_boxes: Vec<obvhs::aabb::Aabb> = included
-            .iter()
+            .par_iter()
             .map(|&i| boxes[i as usize].scaled(scale).to_obvhs())
             .collect();
         // obvhs asserts on inputs it does not expect; a panic must not cross the API.
@@ -171,7 +175,7 @@ impl Bvh {
         }))
         .map_err(|_| Error::backend("the BVH builder failed on these primitives"))?;
         let (mut bvh, order) = convert(&built);
-        let order: Vec<u32> = order.iter().map(|&k| included[k as usize]).collect();
+        let order: Vec<u32> = order.par_iter().map(|&k| included[k as usize]).collect();
         if order.len() != included.len() {
             return Err(Error::backend(format!(
                 "the BVH builder placed {} of {} primitives in leaves",
@@ -246,16 +250,28 @@ const TOPOLOGY_LIMIT: f32 = (1u64 << 40) as f32;
 /// from x = -3e38 to 3e38). Only the tree's shape comes from these boxes (`refit` puts the
 /// exact ones back), and SAH costs are scale-invariant, so a uniform power-of-two scale
 /// (exact, order-preserving) gives the tree the unscaled boxes would, without the overflow.
-fn topology_scale<'a>(boxes: impl Iterator<Item = &'a Aabb>) -> f32 {
-    let largest = boxes
-        .flat_map(|b| b.min.iter().chain(b.max.iter()))
-        .fold(0.0f32, |m, v| m.max(v.abs()));
+fn topology_scale(largest: f32) -> f32 {
     if largest <= TOPOLOGY_LIMIT {
         return 1.0;
     }
     // largest <= f32::MAX < 2^128, so the exponent is at most 88 and 2^-88 is a normal f32.
     let exponent = (largest / TOPOLOGY_LIMIT).log2().ceil() as i32;
     2.0f32.powi(-exponent)
+}
+
+/// The largest magnitude of any coordinate of the `included` boxes (0 for none). Maxima are
+/// exact in any order, so the pool's threads find what one pass would.
+fn largest_magnitude(boxes: &[Aabb], included: &[u32]) -> f32 {
+    included
+        .par_iter()
+        .map(|&i| {
+            let b = &boxes[i as usize];
+            b.min
+                .iter()
+                .chain(b.max.iter())
+                .fold(0.0f32, |m, v| m.max(v.abs()))
+        })
+        .reduce(|| 0.0, f32::max)
 }
 
 /// Converts obvhs's tree into optik's layout: depth-first, siblings adjacent, children after
@@ -504,13 +520,15 @@ mod tests {
     #[test]
     fn builder_boxes_are_scaled_only_beyond_the_limit() {
         let at = |v: f32| Aabb::point([v, -v, 0.0]);
-        assert_eq!(topology_scale([at(1e12)].iter()), 1.0);
-        assert_eq!(
-            topology_scale([at(-f32::MAX), at(1.0)].iter()),
-            2.0f32.powi(-88)
-        );
+        let scale = |boxes: &[Aabb]| {
+            let all: Vec<u32> = (0..boxes.len() as u32).collect();
+            topology_scale(largest_magnitude(boxes, &all))
+        };
+        assert_eq!(scale(&[at(1e12)]), 1.0);
+        assert_eq!(scale(&[at(-f32::MAX), at(1.0)]), 2.0f32.powi(-88));
+        assert_eq!(scale(&[]), 1.0);
         for v in [2e12f32, 1e20, 3e38, f32::MAX] {
-            let s = topology_scale([at(v)].iter());
+            let s = scale(&[at(v)]);
             assert!(
                 s.log2().fract() == 0.0,
                 "a power of two, so scaling is exact"

@@ -14,6 +14,7 @@ use optik_api::accel::{
 use optik_api::error::{Error, Result};
 use optik_api::handle::Buffer;
 use optik_api::semantics::affine;
+use rayon::prelude::*;
 
 /// Access to buffer bytes for decoding.
 pub trait BufferBytes {
@@ -86,15 +87,18 @@ pub fn triangles(
     } else {
         slice(bytes, vb, 0, (n - 1) * stride + size)?
     };
+    // Vertex by vertex and triangle by triangle on the current rayon pool (each writes only
+    // its own entry): otherwise a serial share of every build.
     let mut vertices: Vec<[f32; 3]> = (0..n)
+        .into_par_iter()
         .map(|i| decode_vertex(t.vertex_format, &raw[i * stride..]))
         .collect();
     if let Some(pt) = &t.pre_transform {
         let m = slice(bytes, pt, 0, 48)?;
         let m: [f32; 12] = std::array::from_fn(|i| f32_at(m, i * 4));
-        for v in &mut vertices {
-            *v = affine::transform_point(&m, *v);
-        }
+        vertices
+            .par_iter_mut()
+            .for_each(|v| *v = affine::transform_point(&m, *v));
     }
     let indices = match &t.indices {
         None => (0..t.num_vertices / 3)
@@ -113,24 +117,31 @@ pub fn triangles(
             } else {
                 slice(bytes, &ix.buffer, 0, (count - 1) * istride + isize)?
             };
-            let mut out = Vec::with_capacity(count);
-            for tri in 0..count {
-                let b = &raw[tri * istride..];
-                let idx = match ix.format {
-                    IndexFormat::U16x3 => [
-                        u16_at(b, 0) as u32,
-                        u16_at(b, 2) as u32,
-                        u16_at(b, 4) as u32,
-                    ],
-                    IndexFormat::U32x3 => [u32_at(b, 0), u32_at(b, 4), u32_at(b, 8)],
-                };
-                if let Some(bad) = idx.iter().find(|&&i| i >= t.num_vertices) {
-                    return Err(Error::invalid(format!(
-                        "triangle {tri} has vertex index {bad}, but the input has {} vertices (indices must be below num_vertices)",
-                        t.num_vertices
-                    )));
-                }
-                out.push(idx);
+            let out: Vec<[u32; 3]> = (0..count)
+                .into_par_iter()
+                .map(|tri| {
+                    let b = &raw[tri * istride..];
+                    match ix.format {
+                        IndexFormat::U16x3 => [
+                            u16_at(b, 0) as u32,
+                            u16_at(b, 2) as u32,
+                            u16_at(b, 4) as u32,
+                        ],
+                        IndexFormat::U32x3 => [u32_at(b, 0), u32_at(b, 4), u32_at(b, 8)],
+                    }
+                })
+                .collect();
+            // The first bad triangle (in order, whatever the threads), as a serial check would.
+            let bad_index = |idx: &[u32; 3]| idx.iter().copied().find(|&i| i >= t.num_vertices);
+            if let Some(tri) = out
+                .par_iter()
+                .position_first(|idx| bad_index(idx).is_some())
+            {
+                let bad = bad_index(&out[tri]).unwrap_or_default();
+                return Err(Error::invalid(format!(
+                    "triangle {tri} has vertex index {bad}, but the input has {} vertices (indices must be below num_vertices)",
+                    t.num_vertices
+                )));
             }
             out
         }
@@ -355,4 +366,81 @@ pub fn micromap_indices(
         out.push(v);
     }
     Ok(Some(out))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use optik_api::flags::GeometryFlags;
+    use optik_api::handle::{DeviceId, Handle, RawHandle};
+
+    /// Two buffers: vertices (slot 0) and indices (slot 1).
+    struct Two(Vec<u8>, Vec<u8>);
+
+    impl BufferBytes for Two {
+        fn bytes(&self, buffer: Buffer) -> Result<&[u8]> {
+            Ok(if buffer.raw().slot == 0 {
+                &self.0
+            } else {
+                &self.1
+            })
+        }
+    }
+
+    fn buffer(slot: u32) -> Buffer {
+        Buffer::from_raw(RawHandle {
+            device: DeviceId(0),
+            slot,
+            generation: 0,
+        })
+    }
+
+    /// `count` triangles over 3 vertices, with the triangles of `bad` using vertex 7.
+    fn input(count: u32, bad: &[u32]) -> (TriangleArray, Two) {
+        let vertices: Vec<u8> = (0..9).flat_map(|i| (i as f32).to_le_bytes()).collect();
+        let indices: Vec<u8> = (0..count)
+            .flat_map(|t| {
+                let last = if bad.contains(&t) { 7u32 } else { 2 };
+                [0u32, 1, last].into_iter().flat_map(u32::to_le_bytes)
+            })
+            .collect();
+        let t = TriangleArray::new(BufferView::new(buffer(0)), 3, GeometryFlags::DISABLE_ANYHIT)
+            .with_indices(BufferView::new(buffer(1)), count);
+        (t, Two(vertices, indices))
+    }
+
+    #[test]
+    fn triangles_decode_in_order_on_any_pool() {
+        let (t, bytes) = input(50_000, &[]);
+        let d = triangles(&t, 0, &bytes).unwrap();
+        assert_eq!(
+            d.vertices,
+            [[0.0, 1.0, 2.0], [3.0, 4.0, 5.0], [6.0, 7.0, 8.0]]
+        );
+        assert_eq!(d.indices.len(), 50_000);
+        assert!(d.indices.iter().all(|&i| i == [0, 1, 2]));
+    }
+
+    #[test]
+    fn the_first_triangle_with_an_index_past_the_vertices_is_named() {
+        // Decoded by several threads: the error still names the first bad triangle, as a
+        // serial check would, not whichever thread found one first.
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap();
+        for bad in [vec![3], vec![40_000, 7, 45_000], vec![49_999]] {
+            let (t, bytes) = input(50_000, &bad);
+            let e = pool
+                .install(|| triangles(&t, 0, &bytes))
+                .unwrap_err()
+                .to_string();
+            let first = bad.iter().min().unwrap();
+            assert!(
+                e.contains(&format!("triangle {first} has vertex index 7"))
+                    && e.contains("3 vertices"),
+                "{e}"
+            );
+        }
+    }
 }

@@ -279,7 +279,7 @@ fn records(
     let offsets = decode::sbt_offsets(offsets, n, flags.len() as u32, bytes)
         .map_err(|e| e.context(format!("build_inputs[{input}].sbt_index_offsets")))?;
     Ok(offsets
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(i, &o)| PrimitiveInfo {
             primitive_index: primitive_index_offset.wrapping_add(i as u32),
@@ -322,7 +322,7 @@ fn decode_inputs(
                     bytes,
                 )?);
                 let first_prim = boxes.len();
-                boxes.resize(first_prim + n as usize, Aabb::EMPTY);
+                boxes.par_extend(rayon::iter::repeat_n(Aabb::EMPTY, n as usize));
                 let mut usable = vec![true; n as usize];
                 let mut some_key_has_area = vec![false; n as usize];
                 for (k, key) in tri_keys.iter_mut().enumerate() {

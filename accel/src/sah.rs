@@ -28,6 +28,8 @@
 
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::{Bvh2, DEFAULT_MAX_STACK_DEPTH, node::Bvh2Node};
+use rayon::prelude::*;
+use std::mem::MaybeUninit;
 
 /// Bins per axis (Embree's binned builder uses 32 too).
 const BINS: usize = 32;
@@ -39,30 +41,69 @@ const BINNED_DEPTH: u32 = 48;
 /// Subtrees with this many primitives or more build their two children on two threads.
 const PARALLEL_LEAST: usize = 4096;
 
+/// Nodes with this many primitives or more bin them into two sets of bins (see
+/// [`Build::bins`]).
+const TWO_BIN_SETS_LEAST: usize = 256;
+
+/// Nodes with this many primitives or more bin them (and bound their centroids) in chunks of
+/// this many on the pool's threads: the top levels are otherwise a serial share of the build
+/// (the root's binning alone, one pass over every primitive, ran on one thread of two while
+/// the other waited).
+const PARALLEL_BINNING_LEAST: usize = 1 << 15;
+
 /// Builds a binary tree over `boxes` (all valid and finite), primitives priced in blocks of
 /// `block` (1: the plain SAH).
 pub fn build(boxes: &[Aabb], block: u32) -> Bvh2 {
-    build_binned_to(boxes, block, BINNED_DEPTH)
+    build_tuned(boxes, block, Tuning::DEFAULT)
 }
 
-/// [`build`], with binned splits above `binned_depth` only.
-fn build_binned_to(boxes: &[Aabb], block: u32, binned_depth: u32) -> Bvh2 {
+/// Where the builder changes method. None changes the tree: only [`Tuning::binned_depth`]
+/// does, and the tests vary the others to show that.
+#[derive(Clone, Copy)]
+struct Tuning {
+    /// Levels from the root's (1) up to which splits are binned ([`BINNED_DEPTH`]).
+    binned_depth: u32,
+    /// [`PARALLEL_BINNING_LEAST`].
+    parallel_binning_least: usize,
+    /// [`TWO_BIN_SETS_LEAST`].
+    two_bin_sets_least: usize,
+}
+
+impl Tuning {
+    const DEFAULT: Tuning = Tuning {
+        binned_depth: BINNED_DEPTH,
+        parallel_binning_least: PARALLEL_BINNING_LEAST,
+        two_bin_sets_least: TWO_BIN_SETS_LEAST,
+    };
+}
+
+/// [`build`] with `tuning`.
+fn build_tuned(boxes: &[Aabb], block: u32, tuning: Tuning) -> Bvh2 {
     let mut bvh = Bvh2::default();
     if boxes.is_empty() {
         return bvh;
     }
-    let centroids: Vec<[f32; 3]> = boxes.iter().map(|b| b.center().into()).collect();
+    let centroids: Vec<[f32; 3]> = boxes.par_iter().map(|b| b.center().into()).collect();
     let build = Build {
         boxes,
         centroids: &centroids,
         block: block.max(1),
-        binned_depth,
+        tuning,
     };
     let mut prims: Vec<u32> = (0..boxes.len() as u32).collect();
-    let mut nodes = vec![Bvh2Node::default(); 2 * boxes.len() - 1];
-    let (root, below) = nodes.split_at_mut(1);
+    // The nodes are written once each by the recursion, so they are not initialised first:
+    // their pages (the Breakfast Room's are 17 MB) are first touched by the thread that
+    // builds their subtree, not by one serial pass before any thread shares the work.
+    let count = 2 * boxes.len() - 1;
+    let mut nodes: Vec<Bvh2Node> = Vec::with_capacity(count);
+    let (root, below) = nodes.spare_capacity_mut()[..count].split_at_mut(1);
     let (node, depth) = build.subtree(&mut prims, 0, below, 1, 1);
-    root[0] = node;
+    root[0].write(node);
+    // SAFETY: the root is written above, and `subtree` writes every one of its `below`
+    // entries (a subtree of `m` primitives writes its two children into the first two of its
+    // `2m − 2` and hands the rest, `2 · left − 2` and `2 · right − 2`, to its children; a
+    // single primitive has none), so all `count` are initialised.
+    unsafe { nodes.set_len(count) };
     bvh.nodes = nodes;
     bvh.primitive_indices = prims;
     bvh.children_are_ordered_after_parents = true;
@@ -75,8 +116,7 @@ struct Build<'a> {
     boxes: &'a [Aabb],
     centroids: &'a [[f32; 3]],
     block: u32,
-    /// Levels from the root's (1) up to which splits are binned.
-    binned_depth: u32,
+    tuning: Tuning,
 }
 
 /// One bin: the boxes of the primitives whose centroids fall in it, and their number.
@@ -95,13 +135,13 @@ impl Bin {
 
 impl Build<'_> {
     /// Builds the subtree of `prims` (the primitives from `prim_at` on) into `below` (its
-    /// `2 · prims.len() − 2` descendants, from node `below_at` on) and returns its root with
-    /// the subtree's depth (`depth` is the root's).
+    /// `2 · prims.len() − 2` descendants, from node `below_at` on, every one of which it
+    /// writes) and returns its root with the subtree's depth (`depth` is the root's).
     fn subtree(
         &self,
         prims: &mut [u32],
         prim_at: u32,
-        below: &mut [Bvh2Node],
+        below: &mut [MaybeUninit<Bvh2Node>],
         below_at: u32,
         depth: u32,
     ) -> (Bvh2Node, u32) {
@@ -134,8 +174,8 @@ impl Build<'_> {
         } else {
             (left(), right())
         };
-        pair[0] = l;
-        pair[1] = r;
+        pair[0].write(l);
+        pair[1].write(r);
         (
             Bvh2Node::new(l.aabb().union(r.aabb()), 0, below_at),
             ld.max(rd),
@@ -145,16 +185,25 @@ impl Build<'_> {
     /// Reorders `prims` (two or more) into the left child's and the right child's; returns
     /// the left child's number, between 1 and `prims.len() − 1`.
     fn split(&self, prims: &mut [u32], depth: u32) -> usize {
-        let mut lo = [f32::INFINITY; 3];
-        let mut hi = [f32::NEG_INFINITY; 3];
-        for &p in prims.iter() {
-            let c = self.centroids[p as usize];
-            for k in 0..3 {
-                lo[k] = lo[k].min(c[k]);
-                hi[k] = hi[k].max(c[k]);
-            }
-        }
-        let best = if depth > self.binned_depth {
+        let chunk = self.tuning.parallel_binning_least;
+        let (lo, hi) = if prims.len() >= chunk {
+            // Minima and maxima are exact in any order: the same bounds as one pass.
+            prims
+                .par_chunks(chunk)
+                .map(|chunk| self.centroid_bounds(chunk))
+                .reduce(
+                    || ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+                    |(alo, ahi), (blo, bhi)| {
+                        (
+                            std::array::from_fn(|k| alo[k].min(blo[k])),
+                            std::array::from_fn(|k| ahi[k].max(bhi[k])),
+                        )
+                    },
+                )
+        } else {
+            self.centroid_bounds(prims)
+        };
+        let best = if depth > self.tuning.binned_depth {
             None
         } else if prims.len() <= 8 {
             self.best_bin::<8>(prims, lo, hi)
@@ -182,11 +231,30 @@ impl Build<'_> {
         mid
     }
 
+    /// The smallest and largest centroid coordinates of `prims`, per axis.
+    fn centroid_bounds(&self, prims: &[u32]) -> ([f32; 3], [f32; 3]) {
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        for &p in prims {
+            let c = self.centroids[p as usize];
+            for k in 0..3 {
+                // Comparisons rather than `f32::min` and `max`, whose NaN handling costs
+                // instructions here: centroids of finite boxes are never NaN. (Where the two
+                // could differ, the sign of a zero bound, no extent or bin changes.)
+                lo[k] = if c[k] < lo[k] { c[k] } else { lo[k] };
+                hi[k] = if c[k] > hi[k] { c[k] } else { hi[k] };
+            }
+        }
+        (lo, hi)
+    }
+
     /// The bin of primitive `p`'s centroid along `axis` (bins from `lo`, `scale` per unit).
     fn bin_of(&self, p: u32, axis: usize, lo: f32, scale: f32, bins: usize) -> usize {
         let x = (self.centroids[p as usize][axis] - lo) * scale;
-        // `as` saturates (and maps NaN to 0); the last bin takes the top edge.
-        (x as usize).min(bins - 1)
+        // `as` saturates (and maps NaN to 0); the last bin takes the top edge. To `u32` rather
+        // than `usize`: the same bin for every `x` (both saturate, and any `x` at or above the
+        // last bin is clamped to it), with a shorter saturation.
+        (x as u32).min(bins as u32 - 1) as usize
     }
 
     /// The cheapest split between `N` bins: `(axis, last bin of the left child, scale, N)`,
@@ -199,21 +267,30 @@ impl Build<'_> {
         lo: [f32; 3],
         hi: [f32; 3],
     ) -> Option<(usize, usize, f32, usize)> {
-        let mut bins = [[Bin::EMPTY; N]; 3];
         let scale: [f32; 3] = std::array::from_fn(|k| {
             let extent = hi[k] - lo[k];
             if extent > 0.0 { N as f32 / extent } else { 0.0 }
         });
-        for &p in prims {
-            let b = &self.boxes[p as usize];
-            for k in 0..3 {
-                if scale[k] > 0.0 {
-                    let bin = &mut bins[k][self.bin_of(p, k, lo[k], scale[k], N)];
-                    bin.bounds = bin.bounds.union(b);
-                    bin.count += 1;
-                }
-            }
-        }
+        let chunk = self.tuning.parallel_binning_least;
+        let bins = if prims.len() >= chunk {
+            // Unions of boxes and sums of counts are exact in any order: the same bins as
+            // one pass.
+            prims
+                .par_chunks(chunk)
+                .map(|chunk| self.bins::<N>(chunk, lo, scale))
+                .reduce(
+                    || [[Bin::EMPTY; N]; 3],
+                    |mut a, b| {
+                        for (a, b) in a.iter_mut().flatten().zip(b.iter().flatten()) {
+                            a.bounds = a.bounds.union(&b.bounds);
+                            a.count += b.count;
+                        }
+                        a
+                    },
+                )
+        } else {
+            self.bins::<N>(prims, lo, scale)
+        };
         let blocks = |n: u32| n.div_ceil(self.block) as f32;
         let mut best: Option<(f32, usize, usize)> = None;
         for k in 0..3 {
@@ -249,6 +326,43 @@ impl Build<'_> {
             }
         }
         best.map(|(_, k, i)| (k, i, scale[k], N))
+    }
+
+    /// `prims` binned into `N` bins per axis (from `lo`, `scale` bins per unit; no bins
+    /// along an axis whose scale is 0).
+    fn bins<const N: usize>(&self, prims: &[u32], lo: [f32; 3], scale: [f32; 3]) -> [[Bin; N]; 3] {
+        let add = |bins: &mut [[Bin; N]; 3], p: u32| {
+            let b = &self.boxes[p as usize];
+            for k in 0..3 {
+                if scale[k] > 0.0 {
+                    let bin = &mut bins[k][self.bin_of(p, k, lo[k], scale[k], N)];
+                    bin.bounds = bin.bounds.union(b);
+                    bin.count += 1;
+                }
+            }
+        };
+        let mut bins = [[Bin::EMPTY; N]; 3];
+        if prims.len() < self.tuning.two_bin_sets_least {
+            for &p in prims {
+                add(&mut bins, p);
+            }
+            return bins;
+        }
+        // Neighbours often fall in the same bin, and each update of a bin waits for the
+        // last: alternate primitives go to two sets of bins, merged at the end (unions and
+        // counts are exact in any order, so the same bins).
+        let mut odd = [[Bin::EMPTY; N]; 3];
+        for pair in prims.chunks(2) {
+            add(&mut bins, pair[0]);
+            if let Some(&p) = pair.get(1) {
+                add(&mut odd, p);
+            }
+        }
+        for (a, b) in bins.iter_mut().flatten().zip(odd.iter().flatten()) {
+            a.bounds = a.bounds.union(&b.bounds);
+            a.count += b.count;
+        }
+        bins
     }
 }
 
@@ -356,7 +470,13 @@ mod tests {
         // one, so binned splits make a lopsided tree; median splits halve at every level.
         let mut boxes = cloud(999);
         boxes.push(unit_box(1.0e6, 0.0, 0.0));
-        let depth_binned_to = |levels| check(&build_binned_to(&boxes, 4, levels), &boxes);
+        let depth_binned_to = |levels| {
+            let tuning = Tuning {
+                binned_depth: levels,
+                ..Tuning::DEFAULT
+            };
+            check(&build_tuned(&boxes, 4, tuning), &boxes)
+        };
         assert_eq!(
             depth_binned_to(0),
             11,
@@ -383,13 +503,45 @@ mod tests {
         };
         let (one, four) = (on(1), on(4));
         check(&one, &boxes);
-        assert_eq!(one.primitive_indices, four.primitive_indices);
+        assert_same_tree(&one, &four);
+    }
+
+    #[test]
+    fn binning_in_chunks_and_in_two_sets_changes_no_split() {
+        let boxes = cloud(3 * PARALLEL_LEAST);
+        let one_pass = Tuning {
+            parallel_binning_least: usize::MAX,
+            two_bin_sets_least: usize::MAX,
+            ..Tuning::DEFAULT
+        };
+        // Chunks of 100 (the root's 12 288 primitives bounded and binned in 123 chunks, down
+        // to nodes of 100), two sets of bins from nodes of 3 on, on four threads.
+        let split_up = Tuning {
+            parallel_binning_least: 100,
+            two_bin_sets_least: 3,
+            ..Tuning::DEFAULT
+        };
+        let four = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .expect("a thread pool");
+        let reference = build_tuned(&boxes, 4, one_pass);
+        check(&reference, &boxes);
+        assert_same_tree(
+            &reference,
+            &four.install(|| build_tuned(&boxes, 4, split_up)),
+        );
+        assert_same_tree(&reference, &build(&boxes, 4));
+    }
+
+    fn assert_same_tree(a: &Bvh2, b: &Bvh2) {
+        assert_eq!(a.primitive_indices, b.primitive_indices);
         let key = |b: &Bvh2| -> Vec<_> {
             b.nodes
                 .iter()
                 .map(|n| (*n.aabb(), n.prim_count, n.first_index))
                 .collect()
         };
-        assert_eq!(key(&one), key(&four));
+        assert_eq!(key(a), key(b));
     }
 }

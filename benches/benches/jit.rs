@@ -8,12 +8,17 @@
 //!   `loop` with `continuing` and `break if`.
 //!
 //! Both results are checked equal, bit for bit, before timing. After criterion's runs a
-//! summary prints JIT/Rust ratios measured in this process (best of several batches).
+//! summary prints JIT/Rust ratios measured in this process (best of several batches), with
+//! the compiled program called four ways: `call` (bindings laid out per call),
+//! `call_prepared` (laid out once), the same with the state offered as memory, and
+//! `RepeatedCall::call` with its context built once, which is how a launch task runs its ray
+//! generation program at every launch index (and how close the program's own code is to
+//! Rust's: the other three add per-call set-up that a launch does once per task).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use optik_api::ProgramSource;
 use optik_cpu::program::abi::{Bindings, BoundBuffer, BoundResource, DeviceCalls, DeviceState};
-use optik_cpu::program::{DiskCache, JitModule, JitOptions};
+use optik_cpu::program::{DiskCache, JitModule, JitOptions, PreparedBindings, RepeatedCall};
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -399,6 +404,50 @@ impl Scene {
         }
     }
 
+    /// The batch's calls as a launch task makes them: one [`RepeatedCall`] per hit, built
+    /// once with that hit's offered state (a task's state pointer and stop flag are the same
+    /// for every launch index it runs), then only called.
+    fn repeated_calls<'a>(
+        &mut self,
+        jit: &'a JitModule,
+        program: &str,
+        prepared: &'a PreparedBindings<'a>,
+    ) -> Vec<RepeatedCall<'a>> {
+        let f = jit.program(program).expect("program");
+        self.hits
+            .iter_mut()
+            .map(|h| {
+                let (state, stop) = (h.state(), h.stop_flag());
+                f.repeated(prepared, h, state, stop, None)
+                    .expect("bindings prepared by the same module")
+            })
+            .collect()
+    }
+
+    /// Calls `run` with this scene's [`Scene::repeated_calls`] for `program` (bindings
+    /// prepared once, as a launch does).
+    fn repeated<T>(
+        &mut self,
+        jit: &JitModule,
+        program: &str,
+        run: impl FnOnce(&mut Scene, &mut [RepeatedCall<'_>]) -> T,
+    ) -> T {
+        let resources = self.resources();
+        let bindings = Bindings {
+            resources: &resources,
+        };
+        let prepared = jit.prepare(&bindings);
+        let mut calls = self.repeated_calls(jit, program, &prepared);
+        run(self, &mut calls)
+    }
+
+    /// Runs `calls` (from [`Scene::repeated_calls`] on this scene) over the whole batch.
+    fn run_repeated(&mut self, calls: &mut [RepeatedCall<'_>]) {
+        for (call, hit) in calls.iter_mut().zip(&mut self.hits) {
+            call.call(hit);
+        }
+    }
+
     /// Everything a run writes, as bits.
     fn outputs(&self) -> Vec<u32> {
         let payloads = self.hits.iter().flat_map(|h| h.payload);
@@ -470,6 +519,13 @@ fn check(jit: &JitModule) {
             r.outputs(),
             "{name}: JIT reading the offered state and Rust disagree"
         );
+        let mut q = Scene::new().offer_state(true);
+        q.repeated(jit, program, |scene, calls| scene.run_repeated(calls));
+        assert_eq!(
+            q.outputs(),
+            r.outputs(),
+            "{name}: JIT called as a launch calls it and Rust disagree"
+        );
     }
 }
 
@@ -489,6 +545,12 @@ fn bench(c: &mut Criterion) {
         let mut offered = Scene::new().offer_state(true);
         group.bench_function(format!("{name}/jit_prepared_state"), |b| {
             b.iter(|| offered.run_prepared(&jit, program))
+        });
+        let mut launched = Scene::new().offer_state(true);
+        launched.repeated(&jit, program, |scene, calls| {
+            group.bench_function(format!("{name}/jit_repeated"), |b| {
+                b.iter(|| scene.run_repeated(calls))
+            })
         });
         group.bench_function(format!("{name}/rust"), |b| {
             b.iter(|| scene.run(&|bd, c| rust(bd, c)))
@@ -514,8 +576,8 @@ fn per_call(rounds: usize, mut run: impl FnMut()) -> f64 {
 fn summary(jit: &JitModule) {
     println!("\nns per call (best of 30 batches of {BATCH} x 20) and ratio to Rust:");
     println!(
-        "  {:12} {:>7}  {:>15}  {:>15}  {:>15}",
-        "", "rust", "jit", "jit prepared", "+ state"
+        "  {:12} {:>7}  {:>15}  {:>15}  {:>15}  {:>15}",
+        "", "rust", "jit", "jit prepared", "+ state", "as launched"
     );
     for (name, program, rust) in PROGRAMS {
         let f = jit.program(program).expect("program");
@@ -525,11 +587,16 @@ fn summary(jit: &JitModule) {
         let p = per_call(30, || scene.run_prepared(jit, program));
         let mut offered = Scene::new().offer_state(true);
         let st = per_call(30, || offered.run_prepared(jit, program));
+        let mut launched = Scene::new().offer_state(true);
+        let l = launched.repeated(jit, program, |scene, calls| {
+            per_call(30, || scene.run_repeated(calls))
+        });
         println!(
-            "  {name:12} {r:7.2}  {j:7.2} ({:.3})  {p:7.2} ({:.3})  {st:7.2} ({:.3})",
+            "  {name:12} {r:7.2}  {j:7.2} ({:.3})  {p:7.2} ({:.3})  {st:7.2} ({:.3})  {l:7.2} ({:.3})",
             j / r,
             p / r,
-            st / r
+            st / r,
+            l / r
         );
     }
     println!("  compile: {:?}", jit.stats());
