@@ -187,7 +187,8 @@ impl Build<'_> {
     fn split(&self, prims: &mut [u32], depth: u32) -> usize {
         let chunk = self.tuning.parallel_binning_least;
         let (lo, hi) = if prims.len() >= chunk {
-            // Minima and maxima are exact in any order: the same bounds as one pass.
+            // Minima and maxima are exact, and merged as one pass compares (the earlier of
+            // two equal values kept; rayon merges neighbours in order): the same bounds.
             prims
                 .par_chunks(chunk)
                 .map(|chunk| self.centroid_bounds(chunk))
@@ -195,8 +196,8 @@ impl Build<'_> {
                     || ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
                     |(alo, ahi), (blo, bhi)| {
                         (
-                            std::array::from_fn(|k| alo[k].min(blo[k])),
-                            std::array::from_fn(|k| ahi[k].max(bhi[k])),
+                            std::array::from_fn(|k| if blo[k] < alo[k] { blo[k] } else { alo[k] }),
+                            std::array::from_fn(|k| if bhi[k] > ahi[k] { bhi[k] } else { ahi[k] }),
                         )
                     },
                 )
