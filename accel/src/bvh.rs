@@ -18,6 +18,7 @@
 
 use super::aabb::Aabb;
 use super::collapse::LeafCosts;
+use crate::PARALLEL_MIN_LEN;
 use optik_api::{BuildFlags, Error, Result};
 use rayon::prelude::*;
 
@@ -128,6 +129,7 @@ impl Bvh {
         // as the steps after obvhs's: otherwise a serial share of every build.
         let included: Vec<u32> = (0..boxes.len() as u32)
             .into_par_iter()
+            .with_min_len(PARALLEL_MIN_LEN)
             .filter(|&i| boxes[i as usize].is_valid() && boxes[i as usize].is_finite())
             .collect();
         if included.is_empty() {
@@ -139,6 +141,7 @@ impl Bvh {
         let scale = topology_scale(largest_magnitude(boxes, &included));
         let obvhs_boxes: Vec<obvhs::aabb::Aabb> = included
             .par_iter()
+            .with_min_len(PARALLEL_MIN_LEN)
             .map(|&i| boxes[i as usize].scaled(scale).to_obvhs())
             .collect();
         // obvhs asserts on inputs it does not expect; a panic must not cross the API.
@@ -175,7 +178,11 @@ impl Bvh {
         }))
         .map_err(|_| Error::backend("the BVH builder failed on these primitives"))?;
         let (mut bvh, order) = convert(&built);
-        let order: Vec<u32> = order.par_iter().map(|&k| included[k as usize]).collect();
+        let order: Vec<u32> = order
+            .par_iter()
+            .with_min_len(PARALLEL_MIN_LEN)
+            .map(|&k| included[k as usize])
+            .collect();
         if order.len() != included.len() {
             return Err(Error::backend(format!(
                 "the BVH builder placed {} of {} primitives in leaves",
@@ -264,6 +271,7 @@ fn topology_scale(largest: f32) -> f32 {
 fn largest_magnitude(boxes: &[Aabb], included: &[u32]) -> f32 {
     included
         .par_iter()
+        .with_min_len(PARALLEL_MIN_LEN)
         .map(|&i| {
             let b = &boxes[i as usize];
             b.min

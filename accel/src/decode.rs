@@ -7,6 +7,7 @@
 
 // `!(x >= 0.0)` is how this module says "negative or NaN": the NaN case is the point.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
+use crate::PARALLEL_MIN_LEN;
 use optik_api::accel::{
     BufferView, CurveArray, CustomPrimitiveArray, IndexFormat, Instance, InstanceArray,
     SbtIndexOffsets, SphereArray, TriangleArray, VertexFormat,
@@ -91,6 +92,7 @@ pub fn triangles(
     // its own entry): otherwise a serial share of every build.
     let mut vertices: Vec<[f32; 3]> = (0..n)
         .into_par_iter()
+        .with_min_len(PARALLEL_MIN_LEN)
         .map(|i| decode_vertex(t.vertex_format, &raw[i * stride..]))
         .collect();
     if let Some(pt) = &t.pre_transform {
@@ -98,6 +100,7 @@ pub fn triangles(
         let m: [f32; 12] = std::array::from_fn(|i| f32_at(m, i * 4));
         vertices
             .par_iter_mut()
+            .with_min_len(PARALLEL_MIN_LEN)
             .for_each(|v| *v = affine::transform_point(&m, *v));
     }
     let indices = match &t.indices {
@@ -119,6 +122,7 @@ pub fn triangles(
             };
             let out: Vec<[u32; 3]> = (0..count)
                 .into_par_iter()
+                .with_min_len(PARALLEL_MIN_LEN)
                 .map(|tri| {
                     let b = &raw[tri * istride..];
                     match ix.format {
@@ -135,6 +139,7 @@ pub fn triangles(
             let bad_index = |idx: &[u32; 3]| idx.iter().copied().find(|&i| i >= t.num_vertices);
             if let Some(tri) = out
                 .par_iter()
+                .with_min_len(PARALLEL_MIN_LEN)
                 .position_first(|idx| bad_index(idx).is_some())
             {
                 let bad = bad_index(&out[tri]).unwrap_or_default();

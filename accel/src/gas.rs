@@ -6,6 +6,7 @@ use super::bvh::{BuildQuality, Bvh};
 use super::collapse::LeafCosts;
 use super::curve_basis::BezierSegment;
 use super::micromap::MicromapArrayData;
+use crate::PARALLEL_MIN_LEN;
 use crate::decode::{self, BufferBytes};
 use optik_api::semantics::{primitive, sbt_index};
 use optik_api::{
@@ -225,7 +226,11 @@ impl Geometry {
 /// share that grew with the thread count (docs/cpu-backend.md, "Issue 14: pushed children
 /// prefetched, builds on the pool").
 fn pick<T: Copy + Send + Sync>(v: &[T], order: &[u32]) -> Vec<T> {
-    order.par_iter().map(|&i| v[i as usize]).collect()
+    order
+        .par_iter()
+        .with_min_len(PARALLEL_MIN_LEN)
+        .map(|&i| v[i as usize])
+        .collect()
 }
 
 /// A built geometry acceleration structure, with a backend's encoding `E`.
@@ -280,6 +285,7 @@ fn records(
         .map_err(|e| e.context(format!("build_inputs[{input}].sbt_index_offsets")))?;
     Ok(offsets
         .par_iter()
+        .with_min_len(PARALLEL_MIN_LEN)
         .enumerate()
         .map(|(i, &o)| PrimitiveInfo {
             primitive_index: primitive_index_offset.wrapping_add(i as u32),
@@ -322,7 +328,9 @@ fn decode_inputs(
                     bytes,
                 )?);
                 let first_prim = boxes.len();
-                boxes.par_extend(rayon::iter::repeat_n(Aabb::EMPTY, n as usize));
+                boxes.par_extend(
+                    rayon::iter::repeat_n(Aabb::EMPTY, n as usize).with_min_len(PARALLEL_MIN_LEN),
+                );
                 let mut usable = vec![true; n as usize];
                 let mut some_key_has_area = vec![false; n as usize];
                 for (k, key) in tri_keys.iter_mut().enumerate() {
@@ -332,6 +340,7 @@ fn decode_inputs(
                     let tris: Vec<[[f32; 3]; 3]> = d
                         .indices
                         .par_iter()
+                        .with_min_len(PARALLEL_MIN_LEN)
                         .map(|idx| idx.map(|v| d.vertices[v as usize]))
                         .collect();
                     boxes[first_prim..]
@@ -339,6 +348,7 @@ fn decode_inputs(
                         .zip(usable.par_iter_mut())
                         .zip(some_key_has_area.par_iter_mut())
                         .zip(tris.par_iter())
+                        .with_min_len(PARALLEL_MIN_LEN)
                         .for_each(|(((b, usable), has_area), tri)| {
                             if tri.iter().all(primitive::finite_point) {
                                 *has_area |= !primitive::zero_area(tri);

@@ -83,7 +83,11 @@ fn build_tuned(boxes: &[Aabb], block: u32, tuning: Tuning) -> Bvh2 {
     if boxes.is_empty() {
         return bvh;
     }
-    let centroids: Vec<[f32; 3]> = boxes.par_iter().map(|b| b.center().into()).collect();
+    let centroids: Vec<[f32; 3]> = boxes
+        .par_iter()
+        .with_min_len(crate::PARALLEL_MIN_LEN)
+        .map(|b| b.center().into())
+        .collect();
     let build = Build {
         boxes,
         centroids: &centroids,
