@@ -631,3 +631,128 @@ impl<E: GasEncoding> Gas<E> {
             + self.geometry.size_in_bytes()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use optik_api::handle::{Buffer, DeviceId, Handle, RawHandle};
+    use optik_api::{BufferView, BuildFlags, TriangleArray};
+
+    /// Buffers by slot.
+    struct Bytes(Vec<Vec<u8>>);
+
+    impl BufferBytes for Bytes {
+        fn bytes(&self, buffer: Buffer) -> Result<&[u8]> {
+            Ok(&self.0[buffer.raw().slot as usize])
+        }
+    }
+
+    struct NoMicromaps;
+
+    impl MicromapLookup for NoMicromaps {
+        fn micromap_array(&self, _: MicromapArray) -> Result<Arc<MicromapArrayData>> {
+            Err(Error::invalid("no micromap arrays here"))
+        }
+    }
+
+    /// An encoding whose leaves are priced by blocks of four, as the CPU backend's: its
+    /// structures are built by the binned SAH (`()`'s by PLOC).
+    #[derive(Clone, Debug, PartialEq)]
+    struct Blocks;
+
+    impl GasEncoding for Blocks {
+        fn encode(_: &Bvh, _: &Geometry, _: &[PrimitiveInfo]) -> Blocks {
+            Blocks
+        }
+
+        fn leaf_costs(_: &Geometry) -> Option<LeafCosts> {
+            Some(LeafCosts {
+                block: 4,
+                visit: 0.0,
+                node: 0.3,
+                max_prims: 24,
+            })
+        }
+
+        fn size_in_bytes(&self) -> u64 {
+            0
+        }
+    }
+
+    /// `n` small triangles scattered over a cube (as vertex bytes), each nudged by `nudge`.
+    fn soup(n: u32, nudge: f32) -> Vec<u8> {
+        let mut seed = 0x2545_f491u32;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        (0..n)
+            .flat_map(|_| {
+                let at = [rnd() * 100.0, rnd() * 100.0, rnd() * 100.0];
+                let tri: [[f32; 3]; 3] = std::array::from_fn(|v| {
+                    std::array::from_fn(|k| at[k] + rnd() + nudge * (v + k) as f32)
+                });
+                tri
+            })
+            .flat_map(|v| v.map(f32::to_le_bytes))
+            .flatten()
+            .collect()
+    }
+
+    fn built_and_refit<E: GasEncoding>(threads: usize) -> (Gas<E>, Gas<E>) {
+        let n = 3 * PARALLEL_MIN_LEN as u32;
+        let vertices = Buffer::from_raw(RawHandle {
+            device: DeviceId(0),
+            slot: 0,
+            generation: 0,
+        });
+        let input = BuildInput::Triangles(TriangleArray::new(
+            BufferView::new(vertices),
+            3 * n,
+            GeometryFlags::DISABLE_ANYHIT,
+        ));
+        let options = AccelBuildOptions {
+            flags: BuildFlags::ALLOW_UPDATE | BuildFlags::PREFER_FAST_TRACE,
+            ..Default::default()
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("a thread pool");
+        pool.install(|| {
+            let before = Bytes(vec![soup(n, 0.0)]);
+            let built = Gas::<E>::build(
+                &options,
+                std::slice::from_ref(&input),
+                &before,
+                &NoMicromaps,
+            )
+            .expect("a build");
+            let mut refit = built.clone();
+            let after = Bytes(vec![soup(n, 0.25)]);
+            refit
+                .refit(&options, &[input], &after, &NoMicromaps)
+                .expect("a refit");
+            (built, refit)
+        })
+    }
+
+    #[test]
+    fn builds_and_refits_are_the_same_on_any_number_of_threads() {
+        // Both builders (PLOC for `()`, the binned SAH for `Blocks`), with inputs large
+        // enough that every parallel loop splits into jobs on four threads.
+        let (one, four) = (built_and_refit::<()>(1), built_and_refit::<()>(4));
+        assert!(
+            one.0 == four.0 && one.1 == four.1,
+            "PLOC-built structures differ"
+        );
+        assert_ne!(one.0.bvh, one.1.bvh, "the refit moved the boxes");
+        let (one, four) = (built_and_refit::<Blocks>(1), built_and_refit::<Blocks>(4));
+        assert!(
+            one.0 == four.0 && one.1 == four.1,
+            "SAH-built structures differ"
+        );
+    }
+}
