@@ -681,13 +681,7 @@ mod tests {
 
     /// `n` small triangles scattered over a cube (as vertex bytes), each nudged by `nudge`.
     fn soup(n: u32, nudge: f32) -> Vec<u8> {
-        let mut seed = 0x2545_f491u32;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 17;
-            seed ^= seed << 5;
-            (seed >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut rnd = crate::testing::uniform(0x2545_f491);
         (0..n)
             .flat_map(|_| {
                 let at = [rnd() * 100.0, rnd() * 100.0, rnd() * 100.0];

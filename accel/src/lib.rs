@@ -32,6 +32,20 @@ mod aabb;
 /// µs with every loop split, 3.2–3.4 µs with this floor; 64 boxes 24.3, 27.4 and 24.9 µs.)
 pub(crate) const PARALLEL_MIN_LEN: usize = 4096;
 
+/// What the builders' tests share.
+#[cfg(test)]
+mod testing {
+    /// A fixed pseudo-random sequence in `[0, 1)` from `seed` (xorshift64).
+    pub(crate) fn uniform(mut seed: u64) -> impl FnMut() -> f32 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+}
+
 mod bvh;
 mod collapse;
 pub mod curve_basis;

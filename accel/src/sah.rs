@@ -425,13 +425,8 @@ mod tests {
 
     /// A fixed pseudo-random point cloud (xorshift).
     fn cloud(n: usize) -> Vec<Aabb> {
-        let mut s = 0x9E37_79B9_7F4A_7C15u64;
-        let mut f = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 40) as f32 / (1u64 << 24) as f32 * 100.0
-        };
+        let mut u = crate::testing::uniform(0x9E37_79B9_7F4A_7C15);
+        let mut f = || u() * 100.0;
         (0..n).map(|_| unit_box(f(), f(), f())).collect()
     }
 
