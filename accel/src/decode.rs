@@ -376,32 +376,12 @@ pub fn micromap_indices(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::{Bytes, buffer};
     use optik_api::flags::GeometryFlags;
-    use optik_api::handle::{DeviceId, Handle, RawHandle};
 
-    /// Two buffers: vertices (slot 0) and indices (slot 1).
-    struct Two(Vec<u8>, Vec<u8>);
-
-    impl BufferBytes for Two {
-        fn bytes(&self, buffer: Buffer) -> Result<&[u8]> {
-            Ok(if buffer.raw().slot == 0 {
-                &self.0
-            } else {
-                &self.1
-            })
-        }
-    }
-
-    fn buffer(slot: u32) -> Buffer {
-        Buffer::from_raw(RawHandle {
-            device: DeviceId(0),
-            slot,
-            generation: 0,
-        })
-    }
-
-    /// `count` triangles over 3 vertices, with the triangles of `bad` using vertex 7.
-    fn input(count: u32, bad: &[u32]) -> (TriangleArray, Two) {
+    /// `count` triangles over 3 vertices (buffer 0; indices in buffer 1), with the triangles
+    /// of `bad` using vertex 7.
+    fn input(count: u32, bad: &[u32]) -> (TriangleArray, Bytes) {
         let vertices: Vec<u8> = (0..9).flat_map(|i| (i as f32).to_le_bytes()).collect();
         let indices: Vec<u8> = (0..count)
             .flat_map(|t| {
@@ -411,7 +391,7 @@ mod tests {
             .collect();
         let t = TriangleArray::new(BufferView::new(buffer(0)), 3, GeometryFlags::DISABLE_ANYHIT)
             .with_indices(BufferView::new(buffer(1)), count);
-        (t, Two(vertices, indices))
+        (t, Bytes(vec![vertices, indices]))
     }
 
     #[test]

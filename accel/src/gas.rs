@@ -635,17 +635,8 @@ impl<E: GasEncoding> Gas<E> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use optik_api::handle::{Buffer, DeviceId, Handle, RawHandle};
+    use crate::testing::{Bytes, buffer};
     use optik_api::{BufferView, BuildFlags, TriangleArray};
-
-    /// Buffers by slot.
-    struct Bytes(Vec<Vec<u8>>);
-
-    impl BufferBytes for Bytes {
-        fn bytes(&self, buffer: Buffer) -> Result<&[u8]> {
-            Ok(&self.0[buffer.raw().slot as usize])
-        }
-    }
 
     struct NoMicromaps;
 
@@ -697,13 +688,8 @@ mod tests {
 
     fn built_and_refit<E: GasEncoding>(threads: usize) -> (Gas<E>, Gas<E>) {
         let n = 3 * PARALLEL_MIN_LEN as u32;
-        let vertices = Buffer::from_raw(RawHandle {
-            device: DeviceId(0),
-            slot: 0,
-            generation: 0,
-        });
         let input = BuildInput::Triangles(TriangleArray::new(
-            BufferView::new(vertices),
+            BufferView::new(buffer(0)),
             3 * n,
             GeometryFlags::DISABLE_ANYHIT,
         ));

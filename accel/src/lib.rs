@@ -24,6 +24,16 @@
 //! children through a [`SceneTable`], so they need no device.
 
 mod aabb;
+mod bvh;
+mod collapse;
+pub mod curve_basis;
+pub mod decode;
+mod gas;
+pub mod handle;
+mod instances;
+pub mod micromap;
+mod sah;
+pub mod widen;
 
 /// The fewest entries a rayon job of the builders' per-primitive loops takes
 /// (`with_min_len`): a structure of a few primitives is then one job on the calling thread,
@@ -35,6 +45,28 @@ pub(crate) const PARALLEL_MIN_LEN: usize = 4096;
 /// What the builders' tests share.
 #[cfg(test)]
 mod testing {
+    use crate::decode::BufferBytes;
+    use optik_api::Result;
+    use optik_api::handle::{Buffer, DeviceId, Handle, RawHandle};
+
+    /// Buffers' bytes by handle slot.
+    pub(crate) struct Bytes(pub(crate) Vec<Vec<u8>>);
+
+    impl BufferBytes for Bytes {
+        fn bytes(&self, buffer: Buffer) -> Result<&[u8]> {
+            Ok(&self.0[buffer.raw().slot as usize])
+        }
+    }
+
+    /// The handle of [`Bytes`]' buffer `slot`.
+    pub(crate) fn buffer(slot: u32) -> Buffer {
+        Buffer::from_raw(RawHandle {
+            device: DeviceId(0),
+            slot,
+            generation: 0,
+        })
+    }
+
     /// A fixed pseudo-random sequence in `[0, 1)` from `seed` (xorshift64).
     pub(crate) fn uniform(mut seed: u64) -> impl FnMut() -> f32 {
         move || {
@@ -45,17 +77,6 @@ mod testing {
         }
     }
 }
-
-mod bvh;
-mod collapse;
-pub mod curve_basis;
-pub mod decode;
-mod gas;
-pub mod handle;
-mod instances;
-pub mod micromap;
-mod sah;
-pub mod widen;
 
 pub use aabb::Aabb;
 pub use bvh::{BuildQuality, Bvh, BvhNode};

@@ -26,6 +26,7 @@
 //! alone (a subtree of `n` primitives has `2n − 1` nodes), so the tree is the same on any
 //! number of threads.
 
+use crate::PARALLEL_MIN_LEN;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::{Bvh2, DEFAULT_MAX_STACK_DEPTH, node::Bvh2Node};
 use rayon::prelude::*;
@@ -85,7 +86,7 @@ fn build_tuned(boxes: &[Aabb], block: u32, tuning: Tuning) -> Bvh2 {
     }
     let centroids: Vec<[f32; 3]> = boxes
         .par_iter()
-        .with_min_len(crate::PARALLEL_MIN_LEN)
+        .with_min_len(PARALLEL_MIN_LEN)
         .map(|b| b.center().into())
         .collect();
     let build = Build {
@@ -191,20 +192,13 @@ impl Build<'_> {
     fn split(&self, prims: &mut [u32], depth: u32) -> usize {
         let chunk = self.tuning.parallel_binning_least;
         let (lo, hi) = if prims.len() >= chunk {
-            // Minima and maxima are exact, and merged as one pass compares (the earlier of
-            // two equal values kept; rayon merges neighbours in order): the same bounds.
+            // Minima and maxima are exact, and merged by the rule one pass applies (the
+            // earlier of two equal values kept; rayon merges neighbours in order): the same
+            // bounds.
             prims
                 .par_chunks(chunk)
                 .map(|chunk| self.centroid_bounds(chunk))
-                .reduce(
-                    || ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
-                    |(alo, ahi), (blo, bhi)| {
-                        (
-                            std::array::from_fn(|k| if blo[k] < alo[k] { blo[k] } else { alo[k] }),
-                            std::array::from_fn(|k| if bhi[k] > ahi[k] { bhi[k] } else { ahi[k] }),
-                        )
-                    },
-                )
+                .reduce(|| NO_BOUNDS, merged_bounds)
         } else {
             self.centroid_bounds(prims)
         };
@@ -237,20 +231,11 @@ impl Build<'_> {
     }
 
     /// The smallest and largest centroid coordinates of `prims`, per axis.
-    fn centroid_bounds(&self, prims: &[u32]) -> ([f32; 3], [f32; 3]) {
-        let mut lo = [f32::INFINITY; 3];
-        let mut hi = [f32::NEG_INFINITY; 3];
-        for &p in prims {
+    fn centroid_bounds(&self, prims: &[u32]) -> Bounds {
+        prims.iter().fold(NO_BOUNDS, |bounds, &p| {
             let c = self.centroids[p as usize];
-            for k in 0..3 {
-                // Comparisons rather than `f32::min` and `max`, whose NaN handling costs
-                // instructions here: centroids of finite boxes are never NaN. (Where the two
-                // could differ, the sign of a zero bound, no extent or bin changes.)
-                lo[k] = if c[k] < lo[k] { c[k] } else { lo[k] };
-                hi[k] = if c[k] > hi[k] { c[k] } else { hi[k] };
-            }
-        }
-        (lo, hi)
+            merged_bounds(bounds, (c, c))
+        })
     }
 
     /// The bin of primitive `p`'s centroid along `axis` (bins from `lo`, `scale` per unit).
@@ -286,10 +271,7 @@ impl Build<'_> {
                 .reduce(
                     || [[Bin::EMPTY; N]; 3],
                     |mut a, b| {
-                        for (a, b) in a.iter_mut().flatten().zip(b.iter().flatten()) {
-                            a.bounds = a.bounds.union(&b.bounds);
-                            a.count += b.count;
-                        }
+                        merge_bins(&mut a, &b);
                         a
                     },
                 )
@@ -363,11 +345,34 @@ impl Build<'_> {
                 add(&mut odd, p);
             }
         }
-        for (a, b) in bins.iter_mut().flatten().zip(odd.iter().flatten()) {
-            a.bounds = a.bounds.union(&b.bounds);
-            a.count += b.count;
-        }
+        merge_bins(&mut bins, &odd);
         bins
+    }
+}
+
+/// Per axis, the smallest and largest coordinates of some centroids.
+type Bounds = ([f32; 3], [f32; 3]);
+
+/// The bounds of no centroid.
+const NO_BOUNDS: Bounds = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+
+/// The bounds of `a`'s centroids and `b`'s, `a`'s value kept where they are equal. By
+/// comparisons rather than `f32::min` and `max`, whose NaN handling costs instructions in the
+/// binning's hottest loop: centroids of finite boxes are never NaN. (Where the two could
+/// differ, the sign of a zero bound, no extent or bin changes.)
+#[inline(always)]
+fn merged_bounds((alo, ahi): Bounds, (blo, bhi): Bounds) -> Bounds {
+    (
+        std::array::from_fn(|k| if blo[k] < alo[k] { blo[k] } else { alo[k] }),
+        std::array::from_fn(|k| if bhi[k] > ahi[k] { bhi[k] } else { ahi[k] }),
+    )
+}
+
+/// Adds `from`'s bins to `into`'s (unions and counts: exact in any order).
+fn merge_bins<const N: usize>(into: &mut [[Bin; N]; 3], from: &[[Bin; N]; 3]) {
+    for (a, b) in into.iter_mut().flatten().zip(from.iter().flatten()) {
+        a.bounds = a.bounds.union(&b.bounds);
+        a.count += b.count;
     }
 }
 
