@@ -21,13 +21,20 @@
 //!   as conservative as the binary one (boxes are exact unions of primitive boxes). In a
 //!   triangle structure a binary node whose wide node would hold only a few triangles'
 //!   leaves is a leaf itself, of its subtree's consecutive slots ([`MERGED_LEAF_MOST`]).
-//! - [`TriangleBlock`]: the vertices of up to four triangles of one leaf, as
-//!   `vertices[vertex][axis][lane]`, their slots, and a copy of their [`PrimitiveInfo`]s
-//!   (what a hit needs next: its flags, indices; reading it from `Gas::primitives` cost a
-//!   cache miss per candidate). A leaf of `count` triangles has
+//! - [`TriangleBlock`] (176 bytes): the vertices of up to four consecutive slots of one
+//!   leaf, as `vertices[vertex][axis][lane]`, then what a hit needs next, in its last 32
+//!   bytes (reading it from `Gas::primitives` cost a cache miss per candidate): each
+//!   lane's primitive index, the first lane's slot, each lane's [`PrimitiveClass`] (the
+//!   rest of its [`PrimitiveInfo`]: SBT index, flags, build input, shared by many
+//!   primitives: `WideBvh::classes`) and the lanes used. A leaf of `count` triangles has
 //!   `ceil(count / 4)` consecutive blocks; lanes past the leaf's last triangle hold zeros,
-//!   slot `u32::MAX` and a zeroed record, and the traversal masks them out. Blocks exist for static triangle
-//!   structures (one motion key); moving triangles are interpolated per slot instead.
+//!   and the traversal masks them out. Blocks exist for static triangle structures (one
+//!   motion key); moving triangles are interpolated per slot instead.
+//!
+//! Why 176 bytes and not a full record per lane (224): a block test reads the vertices of
+//! blocks spread over an array larger than L2; a fifth less array, the same lines per test,
+//! ran bunny incoherent rays 4–5 % faster (docs/cpu-backend.md, "Smaller triangle blocks").
+//! The records moved to an array of their own cost a miss per candidate and lost 6 %.
 
 use optik_accel::widen;
 use optik_accel::{Aabb, Bvh, BvhNode, GasEncoding, Geometry, LeafCosts, PrimitiveInfo};
@@ -122,22 +129,99 @@ impl WideNode {
 pub struct TriangleBlock {
     /// `vertices[vertex][axis][lane]`.
     pub vertices: [[[f32; BLOCK_WIDTH]; 3]; 3],
-    /// The slot of each lane's triangle; `u32::MAX` for an unused lane.
-    pub slots: [u32; BLOCK_WIDTH],
-    /// Each lane's `Gas::primitives[slot]` (zeroed for an unused lane).
-    pub infos: [PrimitiveInfo; BLOCK_WIDTH],
+    /// Each lane's `PrimitiveInfo::primitive_index` (0 for an unused lane).
+    pub primitives: [u32; BLOCK_WIDTH],
+    /// The slot of lane 0's triangle: lane `i` holds slot `first_slot + i`.
+    pub first_slot: u32,
+    /// Each lane's index in `WideBvh::classes`; [`CLASS_IN_GAS`] where the record is read
+    /// from `Gas::primitives` instead (0 for an unused lane).
+    pub classes: [u16; BLOCK_WIDTH],
+    /// The lanes that hold a triangle (the first `lanes`).
+    pub lanes: u32,
 }
+
+// The vertices fill the first 144 bytes, what a hit reads the last 32: 176 in all.
+const _: () = assert!(std::mem::size_of::<TriangleBlock>() == 176);
+
+/// A lane whose record is read from `Gas::primitives[slot]`: its structure has more classes
+/// than a block's 16-bit index holds.
+pub const CLASS_IN_GAS: u16 = u16::MAX;
+
+/// What a primitive's [`PrimitiveInfo`] holds besides its index: fields that whole build
+/// inputs (or the primitives sharing an SBT offset) have in common.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct PrimitiveClass {
+    /// The build input.
+    pub input: u32,
+    /// `PrimitiveInfo::sbt_gas_index`.
+    pub sbt_gas_index: u32,
+    /// `PrimitiveInfo::geometry_flags`.
+    pub geometry_flags: u32,
+}
+
+impl PrimitiveClass {
+    fn of(info: &PrimitiveInfo) -> PrimitiveClass {
+        PrimitiveClass {
+            input: info.input,
+            sbt_gas_index: info.sbt_gas_index,
+            geometry_flags: info.geometry_flags,
+        }
+    }
+
+    /// The distinct classes of `infos`, sorted (so the same on any number of threads);
+    /// `None` when there are more than `most`.
+    fn distinct(infos: &[PrimitiveInfo], most: usize) -> Option<Vec<PrimitiveClass>> {
+        let mut all = infos
+            .par_chunks(CLASS_CHUNK)
+            .map(|chunk| {
+                // Neighbouring slots mostly share a class: only changes reach the set.
+                let mut set = std::collections::HashSet::new();
+                let mut last = None;
+                for info in chunk {
+                    let class = PrimitiveClass::of(info);
+                    if last != Some(class) {
+                        set.insert(class);
+                        last = Some(class);
+                        if set.len() > most {
+                            return None;
+                        }
+                    }
+                }
+                Some(set)
+            })
+            .try_reduce(std::collections::HashSet::new, |mut a, b| {
+                a.extend(b);
+                (a.len() <= most).then_some(a)
+            })?
+            .into_iter()
+            .collect::<Vec<_>>();
+        all.sort_unstable();
+        Some(all)
+    }
+}
+
+/// Records a job of [`PrimitiveClass::distinct`] reads.
+const CLASS_CHUNK: usize = 16384;
 
 impl TriangleBlock {
     /// The block of the `lanes` triangles from slot `first` (at most [`BLOCK_WIDTH`]); the
-    /// lanes beyond hold no triangle.
-    fn of_slots(tris: &SlotTriangles<'_>, first: u32, lanes: u32) -> TriangleBlock {
+    /// lanes beyond hold no triangle. `classes`: the structure's (`None`: records stay in
+    /// `Gas::primitives`).
+    fn of_slots(
+        tris: &SlotTriangles<'_>,
+        classes: Option<&[PrimitiveClass]>,
+        first: u32,
+        lanes: u32,
+    ) -> TriangleBlock {
+        let lanes = lanes.min(BLOCK_WIDTH as u32);
         let mut block = TriangleBlock {
             vertices: [[[0.0; BLOCK_WIDTH]; 3]; 3],
-            slots: [u32::MAX; BLOCK_WIDTH],
-            infos: [bytemuck::Zeroable::zeroed(); BLOCK_WIDTH],
+            primitives: [0; BLOCK_WIDTH],
+            first_slot: first,
+            classes: [0; BLOCK_WIDTH],
+            lanes,
         };
-        for lane in 0..lanes.min(BLOCK_WIDTH as u32) as usize {
+        for lane in 0..lanes as usize {
             let slot = first + lane as u32;
             let tri = &tris.vertices[slot as usize];
             for (v, vertex) in tri.iter().enumerate() {
@@ -145,10 +229,43 @@ impl TriangleBlock {
                     block.vertices[v][axis][lane] = c;
                 }
             }
-            block.slots[lane] = slot;
-            block.infos[lane] = tris.infos[slot as usize];
+            let info = &tris.infos[slot as usize];
+            block.primitives[lane] = info.primitive_index;
+            block.classes[lane] = classes
+                .and_then(|c| c.binary_search(&PrimitiveClass::of(info)).ok())
+                .map_or(CLASS_IN_GAS, |i| i as u16);
         }
         block
+    }
+
+    /// The slot of lane `lane`'s triangle.
+    #[inline(always)]
+    pub fn slot(&self, lane: usize) -> u32 {
+        self.first_slot + lane as u32
+    }
+
+    /// The record of lane `lane`'s triangle (a lane that holds one), from the block and
+    /// `classes` (`WideBvh::classes`), or from `primitives` (`Gas::primitives`) for a lane
+    /// of [`CLASS_IN_GAS`].
+    #[inline(always)]
+    pub fn info(
+        &self,
+        lane: usize,
+        classes: &[PrimitiveClass],
+        primitives: &[PrimitiveInfo],
+    ) -> PrimitiveInfo {
+        match classes.get(self.classes[lane] as usize) {
+            Some(c) => PrimitiveInfo {
+                primitive_index: self.primitives[lane],
+                sbt_gas_index: c.sbt_gas_index,
+                geometry_flags: c.geometry_flags,
+                input: c.input,
+            },
+            None => primitives
+                .get(self.slot(lane) as usize)
+                .copied()
+                .unwrap_or(bytemuck::Zeroable::zeroed()),
+        }
     }
 
     /// Lanes holding triangles in block `index` of a leaf of `count` triangles, as a
@@ -184,6 +301,9 @@ pub struct WideBvh {
     pub nodes: Vec<WideNode>,
     /// Triangle blocks (empty unless built from static triangles); leaves then point here.
     pub blocks: Vec<TriangleBlock>,
+    /// The distinct [`PrimitiveClass`]es of the blocks' triangles, sorted (empty without
+    /// blocks, or where there are too many for a block's 16-bit index: [`CLASS_IN_GAS`]).
+    pub classes: Vec<PrimitiveClass>,
     /// The deepest leaf's level (the root's children are level 1); sizes traversal stacks.
     pub depth: u32,
     /// The union of the root node's child boxes, `[min, max]`, as `build` made them (`None`:
@@ -201,12 +321,18 @@ impl WideBvh {
     /// blocks (in the order the pass meets the leaves); the blocks are then filled on the
     /// current rayon pool, each from its own slots: the same layout on any number of threads.
     pub fn build(bvh: &Bvh, triangles: Option<SlotTriangles<'_>>) -> WideBvh {
-        WideBvh::build_merging(bvh, triangles, MERGED_LEAF_MOST)
+        WideBvh::build_merging(bvh, triangles, MERGED_LEAF_MOST, CLASS_IN_GAS as usize)
     }
 
     /// [`WideBvh::build`], merging small all-leaf nodes of triangle structures into leaves
-    /// of up to `merge_limit` triangles ([`MERGED_LEAF_MOST`]; 0: none).
-    fn build_merging(bvh: &Bvh, triangles: Option<SlotTriangles<'_>>, merge_limit: u32) -> WideBvh {
+    /// of up to `merge_limit` triangles ([`MERGED_LEAF_MOST`]; 0: none), blocks indexing
+    /// at most `class_limit` classes (more: every lane's record read from the structure's).
+    fn build_merging(
+        bvh: &Bvh,
+        triangles: Option<SlotTriangles<'_>>,
+        merge_limit: u32,
+        class_limit: usize,
+    ) -> WideBvh {
         let binary = bvh.nodes();
         let mut wide = WideBvh::default();
         if binary.is_empty() {
@@ -256,10 +382,14 @@ impl WideBvh {
             wide.nodes[target] = node;
         }
         if let Some(tris) = triangles {
+            let classes = PrimitiveClass::distinct(tris.infos, class_limit);
             block_slots
                 .par_iter()
-                .map(|&(first, lanes)| TriangleBlock::of_slots(&tris, first, lanes))
+                .map(|&(first, lanes)| {
+                    TriangleBlock::of_slots(&tris, classes.as_deref(), first, lanes)
+                })
                 .collect_into_vec(&mut wide.blocks);
+            wide.classes = classes.unwrap_or_default();
         }
         wide.root_bounds = Some(wide.nodes[0].union());
         wide
@@ -268,7 +398,8 @@ impl WideBvh {
     /// Bytes the nodes and blocks occupy.
     pub fn size_in_bytes(&self) -> u64 {
         (self.nodes.len() * std::mem::size_of::<WideNode>()
-            + self.blocks.len() * std::mem::size_of::<TriangleBlock>()) as u64
+            + self.blocks.len() * std::mem::size_of::<TriangleBlock>()
+            + self.classes.len() * std::mem::size_of::<PrimitiveClass>()) as u64
     }
 }
 
@@ -355,12 +486,8 @@ mod tests {
                         for k in 0..TriangleBlock::blocks_of(count) {
                             let block = &wide.blocks[(node.first[lane] + k) as usize];
                             let mask = TriangleBlock::lane_mask(count, k);
-                            for (l, &s) in block.slots.iter().enumerate() {
-                                assert_eq!(mask >> l & 1 == 1, s != u32::MAX);
-                                if s != u32::MAX {
-                                    leaf_slots.push(s);
-                                }
-                            }
+                            assert_eq!(mask, (1 << block.lanes) - 1);
+                            leaf_slots.extend((0..block.lanes as usize).map(|l| block.slot(l)));
                         }
                     }
                     assert_eq!(leaf_slots.len(), count as usize);
@@ -432,13 +559,19 @@ mod tests {
             }),
         );
         check(&wide, n, |s| b[order[s] as usize]);
+        // Six classes (three SBT indices by two flag sets), sorted.
+        assert_eq!(wide.classes.len(), 6);
+        assert!(wide.classes.is_sorted());
         for block in &wide.blocks {
-            for (lane, &s) in block.slots.iter().enumerate() {
-                if s == u32::MAX {
-                    assert_eq!(block.infos[lane], bytemuck::Zeroable::zeroed());
+            for lane in 0..BLOCK_WIDTH {
+                let s = block.slot(lane);
+                if lane >= block.lanes as usize {
+                    assert_eq!(block.primitives[lane], 0);
+                    assert_eq!(block.classes[lane], 0);
+                    assert!(block.vertices.iter().flatten().all(|row| row[lane] == 0.0));
                     continue;
                 }
-                assert_eq!(block.infos[lane], infos[s as usize]);
+                assert_eq!(block.info(lane, &wide.classes, &[]), infos[s as usize]);
                 for (v, vertex) in slotted[s as usize].iter().enumerate() {
                     for (a, &c) in vertex.iter().enumerate() {
                         assert_eq!(block.vertices[v][a][lane], c);
@@ -466,6 +599,51 @@ mod tests {
         assert_eq!(on(1), wide);
         assert_eq!(on(4), wide);
         assert_eq!(WideBvh::build(&Bvh::default(), None), WideBvh::default());
+        // More classes than blocks may index: every lane's record is the structure's.
+        let few = WideBvh::build_merging(
+            &bvh,
+            Some(SlotTriangles {
+                vertices: &slotted,
+                infos: &infos,
+            }),
+            MERGED_LEAF_MOST,
+            5,
+        );
+        assert!(few.classes.is_empty());
+        assert_eq!(few.nodes, wide.nodes);
+        for block in &few.blocks {
+            for lane in 0..block.lanes as usize {
+                assert_eq!(block.classes[lane], CLASS_IN_GAS);
+                let s = block.slot(lane) as usize;
+                assert_eq!(block.info(lane, &few.classes, &infos), infos[s]);
+            }
+        }
+    }
+
+    /// The classes are the records' distinct (input, SBT index, flags), sorted, across
+    /// the jobs' chunks; more than the limit gives none.
+    #[test]
+    fn classes_are_the_distinct_records_sorted() {
+        let n = 3 * CLASS_CHUNK + 5;
+        let infos: Vec<PrimitiveInfo> = (0..n as u32)
+            .map(|i| PrimitiveInfo {
+                primitive_index: i,
+                // Runs of one class, and a class met only in the last chunk.
+                sbt_gas_index: (i / 1000) % 7 + u32::from(i as usize == n - 1) * 100,
+                geometry_flags: (i / 5000) % 2,
+                input: i / 20000,
+            })
+            .collect();
+        let want: std::collections::BTreeSet<PrimitiveClass> =
+            infos.iter().map(PrimitiveClass::of).collect();
+        let want: Vec<PrimitiveClass> = want.into_iter().collect();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap();
+        let got = pool.install(|| PrimitiveClass::distinct(&infos, want.len()));
+        assert_eq!(got.as_ref(), Some(&want));
+        assert_eq!(PrimitiveClass::distinct(&infos, want.len() - 1), None);
     }
 
     /// Triangles of one unit square's size scattered over a 101 × 97 grid.
@@ -492,7 +670,7 @@ mod tests {
             })
         };
         let merged = WideBvh::build(&bvh, triangles());
-        let apart = WideBvh::build_merging(&bvh, triangles(), 0);
+        let apart = WideBvh::build_merging(&bvh, triangles(), 0, CLASS_IN_GAS as usize);
         check(&merged, b.len(), |s| b[order[s] as usize]);
         check(&apart, b.len(), |s| b[order[s] as usize]);
         // A node of `apart` that `build` merges: its used lanes all leaves, of few triangles

@@ -844,12 +844,12 @@ impl<S: Spec> Walker<'_, S> {
                 continue;
             }
             let (block, lane) = in_block(lane);
-            let s = block.slots[lane] as usize;
+            let s = block.slot(lane) as usize;
             // The block holds the vertices key 0 holds (bit for bit), in lines already
             // loaded: reading the slot's key-0 copy cost a cache miss per candidate.
             let tri = TriangleVertices::of_lane(block, lane);
-            let info = &block.infos[lane];
-            self.triangle_hit_at(g, s, info, tri, hit, path, h);
+            let info = block.info(lane, &g.encoding.classes, &g.primitives);
+            self.triangle_hit_at(g, s, &info, tri, hit, path, h);
             if h.done() {
                 return true;
             }

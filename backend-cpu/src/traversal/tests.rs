@@ -422,22 +422,25 @@ fn trees_deeper_than_the_inline_stack_are_walked() {
     let mut chain = WideBvh {
         nodes: vec![empty; n as usize],
         blocks: Vec::new(),
+        // No classes: the blocks' records are read from the structure's.
+        classes: Vec::new(),
         depth: n,
         root_bounds: None,
     };
     for (i, tri) in slots.iter().enumerate() {
         let mut block = TriangleBlock {
             vertices: [[[0.0; 4]; 3]; 3],
-            slots: [u32::MAX; 4],
-            infos: [bytemuck::Zeroable::zeroed(); 4],
+            primitives: [0; 4],
+            first_slot: i as u32,
+            classes: [0; 4],
+            lanes: 1,
         };
         for (vi, vertex) in tri.iter().enumerate() {
             for (a, &c) in vertex.iter().enumerate() {
                 block.vertices[vi][a][0] = c;
             }
         }
-        block.slots[0] = i as u32;
-        block.infos[0] = gas.primitives[i];
+        block.classes[0] = crate::accel::wide::CLASS_IN_GAS;
         chain.blocks.push(block);
         let node = &mut chain.nodes[i];
         for a in 0..3 {

@@ -544,8 +544,10 @@ mod tests {
     fn block(tris: &[[[f32; 3]; 3]]) -> TriangleBlock {
         let mut b = TriangleBlock {
             vertices: [[[0.0; 4]; 3]; 3],
-            slots: [u32::MAX; 4],
-            infos: [bytemuck::Zeroable::zeroed(); 4],
+            primitives: [0; 4],
+            first_slot: 0,
+            classes: [0; 4],
+            lanes: tris.len() as u32,
         };
         for (lane, t) in tris.iter().enumerate() {
             for (v, vertex) in t.iter().enumerate() {
@@ -553,7 +555,6 @@ mod tests {
                     b.vertices[v][a][lane] = c;
                 }
             }
-            b.slots[lane] = lane as u32;
         }
         b
     }
