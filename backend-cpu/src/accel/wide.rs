@@ -33,7 +33,7 @@
 //!
 //! Why 176 bytes and not a full record per lane (224): a block test reads the vertices of
 //! blocks spread over an array larger than L2; a fifth less array, the same lines per test,
-//! ran bunny incoherent rays 4–5 % faster (docs/cpu-backend.md, "Smaller triangle blocks").
+//! ran bunny incoherent rays 2–5 % faster (docs/cpu-backend.md, "Smaller triangle blocks").
 //! The records moved to an array of their own cost a miss per candidate and lost 6 %.
 
 use optik_accel::widen;
