@@ -1147,6 +1147,25 @@ fn walk_wide_with<H: Handler, T: slab::NodeTest>(
     let mut len = 0usize;
     let mut node = &nodes[0];
     let (mut mask, mut entry) = children;
+    // Pops the nearest pending child that may still hold something nearer than the
+    // closest hit found since it was pushed; returns from the walk when none is left (a
+    // macro, not a closure, for the `return`). The walk holds each next child as a plain
+    // value, not an `Option`: bunny incoherent rays 5–6 % faster (docs/cpu-backend.md).
+    macro_rules! pop_or_return {
+        () => {
+            loop {
+                if len == 0 {
+                    return;
+                }
+                len -= 1;
+                // SAFETY: entries below `len` were written by a push.
+                let popped = unsafe { stack[len].assume_init() };
+                if popped.entry <= h.t_max() {
+                    break popped;
+                }
+            }
+        };
+    }
     loop {
         // The children of `node` the ray enters (`mask`, at `entry`): the nearest next,
         // the others onto the stack.
@@ -1155,10 +1174,9 @@ fn walk_wide_with<H: Handler, T: slab::NodeTest>(
             count: node.count[lane as usize],
             entry: entry[lane as usize],
         };
-        let mut next = None;
-        match mask.count_ones() {
-            0 => {}
-            1 => next = Some(child(mask.trailing_zeros())),
+        let mut next = match mask.count_ones() {
+            0 => pop_or_return!(),
+            1 => child(mask.trailing_zeros()),
             2 => {
                 // The common case, without a data-dependent branch: the nearer next,
                 // the farther waits (ties keep child order).
@@ -1168,7 +1186,7 @@ fn walk_wide_with<H: Handler, T: slab::NodeTest>(
                 prefetch_child(wide, far.first, far.count);
                 stack[len].write(far);
                 len += 1;
-                next = Some(near);
+                near
             }
             _ => {
                 // Three to eight, sorted into the top of the stack as they come, the
@@ -1191,37 +1209,19 @@ fn walk_wide_with<H: Handler, T: slab::NodeTest>(
                 }
                 len -= 1;
                 // SAFETY: written by the loop above (three or more entries).
-                next = Some(unsafe { stack[len].assume_init() });
+                unsafe { stack[len].assume_init() }
             }
-        }
-        // The next inner node to test: leaves on the way are run, and a child entered
-        // beyond the closest hit found since it was pushed can hold nothing nearer.
-        let mut current = next;
-        let inner = loop {
-            let c = match current {
-                Some(c) => c,
-                None => loop {
-                    if len == 0 {
-                        return;
-                    }
-                    len -= 1;
-                    // SAFETY: entries below `len` were written by a push.
-                    let popped = unsafe { stack[len].assume_init() };
-                    if popped.entry <= h.t_max() {
-                        break popped;
-                    }
-                },
-            };
-            if c.count == 0 {
-                break c;
-            }
-            leaf(h, c.first, c.count);
+        };
+        // Leaves on the way are run; the next inner node is tested.
+        while next.count != 0 {
+            leaf(h, next.first, next.count);
             if h.done() {
                 return;
             }
-            current = None;
-        };
-        node = &nodes[inner.first as usize];
+            next = pop_or_return!();
+        }
+        // `next` is an inner node.
+        node = &nodes[next.first as usize];
         // The children's indices sit in the node's fourth cache line, which the box test
         // does not read: asked for now, it arrives while the test runs instead of after.
         prefetch_at(&node.first, 0);
