@@ -1150,7 +1150,8 @@ fn walk_wide_with<H: Handler, T: slab::NodeTest>(
     // Pops the nearest pending child that may still hold something nearer than the
     // closest hit found since it was pushed; returns from the walk when none is left (a
     // macro, not a closure, for the `return`). The walk holds each next child as a plain
-    // value, not an `Option`: bunny incoherent rays 5–6 % faster (docs/cpu-backend.md).
+    // value, not an `Option`: bunny incoherent rays 5–7 % faster (docs/cpu-backend.md,
+    // "the walk's next child as a value").
     macro_rules! pop_or_return {
         () => {
             loop {
