@@ -34,12 +34,14 @@ pub fn memory_usage(inputs: &[BuildInput], motion_keys: usize) -> AccelBufferSiz
         let n = input.num_primitives() as u64;
         prims += n;
         let (geometry, extra) = match input {
-            // A static triangle may fill a block of its own.
+            // A static triangle may fill a block of its own, and have a class of its own.
             BuildInput::Triangles(t) => (
                 36,
                 if t.opacity_micromap.is_some() { 8 } else { 0 }
                     + if motion_keys == 1 {
-                        std::mem::size_of::<wide::TriangleBlock>() as u64
+                        (std::mem::size_of::<wide::TriangleBlock>()
+                            + std::mem::size_of::<wide::PrimitiveClass>())
+                            as u64
                     } else {
                         0
                     },

@@ -658,3 +658,37 @@ fn blocks_roots_trace_as_trace_does() {
     };
     assert!(blocks_root::<Robust>(&scene, root, &spheres_only).is_none());
 }
+
+/// `accel::memory_usage` bounds what a build occupies when every triangle has a record class
+/// of its own (per-primitive SBT offsets, all different: the most classes a structure can
+/// have) and triangles lie far apart.
+#[test]
+fn memory_usage_bounds_a_build_with_a_class_per_triangle() {
+    let n = 64u32;
+    let mut m = Memory::default();
+    let vertices: Vec<[f32; 3]> = (0..n)
+        .flat_map(|i| {
+            let x = i as f32 * 100.0;
+            [[x, 0.0, 0.0], [x + 1.0, 0.0, 0.0], [x, 1.0, 0.0]]
+        })
+        .collect();
+    let offsets: Vec<u32> = (0..n).collect();
+    let vb = m.add(bytemuck::cast_slice(&vertices));
+    let ob = m.add(bytemuck::cast_slice(&offsets));
+    let mut input = TriangleArray::new(BufferView::new(vb), 3 * n, GeometryFlags::NONE);
+    input.flags = vec![GeometryFlags::NONE; n as usize];
+    input.sbt_index_offsets = Some(optik_api::SbtIndexOffsets {
+        buffer: BufferView::new(ob),
+        size_in_bytes: 4,
+        stride: 0,
+    });
+    let inputs = [BuildInput::Triangles(input)];
+    let gas = Gas::build(&AccelBuildOptions::default(), &inputs, &m, &m).unwrap();
+    assert_eq!(gas.encoding.classes.len(), n as usize);
+    let bound = crate::accel::memory_usage(&inputs, 1).output_size_in_bytes;
+    assert!(
+        gas.size_in_bytes() <= bound,
+        "{} bytes built, {bound} bounded",
+        gas.size_in_bytes()
+    );
+}
