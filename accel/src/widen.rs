@@ -1,10 +1,18 @@
 //! Widening the binary BVH to wide nodes: which binary nodes become a wide node's
 //! children, and in which order.
 //!
-//! Every backend that walks wide nodes picks children here, with one rule: the wgpu
-//! megakernel's nodes have [`WIDTH`] (4) children, the CPU traversal's eight
-//! ([`children_up_to`]); each keeps its own node encoding. Opening the widest child first
-//! makes an 8-wide node's children a refinement of the 4-wide node's.
+//! Two rules, each backend keeping its own node encoding:
+//!
+//! - [`children_up_to`]: open the widest inner child until the node is full. The wgpu
+//!   megakernel's 4-wide nodes ([`WIDTH`]) and the CPU's 8-wide nodes of every structure
+//!   but static triangles; opening the widest child first makes an 8-wide node's children a
+//!   refinement of the 4-wide node's.
+//! - [`OptimalWidening`]: the children, and which inner binary nodes become leaves, that
+//!   minimise the surface area heuristic of the whole wide tree under a cost model
+//!   ([`WideCosts`]), by dynamic programming over the binary tree (the conversion of Ylitie,
+//!   Karras and Laine, "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
+//!   BVHs", 2017). The CPU's triangle blocks use it (docs/cpu-backend.md, "Wide nodes chosen
+//!   by the heuristic").
 
 use super::bvh::BvhNode;
 
@@ -44,6 +52,182 @@ pub fn children_up_to(binary: &[BvhNode], source: usize, width: usize) -> Vec<us
     children
 }
 
+/// The most children [`OptimalWidening`] gives a wide node.
+pub const MAX_WIDTH: usize = 8;
+
+/// The cost model of [`OptimalWidening`], in units of whatever `leaf` counts (the CPU: one
+/// triangle block test), each weighted by the surface area of the box it is paid for.
+#[derive(Clone, Copy, Debug)]
+pub struct WideCosts {
+    /// Children per wide node (2 to [`MAX_WIDTH`]).
+    pub width: usize,
+    /// Testing one wide node's children.
+    pub node: f32,
+    /// Testing a leaf of `count` primitives; `None` where a leaf may not hold that many.
+    pub leaf: fn(u32) -> Option<f32>,
+}
+
+/// A child of a wide node chosen by [`OptimalWidening::children`]: a binary node whose box
+/// the child has, and either a wide node of its own or a leaf of consecutive slots.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WideChild {
+    /// This inner binary node becomes a wide node of its own, whose children
+    /// [`OptimalWidening::children`] gives.
+    Node(usize),
+    /// Binary node `node`'s slots (`first`, `count` of them) become one leaf.
+    Leaf {
+        /// The binary node whose subtree the leaf holds (a binary leaf, or an inner node
+        /// whose slots are consecutive).
+        node: usize,
+        /// The leaf's first slot.
+        first: u32,
+        /// Its slots.
+        count: u32,
+    },
+}
+
+/// The SAH-optimal wide tree over a binary tree: for every binary node, the least cost of
+/// its subtree when it fills `1..=width` children of its parent wide node (one child: a
+/// leaf, if its slots may be one, or a wide node; more: its two children share them), and
+/// the choices that give it.
+///
+/// A wide node made from binary node `n` costs `area(n) · node` plus its children's costs;
+/// a leaf `area · leaf(count)`. Binary leaves stay leaves (priced by `leaf`, or by their
+/// count where `leaf` refuses them); an inner node may become a leaf when its slots are
+/// consecutive and `leaf` accepts their number.
+pub struct OptimalWidening {
+    width: usize,
+    node_cost: f32,
+    /// Per binary node, the least cost of its subtree filling at most `i + 1` children.
+    cost: Vec<[f32; MAX_WIDTH]>,
+    /// Per binary node and `i + 1` children: 0 when fewer children cost as little (or, for
+    /// one, when the node is one child), else the children its first child takes.
+    split: Vec<[u8; MAX_WIDTH]>,
+    /// Per binary node, as one child: a leaf (else a wide node).
+    leaf: Vec<bool>,
+    /// Per binary node, its slots when they are consecutive (`first`, `count`).
+    slots: Vec<Option<(u32, u32)>>,
+}
+
+impl OptimalWidening {
+    /// Chooses the wide tree over `binary` (root at 0, padding at 1, sibling pairs after:
+    /// `Bvh::nodes`) under `costs`. Children are after their parents, so one pass from the
+    /// last node up prices every subtree before its parent.
+    pub fn new(binary: &[BvhNode], costs: WideCosts) -> OptimalWidening {
+        let width = costs.width.clamp(2, MAX_WIDTH);
+        let n = binary.len();
+        let mut o = OptimalWidening {
+            width,
+            node_cost: costs.node,
+            cost: vec![[f32::INFINITY; MAX_WIDTH]; n],
+            split: vec![[0; MAX_WIDTH]; n],
+            leaf: vec![false; n],
+            slots: vec![None; n],
+        };
+        for i in (0..n).rev() {
+            // The padding node after the root is no one's child.
+            if i == 1 {
+                continue;
+            }
+            let b = &binary[i];
+            let area = b.aabb().half_area();
+            if b.is_leaf() {
+                let c = area * (costs.leaf)(b.count).unwrap_or(b.count as f32);
+                o.cost[i] = [c; MAX_WIDTH];
+                o.leaf[i] = true;
+                o.slots[i] = Some((b.first, b.count));
+                continue;
+            }
+            let (l, r) = (b.first as usize, b.first as usize + 1);
+            o.slots[i] = match (o.slots[l], o.slots[r]) {
+                (Some((lf, lc)), Some((rf, rc))) if lf + lc == rf => Some((lf, lc + rc)),
+                (Some((lf, lc)), Some((rf, rc))) if rf + rc == lf => Some((rf, lc + rc)),
+                _ => None,
+            };
+            let (cl, cr) = (o.cost[l], o.cost[r]);
+            let as_node = area * costs.node + shared(&cl, &cr, width).0;
+            let as_leaf = o.slots[i]
+                .and_then(|(_, count)| (costs.leaf)(count))
+                .map_or(f32::INFINITY, |c| area * c);
+            o.leaf[i] = as_leaf <= as_node;
+            o.cost[i][0] = as_leaf.min(as_node);
+            for j in 2..=width {
+                let (c, k) = shared(&cl, &cr, j);
+                if c < o.cost[i][j - 2] {
+                    o.cost[i][j - 1] = c;
+                    o.split[i][j - 1] = k as u8;
+                } else {
+                    o.cost[i][j - 1] = o.cost[i][j - 2];
+                }
+            }
+        }
+        o
+    }
+
+    /// The least cost of the whole tree (its root a wide node, or a leaf when the root is a
+    /// binary leaf).
+    pub fn cost(&self, binary: &[BvhNode]) -> f32 {
+        match binary.first() {
+            None => 0.0,
+            Some(root) if root.is_leaf() => self.cost[0][0],
+            Some(root) => {
+                let (l, r) = (root.first as usize, root.first as usize + 1);
+                let children = shared(&self.cost[l], &self.cost[r], self.width).0;
+                root.aabb().half_area() * self.node_cost + children
+            }
+        }
+    }
+
+    /// The children of the wide node made from binary node `source`, in slot order (a
+    /// binary leaf `source` is its own only child: a leaf root).
+    pub fn children(&self, binary: &[BvhNode], source: usize) -> Vec<WideChild> {
+        let mut out = Vec::with_capacity(self.width);
+        let b = &binary[source];
+        if b.is_leaf() {
+            self.push(binary, source, 1, &mut out);
+            return out;
+        }
+        let (l, r) = (b.first as usize, b.first as usize + 1);
+        let k = shared(&self.cost[l], &self.cost[r], self.width).1;
+        self.push(binary, l, k, &mut out);
+        self.push(binary, r, self.width - k, &mut out);
+        out
+    }
+
+    /// Node `i`'s share of a wide node's children when it may fill `slots` of them.
+    fn push(&self, binary: &[BvhNode], i: usize, slots: usize, out: &mut Vec<WideChild>) {
+        let mut j = slots;
+        while j > 1 && self.split[i][j - 1] == 0 {
+            j -= 1;
+        }
+        if j > 1 {
+            let k = self.split[i][j - 1] as usize;
+            let first = binary[i].first as usize;
+            self.push(binary, first, k, out);
+            self.push(binary, first + 1, j - k, out);
+        } else if let (true, Some((first, count))) = (self.leaf[i], self.slots[i]) {
+            out.push(WideChild::Leaf {
+                node: i,
+                first,
+                count,
+            });
+        } else {
+            out.push(WideChild::Node(i));
+        }
+    }
+}
+
+/// Two sibling subtrees (their costs by children filled) sharing `j` children of their
+/// parent: the least cost, and the children the first takes (the fewest of equal costs).
+fn shared(left: &[f32; MAX_WIDTH], right: &[f32; MAX_WIDTH], j: usize) -> (f32, usize) {
+    (1..j)
+        .map(|k| (left[k - 1] + right[j - k - 1], k))
+        .fold(
+            (f32::INFINITY, 1),
+            |best, c| if c.0 < best.0 { c } else { best },
+        )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -55,6 +239,214 @@ mod tests {
             max: [size; 3],
             count,
         }
+    }
+
+    /// Costs of a CPU-like model: a leaf of up to `max` primitives costs its blocks of four.
+    fn costs(width: usize, node: f32) -> WideCosts {
+        WideCosts {
+            width,
+            node,
+            leaf: |count| (count <= 8).then(|| count.div_ceil(4) as f32),
+        }
+    }
+
+    /// Binary node `i`'s slots when consecutive (as `OptimalWidening` decides it).
+    fn slots(bin: &[BvhNode], i: usize) -> Option<(u32, u32)> {
+        let b = &bin[i];
+        if b.is_leaf() {
+            return Some((b.first, b.count));
+        }
+        match (
+            slots(bin, b.first as usize),
+            slots(bin, b.first as usize + 1),
+        ) {
+            (Some((lf, lc)), Some((rf, rc))) if lf + lc == rf => Some((lf, lc + rc)),
+            (Some((lf, lc)), Some((rf, rc))) if rf + rc == lf => Some((rf, lc + rc)),
+            _ => None,
+        }
+    }
+
+    /// Every way to cut the subtree strictly below inner node `i` into at most `most`
+    /// nodes.
+    fn frontiers(bin: &[BvhNode], i: usize, most: usize) -> Vec<Vec<usize>> {
+        let b = &bin[i];
+        let options = |c: usize, most: usize| {
+            let mut o = vec![vec![c]];
+            if !bin[c].is_leaf() && most >= 2 {
+                o.extend(frontiers(bin, c, most));
+            }
+            o
+        };
+        let mut out = Vec::new();
+        for left in options(b.first as usize, most - 1) {
+            for right in options(b.first as usize + 1, most - left.len()) {
+                if left.len() + right.len() <= most {
+                    out.push([left.clone(), right].concat());
+                }
+            }
+        }
+        out
+    }
+
+    /// The least cost of node `i` as one child, by trying every widening.
+    fn brute(bin: &[BvhNode], c: WideCosts, i: usize) -> f32 {
+        let b = &bin[i];
+        let area = b.aabb().half_area();
+        if b.is_leaf() {
+            return area * (c.leaf)(b.count).unwrap_or(b.count as f32);
+        }
+        let as_leaf = slots(bin, i)
+            .and_then(|(_, n)| (c.leaf)(n))
+            .map_or(f32::INFINITY, |x| area * x);
+        let as_node = area * c.node
+            + frontiers(bin, i, c.width)
+                .iter()
+                .map(|f| f.iter().map(|&k| brute(bin, c, k)).sum::<f32>())
+                .fold(f32::INFINITY, f32::min);
+        as_leaf.min(as_node)
+    }
+
+    /// The cost of the wide tree `children` makes from inner node `i` (as a wide node), and
+    /// the slots its leaves hold, in order.
+    fn chosen(
+        o: &OptimalWidening,
+        bin: &[BvhNode],
+        c: WideCosts,
+        i: usize,
+        leaves: &mut Vec<(u32, u32)>,
+    ) -> f32 {
+        let children = o.children(bin, i);
+        assert!((1..=c.width).contains(&children.len()));
+        let mut cost = bin[i].aabb().half_area() * c.node;
+        for child in children {
+            cost += match child {
+                WideChild::Node(k) => {
+                    assert!(!bin[k].is_leaf());
+                    chosen(o, bin, c, k, leaves)
+                }
+                WideChild::Leaf { node, first, count } => {
+                    assert_eq!(slots(bin, node), Some((first, count)));
+                    leaves.push((first, count));
+                    let x = (c.leaf)(count).unwrap_or(count as f32);
+                    bin[node].aabb().half_area() * x
+                }
+            };
+        }
+        cost
+    }
+
+    /// On small random trees the dynamic programme's cost is the least of every widening
+    /// (tried one by one), the children it gives make a tree of that cost, and their leaves
+    /// hold every slot once.
+    #[test]
+    fn the_optimal_widening_is_the_cheapest_of_all() {
+        let mut seed = 12345u64;
+        let mut rnd = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut checked = 0;
+        for trial in 0..60 {
+            let n = 4 + trial % 20;
+            let boxes: Vec<crate::Aabb> = (0..n)
+                .map(|_| {
+                    let (x, y, z) = (rnd() * 10.0, rnd() * 10.0, rnd() * 10.0);
+                    let s = rnd() + 0.1;
+                    crate::Aabb::from_six([x, y, z, x + s, y + s, z + s])
+                })
+                .collect();
+            let (bvh, _) = crate::Bvh::build(&boxes, crate::BuildQuality::Balanced).unwrap();
+            let bin = bvh.nodes();
+            if bin[0].is_leaf() {
+                continue;
+            }
+            for (width, node) in [(8, 1.0), (4, 2.0), (3, 0.5), (8, 0.1)] {
+                let c = costs(width, node);
+                let o = OptimalWidening::new(bin, c);
+                let root = bin[0].aabb().half_area();
+                let best = root * c.node
+                    + frontiers(bin, 0, width)
+                        .iter()
+                        .map(|f| f.iter().map(|&k| brute(bin, c, k)).sum::<f32>())
+                        .fold(f32::INFINITY, f32::min);
+                let got = o.cost(bin);
+                assert!((got - best).abs() <= 1e-4 * best, "{got} against {best}");
+                let mut leaves = Vec::new();
+                let built = chosen(&o, bin, c, 0, &mut leaves);
+                assert!((built - got).abs() <= 1e-4 * got, "{built} against {got}");
+                leaves.sort();
+                let mut next = 0;
+                for (first, count) in leaves {
+                    assert_eq!(first, next);
+                    next += count;
+                }
+                assert_eq!(next as usize, n);
+                checked += 1;
+            }
+        }
+        assert!(checked > 150);
+    }
+
+    /// Where opening the widest child first is not the cheapest: a large node of two leaves
+    /// beside a small one of two small nodes. The widest opens first, and then the small
+    /// one, leaving two nodes of two leaves each; the optimum makes the large node one leaf
+    /// of its four slots (one block instead of two leaves' areas) and each small node one
+    /// leaf.
+    #[test]
+    fn the_optimal_widening_beats_opening_the_widest() {
+        let node = |first: u32, count: u32, size: f32| BvhNode {
+            min: [0.0; 3],
+            first,
+            max: [size; 3],
+            count,
+        };
+        // Root (2, 3); node 2 large, leaves 4 and 5 (two slots each); node 3 small, inner
+        // nodes 6 and 7, each two leaves.
+        let bin = vec![
+            node(2, 0, 10.0),
+            node(0, 0, 0.0),
+            node(4, 0, 9.0),
+            node(6, 0, 2.0),
+            node(0, 2, 9.0),
+            node(2, 2, 9.0),
+            node(8, 0, 1.0),
+            node(10, 0, 1.0),
+            node(4, 1, 1.0),
+            node(5, 1, 1.0),
+            node(6, 1, 1.0),
+            node(7, 1, 1.0),
+        ];
+        let c = costs(4, 1.0);
+        assert_eq!(children_up_to(&bin, 0, 4), vec![4, 6, 5, 7]);
+        let o = OptimalWidening::new(&bin, c);
+        assert_eq!(
+            o.children(&bin, 0),
+            vec![
+                WideChild::Leaf {
+                    node: 2,
+                    first: 0,
+                    count: 4
+                },
+                WideChild::Leaf {
+                    node: 6,
+                    first: 4,
+                    count: 2
+                },
+                WideChild::Leaf {
+                    node: 7,
+                    first: 6,
+                    count: 2
+                },
+            ]
+        );
+        // Half areas: root 300, node 2 and its leaves 243, nodes 6 and 7 and their leaves 3.
+        // Opening the widest: the root, leaves 4 and 5, nodes 6 and 7 with two leaves each.
+        let greedy = 300.0 * c.node + 2.0 * 243.0 + 2.0 * (3.0 * c.node + 2.0 * 3.0);
+        let optimal = 300.0 * c.node + 243.0 + 3.0 + 3.0;
+        assert_eq!(greedy, 804.0);
+        assert_eq!(o.cost(&bin), optimal);
     }
 
     #[test]

@@ -1,6 +1,7 @@
-//! The 8-wide BVH the CPU traversal walks, collapsed from optik-accel's binary [`Bvh`] with
-//! its child order (`optik_accel::widen`), and triangles packed four to a block for the
-//! 4-lane triangle test.
+//! The 8-wide BVH the CPU traversal walks, collapsed from optik-accel's binary [`Bvh`]
+//! (`optik_accel::widen`: for triangle structures the wide tree of least cost by the surface
+//! area heuristic, [`TRIANGLE_WIDE_COSTS`]; for every other structure the widest child opened
+//! first), and triangles packed four to a block for the 4-lane triangle test.
 //!
 //! Why: a binary node costs two box tests and a decision per step; an 8-wide node tests its
 //! eight children in one 8-lane slab test (AVX where the CPU has it, two 4-lane halves
@@ -19,8 +20,8 @@
 //! - `nodes[0]` is the root; children come after parents.
 //! - Every child box is the box of the binary node it came from, so the wide BVH is exactly
 //!   as conservative as the binary one (boxes are exact unions of primitive boxes). In a
-//!   triangle structure a binary node whose wide node would hold only a few triangles'
-//!   leaves is a leaf itself, of its subtree's consecutive slots ([`MERGED_LEAF_MOST`]).
+//!   triangle structure an inner binary node may be a leaf itself, of its subtree's
+//!   consecutive slots, where that costs less than a node ([`TRIANGLE_WIDE_COSTS`]).
 //! - [`TriangleBlock`] (176 bytes): the vertices of up to four consecutive slots of one
 //!   leaf, as `vertices[vertex][axis][lane]`, then what a hit needs next, in its last 32
 //!   bytes (reading it from `Gas::primitives` cost a cache miss per candidate): each
@@ -36,7 +37,7 @@
 //! ran bunny incoherent rays 2–5 % faster (docs/cpu-backend.md, "Smaller triangle blocks").
 //! The records moved to an array of their own cost a miss per candidate and lost 6 %.
 
-use optik_accel::widen;
+use optik_accel::widen::{self, OptimalWidening, WideChild, WideCosts};
 use optik_accel::{Aabb, Bvh, BvhNode, GasEncoding, Geometry, LeafCosts, PrimitiveInfo};
 use rayon::prelude::*;
 
@@ -46,15 +47,24 @@ pub const NODE_WIDTH: usize = 8;
 /// Triangles per block (the lanes of the triangle test).
 pub const BLOCK_WIDTH: usize = 4;
 
-/// The most triangles of a leaf merged from a node that has only leaves below it (three
-/// blocks). Such a node is common at the bottom of the tree (two leaves under one binary
-/// node, widened into a node of two children: 40 % of the bunny's nodes) and costs an
-/// 8-lane node test and a 256-byte node; its blocks tested directly (two at a time in eight
-/// lanes where the CPU has AVX) cost about what the node test and the leaves it lets in do.
-/// Chosen by measurement (docs/cpu-backend.md, "Small all-leaf nodes merged"): limits of 8,
-/// 12 and 16 triangles all ran 2–6 % faster on the four bench sets; 12 left the bunny
-/// 2853 of its 7084 nodes and the Breakfast Room 10531 of 25501.
-pub const MERGED_LEAF_MOST: u32 = 3 * BLOCK_WIDTH as u32;
+/// How a triangle structure's wide tree is chosen from its binary one
+/// ([`OptimalWidening`]): the tree of least surface-area cost where a wide node's test costs
+/// two triangle block tests and a leaf its blocks, up to [`TRIANGLE_LEAF_COSTS`]'s largest
+/// leaf (so an inner binary node of few triangles becomes a leaf where its node would cost
+/// more). Against opening the widest child first with small all-leaf nodes merged (the
+/// rule before): bunny and Breakfast Room rays 1–5 % faster, results identical; node costs
+/// of 1.5 and 3 measured within 2 % of 2 (docs/cpu-backend.md, "Wide nodes chosen by the
+/// heuristic").
+pub const TRIANGLE_WIDE_COSTS: WideCosts = WideCosts {
+    width: NODE_WIDTH,
+    node: 2.0,
+    leaf: triangle_leaf_cost,
+};
+
+/// A leaf of `count` static triangles: its blocks, if it may hold that many.
+fn triangle_leaf_cost(count: u32) -> Option<f32> {
+    (count <= TRIANGLE_LEAF_COSTS.max_prims).then(|| TriangleBlock::blocks_of(count) as f32)
+}
 
 /// How the builder prices leaves of static triangles, which the walk tests a block at a time:
 /// a leaf costs its blocks (not its triangles), entering it nothing more, a binary node 0.3
@@ -313,24 +323,27 @@ pub struct WideBvh {
 
 impl WideBvh {
     /// Collapses `bvh` into eight-wide nodes. With `triangles` (per slot, the static
-    /// vertices and the primitive records), leaves point to triangle blocks packed from them,
-    /// and a node that would have only leaves below it, of at most [`MERGED_LEAF_MOST`]
-    /// triangles in all, is one leaf of its parent instead.
+    /// vertices and the primitive records), the wide tree is the one of least cost
+    /// ([`TRIANGLE_WIDE_COSTS`]) and its leaves point to triangle blocks packed from them;
+    /// without, each node opens its widest inner child first.
     ///
     /// The nodes are made in one pass over the tree, which also gives each leaf its range of
     /// blocks (in the order the pass meets the leaves); the blocks are then filled on the
     /// current rayon pool, each from its own slots: the same layout on any number of threads.
     pub fn build(bvh: &Bvh, triangles: Option<SlotTriangles<'_>>) -> WideBvh {
-        WideBvh::build_merging(bvh, triangles, MERGED_LEAF_MOST, CLASS_IN_GAS as usize)
+        let widening = match triangles {
+            Some(_) => Widening::Optimal(TRIANGLE_WIDE_COSTS),
+            None => Widening::Widest,
+        };
+        WideBvh::build_with(bvh, triangles, widening, CLASS_IN_GAS as usize)
     }
 
-    /// [`WideBvh::build`], merging small all-leaf nodes of triangle structures into leaves
-    /// of up to `merge_limit` triangles ([`MERGED_LEAF_MOST`]; 0: none), blocks indexing
-    /// at most `class_limit` classes (more: every lane's record read from the structure's).
-    fn build_merging(
+    /// [`WideBvh::build`] with the children chosen by `widening`, blocks indexing at most
+    /// `class_limit` classes (more: every lane's record read from the structure's).
+    fn build_with(
         bvh: &Bvh,
         triangles: Option<SlotTriangles<'_>>,
-        merge_limit: u32,
+        widening: Widening,
         class_limit: usize,
     ) -> WideBvh {
         let binary = bvh.nodes();
@@ -338,45 +351,60 @@ impl WideBvh {
         if binary.is_empty() {
             return wide;
         }
+        let optimal = match widening {
+            Widening::Optimal(costs) => Some(OptimalWidening::new(binary, costs)),
+            Widening::Widest => None,
+        };
+        let children = |source: usize| match &optimal {
+            Some(o) => o.children(binary, source),
+            None => widen::children_up_to(binary, source, NODE_WIDTH)
+                .into_iter()
+                .map(|c| match binary[c] {
+                    BvhNode { first, count, .. } if count > 0 => WideChild::Leaf {
+                        node: c,
+                        first,
+                        count,
+                    },
+                    _ => WideChild::Node(c),
+                })
+                .collect(),
+        };
         // Per block: its leaf's first slot in the block and the triangles it holds.
         let mut block_slots: Vec<(u32, u32)> = Vec::new();
         wide.nodes.push(WideNode::EMPTY);
-        // (the binary nodes that become a wide node's children, that wide node, the level of
-        // those children)
-        let mut stack = vec![(widen::children_up_to(binary, 0, NODE_WIDTH), 0usize, 1u32)];
-        while let Some((children, target, level)) = stack.pop() {
+        // (a wide node's children, that wide node, the level of those children)
+        let mut stack = vec![(children(0), 0usize, 1u32)];
+        while let Some((below, target, level)) = stack.pop() {
             wide.depth = wide.depth.max(level);
             let mut node = WideNode::EMPTY;
-            for (lane, &c) in children.iter().enumerate() {
-                let child = &binary[c];
-                node.set_box(lane, &child.aabb());
-                // An inner child's own children, chosen once: they are its wide node's, or
-                // the leaves it merges into one.
-                let below =
-                    (!child.is_leaf()).then(|| widen::children_up_to(binary, c, NODE_WIDTH));
-                let merged = match (triangles, &below) {
-                    (Some(_), Some(below)) => merged_leaf(binary, below, merge_limit),
-                    _ => None,
-                };
-                if let (Some(below), None) = (below, merged) {
-                    node.first[lane] = wide.nodes.len() as u32;
-                    wide.nodes.push(WideNode::EMPTY);
-                    stack.push((below, node.first[lane] as usize, level + 1));
-                } else {
-                    let (first, count) = merged.unwrap_or((child.first, child.count));
-                    node.count[lane] = count;
-                    node.first[lane] = match triangles {
-                        Some(_) => {
-                            let start = block_slots.len() as u32;
-                            for b in 0..TriangleBlock::blocks_of(count) {
-                                let done = b * BLOCK_WIDTH as u32;
-                                let lanes = (count - done).min(BLOCK_WIDTH as u32);
-                                block_slots.push((first + done, lanes));
+            for (lane, &child) in below.iter().enumerate() {
+                match child {
+                    WideChild::Node(c) => {
+                        node.set_box(lane, &binary[c].aabb());
+                        node.first[lane] = wide.nodes.len() as u32;
+                        wide.nodes.push(WideNode::EMPTY);
+                        stack.push((children(c), node.first[lane] as usize, level + 1));
+                    }
+                    WideChild::Leaf {
+                        node: c,
+                        first,
+                        count,
+                    } => {
+                        node.set_box(lane, &binary[c].aabb());
+                        node.count[lane] = count;
+                        node.first[lane] = match triangles {
+                            Some(_) => {
+                                let start = block_slots.len() as u32;
+                                for b in 0..TriangleBlock::blocks_of(count) {
+                                    let done = b * BLOCK_WIDTH as u32;
+                                    let lanes = (count - done).min(BLOCK_WIDTH as u32);
+                                    block_slots.push((first + done, lanes));
+                                }
+                                start
                             }
-                            start
-                        }
-                        None => first,
-                    };
+                            None => first,
+                        };
+                    }
                 }
             }
             wide.nodes[target] = node;
@@ -403,25 +431,13 @@ impl WideBvh {
     }
 }
 
-/// The slots of a binary node as one leaf (first slot, count), where the children its wide
-/// node would have (`leaves`) are all leaves, of at most `limit` triangles in all
-/// (consecutive slots, as a subtree's are), in no more blocks than they take apart.
-fn merged_leaf(binary: &[BvhNode], leaves: &[usize], limit: u32) -> Option<(u32, u32)> {
-    if leaves.iter().any(|&k| !binary[k].is_leaf()) {
-        return None;
-    }
-    let first = leaves.iter().map(|&k| binary[k].first).min()?;
-    let end = leaves
-        .iter()
-        .map(|&k| binary[k].first + binary[k].count)
-        .max()?;
-    let count: u32 = leaves.iter().map(|&k| binary[k].count).sum();
-    let apart: u32 = leaves
-        .iter()
-        .map(|&k| TriangleBlock::blocks_of(binary[k].count))
-        .sum();
-    (count <= limit && end - first == count && TriangleBlock::blocks_of(count) <= apart)
-        .then_some((first, count))
+/// How [`WideBvh::build_with`] chooses a wide node's children.
+#[derive(Clone, Copy)]
+enum Widening {
+    /// The widest inner child opened first (`widen::children_up_to`).
+    Widest,
+    /// The tree of least cost under these costs ([`OptimalWidening`]).
+    Optimal(WideCosts),
 }
 
 impl GasEncoding for WideBvh {
@@ -600,13 +616,13 @@ mod tests {
         assert_eq!(on(4), wide);
         assert_eq!(WideBvh::build(&Bvh::default(), None), WideBvh::default());
         // More classes than blocks may index: every lane's record is the structure's.
-        let few = WideBvh::build_merging(
+        let few = WideBvh::build_with(
             &bvh,
             Some(SlotTriangles {
                 vertices: &slotted,
                 infos: &infos,
             }),
-            MERGED_LEAF_MOST,
+            Widening::Optimal(TRIANGLE_WIDE_COSTS),
             5,
         );
         assert!(few.classes.is_empty());
@@ -652,47 +668,57 @@ mod tests {
         [[x, y, 0.0], [x + 1.0, y, 0.5], [x, y + 1.0, 1.0]]
     }
 
-    /// A node that would have only leaves below it, of at most `MERGED_LEAF_MOST` triangles,
-    /// is a leaf of its parent: exactly those nodes are gone, no block is added, and every
-    /// slot is still reached once, inside its leaf's box.
+    /// The cost of `wide` under `costs`, as [`OptimalWidening`] prices a tree: per wide node
+    /// its box's half area times the node cost (the root's box: the union of its children),
+    /// per leaf its box's half area times its blocks.
+    fn tree_cost(wide: &WideBvh, costs: WideCosts) -> f32 {
+        fn node(wide: &WideBvh, i: usize, area: f32, costs: WideCosts) -> f32 {
+            let n = &wide.nodes[i];
+            let mut cost = area * costs.node;
+            for lane in (0..NODE_WIDTH).filter(|&l| n.min[0][l] <= n.max[0][l]) {
+                let b = Aabb {
+                    min: std::array::from_fn(|a| n.min[a][lane]),
+                    max: std::array::from_fn(|a| n.max[a][lane]),
+                };
+                cost += match n.count[lane] {
+                    0 => node(wide, n.first[lane] as usize, b.half_area(), costs),
+                    count => b.half_area() * (costs.leaf)(count).unwrap_or(count as f32),
+                };
+            }
+            cost
+        }
+        let [min, max] = wide.nodes[0].union();
+        node(wide, 0, Aabb { min, max }.half_area(), costs)
+    }
+
+    /// A triangle structure's wide tree is the one of least cost: what `OptimalWidening`
+    /// computed, no more than opening the widest child first costs, with inner binary nodes
+    /// of few triangles made leaves (fewer nodes), and every slot still reached once,
+    /// inside its leaf's box.
     #[test]
-    fn small_all_leaf_nodes_become_leaves() {
+    fn triangle_trees_are_the_cheapest_widening() {
         let tris: Vec<[[f32; 3]; 3]> = (0..2000).map(scattered).collect();
         let b = boxes_of(&tris);
         let (bvh, order) =
             Bvh::build_with(&b, BuildQuality::FastTrace, Some(TRIANGLE_LEAF_COSTS)).unwrap();
         let slotted: Vec<[[f32; 3]; 3]> = order.iter().map(|&i| tris[i as usize]).collect();
         let infos = vec![bytemuck::Zeroable::zeroed(); tris.len()];
-        let triangles = || {
-            Some(SlotTriangles {
-                vertices: &slotted,
-                infos: &infos,
-            })
-        };
-        let merged = WideBvh::build(&bvh, triangles());
-        let apart = WideBvh::build_merging(&bvh, triangles(), 0, CLASS_IN_GAS as usize);
-        check(&merged, b.len(), |s| b[order[s] as usize]);
-        check(&apart, b.len(), |s| b[order[s] as usize]);
-        // A node of `apart` that `build` merges: its used lanes all leaves, of few triangles
-        // in no more blocks together than apart.
-        let mergeable = |node: &WideNode| {
-            let lanes: Vec<usize> = (0..NODE_WIDTH)
-                .filter(|&l| node.min[0][l] <= node.max[0][l])
-                .collect();
-            let count: u32 = lanes.iter().map(|&l| node.count[l]).sum();
-            let blocks: u32 = lanes
-                .iter()
-                .map(|&l| TriangleBlock::blocks_of(node.count[l]))
-                .sum();
-            lanes.iter().all(|&l| node.count[l] > 0)
-                && count <= MERGED_LEAF_MOST
-                && TriangleBlock::blocks_of(count) <= blocks
-        };
-        let small = apart.nodes[1..].iter().filter(|n| mergeable(n)).count();
-        assert!(small > 0, "the tree has nodes to merge");
-        assert_eq!(merged.nodes.len(), apart.nodes.len() - small);
-        assert!(merged.blocks.len() <= apart.blocks.len());
-        assert!(merged.depth <= apart.depth);
+        let triangles = Some(SlotTriangles {
+            vertices: &slotted,
+            infos: &infos,
+        });
+        let optimal = WideBvh::build(&bvh, triangles);
+        let widest = WideBvh::build_with(&bvh, triangles, Widening::Widest, CLASS_IN_GAS as usize);
+        check(&optimal, b.len(), |s| b[order[s] as usize]);
+        check(&widest, b.len(), |s| b[order[s] as usize]);
+        let costs = TRIANGLE_WIDE_COSTS;
+        let (got, greedy) = (tree_cost(&optimal, costs), tree_cost(&widest, costs));
+        let want = OptimalWidening::new(bvh.nodes(), costs).cost(bvh.nodes());
+        // The root's box is its children's union here and the binary root's there.
+        assert!((got - want).abs() <= 1e-3 * want, "{got} against {want}");
+        assert!(got < greedy, "{got} against {greedy}");
+        assert!(optimal.nodes.len() < widest.nodes.len());
+        assert!(optimal.depth <= widest.depth);
     }
 
     /// Static triangles get leaves priced by the block (48 triangles with one box, which the
