@@ -396,12 +396,6 @@ mod tests {
     /// leaf.
     #[test]
     fn the_optimal_widening_beats_opening_the_widest() {
-        let node = |first: u32, count: u32, size: f32| BvhNode {
-            min: [0.0; 3],
-            first,
-            max: [size; 3],
-            count,
-        };
         // Root (2, 3); node 2 large, leaves 4 and 5 (two slots each); node 3 small, inner
         // nodes 6 and 7, each two leaves.
         let bin = vec![
