@@ -407,13 +407,7 @@ mod tests {
     #[test]
     fn builds_are_the_same_tree_on_any_number_of_threads() {
         // Many boxes with equal Morton codes and equal areas: ties at every step.
-        let mut state = 7u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = crate::testing::uniform(7);
         let boxes: Vec<Aabb> = (0..40_000)
             .map(|i| {
                 if i % 4 == 0 {

@@ -353,13 +353,7 @@ mod tests {
     /// depth from none to deeper than the tree.
     #[test]
     fn split_and_serial_rewrites_agree() {
-        let mut state = 3u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = crate::testing::uniform(3);
         let boxes: Vec<obvhs::aabb::Aabb> = (0..20_000)
             .map(|_| {
                 let c = [next() * 50.0, next() * 50.0, next() * 50.0];

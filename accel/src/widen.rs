@@ -86,6 +86,15 @@ pub enum WideChild {
     },
 }
 
+impl WideChild {
+    /// The binary node whose box the child has.
+    pub fn node(&self) -> usize {
+        match *self {
+            WideChild::Node(node) | WideChild::Leaf { node, .. } => node,
+        }
+    }
+}
+
 /// The SAH-optimal wide tree over a binary tree: for every binary node, the least cost of
 /// its subtree when it fills `1..=width` children of its parent wide node (one child: a
 /// leaf, if its slots may be one, or a wide node; more: its two children share them), and
@@ -340,13 +349,7 @@ mod tests {
     /// hold every slot once.
     #[test]
     fn the_optimal_widening_is_the_cheapest_of_all() {
-        let mut seed = 12345u64;
-        let mut rnd = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = crate::testing::uniform(12345);
         let mut checked = 0;
         for trial in 0..60 {
             let n = 4 + trial % 20;

@@ -378,19 +378,14 @@ impl WideBvh {
             wide.depth = wide.depth.max(level);
             let mut node = WideNode::EMPTY;
             for (lane, &child) in below.iter().enumerate() {
+                node.set_box(lane, &binary[child.node()].aabb());
                 match child {
                     WideChild::Node(c) => {
-                        node.set_box(lane, &binary[c].aabb());
                         node.first[lane] = wide.nodes.len() as u32;
                         wide.nodes.push(WideNode::EMPTY);
                         stack.push((children(c), node.first[lane] as usize, level + 1));
                     }
-                    WideChild::Leaf {
-                        node: c,
-                        first,
-                        count,
-                    } => {
-                        node.set_box(lane, &binary[c].aabb());
+                    WideChild::Leaf { first, count, .. } => {
                         node.count[lane] = count;
                         node.first[lane] = match triangles {
                             Some(_) => {
