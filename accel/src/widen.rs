@@ -12,9 +12,12 @@
 //!   ([`WideCosts`]), by dynamic programming over the binary tree (the conversion of Ylitie,
 //!   Karras and Laine, "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
 //!   BVHs", 2017). The CPU's triangle blocks use it (docs/cpu-backend.md, "Wide nodes chosen
-//!   by the heuristic").
+//!   by the heuristic"). Large trees are priced on the current rayon pool, subtree by
+//!   subtree; every choice depends on its subtree alone, so the same on any number of
+//!   threads.
 
 use super::bvh::BvhNode;
+use rayon::prelude::*;
 
 /// Children per wide node of the GPU backends' 4-wide trees.
 pub const WIDTH: usize = 4;
@@ -107,70 +110,62 @@ impl WideChild {
 pub struct OptimalWidening {
     width: usize,
     node_cost: f32,
-    /// Per binary node, the least cost of its subtree filling at most `i + 1` children.
-    cost: Vec<[f32; MAX_WIDTH]>,
-    /// Per binary node and `i + 1` children: 0 when fewer children cost as little (or, for
-    /// one, when the node is one child), else the children its first child takes.
-    split: Vec<[u8; MAX_WIDTH]>,
-    /// Per binary node, as one child: a leaf (else a wide node).
-    leaf: Vec<bool>,
-    /// Per binary node, its slots when they are consecutive (`first`, `count`).
-    slots: Vec<Option<(u32, u32)>>,
+    /// Per binary node, what its subtree costs and how (the padding node: [`Choice::NONE`]).
+    choices: Vec<Choice>,
 }
+
+/// One binary node's entry of the programme.
+#[derive(Clone, Copy, Debug)]
+struct Choice {
+    /// The least cost of the node's subtree filling at most `i + 1` children.
+    cost: [f32; MAX_WIDTH],
+    /// Per `i + 1` children: 0 when fewer children cost as little (or, for one, when the
+    /// node is one child), else the children its first child takes.
+    split: [u8; MAX_WIDTH],
+    /// As one child: a leaf (else a wide node).
+    leaf: bool,
+    /// Its slots when they are consecutive (`first`, `count`).
+    slots: Option<(u32, u32)>,
+}
+
+impl Choice {
+    /// The entry of a node that is no one's child (the padding after the root).
+    const NONE: Choice = Choice {
+        cost: [f32::INFINITY; MAX_WIDTH],
+        split: [0; MAX_WIDTH],
+        leaf: false,
+        slots: None,
+    };
+}
+
+/// Levels whose subtrees the programme prices on separate rayon tasks (at most
+/// `2^SPLIT_DEPTH` tasks); below them a subtree is one task, walked with an explicit stack.
+const SPLIT_DEPTH: u32 = 6;
+
+/// Trees of fewer binary nodes are priced on the calling thread: a task costs more than
+/// such a tree.
+const PARALLEL_MIN_NODES: usize = 2 * crate::PARALLEL_MIN_LEN;
 
 impl OptimalWidening {
     /// Chooses the wide tree over `binary` (root at 0, padding at 1, sibling pairs after:
-    /// `Bvh::nodes`) under `costs`. Children are after their parents, so one pass from the
-    /// last node up prices every subtree before its parent.
+    /// `Bvh::nodes`) under `costs`. Every subtree is priced after its two children's; the
+    /// subtrees of the top levels on separate tasks of the current rayon pool, so large
+    /// trees are priced on all its threads. Each node's entry depends only on its subtree,
+    /// so the choices are the same on any number of threads.
     pub fn new(binary: &[BvhNode], costs: WideCosts) -> OptimalWidening {
         let width = costs.width.clamp(2, MAX_WIDTH);
-        let n = binary.len();
-        let mut o = OptimalWidening {
+        // Split only where there are threads to share it: a split pass walks each subtree
+        // in pre-order first, which costs a third more than the serial pass's one loop.
+        let split = if binary.len() < PARALLEL_MIN_NODES || rayon::current_num_threads() < 2 {
+            0
+        } else {
+            SPLIT_DEPTH
+        };
+        OptimalWidening {
             width,
             node_cost: costs.node,
-            cost: vec![[f32::INFINITY; MAX_WIDTH]; n],
-            split: vec![[0; MAX_WIDTH]; n],
-            leaf: vec![false; n],
-            slots: vec![None; n],
-        };
-        for i in (0..n).rev() {
-            // The padding node after the root is no one's child.
-            if i == 1 {
-                continue;
-            }
-            let b = &binary[i];
-            let area = b.aabb().half_area();
-            if b.is_leaf() {
-                let c = area * (costs.leaf)(b.count).unwrap_or(b.count as f32);
-                o.cost[i] = [c; MAX_WIDTH];
-                o.leaf[i] = true;
-                o.slots[i] = Some((b.first, b.count));
-                continue;
-            }
-            let (l, r) = (b.first as usize, b.first as usize + 1);
-            o.slots[i] = match (o.slots[l], o.slots[r]) {
-                (Some((lf, lc)), Some((rf, rc))) if lf + lc == rf => Some((lf, lc + rc)),
-                (Some((lf, lc)), Some((rf, rc))) if rf + rc == lf => Some((rf, lc + rc)),
-                _ => None,
-            };
-            let (cl, cr) = (o.cost[l], o.cost[r]);
-            let as_node = area * costs.node + shared(&cl, &cr, width).0;
-            let as_leaf = o.slots[i]
-                .and_then(|(_, count)| (costs.leaf)(count))
-                .map_or(f32::INFINITY, |c| area * c);
-            o.leaf[i] = as_leaf <= as_node;
-            o.cost[i][0] = as_leaf.min(as_node);
-            for j in 2..=width {
-                let (c, k) = shared(&cl, &cr, j);
-                if c < o.cost[i][j - 2] {
-                    o.cost[i][j - 1] = c;
-                    o.split[i][j - 1] = k as u8;
-                } else {
-                    o.cost[i][j - 1] = o.cost[i][j - 2];
-                }
-            }
+            choices: price(binary, costs, width, split),
         }
-        o
     }
 
     /// The least cost of the whole tree (its root a wide node, or a leaf when the root is a
@@ -178,10 +173,10 @@ impl OptimalWidening {
     pub fn cost(&self, binary: &[BvhNode]) -> f32 {
         match binary.first() {
             None => 0.0,
-            Some(root) if root.is_leaf() => self.cost[0][0],
+            Some(root) if root.is_leaf() => self.choices[0].cost[0],
             Some(root) => {
                 let (l, r) = (root.first as usize, root.first as usize + 1);
-                let children = shared(&self.cost[l], &self.cost[r], self.width).0;
+                let children = shared(&self.choices[l].cost, &self.choices[r].cost, self.width).0;
                 root.aabb().half_area() * self.node_cost + children
             }
         }
@@ -197,7 +192,7 @@ impl OptimalWidening {
             return out;
         }
         let (l, r) = (b.first as usize, b.first as usize + 1);
-        let k = shared(&self.cost[l], &self.cost[r], self.width).1;
+        let k = shared(&self.choices[l].cost, &self.choices[r].cost, self.width).1;
         self.push(binary, l, k, &mut out);
         self.push(binary, r, self.width - k, &mut out);
         out
@@ -205,16 +200,17 @@ impl OptimalWidening {
 
     /// Node `i`'s share of a wide node's children when it may fill `slots` of them.
     fn push(&self, binary: &[BvhNode], i: usize, slots: usize, out: &mut Vec<WideChild>) {
+        let choice = &self.choices[i];
         let mut j = slots;
-        while j > 1 && self.split[i][j - 1] == 0 {
+        while j > 1 && choice.split[j - 1] == 0 {
             j -= 1;
         }
         if j > 1 {
-            let k = self.split[i][j - 1] as usize;
+            let k = choice.split[j - 1] as usize;
             let first = binary[i].first as usize;
             self.push(binary, first, k, out);
             self.push(binary, first + 1, j - k, out);
-        } else if let (true, Some((first, count))) = (self.leaf[i], self.slots[i]) {
+        } else if let (true, Some((first, count))) = (choice.leaf, choice.slots) {
             out.push(WideChild::Leaf {
                 node: i,
                 first,
@@ -223,6 +219,177 @@ impl OptimalWidening {
         } else {
             out.push(WideChild::Node(i));
         }
+    }
+}
+
+/// Every binary node's entry, the subtrees of the top `split` levels priced on separate
+/// tasks (none: every node in one pass from the last up, children being after parents).
+fn price(binary: &[BvhNode], costs: WideCosts, width: usize, split: u32) -> Vec<Choice> {
+    // Made on the pool: the first writes to fresh pages are a large tree's slowest step.
+    let mut choices: Vec<Choice> = (0..binary.len())
+        .into_par_iter()
+        .with_min_len(crate::PARALLEL_MIN_LEN)
+        .map(|_| Choice::NONE)
+        .collect();
+    if binary.is_empty() {
+        return choices;
+    }
+    let pass = Pricing {
+        binary,
+        costs,
+        width,
+        entries: Entries::new(&mut choices),
+    };
+    if split == 0 {
+        // The padding node after the root is no one's child: it keeps `NONE`.
+        for i in (0..binary.len()).rev().filter(|&i| i != 1) {
+            // SAFETY: one thread; `i`'s children (after it) are priced.
+            unsafe { pass.price(i) };
+        }
+    } else {
+        pass.subtree(0, 0, split);
+    }
+    choices
+}
+
+/// The programme's pass over a binary tree: each node's entry is written once, by the task
+/// that prices its subtree, after its children's.
+struct Pricing<'a> {
+    binary: &'a [BvhNode],
+    costs: WideCosts,
+    width: usize,
+    entries: Entries<'a>,
+}
+
+impl Pricing<'_> {
+    /// Prices the subtree of `i` (at `depth`), its children's subtrees on two tasks above
+    /// level `split`.
+    fn subtree(&self, i: usize, depth: u32, split: u32) {
+        let b = &self.binary[i];
+        if depth >= split || b.is_leaf() {
+            return self.subtree_serially(i);
+        }
+        let l = b.first as usize;
+        rayon::join(
+            || self.subtree(l, depth + 1, split),
+            || self.subtree(l + 1, depth + 1, split),
+        );
+        // SAFETY: this task owns `i`'s subtree, whose two halves the joined tasks priced.
+        unsafe { self.price(i) };
+    }
+
+    fn subtree_serially(&self, root: usize) {
+        // Pre-order, then priced in reverse: every node after both its children.
+        let mut order = Vec::new();
+        let mut stack = vec![root];
+        while let Some(i) = stack.pop() {
+            order.push(i);
+            let b = &self.binary[i];
+            if !b.is_leaf() {
+                stack.extend([b.first as usize, b.first as usize + 1]);
+            }
+        }
+        for &i in order.iter().rev() {
+            // SAFETY: this task owns `root`'s subtree, and `i`'s children came before it.
+            unsafe { self.price(i) };
+        }
+    }
+
+    /// Writes node `i`'s entry from its children's.
+    ///
+    /// # Safety
+    /// The caller's task owns `i`'s subtree (no other task reads or writes its entries
+    /// meanwhile), and `i`'s children are priced.
+    unsafe fn price(&self, i: usize) {
+        let (b, costs, width) = (&self.binary[i], &self.costs, self.width);
+        let area = b.aabb().half_area();
+        let choice = if b.is_leaf() {
+            Choice {
+                cost: [area * (costs.leaf)(b.count).unwrap_or(b.count as f32); MAX_WIDTH],
+                split: [0; MAX_WIDTH],
+                leaf: true,
+                slots: Some((b.first, b.count)),
+            }
+        } else {
+            // SAFETY: the children are in `i`'s subtree and priced (the contract).
+            let (l, r) = unsafe {
+                (
+                    self.entries.get(b.first as usize),
+                    self.entries.get(b.first as usize + 1),
+                )
+            };
+            let slots = match (l.slots, r.slots) {
+                (Some((lf, lc)), Some((rf, rc))) if lf + lc == rf => Some((lf, lc + rc)),
+                (Some((lf, lc)), Some((rf, rc))) if rf + rc == lf => Some((rf, lc + rc)),
+                _ => None,
+            };
+            let as_node = area * costs.node + shared(&l.cost, &r.cost, width).0;
+            let as_leaf = slots
+                .and_then(|(_, count)| (costs.leaf)(count))
+                .map_or(f32::INFINITY, |c| area * c);
+            let mut choice = Choice {
+                leaf: as_leaf <= as_node,
+                slots,
+                ..Choice::NONE
+            };
+            choice.cost[0] = as_leaf.min(as_node);
+            for j in 2..=width {
+                let (c, k) = shared(&l.cost, &r.cost, j);
+                if c < choice.cost[j - 2] {
+                    choice.cost[j - 1] = c;
+                    choice.split[j - 1] = k as u8;
+                } else {
+                    choice.cost[j - 1] = choice.cost[j - 2];
+                }
+            }
+            choice
+        };
+        // SAFETY: `i` is in the caller's subtree (the contract).
+        unsafe { self.entries.set(i, choice) };
+    }
+}
+
+/// The programme's entries, shared by the tasks that price disjoint subtrees: each task
+/// writes and reads only its own subtree's nodes (a binary tree's subtrees share no node),
+/// and reads a joined task's nodes only after the join (which orders the writes before).
+/// Not `split_at_mut`: a subtree's nodes are not one range of the array after reinsertion.
+struct Entries<'a> {
+    at: *mut Choice,
+    len: usize,
+    _borrow: std::marker::PhantomData<&'a mut [Choice]>,
+}
+
+// SAFETY: the entries are `Choice`s (plain data); concurrent use is limited by the
+// contracts of `get` and `set` to disjoint indices.
+unsafe impl Sync for Entries<'_> {}
+
+impl<'a> Entries<'a> {
+    fn new(entries: &'a mut [Choice]) -> Entries<'a> {
+        Entries {
+            at: entries.as_mut_ptr(),
+            len: entries.len(),
+            _borrow: std::marker::PhantomData,
+        }
+    }
+
+    /// Entry `i`.
+    ///
+    /// # Safety
+    /// No task writes entry `i` meanwhile.
+    unsafe fn get(&self, i: usize) -> &Choice {
+        assert!(i < self.len, "entry {i} of {}", self.len);
+        // SAFETY: in bounds (checked); not written meanwhile (the contract).
+        unsafe { &*self.at.add(i) }
+    }
+
+    /// Sets entry `i`.
+    ///
+    /// # Safety
+    /// No other task reads or writes entry `i` meanwhile.
+    unsafe fn set(&self, i: usize, choice: Choice) {
+        assert!(i < self.len, "entry {i} of {}", self.len);
+        // SAFETY: in bounds (checked); no one else uses it meanwhile (the contract).
+        unsafe { self.at.add(i).write(choice) }
     }
 }
 
@@ -247,6 +414,52 @@ mod tests {
             first,
             max: [size; 3],
             count,
+        }
+    }
+
+    /// The programme priced on tasks (the subtrees of the top levels apart) and on one
+    /// thread chooses alike: every entry bit for bit, for a tree of 30 000 boxes, at every
+    /// split depth from none to deeper than the tree, on a pool of four threads.
+    #[test]
+    fn split_and_serial_pricing_agree() {
+        use crate::BuildQuality;
+        use crate::aabb::Aabb;
+        use crate::bvh::Bvh;
+        let mut next = crate::testing::uniform(5);
+        let boxes: Vec<Aabb> = (0..30_000)
+            .map(|_| {
+                let c = [next() * 50.0, next() * 50.0, next() * 50.0];
+                Aabb {
+                    min: c,
+                    max: [c[0] + next(), c[1] + next(), c[2] + next()],
+                }
+            })
+            .collect();
+        let (bvh, _) = Bvh::build(&boxes, BuildQuality::Balanced).unwrap();
+        let bin = bvh.nodes();
+        assert!(bin.len() >= PARALLEL_MIN_NODES, "{} nodes", bin.len());
+        let bits = |choices: Vec<Choice>| -> Vec<_> {
+            choices
+                .iter()
+                .map(|c| (c.cost.map(f32::to_bits), c.split, c.leaf, c.slots))
+                .collect()
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap();
+        for c in [costs(8, 2.0), costs(4, 1.0)] {
+            let serial = bits(price(bin, c, c.width, 0));
+            assert!(
+                serial.iter().any(|e| e.2 && e.3.is_some_and(|s| s.1 > 1)),
+                "leaves merge"
+            );
+            for split in [1, 3, SPLIT_DEPTH, 60] {
+                let split_choices = pool.install(|| bits(price(bin, c, c.width, split)));
+                assert!(split_choices == serial, "split depth {split}");
+            }
+            let built = pool.install(|| OptimalWidening::new(bin, c));
+            assert!(bits(built.choices) == serial);
         }
     }
 
