@@ -118,18 +118,12 @@ impl Pass<'_> {
     }
 
     fn decide_serially(&self, root: usize) {
-        // Pre-order, then decided in reverse: every node after both its children.
-        let mut order = Vec::new();
-        let mut stack = vec![root];
-        while let Some(i) = stack.pop() {
-            order.push(i as u32);
+        let first_child = |i: usize| {
             let n = &self.nodes[i];
-            if !n.is_leaf() {
-                stack.extend([n.first_index as usize, n.first_index as usize + 1]);
-            }
-        }
-        for &i in order.iter().rev() {
-            self.decide_node(i as usize);
+            (!n.is_leaf()).then_some(n.first_index as usize)
+        };
+        for i in crate::children_first(root, first_child) {
+            self.decide_node(i);
         }
     }
 

@@ -279,17 +279,11 @@ impl Pricing<'_> {
     }
 
     fn subtree_serially(&self, root: usize) {
-        // Pre-order, then priced in reverse: every node after both its children.
-        let mut order = Vec::new();
-        let mut stack = vec![root];
-        while let Some(i) = stack.pop() {
-            order.push(i);
+        let first_child = |i: usize| {
             let b = &self.binary[i];
-            if !b.is_leaf() {
-                stack.extend([b.first as usize, b.first as usize + 1]);
-            }
-        }
-        for &i in order.iter().rev() {
+            (!b.is_leaf()).then_some(b.first as usize)
+        };
+        for i in crate::children_first(root, first_child) {
             // SAFETY: this task owns `root`'s subtree, and `i`'s children came before it.
             unsafe { self.price(i) };
         }
