@@ -200,12 +200,10 @@ fn run_scene(
             let name = format!("{}-{}.npy", scene.name.replace(' ', "-"), set.name);
             write(&dir.join(name), &[count, RAY_FLOATS], &set.rays)?;
         }
-        // optik: one thread first, then all, each on its own device: the order `peer.py`
-        // runs Embree in, so that neither side's one-thread run follows its own run on
-        // every core (a many-core host may still be clocked down from it).
+        // optik: all threads first, then one; each on its own device.
         let mut times = Vec::new();
         let mut one_thread = (Vec::new(), Vec::new());
-        for threads in [1, options.threads] {
+        for threads in [options.threads, 1] {
             let device = optik::open_with(
                 BackendChoice::Named(BackendKind::Cpu),
                 &OpenOptions {
@@ -216,9 +214,7 @@ fn run_scene(
                 trace_optik(device.as_ref(), &mesh, &set, options.repeat)?;
             build.optik_s = build.optik_s.min(build_s);
             times.push((threads, seconds));
-            if threads == 1 {
-                one_thread = hits;
-            }
+            one_thread = hits;
         }
         let peer = if *embree {
             match run_peer(&files, &set, options, work) {
@@ -238,7 +234,7 @@ fn run_scene(
         let mismatches = peer
             .as_ref()
             .map(|p| Mismatches::of(&one_thread.0, &one_thread.1, p));
-        for (threads, seconds) in times {
+        for (threads, seconds) in times.into_iter().rev() {
             let embree_s = peer.as_ref().map(|p| {
                 if threads == 1 {
                     p.trace_s_1
