@@ -13,8 +13,9 @@
 //!   element, so every access stays inside the variable;
 //! - uniform and storage buffers: `ReadZeroSkipWrite`: an index past its array (or vector)
 //!   or an access past the bound length makes a load read zero and a store or atomic do
-//!   nothing (an atomic then returns zero). Loads read from a static zero page and stores
-//!   write a scratch slot instead of branching; atomics branch around the access.
+//!   nothing (an atomic then returns zero). Out of bounds, a load reads a static zero page
+//!   and a store writes a scratch slot instead, their address chosen in a cold block (the
+//!   access itself is not branched around); atomics branch around the access.
 
 use super::types::{Layout, Leaf};
 use super::{LResult, LowerError, Lowerer};
@@ -437,8 +438,8 @@ impl Lowerer<'_, '_> {
                         )));
                     }
                     // Out of bounds: read the zero page, at the same static offsets.
-                    let zero = self.b.ins().iadd_imm_s(self.zero_page, -m.offset);
-                    addr = self.b.ins().select(ok, addr, zero);
+                    addr = self
+                        .in_bounds_or(ok, addr, |s| s.b.ins().iadd_imm_s(s.zero_page, -m.offset));
                 }
                 Ok(layout
                     .leaves
@@ -455,6 +456,35 @@ impl Lowerer<'_, '_> {
                     .collect())
             }
         }
+    }
+
+    /// `addr` when `ok`, else the address `outside` makes (the zero page for loads, the
+    /// scratch slot for stores). A branch to a cold block rather than a `select`: the
+    /// access's address then does not wait for the bounds check (the CPU predicts it),
+    /// which made compiled programs 5–14 % faster (docs/cpu-backend.md §8, "JIT'd programs
+    /// against Rust").
+    fn in_bounds_or(
+        &mut self,
+        ok: Value,
+        addr: Value,
+        outside: impl FnOnce(&mut Self) -> Value,
+    ) -> Value {
+        if !self.live {
+            // Unreachable code: the access never runs.
+            return addr;
+        }
+        let (cold, after) = (self.b.create_block(), self.b.create_block());
+        let chosen = self.b.append_block_param(after, I64);
+        self.live_blocks.extend([cold, after]);
+        self.b.set_cold_block(cold);
+        self.b.ins().brif(ok, after, &[addr.into()], cold, &[]);
+        self.b.seal_block(cold);
+        self.enter(cold);
+        let other = outside(self);
+        self.goto(after, &[other.into()]);
+        self.b.seal_block(after);
+        self.enter(after);
+        chosen
     }
 
     fn load_vars(&mut self, v: &VarPlace, n: usize) -> Vec<Value> {
@@ -518,13 +548,14 @@ impl Lowerer<'_, '_> {
                 match self.in_bounds(m, size) {
                     None => self.store_memory(m, &layout, values),
                     Some(ok) if size <= super::SCRATCH_BYTES && !layout.atomic => {
-                        // Out of bounds: write the scratch slot instead. No branch, so
-                        // Cranelift does not duplicate the stored value's computation
-                        // into both paths.
+                        // Out of bounds: write the scratch slot instead. The store itself
+                        // is not branched around, so Cranelift does not duplicate the stored
+                        // value's computation into both paths.
                         let addr = self.base_plus_dynamic(m);
-                        let scratch = self.scratch_addr();
-                        let sink = self.b.ins().iadd_imm_s(scratch, -m.offset);
-                        let addr = self.b.ins().select(ok, addr, sink);
+                        let addr = self.in_bounds_or(ok, addr, |s| {
+                            let scratch = s.scratch_addr();
+                            s.b.ins().iadd_imm_s(scratch, -m.offset)
+                        });
                         for (&(off, _), &x) in layout.leaves.iter().zip(values) {
                             self.b.ins().store(
                                 buffer_flags(),
