@@ -461,7 +461,7 @@ impl Lowerer<'_, '_> {
     /// `addr` when `ok`, else the address `outside` makes (the zero page for loads, the
     /// scratch slot for stores). A branch to a cold block rather than a `select`: the
     /// access's address then does not wait for the bounds check (the CPU predicts it),
-    /// which made compiled programs 5–14 % faster (docs/cpu-backend.md §8, "JIT'd programs
+    /// which made compiled programs 8–13 % faster (docs/cpu-backend.md §8, "JIT'd programs
     /// against Rust").
     fn in_bounds_or(
         &mut self,
