@@ -649,7 +649,10 @@ impl<S: Spec> Walker<'_, S> {
         if walks_with_avx() {
             // SAFETY: the CPU has AVX and the bit-counting instructions `walk_wide_avx`
             // enables.
-            return unsafe { walk_wide_avx::<S, H>(wide, ray, tmin, h, leaf) };
+            let [[ox, oy, oz], [ix, iy, iz]] = ray.box_constants();
+            return unsafe {
+                walk_wide_avx::<S, H>(wide, ray, ox, oy, oz, ix, iy, iz, tmin, h, leaf)
+            };
         }
         let test = slab::Halves::new(ray, tmin, S::CONSERVATIVE);
         walk_wide_on(wide, test, h, leaf)
@@ -660,11 +663,22 @@ impl<S: Spec> Walker<'_, S> {
     /// divisions) wait for the first leaf the ray reaches.
     #[inline(always)]
     fn triangle_blocks<H: Handler>(&self, g: &Gas, path: &Path, h: &mut H) {
-        // Word by word (`traversal::words`): the path was stored component by component
-        // moments ago, and the walk below is a call away (a wider load would stall).
+        // The origin a component at a time from registers (`traversal::in_register`): a
+        // root's path was built from the ray moments ago in the caller that inlines this
+        // (`trace_blocks`), whose registers still hold it. Read back word by word it waited
+        // on the path's stores (~2 % of a ray on AMD Zen 4), and read plainly LLVM copied it
+        // into the prepared ray as an 8-byte and a 4-byte word, the first spanning two of
+        // those stores (which stalls; docs/cpu-backend.md, "the root path's origin from
+        // registers"). The direction goes into arithmetic at once, so LLVM keeps it in
+        // registers without help.
+        let o = &path.object_origin;
         let wr = WideRay::new(
-            super::words(&path.object_origin),
-            super::words(&path.object_direction),
+            [
+                super::in_register(o[0]),
+                super::in_register(o[1]),
+                super::in_register(o[2]),
+            ],
+            path.object_direction,
         );
         // A zero direction hits no triangle (the scalar tests say so per triangle).
         if !wr.moves() {
@@ -687,7 +701,10 @@ impl<S: Spec> Walker<'_, S> {
                 unsafe { Self::leaf_blocks_avx(&mut context, h, first, count) }
             };
             // SAFETY: as above.
-            return unsafe { walk_wide_avx::<S, H>(wide, &wr, tmin, h, leaf) };
+            let ([ox, oy, oz], [ix, iy, iz]) = (wr.origin1, wr.inv1);
+            return unsafe {
+                walk_wide_avx::<S, H>(wide, &wr, ox, oy, oz, ix, iy, iz, tmin, h, leaf)
+            };
         }
         self.walk(wide, &wr, tmin, h, |h, first, count| {
             context.leaf_blocks::<H, false>(h, first, count)
@@ -1064,18 +1081,34 @@ const WIDE_STACK: usize = 190;
 /// [`Walker::walk`] with the AVX node test: compiled for AVX as a whole, so the test's
 /// intrinsics inline into the loop (a `target_feature` function inlines only into callers
 /// with the feature).
+///
+/// The ray's box constants (`WideRay::box_constants`: origin `o*`, then reciprocal `i*`)
+/// come as six scalar arguments, which the calling convention passes in vector registers
+/// (arrays would be passed through memory), rather than read back from `ray`: its caller
+/// has just computed them, and reading the prepared ray it stored moments before put a
+/// store's forwarding on the way to the root's test (~1 % of a ray on AMD Zen 4,
+/// docs/cpu-backend.md, "the root path's origin from registers"). `ray` gives the
+/// direction signs.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,popcnt,lzcnt,bmi1")]
+#[allow(clippy::too_many_arguments)]
 fn walk_wide_avx<S: Spec, H: Handler>(
     wide: &WideBvh,
     ray: &WideRay,
+    ox: f32,
+    oy: f32,
+    oz: f32,
+    ix: f32,
+    iy: f32,
+    iz: f32,
     tmin: f32,
     h: &mut H,
     leaf: impl FnMut(&mut H, u32, u32),
 ) {
     // SAFETY: this function runs only on CPUs with AVX (its `target_feature`s, all checked
     // by `slab::has_avx`).
-    let test = unsafe { slab::Avx::new(ray, tmin, S::CONSERVATIVE) };
+    let constants = [[ox, oy, oz], [ix, iy, iz]];
+    let test = unsafe { slab::Avx::new(ray, constants, tmin, S::CONSERVATIVE) };
     walk_wide_on(wide, test, h, leaf)
 }
 

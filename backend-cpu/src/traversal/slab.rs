@@ -219,14 +219,21 @@ mod avx {
     }
 
     impl Avx {
-        /// The test's constants for `ray` from `tmin`, conservative or not.
+        /// The test's constants for `ray` from `tmin`, conservative or not, with `ray`'s box
+        /// constants (`WideRay::box_constants`: origin, reciprocal) given as values: the
+        /// walk's caller still holds them in registers (`engine::walk_wide_avx`), so only
+        /// the direction signs are read from `ray`.
         ///
         /// # Safety
         ///
         /// The CPU has AVX (an `Avx` exists only where its instructions run).
         #[inline(always)]
-        pub unsafe fn new(ray: &WideRay, tmin: f32, conservative: bool) -> Avx {
-            let [origin, inv] = ray.box_constants();
+        pub unsafe fn new(
+            ray: &WideRay,
+            [origin, inv]: [[f32; 3]; 2],
+            tmin: f32,
+            conservative: bool,
+        ) -> Avx {
             // SAFETY: the caller promises AVX.
             unsafe {
                 Avx {
@@ -334,7 +341,7 @@ mod tests {
                 #[cfg(target_arch = "x86_64")]
                 if has_avx() {
                     // SAFETY: the CPU has AVX.
-                    let avx = unsafe { Avx::new(&wide, tmin, conservative) };
+                    let avx = unsafe { Avx::new(&wide, wide.box_constants(), tmin, conservative) };
                     let (avx_mask, avx_t) = avx.entry(&node, tmax);
                     assert_eq!(avx_mask, mask, "{o:?} {d:?}");
                     assert_eq!(avx_t.map(f32::to_bits), t.map(f32::to_bits), "{o:?} {d:?}");
