@@ -647,9 +647,9 @@ impl<S: Spec> Walker<'_, S> {
     ) {
         #[cfg(target_arch = "x86_64")]
         if walks_with_avx() {
+            let [[ox, oy, oz], [ix, iy, iz]] = ray.box_constants();
             // SAFETY: the CPU has AVX and the bit-counting instructions `walk_wide_avx`
             // enables.
-            let [[ox, oy, oz], [ix, iy, iz]] = ray.box_constants();
             return unsafe {
                 walk_wide_avx::<S, H>(wide, ray, ox, oy, oz, ix, iy, iz, tmin, h, leaf)
             };
@@ -700,8 +700,8 @@ impl<S: Spec> Walker<'_, S> {
                 // SAFETY: the CPU has AVX and the bit-counting instructions (checked above).
                 unsafe { Self::leaf_blocks_avx(&mut context, h, first, count) }
             };
-            // SAFETY: as above.
             let ([ox, oy, oz], [ix, iy, iz]) = (wr.origin1, wr.inv1);
+            // SAFETY: as above.
             return unsafe {
                 walk_wide_avx::<S, H>(wide, &wr, ox, oy, oz, ix, iy, iz, tmin, h, leaf)
             };
