@@ -11,8 +11,15 @@
 //!
 //! ```text
 //! cargo run --release -p optik-benches --bin bench-cpu -- [--repeat K] [--threads N]
-//!     [--python PYTHON] [--no-embree] [--save-rays DIR]
+//!     [--rounds R] [--python PYTHON] [--no-embree] [--save-rays DIR]
 //! ```
+//!
+//! `--rounds R` interleaves the two sides: each ray set is timed in R rounds, each round
+//! optik (all threads, then one) and then Embree, and the table gives each side's median
+//! throughput, the median of the rounds' ratios and their range. A shared or throttled
+//! machine moves both sides' absolute figures by tens of percent from one minute to the
+//! next; a ratio taken within one round compares them under the same conditions, which one
+//! run of each side cannot.
 //!
 //! `--save-rays DIR` also writes each ray set as `DIR/<scene>-<rays>.npy`, the input of
 //! `optik trace --rays`, e.g. to count instructions with `valgrind --tool=callgrind`.
@@ -33,6 +40,7 @@ use std::process::{Command, ExitCode};
 struct Options {
     repeat: usize,
     threads: usize,
+    rounds: usize,
     python: String,
     embree: bool,
     save_rays: Option<PathBuf>,
@@ -42,6 +50,7 @@ fn parse_options() -> Result<Options, String> {
     let mut o = Options {
         repeat: 5,
         threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+        rounds: 1,
         python: "python3".into(),
         embree: true,
         save_rays: None,
@@ -52,12 +61,13 @@ fn parse_options() -> Result<Options, String> {
         match a.as_str() {
             "--repeat" => o.repeat = parse_count(&value("--repeat")?, "--repeat")?,
             "--threads" => o.threads = parse_count(&value("--threads")?, "--threads")?,
+            "--rounds" => o.rounds = parse_count(&value("--rounds")?, "--rounds")?,
             "--python" => o.python = value("--python")?,
             "--no-embree" => o.embree = false,
             "--save-rays" => o.save_rays = Some(PathBuf::from(value("--save-rays")?)),
             "-h" | "--help" => {
                 return Err(
-                    "usage: bench-cpu [--repeat K] [--threads N] [--python PYTHON] [--no-embree] [--save-rays DIR]"
+                    "usage: bench-cpu [--repeat K] [--threads N] [--rounds R] [--python PYTHON] [--no-embree] [--save-rays DIR]"
                         .into(),
                 );
             }
@@ -80,9 +90,28 @@ struct Row {
     rays: &'static str,
     count: usize,
     threads: usize,
-    optik_s: f64,
-    embree_s: Option<f64>,
+    /// Per round, optik's best launch time and Embree's (if it ran).
+    rounds: Vec<(f64, Option<f64>)>,
     mismatches: Option<Mismatches>,
+}
+
+/// The median of `values` (the mean of the middle two for an even count); `None` when empty.
+fn median(values: &[f64]) -> Option<f64> {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    match n {
+        0 => None,
+        _ if n % 2 == 1 => Some(v[n / 2]),
+        _ => Some((v[n / 2 - 1] + v[n / 2]) / 2.0),
+    }
+}
+
+/// Per-round ratios summarised: `(median, smallest, largest)`; `None` when empty.
+fn summary(ratios: &[f64]) -> Option<(f64, f64, f64)> {
+    let lo = ratios.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = ratios.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    median(ratios).map(|m| (m, lo, hi))
 }
 
 /// Rays optik and Embree disagree on.
@@ -119,11 +148,11 @@ impl Mismatches {
     }
 }
 
-/// Build times of one scene.
+/// Build times of one scene, per round: optik's best (both thread counts, every ray set)
+/// and Embree's best (every ray set), if it ran.
 struct Build {
     scene: &'static str,
-    optik_s: f64,
-    embree_s: Option<f64>,
+    rounds: Vec<(f64, Option<f64>)>,
 }
 
 /// What the Embree peer reported for one ray set.
@@ -191,8 +220,7 @@ fn run_scene(
     let files = MeshFiles::write(&mesh, work)?;
     let mut build = Build {
         scene: scene.name,
-        optik_s: f64::INFINITY,
-        embree_s: None,
+        rounds: vec![(f64::INFINITY, None); options.rounds],
     };
     for set in scenes::ray_sets(scene, &mesh) {
         let count = set.rays.len() / RAY_FLOATS;
@@ -200,58 +228,71 @@ fn run_scene(
             let name = format!("{}-{}.npy", scene.name.replace(' ', "-"), set.name);
             write(&dir.join(name), &[count, RAY_FLOATS], &set.rays)?;
         }
-        // optik: all threads first, then one; each on its own device.
-        let mut times = Vec::new();
-        let mut one_thread = (Vec::new(), Vec::new());
-        for threads in [options.threads, 1] {
-            let device = optik::open_with(
-                BackendChoice::Named(BackendKind::Cpu),
-                &OpenOptions {
-                    threads: Some(threads),
-                },
-            )?;
-            let (seconds, build_s, hits) =
-                trace_optik(device.as_ref(), &mesh, &set, options.repeat)?;
-            build.optik_s = build.optik_s.min(build_s);
-            times.push((threads, seconds));
-            one_thread = hits;
-        }
-        let peer = if *embree {
-            match run_peer(&files, &set, options, work) {
-                Ok(p) => Some(p),
-                Err(e) => {
-                    eprintln!("bench-cpu: Embree left out: {e}");
-                    *embree = false;
-                    None
+        // The table's two rows of this set: all threads, then one.
+        let mut set_rows = [options.threads, 1].map(|threads| Row {
+            scene: scene.name,
+            rays: set.name,
+            count,
+            threads,
+            rounds: Vec::new(),
+            mismatches: None,
+        });
+        for round in 0..options.rounds {
+            // optik: all threads first, then one; each on its own device.
+            let mut optik_s = [0.0; 2];
+            let mut one_thread = (Vec::new(), Vec::new());
+            for (i, threads) in [options.threads, 1].into_iter().enumerate() {
+                let device = optik::open_with(
+                    BackendChoice::Named(BackendKind::Cpu),
+                    &OpenOptions {
+                        threads: Some(threads),
+                    },
+                )?;
+                let (seconds, build_s, hits) =
+                    trace_optik(device.as_ref(), &mesh, &set, options.repeat)?;
+                let b = &mut build.rounds[round].0;
+                *b = b.min(build_s);
+                optik_s[i] = seconds;
+                one_thread = hits;
+            }
+            let peer = if *embree {
+                match run_peer(&files, &set, options, work) {
+                    Ok(p) => Some(p),
+                    Err(e) => {
+                        eprintln!("bench-cpu: Embree left out: {e}");
+                        *embree = false;
+                        None
+                    }
+                }
+            } else {
+                None
+            };
+            if let Some(p) = &peer {
+                let b = &mut build.rounds[round].1;
+                *b = Some(b.map_or(p.build_s, |b: f64| b.min(p.build_s)));
+            }
+            if round == 0 {
+                // The same in every round: both sides' results do not depend on timing.
+                let mismatches = peer
+                    .as_ref()
+                    .map(|p| Mismatches::of(&one_thread.0, &one_thread.1, p));
+                for row in &mut set_rows {
+                    row.mismatches = mismatches;
                 }
             }
-        } else {
-            None
-        };
-        if let Some(p) = &peer {
-            build.embree_s = Some(build.embree_s.map_or(p.build_s, |b: f64| b.min(p.build_s)));
+            for (i, row) in set_rows.iter_mut().enumerate() {
+                let embree_s = peer.as_ref().map(|p| {
+                    if row.threads == 1 {
+                        p.trace_s_1
+                    } else {
+                        p.trace_s_n
+                    }
+                });
+                row.rounds.push((optik_s[i], embree_s));
+            }
         }
-        let mismatches = peer
-            .as_ref()
-            .map(|p| Mismatches::of(&one_thread.0, &one_thread.1, p));
-        for (threads, seconds) in times.into_iter().rev() {
-            let embree_s = peer.as_ref().map(|p| {
-                if threads == 1 {
-                    p.trace_s_1
-                } else {
-                    p.trace_s_n
-                }
-            });
-            rows.push(Row {
-                scene: scene.name,
-                rays: set.name,
-                count,
-                threads,
-                optik_s: seconds,
-                embree_s,
-                mismatches,
-            });
-        }
+        let [all, one] = set_rows;
+        rows.extend([one, all]);
     }
     Ok(Some(build))
 }
@@ -353,10 +394,26 @@ fn run_peer(
     })
 }
 
+/// A table cell for per-round ratios: the value alone for one round, else the median and
+/// the range.
+fn ratio_cell(ratios: &[f64]) -> String {
+    match summary(ratios) {
+        None => "-".into(),
+        Some((m, _, _)) if ratios.len() == 1 => format!("{m:.2}"),
+        Some((m, lo, hi)) => format!("{m:.2} ({lo:.2}–{hi:.2})"),
+    }
+}
+
 fn print_tables(rows: &[Row], builds: &[Build], options: &Options) {
     let cpu = optik::backends::cpu::cpu_name();
+    let rounds = match options.rounds {
+        1 => String::new(),
+        r => format!(
+            "; {r} interleaved rounds: median throughputs, median (range) of the rounds' ratios"
+        ),
+    };
     println!(
-        "optik CPU (watertight + conservative) vs Embree (robust), best of {} launches; {} threads available; {cpu}",
+        "optik CPU (watertight + conservative) vs Embree (robust), best of {} launches; {} threads available; {cpu}{rounds}",
         options.repeat, options.threads
     );
     println!();
@@ -366,19 +423,25 @@ fn print_tables(rows: &[Row], builds: &[Build], options: &Options) {
     println!("|---|---|---:|---:|---:|---:|---:|---:|");
     let rate = |count: usize, s: f64| count as f64 / s / 1e6;
     for r in rows {
-        let optik = rate(r.count, r.optik_s);
-        let (embree, ratio) = match r.embree_s {
-            Some(e) => {
-                let e = rate(r.count, e);
-                (format!("{e:.2}"), format!("{:.2}", optik / e))
-            }
-            None => ("-".into(), "-".into()),
-        };
+        let optik: Vec<f64> = r.rounds.iter().map(|&(o, _)| rate(r.count, o)).collect();
+        let embree: Vec<f64> = r
+            .rounds
+            .iter()
+            .filter_map(|&(_, e)| e.map(|e| rate(r.count, e)))
+            .collect();
+        let ratios: Vec<f64> = r
+            .rounds
+            .iter()
+            .filter_map(|&(o, e)| e.map(|e| e / o))
+            .collect();
+        let optik = median(&optik).map_or("-".into(), |v| format!("{v:.2}"));
+        let embree = median(&embree).map_or("-".into(), |v| format!("{v:.2}"));
+        let ratio = ratio_cell(&ratios);
         let mismatches = r
             .mismatches
             .map_or("-".into(), |m| format!("{} ({})", m.total, m.hit_miss));
         println!(
-            "| {} | {} | {} | {} | {optik:.2} | {embree} | {ratio} | {mismatches} |",
+            "| {} | {} | {} | {} | {optik} | {embree} | {ratio} | {mismatches} |",
             r.scene, r.rays, r.count, r.threads
         );
     }
@@ -397,10 +460,46 @@ fn print_tables(rows: &[Row], builds: &[Build], options: &Options) {
     println!("| scene | optik build s | Embree build s | optik / Embree time |");
     println!("|---|---:|---:|---:|");
     for b in builds {
-        let (embree, ratio) = match b.embree_s {
-            Some(e) => (format!("{e:.3}"), format!("{:.2}", b.optik_s / e)),
-            None => ("-".into(), "-".into()),
-        };
-        println!("| {} | {:.3} | {embree} | {ratio} |", b.scene, b.optik_s);
+        let optik: Vec<f64> = b.rounds.iter().map(|&(o, _)| o).collect();
+        let embree: Vec<f64> = b.rounds.iter().filter_map(|&(_, e)| e).collect();
+        let ratios: Vec<f64> = b
+            .rounds
+            .iter()
+            .filter_map(|&(o, e)| e.map(|e| o / e))
+            .collect();
+        let optik = median(&optik).map_or("-".into(), |v| format!("{v:.3}"));
+        let embree = median(&embree).map_or("-".into(), |v| format!("{v:.3}"));
+        println!(
+            "| {} | {optik} | {embree} | {} |",
+            b.scene,
+            ratio_cell(&ratios)
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn medians_of_odd_and_even_counts() {
+        assert_eq!(median(&[]), None);
+        assert_eq!(median(&[3.0]), Some(3.0));
+        assert_eq!(median(&[5.0, 1.0, 3.0]), Some(3.0));
+        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), Some(2.5));
+    }
+
+    #[test]
+    fn ratio_cells_show_the_range_only_for_several_rounds() {
+        assert_eq!(ratio_cell(&[]), "-");
+        assert_eq!(ratio_cell(&[0.914]), "0.91");
+        assert_eq!(ratio_cell(&[1.2, 0.8, 1.0]), "1.00 (0.80–1.20)");
+    }
+
+    #[test]
+    fn rounds_are_parsed_as_a_count() {
+        assert_eq!(parse_count("3", "--rounds"), Ok(3));
+        assert!(parse_count("0", "--rounds").is_err());
+        assert!(parse_count("x", "--rounds").is_err());
     }
 }
