@@ -2,11 +2,19 @@
 //! after each pipeline and when the device closes, under `$OPTIK_CACHE_PATH`, else
 //! `$XDG_CACHE_HOME/optik`, else `~/.cache/optik`; `OPTIK_CACHE_DISABLE=1` turns it off.
 //! One file per device model and driver (the cache header's vendor, device and UUID), so
-//! drivers never see another's data. Failures to read or write only lose the cache.
+//! drivers never see another's data. The file is an `optik_api::cache` checked file: each
+//! save goes to a temporary name of its own (devices of several threads save at once) and a
+//! torn or damaged file reads as no cache, so the driver only ever gets data it returned
+//! (`vkCreatePipelineCache` need not survive anything else). Failures to read or write only
+//! lose the cache.
 
 use crate::context::Context;
 use ash::vk;
 use std::path::PathBuf;
+
+/// The kind of the cache's checked file (a file of the earlier, unchecked format reads as
+/// no cache and is replaced at the next save).
+const MAGIC: &[u8; 8] = b"optikvk1";
 
 /// A pipeline cache and where it is kept.
 pub struct PipelineCache {
@@ -52,11 +60,12 @@ impl PipelineCache {
             });
         let data = path
             .as_ref()
-            .and_then(|p| std::fs::read(p).ok())
+            .and_then(|p| optik_api::cache::read_checked(p, MAGIC))
             .filter(|d| header_matches(d, ctx))
             .unwrap_or_default();
         let info = vk::PipelineCacheCreateInfo::default().initial_data(&data);
-        // SAFETY: the data is either empty or a cache with this device's header.
+        // SAFETY: the data is either empty or, whole (checked), a cache with this device's
+        // header that this driver returned.
         let cache = unsafe { ctx.device.create_pipeline_cache(&info, None) }
             .or_else(|_| {
                 // SAFETY: an empty cache.
@@ -79,7 +88,8 @@ impl PipelineCache {
         self.path.as_ref()
     }
 
-    /// Writes the cache to disk (atomically: a temporary file, then a rename).
+    /// Writes the cache to disk (a checked file: a temporary file of this save's own, then a
+    /// rename).
     pub fn save(&self, ctx: &Context) {
         let Some(path) = &self.path else { return };
         if self.cache == vk::PipelineCache::null() {
@@ -92,10 +102,7 @@ impl PipelineCache {
         if let Some(dir) = path.parent() {
             let _ = std::fs::create_dir_all(dir);
         }
-        let tmp = path.with_extension(format!("tmp{}", std::process::id()));
-        if std::fs::write(&tmp, &data).is_ok() && std::fs::rename(&tmp, path).is_err() {
-            let _ = std::fs::remove_file(&tmp);
-        }
+        optik_api::cache::write_checked(path, MAGIC, &data);
     }
 
     /// Frees the cache object.

@@ -9,8 +9,8 @@
 //!   emission (most of the compile time); the naga-to-CLIF lowering still runs, since the
 //!   key is the CLIF. Relocations to host functions are symbolic, so cached code is valid
 //!   in any process. Entries are files named by the hex key in the cache directory,
-//!   written to a temporary name and renamed (concurrent writers are harmless), with a
-//!   length and checksum so a torn or corrupted file is a miss, never bad code.
+//!   written and read as `optik_api::cache`'s checked files (a unique temporary name, then a
+//!   rename; a length and checksum), so a torn or corrupted file is a miss, never bad code.
 //!
 //! The directory is `$OPTIK_CACHE_PATH`, else `$XDG_CACHE_HOME/optik`, else
 //! `~/.cache/optik` (a `cranelift-<version>` folder inside it); `OPTIK_CACHE_DISABLE=1`
@@ -22,7 +22,7 @@ use cranelift_codegen::incremental_cache::CacheKvStore;
 use optik_api::OptLevel;
 use std::borrow::Cow;
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::{Arc, Mutex, Weak};
 
 /// What identifies a compiled module in memory.
@@ -93,8 +93,8 @@ pub(crate) struct DiskStore {
     dir: PathBuf,
 }
 
+/// The kind of the entries' checked files.
 const MAGIC: &[u8; 8] = b"optikjt1";
-const HEADER: usize = 8 + 8 + 8;
 
 impl DiskStore {
     pub fn new(dir: PathBuf) -> Self {
@@ -107,45 +107,14 @@ impl DiskStore {
     }
 }
 
-/// FNV-1a, 64 bits: catches torn writes and bit rot (not an adversary).
-fn checksum(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
-        (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
-    })
-}
-
-/// The payload of a cache file, if it is whole.
-fn read_entry(path: &Path) -> Option<Vec<u8>> {
-    let bytes = std::fs::read(path).ok()?;
-    if bytes.len() < HEADER || &bytes[..8] != MAGIC {
-        return None;
-    }
-    let len = u64::from_le_bytes(bytes[8..16].try_into().ok()?) as usize;
-    let sum = u64::from_le_bytes(bytes[16..24].try_into().ok()?);
-    let payload = &bytes[HEADER..];
-    (payload.len() == len && checksum(payload) == sum).then(|| payload.to_vec())
-}
-
 impl CacheKvStore for DiskStore {
     fn get(&self, key: &[u8]) -> Option<Cow<'_, [u8]>> {
-        read_entry(&self.path(key)).map(Cow::Owned)
+        optik_api::cache::read_checked(&self.path(key), MAGIC).map(Cow::Owned)
     }
 
     fn insert(&mut self, key: &[u8], val: Vec<u8>) {
-        let path = self.path(key);
-        let mut file = Vec::with_capacity(HEADER + val.len());
-        file.extend_from_slice(MAGIC);
-        file.extend_from_slice(&(val.len() as u64).to_le_bytes());
-        file.extend_from_slice(&checksum(&val).to_le_bytes());
-        file.extend_from_slice(&val);
-        // Unique per process and write, so concurrent writers never share a file.
-        static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-        let n = WRITES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let tmp = path.with_extension(format!("tmp{}-{n}", std::process::id()));
         // A failed write only loses a cache entry.
-        if std::fs::write(&tmp, &file).is_ok() && std::fs::rename(&tmp, &path).is_err() {
-            let _ = std::fs::remove_file(&tmp);
-        }
+        optik_api::cache::write_checked(&self.path(key), MAGIC, &val);
     }
 }
 
@@ -169,7 +138,7 @@ mod tests {
             store.get(&[1, 2, 3]).is_none(),
             "a flipped bit must be a miss"
         );
-        std::fs::write(&path, &bytes[..HEADER + 2]).unwrap();
+        std::fs::write(&path, &bytes[..bytes.len() - 3]).unwrap();
         assert!(
             store.get(&[1, 2, 3]).is_none(),
             "a torn file must be a miss"

@@ -89,7 +89,8 @@ fn the_pipeline_cache_is_kept_on_disk() {
         dev.pipeline(&[rg], 1);
         dev.pipeline_cache_path().expect("a cache file")
     };
-    let data = std::fs::read(&path).expect("the cache was written");
+    let file = std::fs::read(&path).expect("the cache was written");
+    let data = optik_api::cache::checked_payload(b"optikvk1", &file).expect("a whole checked file");
     assert!(data.len() >= 32, "a Vulkan pipeline cache header");
     assert_eq!(
         u32::from_le_bytes(data[4..8].try_into().unwrap()),
@@ -97,11 +98,27 @@ fn the_pipeline_cache_is_kept_on_disk() {
         "header version one"
     );
     // A second device loads it and works as before.
-    let dev = device_with_options(options);
-    let m = dev.module("fn raygen__rg() { }");
-    let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
-    dev.pipeline(&[rg], 1);
-    drop(dev);
+    let pipeline = |options: VulkanOptions| {
+        let dev = device_with_options(options);
+        let m = dev.module("fn raygen__rg() { }");
+        let rg = dev.group(ProgramGroupDesc::Raygen(prog(m, "raygen__rg")));
+        dev.pipeline(&[rg], 1);
+    };
+    pipeline(options.clone());
+    // A damaged file (a torn write, bit rot) is no cache: the driver never sees it, the
+    // device works, and its save replaces the file with a whole one.
+    let mut damaged = std::fs::read(&path).unwrap();
+    let last = damaged.len() - 1;
+    damaged[last] ^= 0xff;
+    std::fs::write(&path, &damaged).unwrap();
+    pipeline(options.clone());
+    let file = std::fs::read(&path).unwrap();
+    assert!(
+        optik_api::cache::checked_payload(b"optikvk1", &file).is_some(),
+        "the damaged file was replaced"
+    );
+    std::fs::write(&path, &damaged[..damaged.len() / 2]).unwrap();
+    pipeline(options);
     let _ = std::fs::remove_dir_all(&dir);
     let off = VulkanOptions {
         validation: true,
