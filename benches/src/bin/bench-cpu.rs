@@ -404,6 +404,25 @@ fn ratio_cell(ratios: &[f64]) -> String {
     }
 }
 
+/// A table row's three measured cells from per-round (optik, Embree) times: each side's
+/// median of `value(time)` with `digits` decimals, and [`ratio_cell`] of the rounds'
+/// `ratio(optik, embree)`.
+fn round_cells(
+    rounds: &[(f64, Option<f64>)],
+    value: impl Fn(f64) -> f64,
+    ratio: impl Fn(f64, f64) -> f64,
+    digits: usize,
+) -> [String; 3] {
+    let optik: Vec<f64> = rounds.iter().map(|&(o, _)| value(o)).collect();
+    let embree: Vec<f64> = rounds.iter().filter_map(|&(_, e)| e.map(&value)).collect();
+    let ratios: Vec<f64> = rounds
+        .iter()
+        .filter_map(|&(o, e)| e.map(|e| ratio(o, e)))
+        .collect();
+    let cell = |v: &[f64]| median(v).map_or("-".into(), |m| format!("{m:.digits$}"));
+    [cell(&optik), cell(&embree), ratio_cell(&ratios)]
+}
+
 fn print_tables(rows: &[Row], builds: &[Build], options: &Options) {
     let cpu = optik::backends::cpu::cpu_name();
     let rounds = match options.rounds {
@@ -423,20 +442,8 @@ fn print_tables(rows: &[Row], builds: &[Build], options: &Options) {
     println!("|---|---|---:|---:|---:|---:|---:|---:|");
     let rate = |count: usize, s: f64| count as f64 / s / 1e6;
     for r in rows {
-        let optik: Vec<f64> = r.rounds.iter().map(|&(o, _)| rate(r.count, o)).collect();
-        let embree: Vec<f64> = r
-            .rounds
-            .iter()
-            .filter_map(|&(_, e)| e.map(|e| rate(r.count, e)))
-            .collect();
-        let ratios: Vec<f64> = r
-            .rounds
-            .iter()
-            .filter_map(|&(o, e)| e.map(|e| e / o))
-            .collect();
-        let optik = median(&optik).map_or("-".into(), |v| format!("{v:.2}"));
-        let embree = median(&embree).map_or("-".into(), |v| format!("{v:.2}"));
-        let ratio = ratio_cell(&ratios);
+        // Throughput: optik's over Embree's, the inverse ratio of the times.
+        let [optik, embree, ratio] = round_cells(&r.rounds, |s| rate(r.count, s), |o, e| e / o, 2);
         let mismatches = r
             .mismatches
             .map_or("-".into(), |m| format!("{} ({})", m.total, m.hit_miss));
@@ -460,20 +467,9 @@ fn print_tables(rows: &[Row], builds: &[Build], options: &Options) {
     println!("| scene | optik build s | Embree build s | optik / Embree time |");
     println!("|---|---:|---:|---:|");
     for b in builds {
-        let optik: Vec<f64> = b.rounds.iter().map(|&(o, _)| o).collect();
-        let embree: Vec<f64> = b.rounds.iter().filter_map(|&(_, e)| e).collect();
-        let ratios: Vec<f64> = b
-            .rounds
-            .iter()
-            .filter_map(|&(o, e)| e.map(|e| o / e))
-            .collect();
-        let optik = median(&optik).map_or("-".into(), |v| format!("{v:.3}"));
-        let embree = median(&embree).map_or("-".into(), |v| format!("{v:.3}"));
-        println!(
-            "| {} | {optik} | {embree} | {} |",
-            b.scene,
-            ratio_cell(&ratios)
-        );
+        // Build time: optik's over Embree's (lower is better).
+        let [optik, embree, ratio] = round_cells(&b.rounds, |s| s, |o, e| o / e, 3);
+        println!("| {} | {optik} | {embree} | {ratio} |", b.scene);
     }
 }
 
@@ -494,6 +490,17 @@ mod tests {
         assert_eq!(ratio_cell(&[]), "-");
         assert_eq!(ratio_cell(&[0.914]), "0.91");
         assert_eq!(ratio_cell(&[1.2, 0.8, 1.0]), "1.00 (0.80–1.20)");
+    }
+
+    #[test]
+    fn round_cells_take_medians_and_leave_out_missing_peers() {
+        let rounds = [(2.0, Some(4.0)), (1.0, None), (4.0, Some(2.0))];
+        let cells = round_cells(&rounds, |s| 10.0 / s, |o, e| e / o, 2);
+        assert_eq!(cells, ["5.00", "3.75", "1.25 (0.50–2.00)"]);
+        assert_eq!(
+            round_cells(&[(1.0, None)], |s| s, |o, e| o / e, 3),
+            ["1.000", "-", "-"]
+        );
     }
 
     #[test]
