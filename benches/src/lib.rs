@@ -4,4 +4,5 @@
 pub mod mesh;
 pub mod rays;
 pub mod report;
+pub mod rounds;
 pub mod scenes;

@@ -1,8 +1,11 @@
 //! `optik bench-report`: one process, one run, every figure as a ratio against its neighbours
 //! (DESIGN.md §8).
 //!
-//! 1. Backends side by side on the test scenes: build time, camera and incoherent rays, with
-//!    Embree (through `embreex`, `benches/embree/peer.py`) on the same rays and thread count.
+//! 1. Backends side by side on the test scenes: build time, camera and incoherent rays, the CPU
+//!    backend also on one thread, with Embree (through `embreex`, `benches/embree/peer.py`) on
+//!    the same rays, on one thread and the same thread count. The CPU backend and Embree take
+//!    turns in [`ReportOptions::rounds`] rounds, and each Embree row gives optik's throughput
+//!    over Embree's at the same thread count, round by round.
 //! 2. The accuracy options, each as (time, error): leaks through a closed mesh's shared edges and
 //!    vertices, and camera rays whose primitive differs from the robust default's.
 //! 3. Specialised pipelines against pipelines with features forced on: what each skipped
@@ -15,6 +18,7 @@
 
 use crate::mesh::{self, BenchMesh, Mesh};
 use crate::rays;
+use crate::rounds::{median, round_cells};
 use optik::raycast::{Hits, RayCaster};
 use optik::{
     Accuracy, BackendKind, Device, ExceptionFlags, IDENTITY_3X4, PipelineCompileOptions,
@@ -43,6 +47,11 @@ pub struct ReportOptions {
     pub threads: Option<usize>,
     /// Run Embree through `python3 benches/embree/peer.py`.
     pub embree: bool,
+    /// Rounds of the CPU backend (all threads, one thread) and Embree, interleaved, per scene:
+    /// a shared machine's load moves both sides by tens of percent from one minute to the
+    /// next, so their ratios are taken within each round and the table gives medians. At
+    /// least 1; 1 measures each once. Without Embree the CPU backend is measured once.
+    pub rounds: usize,
     /// Where `benches/embree/peer.py` lives.
     pub peer_script: PathBuf,
     /// Also measure the large scenes of [`scale`] (minutes and gigabytes: off by default).
@@ -183,12 +192,296 @@ fn disagreements(a: &Hits, b: &Hits) -> usize {
     a.prim.iter().zip(&b.prim).filter(|(x, y)| x != y).count()
 }
 
+/// Seconds of one launch (the best of `repeat`) on a scene's camera rays, then on its
+/// incoherent rays.
+type SetSeconds = [f64; 2];
+
+/// One round of Embree on a scene.
+#[derive(Clone, Copy, Debug)]
+struct EmbreeRound {
+    /// Build seconds (of the camera rays' run).
+    build: f64,
+    /// Trace seconds on all threads, then on one: the order of [`CpuRounds::optik`].
+    trace: [SetSeconds; 2],
+}
+
+/// The CPU backend and Embree on one scene, round by round.
+#[derive(Clone, Debug, Default)]
+struct CpuRounds {
+    /// Build seconds on all threads, then on one (each structure is built once).
+    build: [f64; 2],
+    /// optik's seconds on all threads, then on one: one entry per round.
+    optik: [Vec<SetSeconds>; 2],
+    /// Embree's figures, one entry per round; `None` where it did not run.
+    embree: Vec<Option<EmbreeRound>>,
+}
+
+impl CpuRounds {
+    /// Mrays/s of optik's `side` (0: all threads, 1: one) on `set` (0: camera, 1: incoherent)
+    /// per round, for `rays` rays per set.
+    fn optik_rates(&self, side: usize, set: usize, rays: [usize; 2]) -> Vec<f64> {
+        self.optik[side]
+            .iter()
+            .map(|s| mrays(rays[set], s[set]))
+            .collect()
+    }
+
+    /// The median over the rounds of [`CpuRounds::optik_rates`], camera then incoherent.
+    fn optik_medians(&self, side: usize, rays: [usize; 2]) -> [f64; 2] {
+        [0, 1].map(|set| median(&self.optik_rates(side, set, rays)).unwrap_or(0.0))
+    }
+}
+
+/// A row of the throughput table and its JSON record.
+struct ThroughputRow {
+    cells: Vec<String>,
+    json: Value,
+}
+
+/// The throughput rows of the CPU backend (all threads, then one) and of Embree (one thread,
+/// then `threads`) on `scene` from `m`'s rounds: `devices` names the two CPU devices, `rays`
+/// counts the camera and incoherent rays, `differ` the camera rays whose triangle Embree's
+/// hits and optik's disagree on. Throughputs are medians over the rounds. An Embree row
+/// compares like with like, optik over Embree at the same thread count, within each round
+/// (a shared machine's load moves both sides far more between rounds than within one), as
+/// [`round_cells`]'s ratio cell. No Embree rows when it ran in no round.
+fn cpu_rows(
+    scene: &str,
+    devices: [&str; 2],
+    threads: usize,
+    rays: [usize; 2],
+    m: &CpuRounds,
+    differ: Option<usize>,
+) -> (Vec<ThroughputRow>, Vec<ThroughputRow>) {
+    let all = m.optik_medians(0, rays);
+    let optik = [
+        (devices[0].to_string(), "cpu", threads),
+        ("optik CPU, 1 thread".to_string(), "cpu, 1 thread", 1),
+    ]
+    .into_iter()
+    .enumerate()
+    .map(|(side, (label, backend, n))| {
+        let [cam, inc] = m.optik_medians(side, rays);
+        ThroughputRow {
+            cells: vec![
+                scene.into(),
+                label,
+                format!("{:.1}", m.build[side] * 1e3),
+                format!("{cam:.2}"),
+                format!("{inc:.2}"),
+                format!("{:.2}x / {:.2}x", cam / all[0], inc / all[1]),
+            ],
+            json: json!({"section": "throughput", "scene": scene, "backend": backend,
+                "device": devices[side], "threads": n, "build_s": m.build[side],
+                "camera_mrays_per_s": cam, "incoherent_mrays_per_s": inc,
+                "camera_mrays_per_s_rounds": m.optik_rates(side, 0, rays),
+                "incoherent_mrays_per_s_rounds": m.optik_rates(side, 1, rays)}),
+        }
+    })
+    .collect();
+    if m.embree.iter().all(Option::is_none) {
+        return (optik, Vec::new());
+    }
+    let builds: Vec<f64> = m.embree.iter().flatten().map(|e| e.build).collect();
+    let build = median(&builds).unwrap_or(f64::NAN);
+    let note = differ.map_or(String::new(), |d| format!("; {d} camera prims differ"));
+    let embree = [
+        ("Embree robust, 1 thread".to_string(), 1, 1),
+        (format!("Embree robust, {threads} threads"), threads, 0),
+    ]
+    .into_iter()
+    .map(|(label, n, side)| {
+        // Per round, optik's time and Embree's on the same thread count.
+        let pairs = |set: usize| -> Vec<(f64, Option<f64>)> {
+            m.optik[side]
+                .iter()
+                .zip(&m.embree)
+                .map(|(o, e)| (o[set], e.map(|e| e.trace[side][set])))
+                .collect()
+        };
+        // Throughput: optik's over Embree's, the inverse ratio of the times.
+        let cells = |set: usize| round_cells(&pairs(set), |s| mrays(rays[set], s), |o, e| e / o, 2);
+        let ([_, cam, cam_ratio], [_, inc, inc_ratio]) = (cells(0), cells(1));
+        let rates = |set: usize| -> Vec<Option<f64>> {
+            pairs(set)
+                .iter()
+                .map(|&(_, e)| e.map(|e| mrays(rays[set], e)))
+                .collect()
+        };
+        let ratios = |set: usize| -> Vec<Option<f64>> {
+            pairs(set).iter().map(|&(o, e)| e.map(|e| e / o)).collect()
+        };
+        let median_rate =
+            |set: usize| median(&rates(set).into_iter().flatten().collect::<Vec<_>>());
+        ThroughputRow {
+            cells: vec![
+                scene.into(),
+                label.clone(),
+                format!("{:.1}", build * 1e3),
+                cam,
+                inc,
+                format!("{cam_ratio} / {inc_ratio}{note}"),
+            ],
+            json: json!({"section": "throughput", "scene": scene, "backend": label, "threads": n,
+                "build_s": build, "camera_mrays_per_s": median_rate(0),
+                "incoherent_mrays_per_s": median_rate(1),
+                "build_s_rounds": m.embree.iter().map(|e| e.map(|e| e.build)).collect::<Vec<_>>(),
+                "camera_mrays_per_s_rounds": rates(0), "incoherent_mrays_per_s_rounds": rates(1),
+                "camera_optik_over_embree_rounds": ratios(0),
+                "incoherent_optik_over_embree_rounds": ratios(1)}),
+        }
+    })
+    .collect();
+    (optik, embree)
+}
+
+/// What [`measure_cpu`] measured on one scene.
+struct CpuMeasured {
+    /// The devices' names: all threads, then one.
+    devices: [String; 2],
+    rounds: CpuRounds,
+    /// Camera rays whose triangle Embree's hits and optik's disagree on.
+    differ: Option<usize>,
+    /// Why Embree was left out, if it was.
+    embree_error: Option<String>,
+}
+
+/// Times the CPU backend on `opts.threads` threads and on one, and Embree on one and
+/// `threads` threads (with `opts.embree`), on `scene` in `rounds` interleaved rounds: each
+/// round launches the camera and the incoherent rays on all threads, then on one, then runs
+/// Embree's peer on the camera rays and on the incoherent rays. Each device's structure is
+/// built once; rounds only launch. `Err`: the table cell that says why there are no figures.
+fn measure_cpu(
+    opts: &ReportOptions,
+    scene: &Scene,
+    threads: usize,
+    rounds: usize,
+) -> std::result::Result<CpuMeasured, String> {
+    let error = |e: optik::Error| format!("error: {}", e.message());
+    let mut devices = Vec::new();
+    for t in [opts.threads, Some(1)] {
+        devices.push(open(BackendKind::Cpu, t).map_err(|why| format!("skipped: {why}"))?);
+    }
+    let mut casters = Vec::new();
+    for device in &devices {
+        device.set_accuracy(Accuracy::ROBUST).map_err(error)?;
+        casters.push(
+            RayCaster::new(
+                device.as_ref(),
+                &scene.mesh.positions,
+                &scene.mesh.triangles,
+            )
+            .map_err(error)?,
+        );
+    }
+    let mut m = CpuRounds {
+        build: [casters[0].build_seconds, casters[1].build_seconds],
+        ..CpuRounds::default()
+    };
+    let (mut camera_hits, mut embree_hits, mut embree_error) = (None, None, None);
+    for round in 0..rounds {
+        for (side, caster) in casters.iter_mut().enumerate() {
+            let (hits, cam) = caster.cast(&scene.camera, opts.repeat).map_err(error)?;
+            let (_, inc) = caster.cast(&scene.incoherent, opts.repeat).map_err(error)?;
+            // Hits do not depend on the thread count or the round: the first are kept.
+            camera_hits.get_or_insert(hits);
+            m.optik[side].push([cam, inc]);
+        }
+        let peer = (opts.embree && embree_error.is_none()).then(|| {
+            embree(opts, &scene.mesh, &scene.camera, threads).and_then(|camera| {
+                embree(opts, &scene.mesh, &scene.incoherent, threads).map(|inc| (camera, inc))
+            })
+        });
+        m.embree.push(match peer {
+            Some(Ok(((build, cam1, camn, hits), (_, inc1, incn, _)))) => {
+                embree_hits.get_or_insert(hits);
+                Some(EmbreeRound {
+                    build,
+                    trace: [[camn, incn], [cam1, inc1]],
+                })
+            }
+            Some(Err(e)) => {
+                if round > 0 {
+                    println!(
+                        "{}: Embree left out after {round} of {rounds} rounds: {e}",
+                        scene.name
+                    );
+                }
+                embree_error = Some(e);
+                None
+            }
+            None => None,
+        });
+    }
+    let differ = camera_hits
+        .zip(embree_hits)
+        .map(|(optik, embree)| disagreements(&optik, &embree));
+    let names: Vec<String> = devices
+        .iter()
+        .map(|d| d.properties().device_name.clone())
+        .collect();
+    Ok(CpuMeasured {
+        devices: [names[0].clone(), names[1].clone()],
+        rounds: m,
+        differ,
+        embree_error,
+    })
+}
+
 fn throughput(opts: &ReportOptions, scenes: &[Scene], report: &mut Vec<Value>) {
+    let threads = opts
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    // Rounds only interleave the CPU backend with Embree; alone, one measurement will do.
+    let rounds = if opts.embree && opts.backends.contains(&BackendKind::Cpu) {
+        opts.rounds
+    } else {
+        1
+    };
     let mut rows = Vec::new();
     for scene in scenes {
+        let counts = [scene.camera.len() / 8, scene.incoherent.len() / 8];
         let mut cpu_rates: Option<(f64, f64)> = None;
-        let mut cpu_camera_hits = None;
+        // After the scene's other rows, as a peer rather than a backend.
+        let mut embree_rows = Vec::new();
         for &kind in &opts.backends {
+            if kind == BackendKind::Cpu {
+                match measure_cpu(opts, scene, threads, rounds) {
+                    Ok(measured) => {
+                        let (optik, embree) = cpu_rows(
+                            &scene.name,
+                            measured.devices.each_ref().map(String::as_str),
+                            threads,
+                            counts,
+                            &measured.rounds,
+                            measured.differ,
+                        );
+                        let [c, i] = measured.rounds.optik_medians(0, counts);
+                        cpu_rates = Some((c, i));
+                        for row in optik {
+                            rows.push(row.cells);
+                            report.push(row.json);
+                        }
+                        for row in embree {
+                            embree_rows.push(row.cells);
+                            report.push(row.json);
+                        }
+                        if let Some(e) = measured.embree_error
+                            && measured.rounds.embree.iter().all(Option::is_none)
+                        {
+                            embree_rows.push(padded(
+                                vec![scene.name.clone(), "Embree".into(), format!("skipped: {e}")],
+                                6,
+                            ));
+                        }
+                    }
+                    Err(note) => rows.push(padded(
+                        vec![scene.name.clone(), kind.name().into(), note],
+                        6,
+                    )),
+                }
+                continue;
+            }
             let device = match open(kind, opts.threads) {
                 Ok(d) => d,
                 Err(why) => {
@@ -231,24 +524,20 @@ fn throughput(opts: &ReportOptions, scenes: &[Scene], report: &mut Vec<Value>) {
                     ]);
                     continue;
                 }
-                let result = (|| -> Result<(f64, f64, f64, Hits)> {
+                let result = (|| -> Result<(f64, f64, f64)> {
                     let mut caster = RayCaster::new(
                         device.as_ref(),
                         &scene.mesh.positions,
                         &scene.mesh.triangles,
                     )?;
-                    let (camera_hits, cam_s) = caster.cast(&scene.camera, opts.repeat)?;
+                    let (_, cam_s) = caster.cast(&scene.camera, opts.repeat)?;
                     let (_, inc_s) = caster.cast(&scene.incoherent, opts.repeat)?;
-                    Ok((caster.build_seconds, cam_s, inc_s, camera_hits))
+                    Ok((caster.build_seconds, cam_s, inc_s))
                 })();
                 match result {
-                    Ok((build, cam, inc, hits)) => {
-                        let cam_rate = mrays(scene.camera.len() / 8, cam);
-                        let inc_rate = mrays(scene.incoherent.len() / 8, inc);
-                        if kind == BackendKind::Cpu {
-                            cpu_rates = Some((cam_rate, inc_rate));
-                            cpu_camera_hits = Some(hits);
-                        }
+                    Ok((build, cam, inc)) => {
+                        let cam_rate = mrays(counts[0], cam);
+                        let inc_rate = mrays(counts[1], inc);
                         let vs_cpu = cpu_rates.map_or("".into(), |(c, i)| {
                             format!("{:.2}x / {:.2}x", cam_rate / c, inc_rate / i)
                         });
@@ -277,54 +566,18 @@ fn throughput(opts: &ReportOptions, scenes: &[Scene], report: &mut Vec<Value>) {
                 }
             }
         }
-        if opts.embree && opts.backends.contains(&BackendKind::Cpu) {
-            let threads = opts
-                .threads
-                .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-            match (
-                embree(opts, &scene.mesh, &scene.camera, threads),
-                embree(opts, &scene.mesh, &scene.incoherent, threads),
-            ) {
-                (Ok((build, cam1, camn, hits)), Ok((_, inc1, incn, _))) => {
-                    let n_cam = scene.camera.len() / 8;
-                    let n_inc = scene.incoherent.len() / 8;
-                    let agree = cpu_camera_hits.as_ref().map_or("".into(), |c| {
-                        format!("{} camera prims differ", disagreements(c, &hits))
-                    });
-                    for (label, cam, inc) in [
-                        ("Embree robust, 1 thread".to_string(), cam1, inc1),
-                        (format!("Embree robust, {threads} threads"), camn, incn),
-                    ] {
-                        let (cr, ir) = (mrays(n_cam, cam), mrays(n_inc, inc));
-                        let vs = cpu_rates.map_or("".into(), |(c, i)| {
-                            format!("{:.2}x / {:.2}x", cr / c, ir / i)
-                        });
-                        rows.push(vec![
-                            scene.name.clone(),
-                            label.clone(),
-                            format!("{:.1}", build * 1e3),
-                            format!("{cr:.2}"),
-                            format!("{ir:.2}"),
-                            format!("{vs} ({agree})"),
-                        ]);
-                        report.push(json!({"section": "throughput", "scene": scene.name, "backend": label,
-                            "build_s": build, "camera_mrays_per_s": cr, "incoherent_mrays_per_s": ir}));
-                    }
-                }
-                (Err(e), _) | (_, Err(e)) => rows.push(vec![
-                    scene.name.clone(),
-                    "Embree".into(),
-                    format!("skipped: {e}"),
-                    "".into(),
-                    "".into(),
-                    "".into(),
-                ]),
-            }
-        }
+        rows.extend(embree_rows);
     }
+    let rounds_note = if rounds > 1 {
+        format!(
+            "; the CPU backend and Embree in {rounds} interleaved rounds: median Mrays/s, median (range) of the rounds' ratios"
+        )
+    } else {
+        String::new()
+    };
     table(
         &format!(
-            "Throughput ({}x{} camera rays, {} incoherent rays, best of {})",
+            "Throughput ({}x{} camera rays, {} incoherent rays, best of {}{rounds_note})",
             opts.width, opts.height, opts.incoherent, opts.repeat
         ),
         &[
@@ -333,7 +586,7 @@ fn throughput(opts: &ReportOptions, scenes: &[Scene], report: &mut Vec<Value>) {
             "build ms",
             "camera Mrays/s",
             "incoherent Mrays/s",
-            "vs CPU (camera / incoherent)",
+            "vs CPU (camera / incoherent; Embree rows: optik / Embree, same threads)",
         ],
         &rows,
     );
@@ -889,6 +1142,106 @@ pub fn default_peer_script() -> PathBuf {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Three rounds, Embree missing from the second: medians over the rounds, and Embree's
+    /// rows paired with optik's at the same thread count, round by round.
+    #[test]
+    fn cpu_rows_pair_each_thread_count_with_embree_round_by_round() {
+        // A million camera rays and two million incoherent ones: Mrays/s = 1/s and 2/s.
+        let rays = [1_000_000, 2_000_000];
+        let round = |build, all, one| {
+            Some(EmbreeRound {
+                build,
+                trace: [all, one],
+            })
+        };
+        let m = CpuRounds {
+            build: [0.010, 0.020],
+            optik: [
+                vec![[0.5, 0.5], [0.25, 1.0], [1.0, 0.4]],
+                vec![[1.0, 2.0], [1.0, 2.0], [2.0, 1.0]],
+            ],
+            embree: vec![
+                round(0.03, [0.5, 1.0], [2.0, 2.0]),
+                None,
+                round(0.05, [0.2, 0.8], [1.0, 4.0]),
+            ],
+        };
+        let (optik, embree) = cpu_rows("s", ["cpu-4", "cpu-1"], 4, rays, &m, Some(7));
+        let cells: Vec<Vec<String>> = optik
+            .iter()
+            .chain(&embree)
+            .map(|r| r.cells.clone())
+            .collect();
+        assert_eq!(
+            cells,
+            [
+                ["s", "cpu-4", "10.0", "2.00", "4.00", "1.00x / 1.00x"],
+                [
+                    "s",
+                    "optik CPU, 1 thread",
+                    "20.0",
+                    "1.00",
+                    "1.00",
+                    "0.50x / 0.25x"
+                ],
+                [
+                    "s",
+                    "Embree robust, 1 thread",
+                    "40.0",
+                    "0.75",
+                    "0.75",
+                    "1.25 (0.50–2.00) / 2.50 (1.00–4.00); 7 camera prims differ"
+                ],
+                [
+                    "s",
+                    "Embree robust, 4 threads",
+                    "40.0",
+                    "3.50",
+                    "2.25",
+                    "0.60 (0.20–1.00) / 2.00 (2.00–2.00); 7 camera prims differ"
+                ],
+            ]
+            .map(|row| row.map(String::from).to_vec())
+        );
+        assert_eq!(optik[1].json["device"], "cpu-1");
+        assert_eq!(optik[1].json["threads"], 1);
+        assert_eq!(optik[0].json["camera_mrays_per_s"], 2.0);
+        assert_eq!(
+            optik[0].json["camera_mrays_per_s_rounds"],
+            json!([2.0, 4.0, 1.0])
+        );
+        assert_eq!(
+            embree[0].json["camera_mrays_per_s_rounds"],
+            json!([0.5, null, 1.0])
+        );
+        assert_eq!(
+            embree[0].json["camera_optik_over_embree_rounds"],
+            json!([2.0, null, 0.5])
+        );
+        let rate = embree[1].json["incoherent_mrays_per_s"].as_f64();
+        assert!(rate.is_some_and(|r| (r - 2.25).abs() < 1e-9), "{rate:?}");
+    }
+
+    /// One round gives plain ratios; without Embree there are no Embree rows.
+    #[test]
+    fn cpu_rows_of_one_round_and_without_embree() {
+        let mut m = CpuRounds {
+            build: [0.001, 0.002],
+            optik: [vec![[0.5, 1.0]], vec![[1.0, 2.0]]],
+            embree: vec![Some(EmbreeRound {
+                build: 0.004,
+                trace: [[0.25, 2.0], [0.5, 4.0]],
+            })],
+        };
+        let (_, embree) = cpu_rows("s", ["a", "b"], 2, [1_000_000; 2], &m, None);
+        assert_eq!(embree[0].cells[5], "0.50 / 2.00");
+        assert_eq!(embree[1].cells[5], "0.50 / 2.00");
+        m.embree = vec![None];
+        let (optik, embree) = cpu_rows("s", ["a", "b"], 2, [1_000_000; 2], &m, None);
+        assert_eq!(optik.len(), 2);
+        assert!(embree.is_empty());
+    }
 
     /// The flat and the instanced layout of the scale scene are the same scene: a ray hits
     /// copy `i`'s triangle `p` in one exactly where it hits triangle `p` of instance `i` in the

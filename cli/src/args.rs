@@ -16,6 +16,15 @@ pub fn threads(s: &str) -> Result<usize, String> {
 
 /// `--repeat N`: launches per measurement, at least 1.
 pub fn repeat(s: &str) -> Result<usize, String> {
+    at_least_one(s)
+}
+
+/// `--rounds R`: interleaved rounds of a comparison, at least 1.
+pub fn rounds(s: &str) -> Result<usize, String> {
+    at_least_one(s)
+}
+
+fn at_least_one(s: &str) -> Result<usize, String> {
     match s.parse::<usize>() {
         Ok(n) if n >= 1 => Ok(n),
         _ => Err("expected a count of at least 1".to_string()),
@@ -34,5 +43,8 @@ mod tests {
         assert!(threads("-1").is_err());
         assert_eq!(repeat("1"), Ok(1));
         assert!(repeat("0").unwrap_err().contains("at least 1"));
+        assert_eq!(rounds("5"), Ok(5));
+        assert!(rounds("0").unwrap_err().contains("at least 1"));
+        assert!(rounds("two").is_err());
     }
 }

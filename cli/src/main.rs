@@ -54,7 +54,8 @@ enum Command {
     /// available backend agree.
     Conformance(conformance::ConformanceArgs),
     /// Measures backends, accuracy options, specialisation and scaling side by side on the
-    /// test scenes, with Embree as a CPU peer, and prints the report.
+    /// test scenes, with Embree as a CPU peer (against the CPU backend on all threads and on
+    /// one, taking turns with it in `--rounds` rounds), and prints the report.
     BenchReport(report::ReportArgs),
 }
 

@@ -24,6 +24,12 @@ pub struct ReportArgs {
     /// CPU backend and Embree use it.
     #[arg(long, value_parser = crate::args::threads)]
     threads: Option<usize>,
+    /// Rounds, at least 1, in which the CPU backend (all threads, then one) and Embree take
+    /// turns on each scene; the table gives median throughputs and the median (range) of the
+    /// rounds' optik / Embree ratios, which a shared machine's changing load moves less than
+    /// one run of each side. Without Embree or the CPU backend, each is measured once.
+    #[arg(long, default_value_t = 1, value_parser = crate::args::rounds)]
+    rounds: usize,
     /// Leave Embree out.
     #[arg(long)]
     no_embree: bool,
@@ -70,6 +76,17 @@ pub fn run(args: &ReportArgs) -> u8 {
             "warning: --threads {n} is ignored: only the CPU backend and Embree use threads, and neither is measured"
         );
     }
+    if args.rounds > 1 && (args.no_embree || !backends.contains(&BackendKind::Cpu)) {
+        let why = if backends.contains(&BackendKind::Cpu) {
+            "Embree is left out"
+        } else {
+            "the CPU backend is not measured"
+        };
+        eprintln!(
+            "warning: --rounds {} is ignored: rounds interleave the CPU backend with Embree, and {why}",
+            args.rounds
+        );
+    }
     let scenes = args
         .scenes
         .clone()
@@ -89,6 +106,7 @@ pub fn run(args: &ReportArgs) -> u8 {
         repeat: args.repeat,
         threads: args.threads,
         embree: !args.no_embree,
+        rounds: args.rounds,
         peer_script: report::default_peer_script(),
         scale: args.scale,
     };

@@ -89,6 +89,8 @@ fn the_readme_has_a_section_per_command() {
 fn bench_report_refuses_zero_and_unbounded_counts() {
     for (option, value, says) in [
         ("--repeat", "0", "expected a count of at least 1"),
+        ("--rounds", "0", "expected a count of at least 1"),
+        ("--rounds", "two", "expected a count of at least 1"),
         ("--threads", "0", "expected a thread count from 1 to"),
         ("--threads", "5000", "expected a thread count from 1 to"),
         (

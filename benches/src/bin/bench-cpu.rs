@@ -31,6 +31,7 @@
 use optik::raycast::{RAY_FLOATS, RayCaster};
 use optik::{BackendChoice, BackendKind, Device, OpenOptions};
 use optik_benches::mesh::{self, Mesh};
+use optik_benches::rounds::round_cells;
 use optik_benches::scenes::{self, RaySet, Scene};
 use optik_io::array;
 use std::path::{Path, PathBuf};
@@ -93,25 +94,6 @@ struct Row {
     /// Per round, optik's best launch time and Embree's (if it ran).
     rounds: Vec<(f64, Option<f64>)>,
     mismatches: Option<Mismatches>,
-}
-
-/// The median of `values` (the mean of the middle two for an even count); `None` when empty.
-fn median(values: &[f64]) -> Option<f64> {
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    match n {
-        0 => None,
-        _ if n % 2 == 1 => Some(v[n / 2]),
-        _ => Some((v[n / 2 - 1] + v[n / 2]) / 2.0),
-    }
-}
-
-/// Per-round ratios summarised: `(median, smallest, largest)`; `None` when empty.
-fn summary(ratios: &[f64]) -> Option<(f64, f64, f64)> {
-    let lo = ratios.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = ratios.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    median(ratios).map(|m| (m, lo, hi))
 }
 
 /// Rays optik and Embree disagree on.
@@ -394,35 +376,6 @@ fn run_peer(
     })
 }
 
-/// A table cell for per-round ratios: the value alone for one round, else the median and
-/// the range.
-fn ratio_cell(ratios: &[f64]) -> String {
-    match summary(ratios) {
-        None => "-".into(),
-        Some((m, _, _)) if ratios.len() == 1 => format!("{m:.2}"),
-        Some((m, lo, hi)) => format!("{m:.2} ({lo:.2}–{hi:.2})"),
-    }
-}
-
-/// A table row's three measured cells from per-round (optik, Embree) times: each side's
-/// median of `value(time)` with `digits` decimals, and [`ratio_cell`] of the rounds'
-/// `ratio(optik, embree)`.
-fn round_cells(
-    rounds: &[(f64, Option<f64>)],
-    value: impl Fn(f64) -> f64,
-    ratio: impl Fn(f64, f64) -> f64,
-    digits: usize,
-) -> [String; 3] {
-    let optik: Vec<f64> = rounds.iter().map(|&(o, _)| value(o)).collect();
-    let embree: Vec<f64> = rounds.iter().filter_map(|&(_, e)| e.map(&value)).collect();
-    let ratios: Vec<f64> = rounds
-        .iter()
-        .filter_map(|&(o, e)| e.map(|e| ratio(o, e)))
-        .collect();
-    let cell = |v: &[f64]| median(v).map_or("-".into(), |m| format!("{m:.digits$}"));
-    [cell(&optik), cell(&embree), ratio_cell(&ratios)]
-}
-
 fn print_tables(rows: &[Row], builds: &[Build], options: &Options) {
     let cpu = optik::backends::cpu::cpu_name();
     let rounds = match options.rounds {
@@ -476,32 +429,6 @@ fn print_tables(rows: &[Row], builds: &[Build], options: &Options) {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn medians_of_odd_and_even_counts() {
-        assert_eq!(median(&[]), None);
-        assert_eq!(median(&[3.0]), Some(3.0));
-        assert_eq!(median(&[5.0, 1.0, 3.0]), Some(3.0));
-        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), Some(2.5));
-    }
-
-    #[test]
-    fn ratio_cells_show_the_range_only_for_several_rounds() {
-        assert_eq!(ratio_cell(&[]), "-");
-        assert_eq!(ratio_cell(&[0.914]), "0.91");
-        assert_eq!(ratio_cell(&[1.2, 0.8, 1.0]), "1.00 (0.80–1.20)");
-    }
-
-    #[test]
-    fn round_cells_take_medians_and_leave_out_missing_peers() {
-        let rounds = [(2.0, Some(4.0)), (1.0, None), (4.0, Some(2.0))];
-        let cells = round_cells(&rounds, |s| 10.0 / s, |o, e| e / o, 2);
-        assert_eq!(cells, ["5.00", "3.75", "1.25 (0.50–2.00)"]);
-        assert_eq!(
-            round_cells(&[(1.0, None)], |s| s, |o, e| o / e, 3),
-            ["1.000", "-", "-"]
-        );
-    }
 
     #[test]
     fn rounds_are_parsed_as_a_count() {
