@@ -72,8 +72,12 @@ pub fn write_checked(path: &Path, magic: &[u8; 8], payload: &[u8]) {
 /// The payload of the checked file of kind `magic` at `path`; `None` when it is missing,
 /// of another kind, torn or damaged.
 pub fn read_checked(path: &Path, magic: &[u8; 8]) -> Option<Vec<u8>> {
-    let bytes = std::fs::read(path).ok()?;
-    checked_payload(magic, &bytes).map(<[u8]>::to_vec)
+    let mut bytes = std::fs::read(path).ok()?;
+    checked_payload(magic, &bytes)?;
+    // The payload moved to the front in place: no second buffer of the file's size (the
+    // Vulkan pipeline cache is megabytes on some drivers).
+    bytes.drain(..CHECKED_HEADER);
+    Some(bytes)
 }
 
 /// [`root`] with the environment given as a lookup (for tests of the rule).
