@@ -137,9 +137,12 @@ impl CpuBackend {
             max_binding_size: 1 << 40,
             backend: BackendKind::Cpu,
             device_name: format!(
-                "{} (optik-cpu, {} threads)",
+                "{} (optik-cpu, {})",
                 cpu_name(),
-                pool.current_num_threads()
+                match pool.current_num_threads() {
+                    1 => "1 thread".to_string(),
+                    n => format!("{n} threads"),
+                }
             ),
             driver: format!("optik-cpu {}", env!("CARGO_PKG_VERSION")),
         };
@@ -819,5 +822,24 @@ fn miss__main() {
             })
             .collect();
         assert!(crate::program::JitModule::same_code(modules[0], modules[1]));
+    }
+}
+
+#[cfg(test)]
+mod name_tests {
+    use super::*;
+    use optik_core::Backend;
+
+    #[test]
+    fn the_device_name_counts_its_launch_threads() {
+        let name = |threads| {
+            CpuBackend::with_threads(threads)
+                .expect("a CPU device")
+                .properties()
+                .device_name
+                .clone()
+        };
+        assert!(name(1).ends_with("(optik-cpu, 1 thread)"), "{}", name(1));
+        assert!(name(3).ends_with("(optik-cpu, 3 threads)"), "{}", name(3));
     }
 }
