@@ -45,7 +45,7 @@ pub struct ReportOptions {
     pub repeat: usize,
     /// CPU threads (`None`: all cores); Embree gets the same.
     pub threads: Option<usize>,
-    /// Run Embree through `python3 benches/embree/peer.py`.
+    /// Run Embree through `benches/embree/peer.py` (with [`ReportOptions::python`]).
     pub embree: bool,
     /// Rounds of the CPU backend (all threads, one thread) and Embree, interleaved, per scene:
     /// a shared machine's load moves both sides by tens of percent from one minute to the
@@ -54,6 +54,8 @@ pub struct ReportOptions {
     pub rounds: usize,
     /// Where `benches/embree/peer.py` lives.
     pub peer_script: PathBuf,
+    /// The Python that runs it (one that can import `embreex`).
+    pub python: String,
     /// Also measure the large scenes of [`scale`] (minutes and gigabytes: off by default).
     pub scale: bool,
 }
@@ -139,7 +141,22 @@ fn embree(
     threads: usize,
 ) -> std::result::Result<(f64, f64, f64, Hits), String> {
     let dir = std::env::temp_dir().join(format!("optik-report-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    let result = std::fs::create_dir_all(&dir)
+        .map_err(|e| e.to_string())
+        .and_then(|()| embree_in(&dir, opts, mesh, rays, threads));
+    // On every outcome: a failing peer must not leave its inputs behind.
+    let _ = std::fs::remove_dir_all(&dir);
+    result
+}
+
+/// [`embree`] with its inputs and output in `dir`.
+fn embree_in(
+    dir: &Path,
+    opts: &ReportOptions,
+    mesh: &Mesh,
+    rays: &[f32],
+    threads: usize,
+) -> std::result::Result<(f64, f64, f64, Hits), String> {
     let flat_v: Vec<f32> = mesh.positions.iter().flatten().copied().collect();
     let flat_t: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
     let (v, t, r) = (dir.join("v.npy"), dir.join("t.npy"), dir.join("r.npy"));
@@ -148,7 +165,7 @@ fn embree(
         .and_then(|()| array::write_npy(&r, &[rays.len() / 8, 8], rays))
         .map_err(|e| e.to_string())?;
     let out = dir.join("hits.npz");
-    let output = std::process::Command::new("python3")
+    let output = std::process::Command::new(&opts.python)
         .arg(&opts.peer_script)
         .args([&v, &t, &r, &out])
         .args([
@@ -158,7 +175,7 @@ fn embree(
             &opts.repeat.to_string(),
         ])
         .output()
-        .map_err(|e| format!("cannot run python3: {e}"))?;
+        .map_err(|e| format!("cannot run {}: {e}", opts.python))?;
     let text = String::from_utf8_lossy(&output.stdout);
     let line = text.lines().last().unwrap_or("");
     let j: Value = serde_json::from_str(line).map_err(|_| {
@@ -171,10 +188,14 @@ fn embree(
     if let Some(e) = j.get("error") {
         return Err(e.to_string());
     }
+    let f = |k: &str| {
+        j.get(k)
+            .and_then(Value::as_f64)
+            .ok_or_else(|| format!("peer.py's result has no number {k:?}: {line}"))
+    };
+    let figures = (f("build_s")?, f("trace_s_1")?, f("trace_s_n")?);
     let hits = read_npz_hits(&out)?;
-    let _ = std::fs::remove_dir_all(&dir);
-    let f = |k: &str| j.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN);
-    Ok((f("build_s"), f("trace_s_1"), f("trace_s_n"), hits))
+    Ok((figures.0, figures.1, figures.2, hits))
 }
 
 /// Reads `t` and `prim` back from the peer's `.npz` (through optik-io, which reads the zip64
@@ -1282,5 +1303,61 @@ mod tests {
         assert!(a.hit_count() > 1000, "{} hits", a.hit_count());
         assert!(same >= a.prim.len() - 4, "{same} of {} agree", a.prim.len());
         assert!(instanced.accel_bytes().unwrap() < flat.accel_bytes().unwrap());
+    }
+
+    /// The Embree peer's failures are errors that say what went wrong, and leave no
+    /// temporary files: a Python that cannot start, a peer that prints nothing, and a result
+    /// without one of its figures (which once read as NaN).
+    #[test]
+    fn embree_peer_failures_are_errors_and_leave_no_files() {
+        let folder = tempfile_folder();
+        let peer = folder.join("peer.sh");
+        std::fs::write(&peer, "echo '{\"build_s\": 0.5, \"trace_s_1\": 1.0}'\n").unwrap();
+        let opts = |python: &str, peer_script: &Path| ReportOptions {
+            scenes: PathBuf::new(),
+            backends: vec![BackendKind::Cpu],
+            width: 1,
+            height: 1,
+            incoherent: 1,
+            repeat: 1,
+            threads: Some(1),
+            embree: true,
+            rounds: 1,
+            peer_script: peer_script.to_path_buf(),
+            python: python.into(),
+            scale: false,
+        };
+        let mesh = Mesh {
+            positions: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            triangles: vec![[0, 1, 2]],
+            ..Mesh::default()
+        };
+        let rays = [0.0f32; 8];
+        let inputs = std::env::temp_dir().join(format!("optik-report-{}", std::process::id()));
+        let cases = [
+            (
+                opts("/nonexistent/python", &peer),
+                "cannot run /nonexistent/python",
+            ),
+            (opts("/bin/false", &peer), "peer.py printed no result"),
+            (opts("sh", &peer), "no number \"trace_s_n\""),
+        ];
+        for (o, expected) in cases {
+            let err = embree(&o, &mesh, &rays, 1).expect_err(expected);
+            assert!(err.contains(expected), "{err:?} should say {expected:?}");
+            assert!(!inputs.exists(), "{} left behind", inputs.display());
+        }
+        let _ = std::fs::remove_dir_all(&folder);
+    }
+
+    /// A fresh folder for one test.
+    fn tempfile_folder() -> PathBuf {
+        let dir = std::env::temp_dir().join(format!(
+            "optik-report-test-{}-{:?}",
+            std::process::id(),
+            std::thread::current().id()
+        ));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
     }
 }

@@ -33,6 +33,9 @@ pub struct ReportArgs {
     /// Leave Embree out.
     #[arg(long)]
     no_embree: bool,
+    /// The Python that runs the Embree peer (it must import `embreex`).
+    #[arg(long, value_name = "PYTHON", default_value = "python3")]
+    python: String,
     /// Also trace a scene of 10 485 760 triangles, flat and instanced, with 2^24 incoherent
     /// rays (minutes and several GiB of memory).
     #[arg(long)]
@@ -108,6 +111,7 @@ pub fn run(args: &ReportArgs) -> u8 {
         embree: !args.no_embree,
         rounds: args.rounds,
         peer_script: report::default_peer_script(),
+        python: args.python.clone(),
         scale: args.scale,
     };
     let figures = report::run(&opts);
