@@ -157,7 +157,9 @@ impl CpuBackend {
         })
     }
 
-    /// Launches from now on run on `threads` threads (0: one per core).
+    /// Launches from now on run on `threads` threads (0: one per core). The device's name
+    /// (`DeviceProperties::device_name`) keeps the count it was created with: properties are
+    /// fixed for a device's life, as on the other backends.
     pub fn set_threads(&self, threads: usize) -> Result<()> {
         let pool = thread_pool(threads)?;
         *self.pool.lock().unwrap_or_else(|e| e.into_inner()) = Arc::new(pool);
