@@ -56,7 +56,8 @@ pub struct ReportOptions {
     pub peer_script: PathBuf,
     /// The Python that runs it (one that can import `embreex`).
     pub python: String,
-    /// Also measure the large scenes of [`scale`] (minutes and gigabytes: off by default).
+    /// Also measure the large scenes (10 485 760 triangles, flat and instanced: minutes and
+    /// gigabytes, off by default).
     pub scale: bool,
 }
 
