@@ -8,6 +8,8 @@ use crate::not_built;
 use optik_api::BackendKind;
 
 /// What [`BackendChoice::Auto`] picks here, and why.
+///
+/// [`BackendChoice::Auto`]: crate::BackendChoice::Auto
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct AutoChoice {
     /// The backends to try, best first; the CPU backend is always last. The first that opens
@@ -87,6 +89,8 @@ pub fn decide_auto(
 
 /// What [`BackendChoice::Auto`] picks on this machine, from the Vulkan and wgpu probes
 /// (no device is opened).
+///
+/// [`BackendChoice::Auto`]: crate::BackendChoice::Auto
 pub fn auto_choice() -> AutoChoice {
     decide_auto(vulkan_found(), wgpu_found())
 }

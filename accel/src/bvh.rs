@@ -117,7 +117,7 @@ impl Bvh {
 
     /// [`Bvh::build`], with leaves priced by `leaf_costs` when given (a backend that tests
     /// primitives a block at a time: [`LeafCosts`]) instead of per primitive. Such a tree is
-    /// built top-down by the block-priced binned SAH ([`crate::sah`]) unless `quality` asks
+    /// built top-down by the block-priced binned SAH (`crate::sah`) unless `quality` asks
     /// for the fastest build (then, as every other tree, by obvhs's PLOC); the reinsertion
     /// passes and the collapse are the same for both.
     pub fn build_with(

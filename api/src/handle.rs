@@ -5,6 +5,8 @@
 //! was destroyed, is an [`ErrorKind::InvalidHandle`] error, never undefined behaviour. Each
 //! backend stores its objects in an `optik_core::HandleTable`, which does these checks in one
 //! place.
+//!
+//! [`ErrorKind::InvalidHandle`]: crate::ErrorKind::InvalidHandle
 
 use std::fmt;
 use std::sync::atomic::{AtomicU32, Ordering};

@@ -18,7 +18,9 @@ use std::sync::Arc;
 /// whenever [`DeviceCalls::unwinding`] turns true after a call that runs other programs.
 pub type NativeProgram = Arc<dyn Fn(&Bindings<'_>, &mut dyn DeviceCalls) + Send + Sync>;
 
-/// What [`crate::CpuDevice::create_native_module`] builds a module from.
+/// What [`CpuDeviceExt::create_native_module`] builds a module from.
+///
+/// [`CpuDeviceExt::create_native_module`]: crate::CpuDeviceExt::create_native_module
 #[derive(Clone, Default)]
 pub struct NativeModuleDesc {
     /// Programs by full name, prefixed as WGSL programs are (`closesthit__shade`).

@@ -13,9 +13,11 @@ use std::sync::Arc;
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct VulkanOptions {
     /// Enable the Khronos validation layer and collect its messages
-    /// ([`crate::VulkanDevice::take_validation_messages`]). `OPTIK_VALIDATION=1`.
+    /// ([`VulkanBackend::take_validation_messages`]). `OPTIK_VALIDATION=1`.
+    ///
+    /// [`VulkanBackend::take_validation_messages`]: crate::VulkanBackend::take_validation_messages
     pub validation: bool,
-    /// Which device: an index of [`crate::probe`]'s list or a part of its name.
+    /// Which device: an index of [`fn@crate::probe`]'s list or a part of its name.
     /// `OPTIK_VULKAN_DEVICE`. Default: the first usable device, discrete GPUs first.
     pub device: Option<String>,
     /// Keep user buffers in device-local memory and copy through staging buffers even where

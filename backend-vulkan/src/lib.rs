@@ -3,8 +3,8 @@
 //! Programs written once in WGSL become real ray tracing stages: naga writes SPIR-V with a
 //! compute wrapper per stage and an rspirv post-pass turns it into the stage ([`program`]).
 //! Acceleration structures are Vulkan's, with OptiX's per-primitive SBT records flattened into
-//! geometries and OptiX's instance trees flattened into one top level ([`accel`]); the user's
-//! OptiX-layout shader binding table is translated at launch ([`sbt`]). What Vulkan lacks is
+//! geometries and OptiX's instance trees flattened into one top level (`accel`); the user's
+//! OptiX-layout shader binding table is translated at launch (`sbt`). What Vulkan lacks is
 //! emulated, and `docs/vulkan-backend.md` lists every decision.
 //!
 //! Module layout (the same names in every backend): `accel`, `program` (with

@@ -55,7 +55,7 @@ pub fn write(path: &Path, image: &RecordImage) -> std::result::Result<(), String
     optik_io::output::write_bytes(path, &bytes.into_inner()).map_err(|e| e.to_string())
 }
 
-/// Reads an image written by [`write`] (or any single-part EXR): `UINT` channels as
+/// Reads an image written by [`fn@write`] (or any single-part EXR): `UINT` channels as
 /// integers, `FLOAT` and `HALF` channels as floats; channels in the file's (sorted) order.
 pub fn read(path: &Path) -> std::result::Result<RecordImage, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;

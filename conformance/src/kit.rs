@@ -926,6 +926,8 @@ pub fn trace_words_from(
 /// a raygen that traces a ray buffer and records what the hit and miss programs saw.
 ///
 /// Everything here panics on an error: it is for tests, where a panic names the failing call.
+///
+/// [`RAY_LIST`]: rig::RAY_LIST
 pub mod rig {
     use optik::*;
     use std::panic::AssertUnwindSafe;

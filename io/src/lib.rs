@@ -2,8 +2,8 @@
 //!
 //! - [`mesh`]: triangle meshes from OBJ (through `tobj`) and PLY (through `ply-rs-bw`), mapped to
 //!   one [`mesh::MeshData`].
-//! - [`array`]: NumPy `.npy` and `.npz` files (through `npyz` and `zip`, zip64 included): the one
-//!   implementation every optik tool reads and writes arrays with.
+//! - [`mod@array`]: NumPy `.npy` and `.npz` files (through `npyz` and `zip`, zip64 included): the
+//!   one implementation every optik tool reads and writes arrays with.
 //! - [`output`]: outputs written to a temporary file beside the target and renamed over it, so a
 //!   failed write never destroys a previous good file.
 //!

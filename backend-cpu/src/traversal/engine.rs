@@ -328,7 +328,7 @@ fn walks_triangle_blocks(g: &Gas) -> bool {
 /// its exit at least every child's: a ray the union test rejects, the node test rejects in
 /// every lane.
 ///
-/// The three axes' preparation and distances run in three lanes of one [`F4`] (each lane the
+/// The three axes' preparation and distances run in three lanes of one `F4` (each lane the
 /// scalar operation, so the same bits as `entry_wide`, which the tests hold it to), near and
 /// far selected without a branch: one division instead of three (a check ~85 → ~70
 /// instructions with its root look-up).

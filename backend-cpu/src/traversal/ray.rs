@@ -27,7 +27,7 @@ pub struct PreparedRay {
     pub dir: [f32; 3],
     /// Reciprocal of the canonical direction (`+∞` for zero components).
     pub inv: [f32; 3],
-    /// Reciprocal for a box's far planes (`inv` times [`exit_scale`]): the exit distances
+    /// Reciprocal for a box's far planes (`inv` times `exit_scale`): the exit distances
     /// come out widened without a multiply per box.
     pub inv_far: [f32; 3],
     /// Per axis, whether the direction is negative (near plane = box maximum).
@@ -127,7 +127,7 @@ fn shear_of(dir: &[f32; 3], inv: &[f32; 3]) -> ([usize; 3], [f32; 3]) {
 
 /// A ray's constants for the wide node test and the triangle tests' origin lanes (only
 /// what they read, so it stays small to build per ray). The node test splats what it needs
-/// into its own registers ([`super::slab::NodeTest`]); the triangle tests' constants are
+/// into its own registers (`slab::NodeTest`); the triangle tests' constants are
 /// [`TriangleLanes`], built from this when the ray first reaches a leaf: most rays of a
 /// mostly empty view never do, and the shear's divisions were a fifth of their trace.
 #[derive(Clone, Copy)]
@@ -145,7 +145,7 @@ pub struct WideRay {
 impl WideRay {
     /// Prepares `origin`, `dir` (finite) for box tests, bit for bit as [`PreparedRay::new`]
     /// does. (The node test takes the exit scale from the pipeline's switch, a constant
-    /// there: [`super::slab::NodeTest`].)
+    /// there: `slab::NodeTest`.)
     #[inline(always)]
     pub fn new(origin: [f32; 3], dir: [f32; 3]) -> WideRay {
         let dir = canonical(dir);

@@ -46,7 +46,7 @@ fn pushed_sign(p: (f32, f32), q: (f32, f32)) -> f32 {
 /// Woop, Benthin and Wald's watertight test (JCGT 2013) with the double-precision fallback
 /// (an edge function that is exactly zero in f32 is recomputed in f64, whose products of f32
 /// values are exact) and a tie-break for edge functions that are exactly zero even then
-/// ([`pushed_sign`]): rays through shared edges and vertices of a closed mesh hit exactly
+/// (`pushed_sign`): rays through shared edges and vertices of a closed mesh hit exactly
 /// one triangle, never none or two (docs/numerics.md, "Watertight triangles"; DESIGN.md §5).
 #[inline(always)]
 pub fn watertight(

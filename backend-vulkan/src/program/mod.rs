@@ -4,7 +4,7 @@
 //! For each pipeline, each module's source is compiled again with the Vulkan prelude
 //! ([`device_api`]) in place of the API's stand-ins and one compute wrapper per stage the pipeline
 //! needs. naga parses and validates it; when the pipeline checks exceptions, an IR pass
-//! ([`exceptions`]) makes user functions return after calls that raised. naga writes SPIR-V 1.4,
+//! (`exceptions`) makes user functions return after calls that raised. naga writes SPIR-V 1.4,
 //! one module per stage, and the post-pass ([`postpass`]) turns each wrapper into its ray
 //! tracing stage with the intrinsics' real bodies.
 
