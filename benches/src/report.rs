@@ -18,7 +18,7 @@
 
 use crate::mesh::{self, BenchMesh, Mesh};
 use crate::rays;
-use crate::rounds::{median, round_cells};
+use crate::rounds::{median, ratio_cell};
 use optik::raycast::{Hits, RayCaster};
 use optik::{
     Accuracy, BackendKind, Device, ExceptionFlags, IDENTITY_3X4, PipelineCompileOptions,
@@ -266,7 +266,7 @@ struct ThroughputRow {
 /// hits and optik's disagree on. Throughputs are medians over the rounds. An Embree row
 /// compares like with like, optik over Embree at the same thread count, within each round
 /// (a shared machine's load moves both sides far more between rounds than within one), as
-/// [`round_cells`]'s ratio cell. No Embree rows when it ran in no round.
+/// [`ratio_cell`]. No Embree rows when it ran in no round.
 fn cpu_rows(
     scene: &str,
     devices: [&str; 2],
@@ -313,44 +313,41 @@ fn cpu_rows(
     ]
     .into_iter()
     .map(|(label, n, side)| {
-        // Per round, optik's time and Embree's on the same thread count.
-        let pairs = |set: usize| -> Vec<(f64, Option<f64>)> {
+        // Per round, Embree's throughput at this thread count and optik's over it (the
+        // inverse ratio of the times); `None` where Embree did not run.
+        let per_round = |set: usize| -> (Vec<Option<f64>>, Vec<Option<f64>>) {
             m.optik[side]
                 .iter()
                 .zip(&m.embree)
-                .map(|(o, e)| (o[set], e.map(|e| e.trace[side][set])))
-                .collect()
+                .map(|(o, e)| {
+                    let e = e.map(|e| e.trace[side][set]);
+                    (e.map(|e| mrays(rays[set], e)), e.map(|e| e / o[set]))
+                })
+                .unzip()
         };
-        // Throughput: optik's over Embree's, the inverse ratio of the times.
-        let cells = |set: usize| round_cells(&pairs(set), |s| mrays(rays[set], s), |o, e| e / o, 2);
-        let ([_, cam, cam_ratio], [_, inc, inc_ratio]) = (cells(0), cells(1));
-        let rates = |set: usize| -> Vec<Option<f64>> {
-            pairs(set)
-                .iter()
-                .map(|&(_, e)| e.map(|e| mrays(rays[set], e)))
-                .collect()
-        };
-        let ratios = |set: usize| -> Vec<Option<f64>> {
-            pairs(set).iter().map(|&(o, e)| e.map(|e| e / o)).collect()
-        };
-        let median_rate =
-            |set: usize| median(&rates(set).into_iter().flatten().collect::<Vec<_>>());
+        let [(cam_rates, cam_ratios), (inc_rates, inc_ratios)] = [0, 1].map(per_round);
+        let present = |v: &[Option<f64>]| v.iter().flatten().copied().collect::<Vec<f64>>();
+        let (cam, inc) = (median(&present(&cam_rates)), median(&present(&inc_rates)));
+        let rate_cell = |r: Option<f64>| r.map_or("-".into(), |r| format!("{r:.2}"));
         ThroughputRow {
             cells: vec![
                 scene.into(),
                 label.clone(),
                 format!("{:.1}", build * 1e3),
-                cam,
-                inc,
-                format!("{cam_ratio} / {inc_ratio}{note}"),
+                rate_cell(cam),
+                rate_cell(inc),
+                format!(
+                    "{} / {}{note}",
+                    ratio_cell(&present(&cam_ratios)),
+                    ratio_cell(&present(&inc_ratios))
+                ),
             ],
             json: json!({"section": "throughput", "scene": scene, "backend": label, "threads": n,
-                "build_s": build, "camera_mrays_per_s": median_rate(0),
-                "incoherent_mrays_per_s": median_rate(1),
+                "build_s": build, "camera_mrays_per_s": cam, "incoherent_mrays_per_s": inc,
                 "build_s_rounds": m.embree.iter().map(|e| e.map(|e| e.build)).collect::<Vec<_>>(),
-                "camera_mrays_per_s_rounds": rates(0), "incoherent_mrays_per_s_rounds": rates(1),
-                "camera_optik_over_embree_rounds": ratios(0),
-                "incoherent_optik_over_embree_rounds": ratios(1)}),
+                "camera_mrays_per_s_rounds": cam_rates, "incoherent_mrays_per_s_rounds": inc_rates,
+                "camera_optik_over_embree_rounds": cam_ratios,
+                "incoherent_optik_over_embree_rounds": inc_ratios}),
         }
     })
     .collect();
