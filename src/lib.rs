@@ -86,7 +86,7 @@ impl OpenOptions {
             if n == 0 || n > max {
                 return Err(Error::invalid(format!(
                     "{n} CPU worker threads asked for; give 1 to {max} (this machine has {} cores; results do not depend on the count)",
-                    cores()
+                    available_cores()
                 )));
             }
         }
@@ -98,10 +98,13 @@ impl OpenOptions {
 /// more than 256 cores. Starting thousands of threads takes tens of seconds and, beyond
 /// that, exhausts process ids; no launch gets faster past a few threads per core.
 pub fn max_cpu_threads() -> usize {
-    1024.max(4 * cores())
+    1024.max(4 * available_cores())
 }
 
-fn cores() -> usize {
+/// The cores this process may run on (`std::thread::available_parallelism`, 1 where the
+/// system cannot tell): what "one per core" (the CPU backend's default) and "all threads"
+/// (the benchmarks' and the CLI's) mean.
+pub fn available_cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 

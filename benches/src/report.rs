@@ -61,6 +61,30 @@ pub struct ReportOptions {
     pub scale: bool,
 }
 
+impl ReportOptions {
+    /// The rounds the throughput section runs: [`ReportOptions::rounds`] where it measures
+    /// the CPU backend and Embree (rounds interleave the two), else 1.
+    pub fn interleaved_rounds(&self) -> usize {
+        if self.rounds_ignored_because().is_none() {
+            self.rounds
+        } else {
+            1
+        }
+    }
+
+    /// Why more than one round would change nothing (the CPU backend or Embree is not
+    /// measured), or `None` when rounds interleave them.
+    pub fn rounds_ignored_because(&self) -> Option<&'static str> {
+        if !self.backends.contains(&BackendKind::Cpu) {
+            Some("the CPU backend is not measured")
+        } else if !self.embree {
+            Some("Embree is left out")
+        } else {
+            None
+        }
+    }
+}
+
 /// Prints a markdown table.
 fn table(title: &str, header: &[&str], rows: &[Vec<String>]) {
     println!("\n### {title}\n");
@@ -448,15 +472,9 @@ fn measure_cpu(
 }
 
 fn throughput(opts: &ReportOptions, scenes: &[Scene], report: &mut Vec<Value>) {
-    let threads = opts
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let threads = opts.threads.unwrap_or_else(optik::available_cores);
     // Rounds only interleave the CPU backend with Embree; alone, one measurement will do.
-    let rounds = if opts.embree && opts.backends.contains(&BackendKind::Cpu) {
-        opts.rounds
-    } else {
-        1
-    };
+    let rounds = opts.interleaved_rounds();
     let mut rows = Vec::new();
     for scene in scenes {
         let counts = [scene.camera.len() / 8, scene.incoherent.len() / 8];
@@ -1301,6 +1319,41 @@ mod tests {
         assert!(a.hit_count() > 1000, "{} hits", a.hit_count());
         assert!(same >= a.prim.len() - 4, "{same} of {} agree", a.prim.len());
         assert!(instanced.accel_bytes().unwrap() < flat.accel_bytes().unwrap());
+    }
+
+    /// Rounds interleave the CPU backend with Embree: with either left out, one round runs
+    /// and the reason is named (the CLI's warning prints it).
+    #[test]
+    fn rounds_apply_only_to_the_cpu_backend_beside_embree() {
+        let opts = |backends: Vec<BackendKind>, embree: bool| ReportOptions {
+            scenes: PathBuf::new(),
+            backends,
+            width: 1,
+            height: 1,
+            incoherent: 1,
+            repeat: 1,
+            threads: None,
+            embree,
+            rounds: 5,
+            peer_script: PathBuf::new(),
+            python: "python3".into(),
+            scale: false,
+        };
+        let both = opts(vec![BackendKind::Wgpu, BackendKind::Cpu], true);
+        assert_eq!(both.interleaved_rounds(), 5);
+        assert_eq!(both.rounds_ignored_because(), None);
+        let no_embree = opts(vec![BackendKind::Cpu], false);
+        assert_eq!(no_embree.interleaved_rounds(), 1);
+        assert_eq!(
+            no_embree.rounds_ignored_because(),
+            Some("Embree is left out")
+        );
+        let no_cpu = opts(vec![BackendKind::Wgpu], true);
+        assert_eq!(no_cpu.interleaved_rounds(), 1);
+        assert_eq!(
+            no_cpu.rounds_ignored_because(),
+            Some("the CPU backend is not measured")
+        );
     }
 
     /// The Embree peer's failures are errors that say what went wrong, and leave no

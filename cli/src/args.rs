@@ -9,7 +9,7 @@ pub fn threads(s: &str) -> Result<usize, String> {
         Ok(n) if (1..=max).contains(&n) => Ok(n),
         _ => Err(format!(
             "expected a thread count from 1 to {max} (this machine has {} cores)",
-            std::thread::available_parallelism().map_or(1, |n| n.get())
+            optik::available_cores()
         )),
     }
 }

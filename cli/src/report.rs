@@ -79,17 +79,6 @@ pub fn run(args: &ReportArgs) -> u8 {
             "warning: --threads {n} is ignored: only the CPU backend and Embree use threads, and neither is measured"
         );
     }
-    if args.rounds > 1 && (args.no_embree || !backends.contains(&BackendKind::Cpu)) {
-        let why = if backends.contains(&BackendKind::Cpu) {
-            "Embree is left out"
-        } else {
-            "the CPU backend is not measured"
-        };
-        eprintln!(
-            "warning: --rounds {} is ignored: rounds interleave the CPU backend with Embree, and {why}",
-            args.rounds
-        );
-    }
     let scenes = args
         .scenes
         .clone()
@@ -114,6 +103,12 @@ pub fn run(args: &ReportArgs) -> u8 {
         python: args.python.clone(),
         scale: args.scale,
     };
+    if let Some(why) = opts.rounds_ignored_because().filter(|_| opts.rounds > 1) {
+        eprintln!(
+            "warning: --rounds {} is ignored: rounds interleave the CPU backend with Embree, and {why}",
+            opts.rounds
+        );
+    }
     let figures = report::run(&opts);
     if let Some(path) = &args.json
         && let Err(e) = optik_io::output::write_bytes(

@@ -169,10 +169,7 @@ fn trace(args: &TraceArgs) -> Result<serde_json::Value, Failure> {
     let hit_count = hits.hit_count();
     let backend = device.backend();
     let threads = match backend {
-        BackendKind::Cpu => serde_json::json!(
-            args.threads
-                .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-        ),
+        BackendKind::Cpu => serde_json::json!(args.threads.unwrap_or_else(optik::available_cores)),
         _ => serde_json::Value::Null,
     };
     Ok(serde_json::json!({

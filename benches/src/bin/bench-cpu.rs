@@ -50,7 +50,7 @@ struct Options {
 fn parse_options() -> Result<Options, String> {
     let mut o = Options {
         repeat: 5,
-        threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+        threads: optik::available_cores(),
         rounds: 1,
         python: "python3".into(),
         embree: true,
