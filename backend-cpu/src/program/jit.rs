@@ -8,7 +8,7 @@ use cranelift_codegen::control::ControlPlane;
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_codegen::{Context, ir, isa::OwnedTargetIsa};
 use cranelift_frontend::FunctionBuilderContext;
-use cranelift_jit::{JITBuilder, JITModule};
+use cranelift_jit::{ArenaMemoryProvider, JITBuilder, JITModule};
 use cranelift_module::{FuncId, Linkage, Module, ModuleReloc, default_libcall_names};
 use optik_api::{Error, OptLevel, ProgramKind, Result};
 use optik_core::frontend::{CompiledModule, DeviceFunction};
@@ -385,6 +385,29 @@ impl JitModule {
         Ok(JitModule { inner })
     }
 
+    /// [`JitModule::compile_uncached`] with `arena_bytes` of address space for the code
+    /// (tests of the reservation).
+    #[cfg(test)]
+    pub(super) fn compile_in_arena(
+        module: &CompiledModule,
+        options: &JitOptions,
+        arena_bytes: usize,
+    ) -> Result<JitModule> {
+        Ok(JitModule {
+            inner: Arc::new(compile_module_in(module, options, arena_bytes)?),
+        })
+    }
+
+    /// The reservation every module's code comes from, in bytes.
+    #[cfg(test)]
+    pub(super) const ARENA_BYTES: usize = CODE_ARENA_BYTES;
+
+    /// The entry addresses of the module's programs.
+    #[cfg(test)]
+    pub(super) fn entry_addresses(&self) -> Vec<usize> {
+        self.inner.programs.values().map(|p| p.0 as usize).collect()
+    }
+
     /// Compiles without looking in (or adding to) the in-memory cache.
     pub fn compile_uncached(module: &CompiledModule, options: &JitOptions) -> Result<JitModule> {
         Ok(JitModule {
@@ -490,17 +513,50 @@ fn build_isa(opt_level: OptLevel) -> Result<OwnedTargetIsa> {
         .map_err(|e| Error::backend(format!("Cranelift could not target this machine: {e}")))
 }
 
+/// The address space reserved for one module's code and data (reserved, not committed:
+/// pages are mapped as the code fills them).
+///
+/// A module's programs refer to one another with 32-bit PC-relative displacements (a ray
+/// generation program passes its inlined closest hit's address to the trace, and calls
+/// between the module's own functions are direct), which reach ±2 GiB. cranelift-jit's
+/// default memory provider maps each function's pages wherever the kernel puts them, so two
+/// functions of one module could land more than 2 GiB apart, and finalising the module then
+/// panicked on the relocation (seen under AddressSanitizer, whose mappings spread out; a
+/// process with many large mappings could see it too). All of a module's memory comes from
+/// one reservation of this size instead, well under 2 GiB, so every such reference fits;
+/// calls to the runtime's host functions use absolute addresses and may be anywhere.
+const CODE_ARENA_BYTES: usize = 256 << 20;
+
 fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner> {
+    compile_module_in(module, options, CODE_ARENA_BYTES)
+}
+
+/// [`compile_module`] with `arena_bytes` of address space for the module's code.
+fn compile_module_in(
+    module: &CompiledModule,
+    options: &JitOptions,
+    arena_bytes: usize,
+) -> Result<Inner> {
     let start = Instant::now();
     let isa = build_isa(options.opt_level)?;
     let mut builder = JITBuilder::with_isa(isa.clone(), default_libcall_names());
     for &f in HostFn::ALL {
         builder.symbol(f.symbol(), f.address());
     }
+    let arena = ArenaMemoryProvider::new_with_size(arena_bytes).map_err(|e| {
+        Error::backend(format!(
+            "the CPU JIT could not reserve {arena_bytes} bytes of address space for a module's code: {e}"
+        ))
+    })?;
+    builder.memory_provider(Box::new(arena));
     let mut jit = JITModule::new(builder);
     let call_conv = isa.default_call_conv();
-    let module_err =
-        |e: cranelift_module::ModuleError| Error::backend(format!("the CPU JIT failed: {e}"));
+    let module_err = |e: cranelift_module::ModuleError| match e {
+        cranelift_module::ModuleError::Allocation { err } => Error::backend(format!(
+            "the CPU JIT could not place the module's code in the {arena_bytes} bytes reserved for it: {err}"
+        )),
+        e => Error::backend(format!("the CPU JIT failed: {e}")),
+    };
     let mut host_ids: HashMap<HostFn, FuncId> = HashMap::new();
     for &f in HostFn::ALL {
         let id = jit
@@ -615,11 +671,17 @@ fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner
         frames.extend(unwind_info.map(|info| (ptr as usize, info)));
     }
     #[cfg(target_os = "linux")]
-    let unwind = Some(
-        super::unwind_tables::UnwindRegistration::new(&*isa, &frames).map_err(|e| {
-            Error::backend(format!("the CPU JIT could not register unwind tables: {e}"))
-        })?,
-    );
+    let unwind = match super::unwind_tables::UnwindRegistration::new(&*isa, &frames) {
+        Ok(registration) => Some(registration),
+        Err(e) => {
+            // SAFETY: none of the module's code has run or been handed out. (Dropped
+            // without this, a finalised module's memory is leaked.)
+            unsafe { jit.free_memory() };
+            return Err(Error::backend(format!(
+                "the CPU JIT could not register unwind tables: {e}"
+            )));
+        }
+    };
     #[cfg(not(target_os = "linux"))]
     let _ = frames;
     stats.time = start.elapsed();

@@ -1,6 +1,7 @@
 //! Tests of the JIT: WGSL programs run against hand-written Rust with the same operation
 //! order, compared bit for bit, and a recording `DeviceCalls` for the device API.
 
+mod arena;
 mod arith;
 mod builtins;
 mod cache;
