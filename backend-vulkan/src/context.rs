@@ -289,9 +289,11 @@ impl Context {
             .push_next(&mut f12)
             .push_next(&mut fas)
             .push_next(&mut frt);
+        let devices = optik_core::vulkan_loader::changing_devices();
         // SAFETY: the device supports every extension and feature enabled (probed above).
-        let device =
-            unsafe { instance.create_device(physical, &create, None) }.or_vk("vkCreateDevice")?;
+        let device = unsafe { instance.create_device(physical, &create, None) };
+        drop(devices);
+        let device = device.or_vk("vkCreateDevice")?;
         Ok((physical, device, queue_family, chosen.clone()))
     }
 
@@ -327,7 +329,9 @@ impl Drop for Context {
         // the context; the messenger goes before the log it points to.
         unsafe {
             let _ = self.device.device_wait_idle();
+            let devices = optik_core::vulkan_loader::changing_devices();
             self.device.destroy_device(None);
+            drop(devices);
             if let Some((loader, m)) = &self.messenger {
                 loader.destroy_debug_utils_messenger(*m, None);
             }

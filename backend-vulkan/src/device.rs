@@ -496,6 +496,8 @@ impl optik_core::Backend for VulkanBackend {
     type ProgramGroup = GroupObject;
     type Pipeline = PipelineObject;
 
+    const USES_VULKAN_LOADER: bool = true;
+
     fn id(&self) -> DeviceId {
         self.id
     }

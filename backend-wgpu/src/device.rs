@@ -56,9 +56,11 @@ pub(crate) type WgpuObjects = Objects<WgpuBackend>;
 /// The wgpu backend: optik pipelines run as compute megakernels.
 pub struct WgpuBackend {
     id: DeviceId,
-    gpu: Arc<Gpu>,
     properties: DeviceProperties,
     state: Mutex<State>,
+    /// Last, so that it drops after the state's wgpu objects (samplers): the wgpu device
+    /// then goes with it, under `Gpu`'s drop (`optik_core::vulkan_loader`).
+    gpu: Arc<Gpu>,
 }
 
 /// What the backend keeps beside the objects: state that many objects share.
@@ -433,6 +435,8 @@ impl optik_core::Backend for WgpuBackend {
     type Module = ModuleObject;
     type ProgramGroup = GroupObject;
     type Pipeline = PipelineObject;
+
+    const USES_VULKAN_LOADER: bool = true;
 
     fn id(&self) -> DeviceId {
         self.id

@@ -2,6 +2,7 @@
 //! failures (device loss, out-of-memory, validation) into `optik_api::Error`s.
 
 use optik_api::{Error, ErrorKind, Result};
+use std::mem::ManuallyDrop;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
@@ -10,8 +11,10 @@ pub const ADAPTER_ENV: &str = "OPTIK_WGPU_ADAPTER";
 
 /// A wgpu device and queue with what optik needs to know about them.
 pub(crate) struct Gpu {
-    pub device: wgpu::Device,
-    pub queue: wgpu::Queue,
+    /// Dropped (with `queue`) under `optik_core::vulkan_loader::changing_devices`, by
+    /// `Gpu`'s drop: the last handles on the wgpu device, so the Vulkan device goes then.
+    pub device: ManuallyDrop<wgpu::Device>,
+    pub queue: ManuallyDrop<wgpu::Queue>,
     pub info: wgpu::AdapterInfo,
     pub limits: wgpu::Limits,
     pub features: wgpu::Features,
@@ -64,15 +67,19 @@ impl Gpu {
                 | wgpu::Features::SHADER_F64
                 | wgpu::Features::FLOAT32_FILTERABLE);
         let adapter_limits = adapter.limits();
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("optik-wgpu"),
-            required_features: features,
-            required_limits: adapter_limits.clone(),
-            ..Default::default()
-        }))
-        .map_err(|e| {
+        let opened = {
+            let _devices = optik_core::vulkan_loader::changing_devices();
+            pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+                label: Some("optik-wgpu"),
+                required_features: features,
+                required_limits: adapter_limits.clone(),
+                ..Default::default()
+            }))
+        };
+        let (device, queue) = opened.map_err(|e| {
             Error::unsupported(format!("wgpu could not open adapter `{}`: {e}", info.name))
         })?;
+        let (device, queue) = (ManuallyDrop::new(device), ManuallyDrop::new(queue));
         // optik's own decisions (arena chunks, binding checks, the dispatch grid) may use
         // lower caps than the adapter's, so that splitting can be tested on any adapter.
         let mut limits = adapter_limits;
@@ -230,6 +237,17 @@ impl Gpu {
         drop(view);
         staging.unmap();
         Ok(out)
+    }
+}
+
+impl Drop for Gpu {
+    fn drop(&mut self) {
+        let _devices = optik_core::vulkan_loader::changing_devices();
+        // SAFETY: dropped once, here, and never used after (`self` is going).
+        unsafe {
+            ManuallyDrop::drop(&mut self.queue);
+            ManuallyDrop::drop(&mut self.device);
+        }
     }
 }
 

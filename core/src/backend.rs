@@ -40,6 +40,12 @@ pub trait Backend: Send + Sync + Sized + 'static {
     /// A linked pipeline.
     type Pipeline: Send;
 
+    /// Whether the backend's devices go through the system's Vulkan loader: then
+    /// [`crate::Device`] holds [`crate::vulkan_loader::using`] through every call, and the
+    /// backend opens and destroys its devices under
+    /// [`crate::vulkan_loader::changing_devices`].
+    const USES_VULKAN_LOADER: bool = false;
+
     /// The device's id; every handle it returns carries it.
     fn id(&self) -> DeviceId;
     /// The backend.

@@ -36,6 +36,12 @@ impl<B: Backend> Device<B> {
         Self { backend, objects }
     }
 
+    /// Held through a call that reaches the backend ([`crate::vulkan_loader`]): `None` for a
+    /// backend without the Vulkan loader.
+    fn loader(&self) -> Option<std::sync::RwLockReadGuard<'static, ()>> {
+        B::USES_VULKAN_LOADER.then(crate::vulkan_loader::using)
+    }
+
     /// The backend behind the checks.
     pub fn backend(&self) -> &B {
         &self.backend
@@ -198,10 +204,12 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn set_accuracy(&self, accuracy: Accuracy) -> Result<()> {
+        let _loader = self.loader();
         self.backend.set_accuracy(&*self.lock()?, accuracy)
     }
 
     fn create_buffer(&self, size: u64) -> Result<Buffer> {
+        let _loader = self.loader();
         self.backend.alive()?;
         validate::buffer_create(size, self.backend.properties())?;
         let buffer = self.backend.create_buffer(size)?;
@@ -209,6 +217,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn write_buffer(&self, buffer: Buffer, offset: u64, data: &[u8]) -> Result<()> {
+        let _loader = self.loader();
         let mut objects = self.lock()?;
         validate::buffer_range(
             "write_buffer",
@@ -222,6 +231,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn read_buffer(&self, buffer: Buffer, offset: u64, out: &mut [u8]) -> Result<()> {
+        let _loader = self.loader();
         let mut objects = self.lock()?;
         validate::buffer_range(
             "read_buffer",
@@ -235,15 +245,18 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn buffer_size(&self, buffer: Buffer) -> Result<u64> {
+        let _loader = self.loader();
         sizes(&self.backend, &*self.lock()?)(buffer)
     }
 
     fn destroy_buffer(&self, buffer: Buffer) -> Result<()> {
+        let _loader = self.loader();
         let b = self.lock()?.buffers.remove(buffer)?;
         self.backend.destroy_buffer(b)
     }
 
     fn create_texture(&self, desc: &TextureDesc) -> Result<Texture> {
+        let _loader = self.loader();
         self.backend.alive()?;
         validate::texture(desc)?;
         let texture = self.backend.create_texture(desc)?;
@@ -251,6 +264,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn write_texture(&self, texture: Texture, data: &[u8]) -> Result<()> {
+        let _loader = self.loader();
         let mut objects = self.lock()?;
         let t = objects.textures.get_mut(texture)?;
         validate::texture_data(&self.backend.texture_desc(t), data)?;
@@ -258,6 +272,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn destroy_texture(&self, texture: Texture) -> Result<()> {
+        let _loader = self.loader();
         let t = self.lock()?.textures.remove(texture)?;
         self.backend.destroy_texture(t)
     }
@@ -267,6 +282,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<AccelBufferSizes> {
+        let _loader = self.loader();
         let mut objects = self.lock()?;
         let keys = self.check_inputs(&objects, options, inputs)?;
         self.backend
@@ -274,6 +290,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn accel_build(&self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<Accel> {
+        let _loader = self.loader();
         let mut objects = self.lock()?;
         let keys = self.check_inputs(&objects, options, inputs)?;
         if options.operation != BuildOperation::Build {
@@ -294,6 +311,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<()> {
+        let _loader = self.loader();
         let mut objects = self.lock()?;
         let (built_with, built_inputs) = self.built(&objects, accel, "accel_update")?;
         validate::update(&built_with, &built_inputs, options, inputs)?;
@@ -303,6 +321,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn accel_compact(&self, accel: Accel) -> Result<Accel> {
+        let _loader = self.loader();
         let mut objects = self.lock()?;
         let (built_with, _) = self.built(&objects, accel, "accel_compact")?;
         if !built_with.flags.contains(BuildFlags::ALLOW_COMPACTION) {
@@ -316,10 +335,12 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn accel_size(&self, accel: Accel) -> Result<u64> {
+        let _loader = self.loader();
         Ok(self.backend.accel_size(self.lock()?.accels.get(accel)?))
     }
 
     fn create_transform(&self, desc: &TransformDesc) -> Result<Accel> {
+        let _loader = self.loader();
         self.backend.alive()?;
         validate::transform(desc)?;
         let mut objects = self.objects();
@@ -332,6 +353,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
         &self,
         desc: &OpacityMicromapArrayDesc,
     ) -> Result<MicromapArray> {
+        let _loader = self.loader();
         self.backend.alive()?;
         validate::micromap_array(desc)?;
         let array = self.backend.create_opacity_micromap_array(desc)?;
@@ -339,18 +361,21 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn traversable_handle(&self, accel: Accel) -> Result<TraversableHandle> {
+        let _loader = self.loader();
         let objects = self.lock()?;
         self.backend
             .traversable_handle(accel, objects.accels.get(accel)?)
     }
 
     fn destroy_accel(&self, accel: Accel) -> Result<()> {
+        let _loader = self.loader();
         let mut objects = self.lock()?;
         let object = objects.accels.remove(accel)?;
         self.backend.destroy_accel(&mut objects, accel, object)
     }
 
     fn destroy_micromap_array(&self, array: MicromapArray) -> Result<()> {
+        let _loader = self.loader();
         let array = self.lock()?.micromaps.remove(array)?;
         self.backend.destroy_micromap_array(array)
     }
@@ -361,6 +386,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
         pipeline_options: &PipelineCompileOptions,
         source: &ProgramSource,
     ) -> Result<(Module, String)> {
+        let _loader = self.loader();
         self.backend.alive()?;
         let payload = pipeline_options.num_payload_values.or(MAX_PAYLOAD_VALUES);
         if payload > MAX_PAYLOAD_VALUES {
@@ -376,11 +402,13 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn destroy_module(&self, module: Module) -> Result<()> {
+        let _loader = self.loader();
         let module = self.lock()?.modules.remove(module)?;
         self.backend.destroy_module(module)
     }
 
     fn create_program_groups(&self, descs: &[ProgramGroupDesc]) -> Result<Vec<ProgramGroup>> {
+        let _loader = self.loader();
         let mut objects = self.lock()?;
         for (i, desc) in descs.iter().enumerate() {
             self.check_group(&objects, i, desc)?;
@@ -393,6 +421,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn destroy_program_group(&self, group: ProgramGroup) -> Result<()> {
+        let _loader = self.loader();
         let group = self.lock()?.groups.remove(group)?;
         self.backend.destroy_program_group(group)
     }
@@ -403,6 +432,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
         link_options: &PipelineLinkOptions,
         groups: &[ProgramGroup],
     ) -> Result<Pipeline> {
+        let _loader = self.loader();
         self.backend.alive()?;
         if groups.is_empty() {
             return Err(Error::invalid(
@@ -438,6 +468,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn pipeline_features(&self, pipeline: Pipeline) -> Result<FeatureSet> {
+        let _loader = self.loader();
         self.backend.alive()?;
         Ok(self
             .backend
@@ -445,11 +476,13 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn destroy_pipeline(&self, pipeline: Pipeline) -> Result<()> {
+        let _loader = self.loader();
         let pipeline = self.lock()?.pipelines.remove(pipeline)?;
         self.backend.destroy_pipeline(pipeline)
     }
 
     fn sbt_record_pack_header(&self, group: ProgramGroup) -> Result<[u8; 32]> {
+        let _loader = self.loader();
         let region = self.backend.group_region(self.lock()?.groups.get(group)?);
         Ok(SbtHeader::pack(group, region))
     }
@@ -463,6 +496,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
         size: LaunchSize,
         options: &LaunchOptions,
     ) -> Result<()> {
+        let _loader = self.loader();
         let mut objects = self.lock()?;
         let bindings = self
             .backend
@@ -507,11 +541,13 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn synchronize(&self) -> Result<()> {
+        let _loader = self.loader();
         self.backend.alive()?;
         self.backend.synchronize()
     }
 
     fn take_diagnostics(&self) -> Vec<String> {
+        let _loader = self.loader();
         self.backend.take_diagnostics()
     }
 }

@@ -19,7 +19,9 @@
 //! - [`features`]: feature resolution, from options, scene and programs ([`Device`] resolves
 //!   every pipeline's features and hands them to the backend);
 //! - [`unwind`]: the exception-unwinding pass on naga IR of the GPU backends;
-//! - [`measure`]: how benchmarks time launches (a warm-up long enough for GPU clocks).
+//! - [`measure`]: how benchmarks time launches (a warm-up long enough for GPU clocks);
+//! - [`vulkan_loader`]: the lock that keeps opening and dropping devices apart from calls on
+//!   them, for backends that go through the system's Vulkan loader.
 //!
 //! What stays in the backends: what their objects are (the associated types), state that
 //! is no object (the CPU scene table, the wgpu arena, the Vulkan command pool and
@@ -37,6 +39,7 @@ mod objects;
 pub mod sbt;
 pub mod unwind;
 pub mod validate;
+pub mod vulkan_loader;
 
 pub use backend::Backend;
 pub use device::Device;
