@@ -7,14 +7,22 @@
 
 use optik::BackendKind;
 
+/// A device of `kind`, or `None` when the backend cannot open on this machine at all.
+fn open(kind: BackendKind) -> Option<Box<dyn optik::Device>> {
+    match optik::open_backend(kind) {
+        Ok(d) => Some(d),
+        Err(e) if e.kind() == optik::ErrorKind::Unsupported => None,
+        Err(e) => panic!("{kind}: {e}"),
+    }
+}
+
 /// Opens, uses and drops `rounds` devices of `kind`, checking a buffer's round trip each
 /// time; `false` when the backend cannot open here at all.
 fn churn(kind: BackendKind, rounds: usize, salt: u8) -> bool {
     for round in 0..rounds {
-        let device = match optik::open_backend(kind) {
-            Ok(d) => d,
-            Err(e) if round == 0 && e.kind() == optik::ErrorKind::Unsupported => return false,
-            Err(e) => panic!("{kind}: {e}"),
+        let Some(device) = open(kind) else {
+            assert_eq!(round, 0, "{kind} opened, then could not");
+            return false;
         };
         let data: Vec<u8> = (0..256u32)
             .map(|i| (i as u8) ^ salt ^ round as u8)
@@ -31,10 +39,8 @@ fn churn(kind: BackendKind, rounds: usize, salt: u8) -> bool {
 /// Creates and frees labelled buffers on one device of `kind` until `stop` (each wgpu
 /// buffer is named through the loader); `false` when the backend cannot open here.
 fn name_objects(kind: BackendKind, stop: &std::sync::atomic::AtomicBool) -> bool {
-    let device = match optik::open_backend(kind) {
-        Ok(d) => d,
-        Err(e) if e.kind() == optik::ErrorKind::Unsupported => return false,
-        Err(e) => panic!("{kind}: {e}"),
+    let Some(device) = open(kind) else {
+        return false;
     };
     while !stop.load(std::sync::atomic::Ordering::Relaxed) {
         let buffer = device.create_buffer(64).unwrap();

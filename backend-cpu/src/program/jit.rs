@@ -398,10 +398,6 @@ impl JitModule {
         })
     }
 
-    /// The reservation every module's code comes from, in bytes.
-    #[cfg(test)]
-    pub(super) const ARENA_BYTES: usize = CODE_ARENA_BYTES;
-
     /// The entry addresses of the module's programs.
     #[cfg(test)]
     pub(super) fn entry_addresses(&self) -> Vec<usize> {
@@ -525,7 +521,7 @@ fn build_isa(opt_level: OptLevel) -> Result<OwnedTargetIsa> {
 /// process with many large mappings could see it too). All of a module's memory comes from
 /// one reservation of this size instead, well under 2 GiB, so every such reference fits;
 /// calls to the runtime's host functions use absolute addresses and may be anywhere.
-const CODE_ARENA_BYTES: usize = 256 << 20;
+pub(super) const CODE_ARENA_BYTES: usize = 256 << 20;
 
 fn compile_module(module: &CompiledModule, options: &JitOptions) -> Result<Inner> {
     compile_module_in(module, options, CODE_ARENA_BYTES)

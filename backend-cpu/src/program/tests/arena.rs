@@ -2,6 +2,7 @@
 //! one another (32-bit displacements) always reach, and a module too large for it is an
 //! error, not a panic.
 
+use super::super::jit::CODE_ARENA_BYTES;
 use super::*;
 
 /// A module of `programs` ray generation programs, each with a loop of its own (so the
@@ -20,21 +21,18 @@ fn many_programs(programs: usize) -> String {
 
 #[test]
 fn a_modules_programs_lie_in_one_reservation_and_run() {
-    let module = JitModule::compile_in_arena(
-        &front(&many_programs(24)),
-        &options(),
-        JitModule::ARENA_BYTES,
-    )
-    .unwrap_or_else(|e| panic!("JIT failed: {e}"));
+    let module =
+        JitModule::compile_in_arena(&front(&many_programs(24)), &options(), CODE_ARENA_BYTES)
+            .unwrap_or_else(|e| panic!("JIT failed: {e}"));
     let addresses = module.entry_addresses();
     assert_eq!(addresses.len(), 24);
     let (low, high) = (addresses.iter().min(), addresses.iter().max());
     let span = high.unwrap() - low.unwrap();
     assert!(
-        span < JitModule::ARENA_BYTES,
+        span < CODE_ARENA_BYTES,
         "programs {span} bytes apart, beyond the module's reservation"
     );
-    assert!(JitModule::ARENA_BYTES < i32::MAX as usize);
+    assert!(CODE_ARENA_BYTES < i32::MAX as usize);
     let out = run(&module, "raygen__p3", vec![vec![1, 2, 3]]).remove(0);
     let mut x = 3u32;
     let expected: Vec<u32> = [1u32, 2, 3]
