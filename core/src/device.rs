@@ -11,7 +11,7 @@ use optik_api::{
     ProgramGroupDesc, ProgramKind, ProgramSource, Resource, Result, SbtHeader, ShaderBindingTable,
     Texture, TextureDesc, TransformDesc, TraversableHandle,
 };
-use std::sync::{Mutex, MutexGuard};
+use std::sync::{Mutex, MutexGuard, RwLockReadGuard};
 
 /// Most payload registers a module or pipeline may ask for (OptiX's 32).
 const MAX_PAYLOAD_VALUES: u32 = 32;
@@ -38,8 +38,22 @@ impl<B: Backend> Device<B> {
 
     /// Held through a call that reaches the backend ([`crate::vulkan_loader`]): `None` for a
     /// backend without the Vulkan loader.
-    fn loader(&self) -> Option<std::sync::RwLockReadGuard<'static, ()>> {
+    fn loader(&self) -> LoaderGuard {
         B::USES_VULKAN_LOADER.then(crate::vulkan_loader::using)
+    }
+
+    /// The start of every call that reaches the backend: the loader held to its end and the
+    /// backend found alive (a lost device fails every call with its `DeviceLost` error
+    /// first). The call locks the objects from it ([`Entered::lock`]) for as long as it
+    /// needs them, so one that works long without them (compiling a module) or after them
+    /// (destroying what it removed) leaves them free meanwhile.
+    fn enter(&self) -> Result<Entered<'_, B>> {
+        let loader = self.loader();
+        self.backend.alive()?;
+        Ok(Entered {
+            objects: &self.objects,
+            _loader: loader,
+        })
     }
 
     /// The backend behind the checks.
@@ -48,18 +62,16 @@ impl<B: Backend> Device<B> {
     }
 
     /// The device's objects, locked: for a backend's own extensions (calls beyond the API
-    /// that read or add objects, such as the CPU backend's native modules). Every other
-    /// call on the device waits while the guard lives.
-    pub fn objects(&self) -> MutexGuard<'_, Objects<B>> {
-        // A panic inside a call never leaves a table half-updated (objects are inserted
-        // and removed whole), so a poisoned lock is safe to keep using.
-        self.objects.lock().unwrap_or_else(|e| e.into_inner())
-    }
-
-    /// The objects, locked, once the backend says the device works.
-    fn lock(&self) -> Result<MutexGuard<'_, Objects<B>>> {
-        self.backend.alive()?;
-        Ok(self.objects())
+    /// that read or add objects, such as the CPU backend's native modules, or that launch
+    /// with them). Every other call on the device waits while the guard lives, and the guard
+    /// holds the Vulkan loader as the device's own calls do ([`crate::vulkan_loader`]).
+    pub fn objects(&self) -> Locked<'_, B> {
+        // Loader first, as in every call: the two locks are always taken in one order.
+        let loader = self.loader();
+        Locked {
+            objects: lock_objects(&self.objects),
+            _loader: loader,
+        }
     }
 
     /// Checks build inputs against the live buffers; their motion key count.
@@ -162,6 +174,53 @@ impl<B: Backend> Device<B> {
     }
 }
 
+/// The shared hold of the Vulkan loader's lock ([`crate::vulkan_loader`]) by a call on a
+/// device whose backend uses the loader.
+type LoaderGuard = Option<RwLockReadGuard<'static, ()>>;
+
+/// `objects`, locked.
+fn lock_objects<B: Backend>(objects: &Mutex<Objects<B>>) -> MutexGuard<'_, Objects<B>> {
+    // A panic inside a call never leaves a table half-updated (objects are inserted and
+    // removed whole), so a poisoned lock is safe to keep using.
+    objects.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// A call on a [`Device`] in progress ([`Device::enter`]): the loader held, the backend
+/// found alive.
+struct Entered<'d, B: Backend> {
+    objects: &'d Mutex<Objects<B>>,
+    _loader: LoaderGuard,
+}
+
+impl<B: Backend> Entered<'_, B> {
+    /// The device's objects, locked while the guard lives (within the call).
+    fn lock(&self) -> MutexGuard<'_, Objects<B>> {
+        lock_objects(self.objects)
+    }
+}
+
+/// A device's objects, locked, with the Vulkan loader held ([`Device::objects`]);
+/// dereferences to them.
+pub struct Locked<'d, B: Backend> {
+    // Fields drop in order: the objects are unlocked before the loader is let go.
+    objects: MutexGuard<'d, Objects<B>>,
+    _loader: LoaderGuard,
+}
+
+impl<B: Backend> std::ops::Deref for Locked<'_, B> {
+    type Target = Objects<B>;
+
+    fn deref(&self) -> &Objects<B> {
+        &self.objects
+    }
+}
+
+impl<B: Backend> std::ops::DerefMut for Locked<'_, B> {
+    fn deref_mut(&mut self) -> &mut Objects<B> {
+        &mut self.objects
+    }
+}
+
 /// The size of each buffer, for the checks.
 fn sizes<'a, B: Backend>(
     backend: &'a B,
@@ -204,21 +263,20 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn set_accuracy(&self, accuracy: Accuracy) -> Result<()> {
-        let _loader = self.loader();
-        self.backend.set_accuracy(&*self.lock()?, accuracy)
+        let call = self.enter()?;
+        self.backend.set_accuracy(&*call.lock(), accuracy)
     }
 
     fn create_buffer(&self, size: u64) -> Result<Buffer> {
-        let _loader = self.loader();
-        self.backend.alive()?;
+        let call = self.enter()?;
         validate::buffer_create(size, self.backend.properties())?;
         let buffer = self.backend.create_buffer(size)?;
-        Ok(self.objects().buffers.insert(buffer))
+        Ok(call.lock().buffers.insert(buffer))
     }
 
     fn write_buffer(&self, buffer: Buffer, offset: u64, data: &[u8]) -> Result<()> {
-        let _loader = self.loader();
-        let mut objects = self.lock()?;
+        let call = self.enter()?;
+        let mut objects = call.lock();
         validate::buffer_range(
             "write_buffer",
             buffer,
@@ -231,8 +289,8 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn read_buffer(&self, buffer: Buffer, offset: u64, out: &mut [u8]) -> Result<()> {
-        let _loader = self.loader();
-        let mut objects = self.lock()?;
+        let call = self.enter()?;
+        let mut objects = call.lock();
         validate::buffer_range(
             "read_buffer",
             buffer,
@@ -245,35 +303,34 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn buffer_size(&self, buffer: Buffer) -> Result<u64> {
-        let _loader = self.loader();
-        sizes(&self.backend, &*self.lock()?)(buffer)
+        let call = self.enter()?;
+        sizes(&self.backend, &*call.lock())(buffer)
     }
 
     fn destroy_buffer(&self, buffer: Buffer) -> Result<()> {
-        let _loader = self.loader();
-        let b = self.lock()?.buffers.remove(buffer)?;
+        let call = self.enter()?;
+        let b = call.lock().buffers.remove(buffer)?;
         self.backend.destroy_buffer(b)
     }
 
     fn create_texture(&self, desc: &TextureDesc) -> Result<Texture> {
-        let _loader = self.loader();
-        self.backend.alive()?;
+        let call = self.enter()?;
         validate::texture(desc)?;
         let texture = self.backend.create_texture(desc)?;
-        Ok(self.objects().textures.insert(texture))
+        Ok(call.lock().textures.insert(texture))
     }
 
     fn write_texture(&self, texture: Texture, data: &[u8]) -> Result<()> {
-        let _loader = self.loader();
-        let mut objects = self.lock()?;
+        let call = self.enter()?;
+        let mut objects = call.lock();
         let t = objects.textures.get_mut(texture)?;
         validate::texture_data(&self.backend.texture_desc(t), data)?;
         self.backend.write_texture(t, data)
     }
 
     fn destroy_texture(&self, texture: Texture) -> Result<()> {
-        let _loader = self.loader();
-        let t = self.lock()?.textures.remove(texture)?;
+        let call = self.enter()?;
+        let t = call.lock().textures.remove(texture)?;
         self.backend.destroy_texture(t)
     }
 
@@ -282,16 +339,16 @@ impl<B: Backend> optik_api::Device for Device<B> {
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<AccelBufferSizes> {
-        let _loader = self.loader();
-        let mut objects = self.lock()?;
+        let call = self.enter()?;
+        let mut objects = call.lock();
         let keys = self.check_inputs(&objects, options, inputs)?;
         self.backend
             .accel_memory_usage(&mut objects, options, inputs, keys)
     }
 
     fn accel_build(&self, options: &AccelBuildOptions, inputs: &[BuildInput]) -> Result<Accel> {
-        let _loader = self.loader();
-        let mut objects = self.lock()?;
+        let call = self.enter()?;
+        let mut objects = call.lock();
         let keys = self.check_inputs(&objects, options, inputs)?;
         if options.operation != BuildOperation::Build {
             return Err(Error::invalid(
@@ -311,8 +368,8 @@ impl<B: Backend> optik_api::Device for Device<B> {
         options: &AccelBuildOptions,
         inputs: &[BuildInput],
     ) -> Result<()> {
-        let _loader = self.loader();
-        let mut objects = self.lock()?;
+        let call = self.enter()?;
+        let mut objects = call.lock();
         let (built_with, built_inputs) = self.built(&objects, accel, "accel_update")?;
         validate::update(&built_with, &built_inputs, options, inputs)?;
         self.check_inputs(&objects, options, inputs)?;
@@ -321,8 +378,8 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn accel_compact(&self, accel: Accel) -> Result<Accel> {
-        let _loader = self.loader();
-        let mut objects = self.lock()?;
+        let call = self.enter()?;
+        let mut objects = call.lock();
         let (built_with, _) = self.built(&objects, accel, "accel_compact")?;
         if !built_with.flags.contains(BuildFlags::ALLOW_COMPACTION) {
             return Err(Error::invalid(
@@ -335,15 +392,14 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn accel_size(&self, accel: Accel) -> Result<u64> {
-        let _loader = self.loader();
-        Ok(self.backend.accel_size(self.lock()?.accels.get(accel)?))
+        let call = self.enter()?;
+        Ok(self.backend.accel_size(call.lock().accels.get(accel)?))
     }
 
     fn create_transform(&self, desc: &TransformDesc) -> Result<Accel> {
-        let _loader = self.loader();
-        self.backend.alive()?;
+        let call = self.enter()?;
         validate::transform(desc)?;
-        let mut objects = self.objects();
+        let mut objects = call.lock();
         let handle = objects.accels.next_handle();
         let transform = self.backend.create_transform(&mut objects, handle, desc)?;
         Ok(objects.accels.insert(transform))
@@ -353,30 +409,29 @@ impl<B: Backend> optik_api::Device for Device<B> {
         &self,
         desc: &OpacityMicromapArrayDesc,
     ) -> Result<MicromapArray> {
-        let _loader = self.loader();
-        self.backend.alive()?;
+        let call = self.enter()?;
         validate::micromap_array(desc)?;
         let array = self.backend.create_opacity_micromap_array(desc)?;
-        Ok(self.objects().micromaps.insert(array))
+        Ok(call.lock().micromaps.insert(array))
     }
 
     fn traversable_handle(&self, accel: Accel) -> Result<TraversableHandle> {
-        let _loader = self.loader();
-        let objects = self.lock()?;
+        let call = self.enter()?;
+        let objects = call.lock();
         self.backend
             .traversable_handle(accel, objects.accels.get(accel)?)
     }
 
     fn destroy_accel(&self, accel: Accel) -> Result<()> {
-        let _loader = self.loader();
-        let mut objects = self.lock()?;
+        let call = self.enter()?;
+        let mut objects = call.lock();
         let object = objects.accels.remove(accel)?;
         self.backend.destroy_accel(&mut objects, accel, object)
     }
 
     fn destroy_micromap_array(&self, array: MicromapArray) -> Result<()> {
-        let _loader = self.loader();
-        let array = self.lock()?.micromaps.remove(array)?;
+        let call = self.enter()?;
+        let array = call.lock().micromaps.remove(array)?;
         self.backend.destroy_micromap_array(array)
     }
 
@@ -386,8 +441,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
         pipeline_options: &PipelineCompileOptions,
         source: &ProgramSource,
     ) -> Result<(Module, String)> {
-        let _loader = self.loader();
-        self.backend.alive()?;
+        let call = self.enter()?;
         let payload = pipeline_options.num_payload_values.or(MAX_PAYLOAD_VALUES);
         if payload > MAX_PAYLOAD_VALUES {
             return Err(Error::limit(format!(
@@ -398,18 +452,18 @@ impl<B: Backend> optik_api::Device for Device<B> {
         let (module, log) = self
             .backend
             .create_module(module_options, pipeline_options, source)?;
-        Ok((self.objects().modules.insert(module), log))
+        Ok((call.lock().modules.insert(module), log))
     }
 
     fn destroy_module(&self, module: Module) -> Result<()> {
-        let _loader = self.loader();
-        let module = self.lock()?.modules.remove(module)?;
+        let call = self.enter()?;
+        let module = call.lock().modules.remove(module)?;
         self.backend.destroy_module(module)
     }
 
     fn create_program_groups(&self, descs: &[ProgramGroupDesc]) -> Result<Vec<ProgramGroup>> {
-        let _loader = self.loader();
-        let mut objects = self.lock()?;
+        let call = self.enter()?;
+        let mut objects = call.lock();
         for (i, desc) in descs.iter().enumerate() {
             self.check_group(&objects, i, desc)?;
         }
@@ -421,8 +475,8 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn destroy_program_group(&self, group: ProgramGroup) -> Result<()> {
-        let _loader = self.loader();
-        let group = self.lock()?.groups.remove(group)?;
+        let call = self.enter()?;
+        let group = call.lock().groups.remove(group)?;
         self.backend.destroy_program_group(group)
     }
 
@@ -432,14 +486,13 @@ impl<B: Backend> optik_api::Device for Device<B> {
         link_options: &PipelineLinkOptions,
         groups: &[ProgramGroup],
     ) -> Result<Pipeline> {
-        let _loader = self.loader();
-        self.backend.alive()?;
+        let call = self.enter()?;
         if groups.is_empty() {
             return Err(Error::invalid(
                 "create_pipeline needs at least one program group (a raygen group)",
             ));
         }
-        let mut objects = self.objects();
+        let mut objects = call.lock();
         let live = objects.groups_of(groups)?;
         if !live
             .iter()
@@ -468,22 +521,21 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn pipeline_features(&self, pipeline: Pipeline) -> Result<FeatureSet> {
-        let _loader = self.loader();
-        self.backend.alive()?;
+        let call = self.enter()?;
         Ok(self
             .backend
-            .pipeline_features(self.objects().pipelines.get(pipeline)?))
+            .pipeline_features(call.lock().pipelines.get(pipeline)?))
     }
 
     fn destroy_pipeline(&self, pipeline: Pipeline) -> Result<()> {
-        let _loader = self.loader();
-        let pipeline = self.lock()?.pipelines.remove(pipeline)?;
+        let call = self.enter()?;
+        let pipeline = call.lock().pipelines.remove(pipeline)?;
         self.backend.destroy_pipeline(pipeline)
     }
 
     fn sbt_record_pack_header(&self, group: ProgramGroup) -> Result<[u8; 32]> {
-        let _loader = self.loader();
-        let region = self.backend.group_region(self.lock()?.groups.get(group)?);
+        let call = self.enter()?;
+        let region = self.backend.group_region(call.lock().groups.get(group)?);
         Ok(SbtHeader::pack(group, region))
     }
 
@@ -496,8 +548,8 @@ impl<B: Backend> optik_api::Device for Device<B> {
         size: LaunchSize,
         options: &LaunchOptions,
     ) -> Result<()> {
-        let _loader = self.loader();
-        let mut objects = self.lock()?;
+        let call = self.enter()?;
+        let mut objects = call.lock();
         let bindings = self
             .backend
             .pipeline_bindings(objects.pipelines.get(pipeline)?);
@@ -541,8 +593,7 @@ impl<B: Backend> optik_api::Device for Device<B> {
     }
 
     fn synchronize(&self) -> Result<()> {
-        let _loader = self.loader();
-        self.backend.alive()?;
+        let _call = self.enter()?;
         self.backend.synchronize()
     }
 

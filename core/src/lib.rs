@@ -42,7 +42,7 @@ pub mod validate;
 pub mod vulkan_loader;
 
 pub use backend::Backend;
-pub use device::Device;
+pub use device::{Device, Locked};
 pub use handle_table::HandleTable;
 pub use objects::Objects;
 

@@ -6,7 +6,8 @@
 //! - `specialise`: the megakernel holds only what the pipeline uses (DESIGN.md §6), the
 //!   shadow-ray call site, accuracy selecting the compiled tests;
 //! - `triangles`: both accuracy settings' kernels find the same clear hits;
-//! - `misc`: scenes that grow after linking get bigger kernels;
+//! - `misc`: scenes that grow after linking get bigger kernels; extensions hold the Vulkan
+//!   loader;
 //! - `accels`: scenes larger than one storage binding are split;
 //! - `errors`: unaligned buffer copies, the adapter's limits (workgroup grid, storage
 //!   bindings, graph depth), device loss, GPU memory accounting;

@@ -1,5 +1,6 @@
 //! Programs from several modules, vertex and index formats, vertex data access, textures,
-//! 3D launch indices, instance flag precedence, scenes that grow after linking.
+//! 3D launch indices, instance flag precedence, scenes that grow after linking, extensions
+//! holding the Vulkan loader.
 
 use crate::common::*;
 use optik_api::*;
@@ -61,4 +62,34 @@ fn scenes_that_grow_after_linking_get_bigger_kernels() {
         TraceArgs::default(),
     );
     assert!(recs[0].hit() && recs[1].missed());
+}
+
+/// The objects a wgpu extension locks (`Device::objects`, as `kernel_source` and the
+/// benchmarks' launches do) come with the Vulkan loader held, as the device's own calls
+/// hold it (`optik_core::vulkan_loader`): a device being opened or dropped elsewhere waits
+/// until the guard is gone.
+#[test]
+fn extensions_hold_the_vulkan_loader_while_they_hold_the_objects() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let dev = optik_wgpu::WgpuBackend::new()
+        .map(optik_wgpu::WgpuDevice::new)
+        .unwrap();
+    let changed = AtomicBool::new(false);
+    std::thread::scope(|s| {
+        let objects = dev.objects();
+        let changer = s.spawn(|| {
+            let _changing = optik_core::vulkan_loader::changing_devices();
+            changed.store(true, Ordering::SeqCst);
+        });
+        // Unheld, the other thread takes the lock at once; a quarter of a second is far
+        // more than it needs.
+        std::thread::sleep(std::time::Duration::from_millis(250));
+        assert!(
+            !changed.load(Ordering::SeqCst),
+            "a device changed while an extension held the objects"
+        );
+        drop(objects);
+        changer.join().unwrap();
+    });
+    assert!(changed.load(Ordering::SeqCst));
 }
