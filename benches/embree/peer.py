@@ -138,12 +138,18 @@ def timed_in_processes(trace, work, repeat):
     times = context.Array("d", repeat * len(work) * 2, lock=False)
 
     def run(k, chunk):
-        for r in range(repeat):
-            barrier.wait()
-            at = (r * len(work) + k) * 2
-            times[at] = time.perf_counter()
-            trace(*chunk)
-            times[at + 1] = time.perf_counter()
+        try:
+            for r in range(repeat):
+                barrier.wait()
+                at = (r * len(work) + k) * 2
+                times[at] = time.perf_counter()
+                trace(*chunk)
+                times[at + 1] = time.perf_counter()
+        except BaseException:
+            # The others would wait at the next pass's barrier for ever: break it, so they
+            # fail too and the parent reports the failure instead of hanging.
+            barrier.abort()
+            raise
 
     with warnings.catch_warnings():
         # Python warns that forking a multi-threaded process may deadlock in the child;
