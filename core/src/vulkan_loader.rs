@@ -17,7 +17,10 @@
 //! calls ([`crate::Backend::USES_VULKAN_LOADER`]): calls on different devices still run side
 //! by side (the guard is shared), and only opening or dropping a device waits for them. A
 //! guard is never taken while the same thread holds the other (a backend opens and drops its
-//! devices outside [`crate::Device`]'s calls), so the lock cannot deadlock.
+//! devices outside [`crate::Device`]'s calls), and the shared one is taken once per call
+//! (`Device::enter`, or `Device::objects` for a backend's extensions, never both: a second
+//! shared hold would wait behind a device being opened elsewhere, which waits for the
+//! first), so the lock cannot deadlock.
 
 use std::sync::{PoisonError, RwLock, RwLockReadGuard, RwLockWriteGuard};
 
