@@ -119,19 +119,21 @@ struct Scene {
     incoherent: Vec<f32>,
 }
 
+/// The benchmark scenes (`crate::scenes::ALL`) found in `opts.scenes`, each with the camera
+/// `bench-cpu` uses (at `opts`' size) and `opts.incoherent` incoherent rays made as
+/// `bench-cpu` makes its own: at the default size, the same rays.
 fn scenes(opts: &ReportOptions) -> Vec<Scene> {
     let mut out = Vec::new();
-    for (name, file) in [
-        ("bunny", "stanford-bunny/stanford-bunny.obj"),
-        ("breakfast-room", "breakfast-room/breakfast_room.obj"),
-    ] {
-        let path = opts.scenes.join(file);
+    for bench in crate::scenes::ALL {
+        // Table and JSON names without spaces, as earlier reports wrote them.
+        let name = bench.name.replace(' ', "-");
+        let path = opts.scenes.join(bench.file);
         match mesh::load(&path) {
             Ok(mesh) => {
-                let camera = rays::camera(&mesh, opts.width, opts.height, [-0.3, -0.25, -1.0]);
+                let camera = crate::scenes::camera_rays(&bench, &mesh, opts.width, opts.height);
                 let incoherent = rays::incoherent(&mesh, opts.incoherent, 7);
                 out.push(Scene {
-                    name: name.into(),
+                    name,
                     mesh,
                     camera,
                     incoherent,
@@ -1410,5 +1412,48 @@ mod tests {
         ));
         std::fs::create_dir_all(&dir).unwrap();
         dir
+    }
+
+    /// `bench-report` traces the rays `bench-cpu` traces: each scene's own camera (the
+    /// Breakfast Room's Mitsuba sensor, not a framing view) and the same incoherent rays.
+    #[test]
+    fn report_scenes_trace_bench_cpu_rays() {
+        let dir = std::env::temp_dir().join(format!("optik-report-scenes-{}", std::process::id()));
+        // One triangle per file is enough: the rays depend on the mesh only through its box.
+        let obj = "v 0 0 0\nv 1 0 0\nv 0 1 1\nf 1 2 3\n";
+        for scene in crate::scenes::ALL {
+            let path = dir.join(scene.file);
+            std::fs::create_dir_all(path.parent().expect("a scene file is in a folder"))
+                .expect("temporary folder");
+            std::fs::write(&path, obj).expect("temporary scene file");
+        }
+        let (width, height) = crate::scenes::CAMERA_SIZE;
+        let opts = ReportOptions {
+            scenes: dir.clone(),
+            backends: vec![BackendKind::Cpu],
+            width,
+            height,
+            incoherent: crate::scenes::INCOHERENT_RAYS,
+            repeat: 1,
+            threads: None,
+            embree: false,
+            rounds: 1,
+            peer_script: PathBuf::new(),
+            python: "python3".into(),
+            scale: false,
+        };
+        let found = scenes(&opts);
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!(found.len(), crate::scenes::ALL.len());
+        for (scene, bench) in found.iter().zip(crate::scenes::ALL) {
+            let [camera, incoherent] = crate::scenes::ray_sets(&bench, &scene.mesh);
+            assert_eq!(scene.name, bench.name.replace(' ', "-"));
+            assert!(scene.camera == camera.rays, "{}: camera rays", scene.name);
+            assert!(
+                scene.incoherent == incoherent.rays,
+                "{}: incoherent",
+                scene.name
+            );
+        }
     }
 }

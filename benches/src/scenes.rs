@@ -105,17 +105,25 @@ pub struct RaySet {
     pub rays: Vec<f32>,
 }
 
+/// The camera rays of `scene` over `mesh` at `width` × `height`: what `bench-cpu` traces (at
+/// [`CAMERA_SIZE`]) and `optik bench-report` too (at its own size), so both measure the same
+/// views.
+pub fn camera_rays(scene: &Scene, mesh: &Mesh, width: u32, height: u32) -> Vec<f32> {
+    match scene.camera {
+        Camera::Framing(view) => rays::camera(mesh, width, height, view),
+        Camera::At { eye, view, up, fov } => {
+            rays::camera_at(eye, view, up, fov.to_radians(), width, height)
+        }
+    }
+}
+
 /// The camera and incoherent rays of `scene` over `mesh`.
 pub fn ray_sets(scene: &Scene, mesh: &Mesh) -> [RaySet; 2] {
     let (w, h) = CAMERA_SIZE;
-    let camera = match scene.camera {
-        Camera::Framing(view) => rays::camera(mesh, w, h, view),
-        Camera::At { eye, view, up, fov } => rays::camera_at(eye, view, up, fov.to_radians(), w, h),
-    };
     [
         RaySet {
             name: "camera",
-            rays: camera,
+            rays: camera_rays(scene, mesh, w, h),
         },
         RaySet {
             name: "incoherent",
