@@ -1307,12 +1307,13 @@ fn prefetch_lowest(wide: &WideBvh, node: &WideNode, mask: u32) {
         .as_ptr()
         .cast::<u8>()
         .wrapping_add(first * std::mem::size_of::<TriangleBlock>());
+    let own = std::ptr::from_ref(node).cast::<u8>();
+    // A walk whose leaves are not triangle blocks (spheres, curves, custom primitives) has no
+    // blocks: its leaves ask for the node's own line rather than an address past an empty
+    // array.
+    let leaf = if wide.blocks.is_empty() { own } else { leaf };
     let at = if count == 0 { inner } else { leaf };
-    let at = if mask == 0 {
-        std::ptr::from_ref(node).cast::<u8>()
-    } else {
-        at
-    };
+    let at = if mask == 0 { own } else { at };
     prefetch_byte(at);
     prefetch_byte(at.wrapping_add(64));
 }
