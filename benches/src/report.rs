@@ -1418,7 +1418,7 @@ mod tests {
     /// Breakfast Room's Mitsuba sensor, not a framing view) and the same incoherent rays.
     #[test]
     fn report_scenes_trace_bench_cpu_rays() {
-        let dir = std::env::temp_dir().join(format!("optik-report-scenes-{}", std::process::id()));
+        let dir = tempfile_folder();
         // One triangle per file is enough: the rays depend on the mesh only through its box.
         let obj = "v 0 0 0\nv 1 0 0\nv 0 1 1\nf 1 2 3\n";
         for scene in crate::scenes::ALL {
