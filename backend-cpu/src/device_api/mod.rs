@@ -30,6 +30,7 @@
 
 mod candidates;
 mod exceptions;
+mod lean;
 
 use crate::accel::Gas;
 use crate::launch::LaunchShared;
@@ -102,23 +103,30 @@ impl HitState {
     /// A built-in primitive's hit.
     #[inline(always)]
     fn of(c: &Candidate<'_>) -> HitState {
-        let mut attributes = [0; 8];
-        match c.data {
-            HitData::Triangle { barycentrics, .. } => {
-                attributes[0] = barycentrics[0].to_bits();
-                attributes[1] = barycentrics[1].to_bits();
-            }
-            HitData::Curve { u } => attributes[0] = u.to_bits(),
-            HitData::Sphere { .. } => {}
-        }
         HitState {
             t: c.t,
             primitive_index: c.info.primitive_index,
             sbt_gas_index: c.info.sbt_gas_index,
             hit_kind: c.hit_kind,
-            attributes,
+            attributes: HitState::attributes_of(Some(c.data)),
             data: Some(c.data),
         }
+    }
+
+    /// The attribute registers of a built-in primitive's hit with `data`: its parameters (a
+    /// triangle's barycentrics, a curve's `u`), the rest 0.
+    #[inline(always)]
+    fn attributes_of(data: Option<HitData>) -> [u32; 8] {
+        let mut attributes = [0; 8];
+        match data {
+            Some(HitData::Triangle { barycentrics, .. }) => {
+                attributes[0] = barycentrics[0].to_bits();
+                attributes[1] = barycentrics[1].to_bits();
+            }
+            Some(HitData::Curve { u }) => attributes[0] = u.to_bits(),
+            Some(HitData::Sphere { .. }) | None => {}
+        }
+        attributes
     }
 }
 
@@ -365,21 +373,36 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec>(
         closest_hit: inlined_closest_hit,
         state: inlined_state,
     };
-    // SAFETY: the caller's registers, as the contract says.
-    let run_inlined = unsafe {
-        inv.trace_ray(
-            [handle_lo, handle_hi],
-            [ox, oy, oz],
-            [dx, dy, dz],
-            [tmin, tmax, time],
-            [mask, flags, sbt_offset, sbt_stride, miss_index],
-            payload,
-            payload_len as usize,
-            true,
-            inlined,
-            trace_with::<S>,
-            misses_root_with::<S>,
-        )
+    let handle = [handle_lo, handle_hi];
+    let run_inlined = match inv.lean_root::<S>(handle) {
+        // SAFETY: the caller's registers, as the contract says.
+        Some(g) => unsafe {
+            inv.trace_lean::<S>(
+                g,
+                handle,
+                [ox, oy, oz],
+                [dx, dy, dz],
+                [tmin, tmax, time],
+                [mask, flags, sbt_offset, sbt_stride, miss_index],
+                payload,
+                payload_len as usize,
+                inlined,
+            )
+        },
+        // SAFETY: as above.
+        None => unsafe {
+            trace_full::<S>(
+                inv,
+                handle,
+                [ox, oy, oz],
+                [dx, dy, dz],
+                [tmin, tmax, time],
+                [mask, flags, sbt_offset, sbt_stride, miss_index],
+                payload,
+                payload_len,
+                inlined,
+            )
+        },
     };
     if inv.unwinding() {
         abi::TRACE_RETURN
@@ -387,6 +410,42 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec>(
         abi::TRACE_RUN_INLINED
     } else {
         abi::TRACE_GO_ON
+    }
+}
+
+/// `trace_entry`'s trace when it cannot be lean (`Invocation::lean_root`): the whole
+/// `Invocation::trace_ray`, out of the lean path's way.
+///
+/// # Safety
+/// As `trace_entry`'s.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+unsafe fn trace_full<S: Spec>(
+    inv: &mut Invocation<'_>,
+    handle: [u32; 2],
+    origin: [f32; 3],
+    direction: [f32; 3],
+    [tmin, tmax, time]: [f32; 3],
+    words: [u32; 5],
+    payload: *mut u32,
+    payload_len: u32,
+    inlined: Inlined,
+) -> bool {
+    // SAFETY: the caller's registers, as the contract says.
+    unsafe {
+        inv.trace_ray(
+            handle,
+            origin,
+            direction,
+            [tmin, tmax, time],
+            words,
+            payload,
+            payload_len as usize,
+            true,
+            inlined,
+            trace_with::<S>,
+            misses_root_with::<S>,
+        )
     }
 }
 
@@ -760,13 +819,30 @@ impl<'l> Invocation<'l> {
         let Some(record) = tr.committed_record else {
             return false;
         };
-        // SAFETY: written with the record (`commit`).
-        let hit = unsafe { tr.committed_hit.assume_init_ref() };
+        // Held by pointer: the trace state lives in `trace_ray`'s frame, not in `self`.
+        let hit = tr.committed_hit.as_ptr();
         let path: *const Path = if tr.committed_has_path {
             tr.committed_path.as_ptr()
         } else {
             std::ptr::null()
         };
+        // SAFETY: written with the record (`commit`); the frame outlives this call.
+        self.closest_hit_of(world, record, unsafe { &*hit }, path, inlined)
+    }
+
+    /// [`Invocation::closest_hit`] of the hit `hit` below `path` (null: no instances),
+    /// whose record is `record`: runs its closest-hit program, or writes the state of the
+    /// caller's inlined copy of it and returns true. The trace's payload and depth are the
+    /// invocation's (the program runs inside the trace).
+    #[inline(always)]
+    fn closest_hit_of(
+        &mut self,
+        world: &TraceRay,
+        record: &'l Record<'l>,
+        hit: &HitState,
+        path: *const Path,
+        inlined: Inlined,
+    ) -> bool {
         if world.flags.contains(RayFlags::DISABLE_CLOSESTHIT) {
             return false;
         }

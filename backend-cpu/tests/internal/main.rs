@@ -8,6 +8,8 @@
 //! - `features`: pipelines compile what their scene and programs use;
 //! - `handles`: structures checked at trace time (foreign, destroyed, reused slots);
 //! - `inlined`: a module's closest-hit program compiled into its ray generation programs;
+//! - `lean`: compiled programs' traces without the invocation's trace state, against the full
+//!   trace;
 //! - `native`: native (Rust closure) programs, this backend's own program API, and the
 //!   helpers the tests above share.
 
@@ -19,6 +21,8 @@ mod handles;
 mod inlined;
 #[cfg(feature = "jit")]
 mod jit;
+#[cfg(feature = "jit")]
+mod lean;
 mod native;
 
 use std::sync::{RwLock, RwLockReadGuard, RwLockWriteGuard};

@@ -1,0 +1,296 @@
+//! The lean trace (issue 14 item 1, docs/cpu-backend.md §5): `rt_trace` of compiled programs
+//! for pipelines without any-hit programs, instancing or debug exceptions, from a root of
+//! static triangle blocks (`traversal::blocks_root`), which holds no custom primitive and no
+//! instance.
+//!
+//! Under those conditions a candidate's fate is fixed: it is committed when it is nearer
+//! (`Invocation::candidate` with `S::ANY_HIT` false, its record looked up only to be kept), so
+//! the walk reports to a [`Closest`] on the stack instead of the invocation: no trace state,
+//! no record per candidate, no payload or depth saved around the walk. The record is looked
+//! up once, for the hit that stays; the invocation's frame (trace state, payload registers,
+//! depth) is set up only when a program runs inside the trace. What programs see and the
+//! results are those of `Invocation::trace_ray`, bit for bit.
+
+use super::{HitState, Inlined, Invocation, MAX_PAYLOAD, ROOT_CHECK_PAUSE, TraceState};
+use crate::accel::Gas;
+use crate::sbt::Record;
+use crate::traversal::{self, Candidate, CustomPrimitive, Handler, Path, Spec, TraceRay};
+use optik_api::semantics::exception as code;
+use optik_api::semantics::opacity::CandidateFate;
+use optik_api::semantics::{self, sbt_index};
+use optik_api::{ExceptionFlags, RayFlags};
+
+/// The nearest candidate of a lean trace so far.
+struct Closest {
+    /// The end of the interval: the ray's `tmax`, then the nearest candidate's distance.
+    tmax: f32,
+    /// The ray ends at its first hit (`RayFlags::TERMINATE_ON_FIRST_HIT`).
+    terminate_on_first: bool,
+    terminated: bool,
+    /// Whether `hit` holds a candidate.
+    found: bool,
+    /// The nearest candidate as programs see it (`HitState::of`), but for its attributes:
+    /// made once from its data, for the hit that stays (`Closest::hit_state`).
+    hit: std::mem::MaybeUninit<HitState>,
+}
+
+impl Closest {
+    /// The hit that stays, as programs see it.
+    #[inline(always)]
+    fn hit_state(&mut self) -> Option<&HitState> {
+        if !self.found {
+            return None;
+        }
+        let hit = self.hit.as_mut_ptr();
+        // SAFETY: every field but the attributes was written with `found` (`candidate`),
+        // and the attributes are written here.
+        unsafe {
+            (*hit).attributes = HitState::attributes_of((*hit).data);
+            Some(&*hit)
+        }
+    }
+}
+
+impl Handler for Closest {
+    #[inline(always)]
+    fn t_max(&self) -> f32 {
+        self.tmax
+    }
+
+    #[inline(always)]
+    fn done(&self) -> bool {
+        self.terminated
+    }
+
+    #[inline(always)]
+    fn candidate<S: Spec>(&mut self, c: &Candidate<'_>, _path: &Path, _fate: CandidateFate) {
+        // Without any-hit programs every candidate the walk reports (nearer than `tmax`,
+        // culled already) is committed, whatever its fate (`Invocation::candidate`).
+        self.tmax = c.t;
+        let hit = self.hit.as_mut_ptr();
+        // SAFETY: plain fields of the handler's own slot, written through its pointer.
+        unsafe {
+            (*hit).t = c.t;
+            (*hit).primitive_index = c.info.primitive_index;
+            (*hit).sbt_gas_index = c.info.sbt_gas_index;
+            (*hit).hit_kind = c.hit_kind;
+            (*hit).data = Some(c.data);
+        }
+        self.found = true;
+        self.terminated = self.terminate_on_first;
+    }
+
+    fn custom<S: Spec>(&mut self, _: &CustomPrimitive<'_>, _: &Path, _: CandidateFate) {
+        // A root of triangle blocks holds triangles only: the walk never reports custom
+        // primitives to this handler.
+        debug_assert!(false, "a lean trace met a custom primitive");
+    }
+
+    fn traversal_exception(&mut self, _code: i32) {
+        // The walk reports these only under debug exceptions, which keep a pipeline off the
+        // lean trace (`Invocation::lean_root`): a candidate's record is then checked per
+        // candidate, as `Invocation::candidate` does.
+        debug_assert!(false, "a lean trace was asked to raise an exception");
+    }
+}
+
+impl<'l> Invocation<'l> {
+    /// The root's structure when a trace of a pipeline compiled as `S` from `handle` may
+    /// take the lean path: the pipeline runs no any-hit program and has no instancing (a
+    /// spec without them), checks no debug exceptions, and the root is a static triangle
+    /// structure (`Invocation::blocks_root`).
+    #[inline(always)]
+    pub(super) fn lean_root<S: Spec>(&mut self, handle: [u32; 2]) -> Option<&'l Gas> {
+        let debug = self
+            .shared
+            .features
+            .exceptions
+            .contains(ExceptionFlags::DEBUG);
+        if S::ANY_HIT || S::INSTANCING || debug {
+            return None;
+        }
+        self.blocks_root::<S>(handle)
+    }
+
+    /// `Invocation::trace_ray` of a compiled program's `rt_trace` (payload used in place)
+    /// from the root `g` that [`Invocation::lean_root`] gave: the same checks, the same
+    /// walk, the same programs with the same views and state. Returns whether the caller
+    /// runs its inlined closest hit.
+    ///
+    /// # Safety
+    /// As `trace_ray`: `payload` holds `payload_len` registers of the caller.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(super) unsafe fn trace_lean<S: Spec>(
+        &mut self,
+        g: &'l Gas,
+        handle: [u32; 2],
+        origin: [f32; 3],
+        direction: [f32; 3],
+        [tmin, tmax, time]: [f32; 3],
+        [mask, flags, sbt_offset, sbt_stride, miss_index]: [u32; 5],
+        payload: *mut u32,
+        payload_len: usize,
+        inlined: Inlined,
+    ) -> bool {
+        if self.ending {
+            return false;
+        }
+        let features = self.shared.features;
+        if self.depth >= features.max_trace_depth {
+            if features.exceptions.contains(ExceptionFlags::TRACE_DEPTH) {
+                self.raise(code::TRACE_DEPTH_EXCEEDED);
+            }
+            return false;
+        }
+        // Without debug exceptions an invalid ray does nothing.
+        if !semantics::ray::is_valid(origin, direction, tmin, tmax) {
+            return false;
+        }
+        let time = if features.motion { time } else { 0.0 };
+        let world = TraceRay {
+            origin,
+            direction,
+            tmin,
+            tmax,
+            time,
+            mask,
+            flags: RayFlags(flags),
+        };
+        // The root check of `trace_ray`, with its arming.
+        if self.root_check_armed && self.miss_runs_nothing(miss_index) {
+            if super::misses_root_with::<S>(self, handle, &world) {
+                return false;
+            }
+            self.root_check_armed = false;
+            self.root_check_rearm_in = ROOT_CHECK_PAUSE;
+        }
+        let mut closest = Closest {
+            tmax,
+            terminate_on_first: world.flags.contains(RayFlags::TERMINATE_ON_FIRST_HIT),
+            terminated: false,
+            found: false,
+            hit: std::mem::MaybeUninit::uninit(),
+        };
+        let shared = self.shared;
+        traversal::trace_blocks::<S, _>(shared.scene, g, &world, &shared.config, &mut closest);
+        let registers = (payload, payload_len.min(MAX_PAYLOAD));
+        match closest.hit_state() {
+            Some(hit) => {
+                self.root_check_armed = false;
+                let record = self.lean_hit_record(sbt_offset, sbt_stride, hit.sbt_gas_index);
+                self.lean_closest_hit(
+                    &world,
+                    [sbt_offset, sbt_stride],
+                    record,
+                    hit,
+                    registers,
+                    inlined,
+                )
+            }
+            None => {
+                if self.root_check_rearm_in > 0 {
+                    self.root_check_rearm_in -= 1;
+                } else {
+                    self.root_check_armed = true;
+                }
+                // A miss index past the records runs nothing (no debug exceptions here).
+                if let Some(record) = self.miss_record(miss_index)
+                    && record.main_runs
+                {
+                    self.in_trace_frame(&world, [sbt_offset, sbt_stride], registers, |inv| {
+                        inv.miss(record, &world)
+                    });
+                }
+                false
+            }
+        }
+    }
+
+    /// The hit group record of a lean trace's hit (`Invocation::hit_record` at the root,
+    /// whose path adds no SBT offset): past the records, the record without programs.
+    #[inline(always)]
+    fn lean_hit_record(
+        &self,
+        sbt_offset: u32,
+        sbt_stride: u32,
+        sbt_gas_index: u32,
+    ) -> &'l Record<'l> {
+        let shared = self.shared;
+        let i = sbt_index::hit_record_index(0, sbt_gas_index, sbt_offset, sbt_stride);
+        shared
+            .sbt
+            .hitgroup
+            .get(i as usize)
+            .unwrap_or(&shared.sbt.null_hit)
+    }
+
+    /// The closest hit of a lean trace (`Invocation::closest_hit_of` inside the trace's
+    /// frame). An inlined closest hit only needs its state written, which reads the payload
+    /// registers and the depth: those alone are set for it.
+    #[inline(always)]
+    fn lean_closest_hit(
+        &mut self,
+        world: &TraceRay,
+        sbt: [u32; 2],
+        record: &'l Record<'l>,
+        hit: &HitState,
+        registers: (*mut u32, usize),
+        inlined: Inlined,
+    ) -> bool {
+        let inlined_here = !inlined.closest_hit.is_null()
+            && record
+                .programs
+                .main
+                .as_ref()
+                .is_some_and(|ch| ch.entry_address() == inlined.closest_hit);
+        if inlined_here {
+            let saved = (self.payload, self.payload_len);
+            (self.payload, self.payload_len) = registers;
+            self.depth += 1;
+            let run_inlined = self.closest_hit_of(world, record, hit, std::ptr::null(), inlined);
+            self.depth -= 1;
+            (self.payload, self.payload_len) = saved;
+            run_inlined
+        } else {
+            self.in_trace_frame(world, sbt, registers, |inv| {
+                inv.closest_hit_of(world, record, hit, std::ptr::null(), inlined)
+            })
+        }
+    }
+
+    /// Runs `f` (a program of the trace of `world`) in the frame `trace_ray` keeps while its
+    /// programs run: the innermost trace's state, its payload registers, one level deeper.
+    #[inline(never)]
+    fn in_trace_frame<R>(
+        &mut self,
+        world: &TraceRay,
+        [sbt_offset, sbt_stride]: [u32; 2],
+        registers: (*mut u32, usize),
+        f: impl FnOnce(&mut Self) -> R,
+    ) -> R {
+        let mut state = TraceState {
+            ray: world,
+            tmax: world.tmax,
+            sbt_offset,
+            sbt_stride,
+            committed_record: None,
+            committed_hit: std::mem::MaybeUninit::uninit(),
+            committed_path: std::mem::MaybeUninit::uninit(),
+            committed_has_path: false,
+            terminated: false,
+            any_hit: super::AnyHitOutcome::Accept,
+            intersection: std::ptr::null(),
+            intersection_exit: false,
+        };
+        let saved_trace = std::mem::replace(&mut self.trace, &mut state);
+        let saved_payload = (self.payload, self.payload_len);
+        (self.payload, self.payload_len) = registers;
+        self.depth += 1;
+        let r = f(self);
+        self.depth -= 1;
+        self.trace = saved_trace;
+        (self.payload, self.payload_len) = saved_payload;
+        r
+    }
+}
