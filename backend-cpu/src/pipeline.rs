@@ -5,8 +5,8 @@ use crate::program::abi::{Bindings, DeviceCalls};
 use crate::traversal::{Spec, Specialised, TraceRay};
 use optik_api::features::ProgramFeatures;
 use optik_api::{
-    Accuracy, BoxTest, Error, FeatureSet, PipelineLinkOptions, ProgramGroupDesc, ProgramKind,
-    ProgramRef, Result, TraversableHandle, TriangleTest,
+    Accuracy, BoxTest, Error, ExceptionFlags, FeatureSet, PipelineLinkOptions, ProgramGroupDesc,
+    ProgramKind, ProgramRef, Result, TraversableHandle, TriangleTest,
 };
 use optik_core::frontend::{BindingInfo, CompiledModule};
 use std::collections::HashMap;
@@ -538,39 +538,51 @@ pub(crate) struct TraceFn {
     pub entry: crate::program::abi::TraceEntry,
 }
 
-fn trace_fn<S: Spec>() -> TraceFn {
+/// The traces of a pipeline compiled as `S`. Compiled programs trace through the lean entry
+/// (`device_api::trace_entry_lean`, docs/cpu-backend.md §5) when the spec has no any-hit
+/// programs and no instancing and the pipeline checks no debug exceptions (`debug`); other
+/// pipelines keep the whole `rt_trace` in their entry.
+fn trace_fn<S: Spec>(debug: bool) -> TraceFn {
+    let lean = !S::ANY_HIT && !S::INSTANCING && !debug;
     TraceFn {
         walk: crate::device_api::trace_with::<S>,
-        entry: crate::device_api::trace_entry::<S>,
+        entry: if lean {
+            crate::device_api::trace_entry_lean::<S>
+        } else {
+            crate::device_api::trace_entry::<S>
+        },
     }
 }
 
-fn select_c<const M: bool, const I: bool, const A: bool, const W: bool>(c: bool) -> TraceFn {
+fn select_c<const M: bool, const I: bool, const A: bool, const W: bool>(
+    c: bool,
+    debug: bool,
+) -> TraceFn {
     if c {
-        trace_fn::<Specialised<M, I, A, W, true>>()
+        trace_fn::<Specialised<M, I, A, W, true>>(debug)
     } else {
-        trace_fn::<Specialised<M, I, A, W, false>>()
+        trace_fn::<Specialised<M, I, A, W, false>>(debug)
     }
 }
-fn select_w<const M: bool, const I: bool, const A: bool>(w: bool, c: bool) -> TraceFn {
+fn select_w<const M: bool, const I: bool, const A: bool>(w: bool, c: bool, debug: bool) -> TraceFn {
     if w {
-        select_c::<M, I, A, true>(c)
+        select_c::<M, I, A, true>(c, debug)
     } else {
-        select_c::<M, I, A, false>(c)
+        select_c::<M, I, A, false>(c, debug)
     }
 }
-fn select_a<const M: bool, const I: bool>(a: bool, w: bool, c: bool) -> TraceFn {
+fn select_a<const M: bool, const I: bool>(a: bool, w: bool, c: bool, debug: bool) -> TraceFn {
     if a {
-        select_w::<M, I, true>(w, c)
+        select_w::<M, I, true>(w, c, debug)
     } else {
-        select_w::<M, I, false>(w, c)
+        select_w::<M, I, false>(w, c, debug)
     }
 }
-fn select_i<const M: bool>(i: bool, a: bool, w: bool, c: bool) -> TraceFn {
+fn select_i<const M: bool>(i: bool, a: bool, w: bool, c: bool, debug: bool) -> TraceFn {
     if i {
-        select_a::<M, true>(a, w, c)
+        select_a::<M, true>(a, w, c, debug)
     } else {
-        select_a::<M, false>(a, w, c)
+        select_a::<M, false>(a, w, c, debug)
     }
 }
 
@@ -579,10 +591,11 @@ pub(crate) fn select_trace(features: &FeatureSet, accuracy: Accuracy) -> TraceFn
     let (m, i, a) = (features.motion, features.instancing(), features.any_hit);
     let w = accuracy.triangle == TriangleTest::Watertight;
     let c = accuracy.box_test == BoxTest::Conservative;
+    let debug = features.exceptions.contains(ExceptionFlags::DEBUG);
     if m {
-        select_i::<true>(i, a, w, c)
+        select_i::<true>(i, a, w, c, debug)
     } else {
-        select_i::<false>(i, a, w, c)
+        select_i::<false>(i, a, w, c, debug)
     }
 }
 

@@ -88,34 +88,18 @@ impl Handler for Closest {
 
     fn traversal_exception(&mut self, _code: i32) {
         // The walk reports these only under debug exceptions, which keep a pipeline off the
-        // lean trace (`Invocation::lean_root`): a candidate's record is then checked per
+        // lean trace (`pipeline::trace_fn`): a candidate's record is then checked per
         // candidate, as `Invocation::candidate` does.
         debug_assert!(false, "a lean trace was asked to raise an exception");
     }
 }
 
 impl<'l> Invocation<'l> {
-    /// The root's structure when a trace of a pipeline compiled as `S` from `handle` may
-    /// take the lean path: the pipeline runs no any-hit program and has no instancing (a
-    /// spec without them), checks no debug exceptions, and the root is a static triangle
-    /// structure (`Invocation::blocks_root`).
-    #[inline(always)]
-    pub(super) fn lean_root<S: Spec>(&mut self, handle: [u32; 2]) -> Option<&'l Gas> {
-        let debug = self
-            .shared
-            .features
-            .exceptions
-            .contains(ExceptionFlags::DEBUG);
-        if S::ANY_HIT || S::INSTANCING || debug {
-            return None;
-        }
-        self.blocks_root::<S>(handle)
-    }
-
     /// `Invocation::trace_ray` of a compiled program's `rt_trace` (payload used in place)
-    /// from the root `g` that [`Invocation::lean_root`] gave: the same checks, the same
-    /// walk, the same programs with the same views and state. Returns whether the caller
-    /// runs its inlined closest hit.
+    /// from the root `g` that `Invocation::blocks_root` gave, in a pipeline compiled as `S`
+    /// that may trace lean (`pipeline::trace_fn`: without any-hit programs, instancing or
+    /// debug exceptions): the same checks, the same walk, the same programs with the same
+    /// views and state. Returns whether the caller runs its inlined closest hit.
     ///
     /// # Safety
     /// As `trace_ray`: `payload` holds `payload_len` registers of the caller.
@@ -133,6 +117,15 @@ impl<'l> Invocation<'l> {
         payload_len: usize,
         inlined: Inlined,
     ) -> bool {
+        debug_assert!(
+            !S::ANY_HIT
+                && !S::INSTANCING
+                && !self
+                    .shared
+                    .features
+                    .exceptions
+                    .contains(ExceptionFlags::DEBUG)
+        );
         if self.ending {
             return false;
         }

@@ -373,8 +373,63 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec>(
         closest_hit: inlined_closest_hit,
         state: inlined_state,
     };
+    // SAFETY: the caller's registers, as the contract says.
+    let run_inlined = unsafe {
+        trace_full::<S>(
+            inv,
+            [handle_lo, handle_hi],
+            [ox, oy, oz],
+            [dx, dy, dz],
+            [tmin, tmax, time],
+            [mask, flags, sbt_offset, sbt_stride, miss_index],
+            payload,
+            payload_len,
+            inlined,
+        )
+    };
+    inv.entry_outcome(run_inlined)
+}
+
+/// [`trace_entry`] for pipelines whose traces may be lean (`pipeline::trace_fn`: no any-hit
+/// programs, no instancing, no debug exceptions): a trace from a root of triangle blocks
+/// takes `Invocation::trace_lean`, any other the whole trace, out of line.
+///
+/// # Safety
+/// As [`trace_entry`]'s.
+#[allow(clippy::too_many_arguments)]
+pub(crate) unsafe extern "C-unwind" fn trace_entry_lean<S: Spec>(
+    calls: *mut (),
+    handle_lo: u32,
+    handle_hi: u32,
+    ox: f32,
+    oy: f32,
+    oz: f32,
+    dx: f32,
+    dy: f32,
+    dz: f32,
+    tmin: f32,
+    tmax: f32,
+    time: f32,
+    mask: u32,
+    flags: u32,
+    sbt_offset: u32,
+    sbt_stride: u32,
+    miss_index: u32,
+    payload: *mut u32,
+    payload_len: u32,
+    inlined_closest_hit: *const u8,
+    inlined_state: *mut DeviceState,
+) -> u32 {
+    // SAFETY: as in `trace_entry`.
+    let inv = unsafe { &mut *calls.cast::<Invocation<'_>>() };
+    let inlined = Inlined {
+        closest_hit: inlined_closest_hit,
+        state: inlined_state,
+    };
     let handle = [handle_lo, handle_hi];
-    let run_inlined = match inv.lean_root::<S>(handle) {
+    // The words are written out in each arm: one array for both is stored to the stack
+    // before the match, five stores every lean trace pays for the other arm.
+    let run_inlined = match inv.blocks_root::<S>(handle) {
         // SAFETY: the caller's registers, as the contract says.
         Some(g) => unsafe {
             inv.trace_lean::<S>(
@@ -391,7 +446,7 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec>(
         },
         // SAFETY: as above.
         None => unsafe {
-            trace_full::<S>(
+            trace_full_out_of_line::<S>(
                 inv,
                 handle,
                 [ox, oy, oz],
@@ -404,22 +459,15 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec>(
             )
         },
     };
-    if inv.unwinding() {
-        abi::TRACE_RETURN
-    } else if run_inlined {
-        abi::TRACE_RUN_INLINED
-    } else {
-        abi::TRACE_GO_ON
-    }
+    inv.entry_outcome(run_inlined)
 }
 
-/// `trace_entry`'s trace when it cannot be lean (`Invocation::lean_root`): the whole
-/// `Invocation::trace_ray`, out of the lean path's way.
+/// The whole `Invocation::trace_ray` of a compiled program's trace (payload in place).
 ///
 /// # Safety
-/// As `trace_entry`'s.
+/// As [`trace_entry`]'s.
 #[allow(clippy::too_many_arguments)]
-#[inline(never)]
+#[inline(always)]
 unsafe fn trace_full<S: Spec>(
     inv: &mut Invocation<'_>,
     handle: [u32; 2],
@@ -445,6 +493,39 @@ unsafe fn trace_full<S: Spec>(
             inlined,
             trace_with::<S>,
             misses_root_with::<S>,
+        )
+    }
+}
+
+/// [`trace_full`] out of [`trace_entry_lean`]'s way (roots that are not triangle blocks).
+///
+/// # Safety
+/// As [`trace_entry`]'s.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+unsafe fn trace_full_out_of_line<S: Spec>(
+    inv: &mut Invocation<'_>,
+    handle: [u32; 2],
+    origin: [f32; 3],
+    direction: [f32; 3],
+    times: [f32; 3],
+    words: [u32; 5],
+    payload: *mut u32,
+    payload_len: u32,
+    inlined: Inlined,
+) -> bool {
+    // SAFETY: as the caller's contract says.
+    unsafe {
+        trace_full::<S>(
+            inv,
+            handle,
+            origin,
+            direction,
+            times,
+            words,
+            payload,
+            payload_len,
+            inlined,
         )
     }
 }
@@ -552,6 +633,19 @@ impl<'l> Invocation<'l> {
 
     fn exceptions(&self) -> ExceptionFlags {
         self.shared.features.exceptions
+    }
+
+    /// What a compiled program's trace entry answers after the trace (`abi::TraceEntry`):
+    /// return at once when the index is ending, run the inlined closest hit, or go on.
+    #[inline(always)]
+    fn entry_outcome(&self, run_inlined: bool) -> u32 {
+        if self.unwinding() {
+            abi::TRACE_RETURN
+        } else if run_inlined {
+            abi::TRACE_RUN_INLINED
+        } else {
+            abi::TRACE_GO_ON
+        }
     }
 
     /// The structure at the root `handle` when traces from it walk triangle blocks straight
