@@ -538,18 +538,18 @@ pub(crate) struct TraceFn {
     pub entry: crate::program::abi::TraceEntry,
 }
 
-/// The traces of a pipeline compiled as `S`. Compiled programs trace through the lean entry
-/// (`device_api::trace_entry_lean`, docs/cpu-backend.md §5) when the spec has no any-hit
-/// programs and no instancing and the pipeline checks no debug exceptions (`debug`); other
-/// pipelines keep the whole `rt_trace` in their entry.
+/// The traces of a pipeline compiled as `S`. Compiled programs' traces may be lean
+/// (`device_api::trace_entry` with `LEAN`, docs/cpu-backend.md §5) when the spec has no
+/// any-hit programs and no instancing and the pipeline checks no debug exceptions (`debug`);
+/// other pipelines keep the whole `rt_trace` in their entry.
 fn trace_fn<S: Spec>(debug: bool) -> TraceFn {
     let lean = !S::ANY_HIT && !S::INSTANCING && !debug;
     TraceFn {
         walk: crate::device_api::trace_with::<S>,
         entry: if lean {
-            crate::device_api::trace_entry_lean::<S>
+            crate::device_api::trace_entry::<S, true>
         } else {
-            crate::device_api::trace_entry::<S>
+            crate::device_api::trace_entry::<S, false>
         },
     }
 }

@@ -11,13 +11,12 @@
 //! depth) is set up only when a program runs inside the trace. What programs see and the
 //! results are those of `Invocation::trace_ray`, bit for bit.
 
-use super::{HitState, Inlined, Invocation, MAX_PAYLOAD, ROOT_CHECK_PAUSE, TraceState};
+use super::{HitState, Inlined, Invocation, MAX_PAYLOAD, TraceState};
 use crate::accel::Gas;
 use crate::sbt::Record;
 use crate::traversal::{self, Candidate, CustomPrimitive, Handler, Path, Spec, TraceRay};
-use optik_api::semantics::exception as code;
 use optik_api::semantics::opacity::CandidateFate;
-use optik_api::semantics::{self, sbt_index};
+use optik_api::semantics::sbt_index;
 use optik_api::{ExceptionFlags, RayFlags};
 
 /// The nearest candidate of a lean trace so far.
@@ -126,37 +125,25 @@ impl<'l> Invocation<'l> {
                     .exceptions
                     .contains(ExceptionFlags::DEBUG)
         );
-        if self.ending {
+        // `trace_ray`'s start, step for step.
+        if self.trace_refused(origin, direction, tmin, tmax) {
             return false;
         }
-        let features = self.shared.features;
-        if self.depth >= features.max_trace_depth {
-            if features.exceptions.contains(ExceptionFlags::TRACE_DEPTH) {
-                self.raise(code::TRACE_DEPTH_EXCEEDED);
-            }
-            return false;
-        }
-        // Without debug exceptions an invalid ray does nothing.
-        if !semantics::ray::is_valid(origin, direction, tmin, tmax) {
-            return false;
-        }
-        let time = if features.motion { time } else { 0.0 };
         let world = TraceRay {
             origin,
             direction,
             tmin,
             tmax,
-            time,
+            time: if self.shared.features.motion {
+                time
+            } else {
+                0.0
+            },
             mask,
             flags: RayFlags(flags),
         };
-        // The root check of `trace_ray`, with its arming.
-        if self.root_check_armed && self.miss_runs_nothing(miss_index) {
-            if super::misses_root_with::<S>(self, handle, &world) {
-                return false;
-            }
-            self.root_check_armed = false;
-            self.root_check_rearm_in = ROOT_CHECK_PAUSE;
+        if self.root_check_ends(handle, &world, miss_index, super::misses_root_with::<S>) {
+            return false;
         }
         let mut closest = Closest {
             tmax,
@@ -182,11 +169,7 @@ impl<'l> Invocation<'l> {
                 )
             }
             None => {
-                if self.root_check_rearm_in > 0 {
-                    self.root_check_rearm_in -= 1;
-                } else {
-                    self.root_check_armed = true;
-                }
+                self.found_nothing();
                 // A miss index past the records runs nothing (no debug exceptions here).
                 if let Some(record) = self.miss_record(miss_index)
                     && record.main_runs

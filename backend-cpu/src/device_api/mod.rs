@@ -337,13 +337,16 @@ pub(crate) fn trace_with<S: Spec>(
 
 /// `rt_trace` of compiled programs for a pipeline compiled as `S` (an
 /// [`abi::TraceEntry`](crate::program::abi::TraceEntry)): the whole trace in one
-/// monomorphic function, the walk called directly.
+/// monomorphic function, the walk called directly. With `LEAN` (pipelines without any-hit
+/// programs, instancing or debug exceptions, `pipeline::trace_fn`), a trace from a root of
+/// triangle blocks takes `Invocation::trace_lean` and any other the whole trace out of line;
+/// without it the whole `Invocation::trace_ray` is inlined here.
 ///
 /// # Safety
 /// `calls` is the invocation that called the running program with this entry
 /// (`Invocation::run_program`), and `payload` holds `payload_len` registers of the caller.
 #[allow(clippy::too_many_arguments)]
-pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec>(
+pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec, const LEAN: bool>(
     calls: *mut (),
     handle_lo: u32,
     handle_hi: u32,
@@ -373,65 +376,17 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec>(
         closest_hit: inlined_closest_hit,
         state: inlined_state,
     };
-    // SAFETY: the caller's registers, as the contract says.
-    let run_inlined = unsafe {
-        trace_full::<S>(
-            inv,
-            [handle_lo, handle_hi],
-            [ox, oy, oz],
-            [dx, dy, dz],
-            [tmin, tmax, time],
-            [mask, flags, sbt_offset, sbt_stride, miss_index],
-            payload,
-            payload_len,
-            inlined,
-        )
-    };
-    inv.entry_outcome(run_inlined)
-}
-
-/// [`trace_entry`] for pipelines whose traces may be lean (`pipeline::trace_fn`: no any-hit
-/// programs, no instancing, no debug exceptions): a trace from a root of triangle blocks
-/// takes `Invocation::trace_lean`, any other the whole trace, out of line.
-///
-/// # Safety
-/// As [`trace_entry`]'s.
-#[allow(clippy::too_many_arguments)]
-pub(crate) unsafe extern "C-unwind" fn trace_entry_lean<S: Spec>(
-    calls: *mut (),
-    handle_lo: u32,
-    handle_hi: u32,
-    ox: f32,
-    oy: f32,
-    oz: f32,
-    dx: f32,
-    dy: f32,
-    dz: f32,
-    tmin: f32,
-    tmax: f32,
-    time: f32,
-    mask: u32,
-    flags: u32,
-    sbt_offset: u32,
-    sbt_stride: u32,
-    miss_index: u32,
-    payload: *mut u32,
-    payload_len: u32,
-    inlined_closest_hit: *const u8,
-    inlined_state: *mut DeviceState,
-) -> u32 {
-    // SAFETY: as in `trace_entry`.
-    let inv = unsafe { &mut *calls.cast::<Invocation<'_>>() };
-    let inlined = Inlined {
-        closest_hit: inlined_closest_hit,
-        state: inlined_state,
-    };
     let handle = [handle_lo, handle_hi];
-    // The words are written out in each arm: one array for both is stored to the stack
-    // before the match, five stores every lean trace pays for the other arm.
-    let run_inlined = match inv.blocks_root::<S>(handle) {
+    // The words are written out in each arm: one array for all of them is stored to the
+    // stack before the match, five stores every lean trace pays for the other arm.
+    let lean_root = if LEAN {
+        inv.blocks_root::<S>(handle)
+    } else {
+        None
+    };
+    let run_inlined = if let Some(g) = lean_root {
         // SAFETY: the caller's registers, as the contract says.
-        Some(g) => unsafe {
+        unsafe {
             inv.trace_lean::<S>(
                 g,
                 handle,
@@ -443,9 +398,10 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry_lean<S: Spec>(
                 payload_len as usize,
                 inlined,
             )
-        },
+        }
+    } else if LEAN {
         // SAFETY: as above.
-        None => unsafe {
+        unsafe {
             trace_full_out_of_line::<S>(
                 inv,
                 handle,
@@ -457,9 +413,30 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry_lean<S: Spec>(
                 payload_len,
                 inlined,
             )
-        },
+        }
+    } else {
+        // SAFETY: as above.
+        unsafe {
+            trace_full::<S>(
+                inv,
+                handle,
+                [ox, oy, oz],
+                [dx, dy, dz],
+                [tmin, tmax, time],
+                [mask, flags, sbt_offset, sbt_stride, miss_index],
+                payload,
+                payload_len,
+                inlined,
+            )
+        }
     };
-    inv.entry_outcome(run_inlined)
+    if inv.unwinding() {
+        abi::TRACE_RETURN
+    } else if run_inlined {
+        abi::TRACE_RUN_INLINED
+    } else {
+        abi::TRACE_GO_ON
+    }
 }
 
 /// The whole `Invocation::trace_ray` of a compiled program's trace (payload in place).
@@ -497,7 +474,7 @@ unsafe fn trace_full<S: Spec>(
     }
 }
 
-/// [`trace_full`] out of [`trace_entry_lean`]'s way (roots that are not triangle blocks).
+/// [`trace_full`] out of the lean trace's way (roots that are not triangle blocks).
 ///
 /// # Safety
 /// As [`trace_entry`]'s.
@@ -633,19 +610,6 @@ impl<'l> Invocation<'l> {
 
     fn exceptions(&self) -> ExceptionFlags {
         self.shared.features.exceptions
-    }
-
-    /// What a compiled program's trace entry answers after the trace (`abi::TraceEntry`):
-    /// return at once when the index is ending, run the inlined closest hit, or go on.
-    #[inline(always)]
-    fn entry_outcome(&self, run_inlined: bool) -> u32 {
-        if self.unwinding() {
-            abi::TRACE_RETURN
-        } else if run_inlined {
-            abi::TRACE_RUN_INLINED
-        } else {
-            abi::TRACE_GO_ON
-        }
     }
 
     /// The structure at the root `handle` when traces from it walk triangle blocks straight
@@ -866,11 +830,7 @@ impl<'l> Invocation<'l> {
             self.root_check_armed = false;
             return self.closest_hit(world, inlined);
         }
-        if self.root_check_rearm_in > 0 {
-            self.root_check_rearm_in -= 1;
-        } else {
-            self.root_check_armed = true;
-        }
+        self.found_nothing();
         match self.miss_record(miss_index) {
             Some(record) => {
                 if record.main_runs {
@@ -884,6 +844,17 @@ impl<'l> Invocation<'l> {
             }
         }
         false
+    }
+
+    /// A trace found nothing: the root check is armed for the next, unless it is resting
+    /// after letting a ray in (`Invocation::root_check_ends`).
+    #[inline(always)]
+    fn found_nothing(&mut self) {
+        if self.root_check_rearm_in > 0 {
+            self.root_check_rearm_in -= 1;
+        } else {
+            self.root_check_armed = true;
+        }
     }
 
     /// Whether a miss with `miss_index` runs no program and raises nothing: its record
@@ -1057,6 +1028,61 @@ impl<'l> Invocation<'l> {
         self.view().hit()
     }
 
+    /// The checks every trace starts with, in order: an ending index, the depth, the ray's
+    /// validity, each raising what the pipeline checks. True when the trace ends there, with
+    /// no effect but the exception raised.
+    #[inline(always)]
+    fn trace_refused(
+        &mut self,
+        origin: [f32; 3],
+        direction: [f32; 3],
+        tmin: f32,
+        tmax: f32,
+    ) -> bool {
+        if self.ending {
+            return true;
+        }
+        let features = self.shared.features;
+        if self.depth >= features.max_trace_depth {
+            if features.exceptions.contains(ExceptionFlags::TRACE_DEPTH) {
+                self.raise(code::TRACE_DEPTH_EXCEEDED);
+            }
+            return true;
+        }
+        if !semantics::ray::is_valid(origin, direction, tmin, tmax) {
+            if features.exceptions.contains(ExceptionFlags::DEBUG) {
+                self.raise(code::INVALID_RAY);
+            }
+            return true;
+        }
+        false
+    }
+
+    /// After a trace that found nothing, the next (a camera's neighbour, often as empty) is
+    /// first tested against the root's boxes (`misses_root`): when it misses them all and a
+    /// miss runs no program, the trace has no effect and ends here (true), before its state
+    /// is set up. The state that arms the test is kept on the hit and miss paths only
+    /// (`Invocation::found_nothing`), and the test rests after letting a ray in: rays that
+    /// enter the root and find nothing (from inside a model, or around a large one) would
+    /// pay for it twice at every trace.
+    #[inline(always)]
+    fn root_check_ends(
+        &mut self,
+        handle: [u32; 2],
+        world: &TraceRay,
+        miss_index: u32,
+        misses_root: impl FnOnce(&mut Self, [u32; 2], &TraceRay) -> bool,
+    ) -> bool {
+        if self.root_check_armed && self.miss_runs_nothing(miss_index) {
+            if misses_root(self, handle, world) {
+                return true;
+            }
+            self.root_check_armed = false;
+            self.root_check_rearm_in = ROOT_CHECK_PAUSE;
+        }
+        false
+    }
+
     /// `rt_trace` (`DeviceCalls::trace`, and compiled programs' entry), with `walk` the
     /// pipeline's traversal. Inlined into each caller, so the compiled programs' entry
     /// keeps its arguments in registers and calls the walk directly.
@@ -1091,44 +1117,24 @@ impl<'l> Invocation<'l> {
         walk: impl FnOnce(&mut Self, &TraceRay, TraversableHandle),
         misses_root: impl FnOnce(&mut Self, [u32; 2], &TraceRay) -> bool,
     ) -> bool {
-        if self.ending {
+        if self.trace_refused(origin, direction, tmin, tmax) {
             return false;
         }
-        let features = self.shared.features;
-        if self.depth >= features.max_trace_depth {
-            if features.exceptions.contains(ExceptionFlags::TRACE_DEPTH) {
-                self.raise(code::TRACE_DEPTH_EXCEEDED);
-            }
-            return false;
-        }
-        if !semantics::ray::is_valid(origin, direction, tmin, tmax) {
-            if features.exceptions.contains(ExceptionFlags::DEBUG) {
-                self.raise(code::INVALID_RAY);
-            }
-            return false;
-        }
-        let time = if features.motion { time } else { 0.0 };
         let world = TraceRay {
             origin,
             direction,
             tmin,
             tmax,
-            time,
+            time: if self.shared.features.motion {
+                time
+            } else {
+                0.0
+            },
             mask,
             flags: RayFlags(flags),
         };
-        // After a trace that found nothing, the next (a camera's neighbour, often as empty)
-        // is first tested against the root's boxes: when it misses them all and a miss runs
-        // no program, the trace has no effect and ends here, before its state is set up.
-        // The state that arms the test is kept on the hit and miss paths only, and the test
-        // rests after letting a ray in: rays that enter the root and find nothing (from
-        // inside a model, or around a large one) would pay for it twice at every trace.
-        if self.root_check_armed && self.miss_runs_nothing(miss_index) {
-            if misses_root(self, handle, &world) {
-                return false;
-            }
-            self.root_check_armed = false;
-            self.root_check_rearm_in = ROOT_CHECK_PAUSE;
+        if self.root_check_ends(handle, &world, miss_index, misses_root) {
+            return false;
         }
         let n = payload_len.min(MAX_PAYLOAD);
         // Registers past `n` are never read (accesses check `payload_len`), so only the
