@@ -378,7 +378,7 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec, const LEAN: bool>(
     };
     let handle = [handle_lo, handle_hi];
     // The words are written out in each arm: one array for all of them is stored to the
-    // stack before the match, five stores every lean trace pays for the other arm.
+    // stack before the branch, five stores every lean trace pays for the other arms.
     let lean_root = if LEAN {
         inv.blocks_root::<S>(handle)
     } else {
