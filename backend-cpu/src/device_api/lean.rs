@@ -129,19 +129,7 @@ impl<'l> Invocation<'l> {
         if self.trace_refused(origin, direction, tmin, tmax) {
             return false;
         }
-        let world = TraceRay {
-            origin,
-            direction,
-            tmin,
-            tmax,
-            time: if self.shared.features.motion {
-                time
-            } else {
-                0.0
-            },
-            mask,
-            flags: RayFlags(flags),
-        };
+        let world = self.world_ray(origin, direction, [tmin, tmax, time], mask, flags);
         if self.root_check_ends(handle, &world, miss_index, super::misses_root_with::<S>) {
             return false;
         }

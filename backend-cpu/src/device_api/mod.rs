@@ -1058,6 +1058,32 @@ impl<'l> Invocation<'l> {
         false
     }
 
+    /// The ray a trace walks and its programs see: the caller's values, its time kept only
+    /// in pipelines with motion (else 0).
+    #[inline(always)]
+    fn world_ray(
+        &self,
+        origin: [f32; 3],
+        direction: [f32; 3],
+        [tmin, tmax, time]: [f32; 3],
+        mask: u32,
+        flags: u32,
+    ) -> TraceRay {
+        TraceRay {
+            origin,
+            direction,
+            tmin,
+            tmax,
+            time: if self.shared.features.motion {
+                time
+            } else {
+                0.0
+            },
+            mask,
+            flags: RayFlags(flags),
+        }
+    }
+
     /// After a trace that found nothing, the next (a camera's neighbour, often as empty) is
     /// first tested against the root's boxes (`misses_root`): when it misses them all and a
     /// miss runs no program, the trace has no effect and ends here (true), before its state
@@ -1120,19 +1146,7 @@ impl<'l> Invocation<'l> {
         if self.trace_refused(origin, direction, tmin, tmax) {
             return false;
         }
-        let world = TraceRay {
-            origin,
-            direction,
-            tmin,
-            tmax,
-            time: if self.shared.features.motion {
-                time
-            } else {
-                0.0
-            },
-            mask,
-            flags: RayFlags(flags),
-        };
+        let world = self.world_ray(origin, direction, [tmin, tmax, time], mask, flags);
         if self.root_check_ends(handle, &world, miss_index, misses_root) {
             return false;
         }
