@@ -6,3 +6,4 @@ pub mod rays;
 pub mod report;
 pub mod rounds;
 pub mod scenes;
+pub mod walk;

@@ -8,6 +8,7 @@
 //! one without instancing never transforms a ray, and one without any-hit programs never looks
 //! for them (DESIGN.md §6).
 
+mod alone;
 mod curve;
 mod engine;
 mod ray;
@@ -16,6 +17,7 @@ mod slab;
 mod sphere;
 mod triangle;
 
+pub use alone::nearest_triangle_hits;
 pub use curve::{
     CURVE_TOLERANCE_RADIUS, CURVE_TOLERANCE_SIZE, CurveHit, MAX_DEPTH as CURVE_MAX_DEPTH,
 };

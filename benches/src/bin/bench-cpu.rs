@@ -21,6 +21,12 @@
 //! next; a ratio taken within one round compares them under the same conditions, which one
 //! run of each side cannot.
 //!
+//! A third table splits each one-thread row: optik's walk alone (`optik_benches::walk`: the
+//! same structure and rays handed straight to the traversal, without the launch) against
+//! Embree's one thread, and the launch path (the one-thread launch's time less the walk
+//! alone's, a ray: the launch loop, the compiled programs, the trace entry and the closest
+//! hit around the walk). Its rows also check that the walk alone finds what the launch finds.
+//!
 //! `--save-rays DIR` also writes each ray set as `DIR/<scene>-<rays>.npy`, the input of
 //! `optik trace --rays`, e.g. to count instructions with `valgrind --tool=callgrind`.
 //!
@@ -31,8 +37,9 @@
 use optik::raycast::{RAY_FLOATS, RayCaster};
 use optik::{BackendChoice, BackendKind, Device, OpenOptions};
 use optik_benches::mesh::{self, Mesh};
-use optik_benches::rounds::round_cells;
+use optik_benches::rounds::{median, round_cells};
 use optik_benches::scenes::{self, RaySet, Scene};
+use optik_benches::walk::Walk;
 use optik_io::array;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -94,6 +101,11 @@ struct Row {
     /// Per round, optik's best launch time and Embree's (if it ran).
     rounds: Vec<(f64, Option<f64>)>,
     mismatches: Option<Mismatches>,
+    /// One-thread rows: per round, the best pass of the walk alone (`optik_benches::walk`).
+    walk: Vec<f64>,
+    /// One-thread rows: rays on which the walk alone and the launch disagree (triangle or
+    /// distance bits); always 0 unless the walk alone no longer walks what launches walk.
+    walk_mismatches: usize,
 }
 
 /// Rays optik and Embree disagree on.
@@ -200,6 +212,7 @@ fn run_scene(
         mesh.triangles.len()
     );
     let files = MeshFiles::write(&mesh, work)?;
+    let walk = Walk::new(&mesh)?;
     let mut build = Build {
         scene: scene.name,
         rounds: vec![(f64::INFINITY, None); options.rounds],
@@ -218,6 +231,8 @@ fn run_scene(
             threads,
             rounds: Vec::new(),
             mismatches: None,
+            walk: Vec::new(),
+            walk_mismatches: 0,
         });
         for round in 0..options.rounds {
             // optik: all threads first, then one; each on its own device.
@@ -236,6 +251,12 @@ fn run_scene(
                 *b = b.min(build_s);
                 optik_s[i] = seconds;
                 one_thread = hits;
+            }
+            // The walk alone on this thread, beside the one-thread launch.
+            let (walk_s, walk_hits) = walk.time(&set.rays, options.repeat);
+            set_rows[1].walk.push(walk_s);
+            if round == 0 {
+                set_rows[1].walk_mismatches = disagreements(&walk_hits, &one_thread);
             }
             let peer = if *embree {
                 match run_peer(&files, &set, options, work) {
@@ -293,6 +314,18 @@ fn trace_optik(
     let mut caster = RayCaster::new(device, &mesh.positions, &mesh.triangles)?;
     let (hits, seconds) = caster.cast(&set.rays, repeat)?;
     Ok((seconds, caster.build_seconds, (hits.prim, hits.t)))
+}
+
+/// Rays on which two runs' hits differ: the triangle, or the distance's bits.
+fn disagreements(a: &(Vec<u32>, Vec<f32>), b: &(Vec<u32>, Vec<f32>)) -> usize {
+    let rays = a.0.len().max(b.0.len());
+    let same = (0..rays)
+        .filter(|&i| {
+            a.0.get(i) == b.0.get(i)
+                && a.1.get(i).map(|t| t.to_bits()) == b.1.get(i).map(|t| t.to_bits())
+        })
+        .count();
+    rays - same
 }
 
 /// The mesh as the peer reads it.
@@ -416,6 +449,7 @@ fn print_tables(rows: &[Row], builds: &[Build], options: &Options) {
             "Mismatches are per ray set (the one-thread run); where both hit a different triangle the distances differ by at most {worst:.1e} (relative)."
         );
     }
+    print_walk_table(rows, options);
     println!();
     println!("| scene | optik build s | Embree build s | optik / Embree time |");
     println!("|---|---:|---:|---:|");
@@ -426,9 +460,71 @@ fn print_tables(rows: &[Row], builds: &[Build], options: &Options) {
     }
 }
 
+/// The one-thread rows split: the walk alone's throughput against Embree's one thread, and
+/// what the launch spends around the walk (its time less the walk alone's, a ray; the
+/// rounds' median).
+fn print_walk_table(rows: &[Row], options: &Options) {
+    println!();
+    println!(
+        "optik's walk alone (one thread: the same structure and rays handed straight to the walk, without a launch; best of {} passes) against Embree's one thread, and the launch path (optik's one-thread launch less the walk alone):",
+        options.repeat
+    );
+    println!();
+    println!(
+        "| scene | rays | walk alone Mrays/s | walk alone / Embree | launch path ns a ray | launch path / launch |"
+    );
+    println!("|---|---|---:|---:|---:|---:|");
+    let rate = |count: usize, s: f64| count as f64 / s / 1e6;
+    for r in rows.iter().filter(|r| r.threads == 1 && !r.walk.is_empty()) {
+        let pairs: Vec<(f64, Option<f64>)> = r
+            .walk
+            .iter()
+            .zip(&r.rounds)
+            .map(|(&w, &(_, e))| (w, e))
+            .collect();
+        let [walk, _, ratio] = round_cells(&pairs, |s| rate(r.count, s), |w, e| e / w, 2);
+        let path: Vec<f64> = r
+            .walk
+            .iter()
+            .zip(&r.rounds)
+            .map(|(&w, &(o, _))| o - w)
+            .collect();
+        let share: Vec<f64> = path
+            .iter()
+            .zip(&r.rounds)
+            .map(|(&p, &(o, _))| p / o)
+            .collect();
+        let ns = median(&path).map_or("-".into(), |p| format!("{:.1}", p / r.count as f64 * 1e9));
+        let share = median(&share).map_or("-".into(), |s| format!("{:.0} %", s * 100.0));
+        println!(
+            "| {} | {} | {walk} | {ratio} | {ns} | {share} |",
+            r.scene, r.rays
+        );
+    }
+    let disagreeing: usize = rows.iter().map(|r| r.walk_mismatches).sum();
+    if disagreeing > 0 {
+        println!();
+        println!(
+            "The walk alone and the launch disagree on {disagreeing} rays: the walk alone no longer walks what launches walk, and its figures are not comparable."
+        );
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn disagreements_count_rays_with_another_triangle_or_distance() {
+        let a = (vec![1, 2, 3, u32::MAX], vec![1.0, 2.0, 3.0, f32::INFINITY]);
+        assert_eq!(disagreements(&a, &a.clone()), 0);
+        let other_triangle = (vec![1, 5, 3, u32::MAX], a.1.clone());
+        assert_eq!(disagreements(&a, &other_triangle), 1);
+        let other_distance = (a.0.clone(), vec![1.0, 2.0, 3.0000002, f32::INFINITY]);
+        assert_eq!(disagreements(&a, &other_distance), 1);
+        let shorter = (vec![1, 2], vec![1.0, 2.0]);
+        assert_eq!(disagreements(&a, &shorter), 2);
+    }
 
     #[test]
     fn rounds_are_parsed_as_a_count() {
