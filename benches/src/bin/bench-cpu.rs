@@ -26,6 +26,9 @@
 //! Embree's one thread, and the launch path (the one-thread launch's time less the walk
 //! alone's, a ray: the launch loop, the compiled programs, the trace entry and the closest
 //! hit around the walk). Its rows also check that the walk alone finds what the launch finds.
+//! The walk alone runs on the calling thread and the one-thread launch on the device's worker:
+//! on a machine with more cores than that, pin the run (`taskset -c N bench-cpu --threads 1`)
+//! so that both run on one core, or the table compares two cores' conditions.
 //!
 //! `--save-rays DIR` also writes each ray set as `DIR/<scene>-<rays>.npy`, the input of
 //! `optik trace --rays`, e.g. to count instructions with `valgrind --tool=callgrind`.
