@@ -31,37 +31,39 @@ const TRIANGLES: TraceConfig = TraceConfig {
 /// The nearest triangle hit of each of `rays` from `root` (a geometry structure of static
 /// triangles in `scene`), traced one by one on this thread as a pipeline without motion,
 /// instancing or any-hit programs traces them at the default accuracy, with the ray flag
-/// `DISABLE_ANYHIT`: per ray the hit's primitive index and distance, `None` for a miss.
+/// `DISABLE_ANYHIT`: written to `hits` (ray `i`'s to `hits[i]`, for as many rays as both
+/// hold), the hit's primitive index and distance, `None` for a miss. The caller keeps the
+/// output, as a launch writes into a buffer made before it: a timed pass allocates nothing.
 /// Each ray is `[origin x, y, z, tmin, direction x, y, z, tmax]` and must be valid (finite,
-/// `0 <= tmin <= tmax`: the validity check belongs to the launch). `None` when `root` is not
-/// such a structure.
+/// `0 <= tmin <= tmax`: the validity check belongs to the launch). Returns false, writing
+/// nothing, when `root` is not such a structure.
 pub fn nearest_triangle_hits(
     scene: &SceneTable,
     root: TraversableHandle,
     rays: &[[f32; 8]],
-) -> Option<Vec<Option<(u32, f32)>>> {
-    let g = blocks_root::<Closest>(scene, root, &TRIANGLES)?;
-    let hits = rays
-        .iter()
-        .map(|r| {
-            let ray = TraceRay {
-                origin: [r[0], r[1], r[2]],
-                direction: [r[4], r[5], r[6]],
-                tmin: r[3],
-                tmax: r[7],
-                time: 0.0,
-                mask: 0xFF,
-                flags: RayFlags::DISABLE_ANYHIT,
-            };
-            let mut nearest = Nearest {
-                tmax: ray.tmax,
-                hit: None,
-            };
-            trace_blocks::<Closest, _>(scene, g, &ray, &TRIANGLES, &mut nearest);
-            nearest.hit
-        })
-        .collect();
-    Some(hits)
+    hits: &mut [Option<(u32, f32)>],
+) -> bool {
+    let Some(g) = blocks_root::<Closest>(scene, root, &TRIANGLES) else {
+        return false;
+    };
+    for (r, hit) in rays.iter().zip(hits) {
+        let ray = TraceRay {
+            origin: [r[0], r[1], r[2]],
+            direction: [r[4], r[5], r[6]],
+            tmin: r[3],
+            tmax: r[7],
+            time: 0.0,
+            mask: 0xFF,
+            flags: RayFlags::DISABLE_ANYHIT,
+        };
+        let mut nearest = Nearest {
+            tmax: ray.tmax,
+            hit: None,
+        };
+        trace_blocks::<Closest, _>(scene, g, &ray, &TRIANGLES, &mut nearest);
+        *hit = nearest.hit;
+    }
+    true
 }
 
 /// The nearest candidate so far: every candidate the walk reports lies before the interval's
