@@ -190,8 +190,9 @@ impl<'l> Invocation<'l> {
     }
 
     /// The closest hit of a lean trace (`Invocation::closest_hit_of` inside the trace's
-    /// frame). An inlined closest hit only needs its state written, which reads the payload
-    /// registers and the depth: those alone are set for it.
+    /// frame). An inlined closest hit only needs its state written, which reads the depth
+    /// (its payload is the caller's, addressed in place by its code): that alone is set
+    /// for it.
     #[inline(always)]
     fn lean_closest_hit(
         &mut self,
@@ -209,12 +210,9 @@ impl<'l> Invocation<'l> {
                 .as_ref()
                 .is_some_and(|ch| ch.entry_address() == inlined.closest_hit);
         if inlined_here {
-            let saved = (self.payload, self.payload_len);
-            (self.payload, self.payload_len) = registers;
             self.depth += 1;
             let run_inlined = self.closest_hit_of(world, record, hit, std::ptr::null(), inlined);
             self.depth -= 1;
-            (self.payload, self.payload_len) = saved;
             run_inlined
         } else {
             self.in_trace_frame(world, sbt, registers, |inv| {

@@ -49,7 +49,7 @@ use std::sync::atomic::AtomicU32;
 const ROOT_CHECK_PAUSE: u32 = 32;
 
 /// Most payload (and callable argument) registers.
-const MAX_PAYLOAD: usize = 32;
+const MAX_PAYLOAD: usize = abi::MAX_PAYLOAD as usize;
 
 /// The closest-hit program a compiled caller of `rt_trace` inlined after the call, and the
 /// state its code reads ([`abi::TraceEntry`]); null for callers without one.
@@ -430,7 +430,12 @@ pub(crate) unsafe extern "C-unwind" fn trace_entry<S: Spec, const LEAN: bool>(
             )
         }
     };
-    if inv.unwinding() {
+    // `DeviceCalls::unwinding` is `ending` here: its other case is an intersection program
+    // that ended its trace, and compiled intersection programs cannot trace (the front end
+    // allows `rt_trace` in ray generation, closest-hit, miss and continuation callable
+    // programs only), so the program that called this entry is none.
+    debug_assert!(inv.view().kind != ProgramKind::Intersection);
+    if inv.ending {
         abi::TRACE_RETURN
     } else if run_inlined {
         abi::TRACE_RUN_INLINED
@@ -929,8 +934,13 @@ impl<'l> Invocation<'l> {
             exception_code: 0,
         };
         if !inlined.closest_hit.is_null() && ch.entry_address() == inlined.closest_hit {
-            // What `run_program` would write for the program, in the caller's memory.
-            self.fill_state(inlined.state, ch.state_bits(), &view);
+            // What `run_program` would write for the program, in the caller's memory; not
+            // the payload, which the inlined code addresses in place (`TRACE_RUN_INLINED`).
+            self.fill_state(
+                inlined.state,
+                ch.state_bits() & !DeviceState::PAYLOAD,
+                &view,
+            );
             return true;
         }
         self.run_program_inline(*ch, view);

@@ -196,8 +196,13 @@ pub const TRACE_GO_ON: u32 = 0;
 pub const TRACE_RETURN: u32 = 1;
 /// A [`TraceEntry`]'s result: the caller runs its inlined closest-hit program on the
 /// state the entry wrote, which holds every value the program reads (the inlined code
-/// does not check `present`).
+/// does not check `present`) but its payload: the inlined code addresses the caller's
+/// payload in place, so the entry leaves `DeviceState::PAYLOAD` unwritten.
 pub const TRACE_RUN_INLINED: u32 = 2;
+
+/// Most payload (and callable argument) registers a trace or call hands a program: a
+/// caller's longer `RtPayload` is cut to these.
+pub const MAX_PAYLOAD: u32 = 32;
 
 /// Device-API values a runtime may hand to programs as memory ([`DeviceCalls::state`]).
 /// Each group of fields has a bit in `present`; a getter whose bit is clear calls its

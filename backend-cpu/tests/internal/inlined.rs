@@ -63,6 +63,19 @@ fn closesthit__all() {
 }
 "#;
 
+/// Payload registers by computed and by constant index, some past the payload's 16 (reads
+/// give 0, writes are dropped): the inlined code addresses the caller's registers itself.
+const DYNAMIC: &str = r#"
+fn closesthit__dynamic() {
+    let k = rt_primitive_index();
+    rt_set_payload(k + 2u, rt_get_payload(k) + 5u);
+    rt_set_payload(k + 15u, 9u);
+    rt_set_payload(k + 4u, rt_get_payload(k + 16u) + 1u);
+    rt_set_payload(6u, rt_get_payload(3u * k + 14u));
+    rt_set_payload(20u, rt_get_payload(17u) + 7u);
+}
+"#;
+
 /// A second closest-hit program: with it no program of the module is inlined.
 const OTHER: &str = r#"
 fn closesthit__other() {
@@ -184,6 +197,40 @@ fn an_inlined_closest_hit_gives_what_the_called_program_gives() {
             (x as u32 + 600, 0xAAAA_AAAB),
             "index, dimensions, register of {x}"
         );
+    }
+}
+
+#[test]
+fn an_inlined_closest_hit_reads_and_writes_registers_by_computed_index() {
+    let _launches = crate::shared();
+    let dev = CpuBackend::with_threads(2).map(CpuDevice::new).unwrap();
+    let handle = two_triangles(&dev);
+    let (inlined, log) = module(&dev, &format!("{RAYGEN}{DYNAMIC}"));
+    assert!(log.contains(INLINED), "{log}");
+    let (called, log) = module(&dev, &format!("{RAYGEN}{DYNAMIC}{OTHER}"));
+    assert!(!log.contains(INLINED), "two closest-hit programs: {log}");
+    let run = |m: Module| {
+        let raygen = ProgramRef::new(m, "raygen__main");
+        launch(
+            &dev,
+            handle,
+            raygen,
+            ProgramRef::new(m, "closesthit__dynamic"),
+        )
+    };
+    let got = run(inlined);
+    assert_eq!(got, run(called));
+    const A: u32 = 0xAAAA_AAAA;
+    for (x, ray) in got.chunks(2 * WORDS).enumerate() {
+        let mut want = [A; WORDS];
+        if x < 2 {
+            // Primitive 0: registers 2, 15 and 4 (register 16 reads 0), 6 from 14.
+            (want[2], want[15], want[4], want[6]) = (A + 5, 9, 1, A);
+        } else if x < 4 {
+            // Primitive 1: registers 3 and 5; 16 and 17 are past the payload; 6 from 17.
+            (want[3], want[5], want[6]) = (A + 5, 1, 0);
+        }
+        assert_eq!(ray[..WORDS], want, "ray {x}");
     }
 }
 

@@ -133,7 +133,7 @@ impl Lowerer<'_, '_> {
                     HostFn::continuation_call
                 };
                 let mut unwinding = None;
-                self.with_payload(args[1], |s, ptr, len| {
+                self.with_payload(args[1], |s, ptr, len, _| {
                     unwinding = Some(s.call_host(f, &[ctx, index, ptr, len])[0]);
                     Ok(())
                 })?;
@@ -248,7 +248,7 @@ impl Lowerer<'_, '_> {
                 (null, null)
             }
         };
-        self.with_payload(args[11], |s, ptr, len| {
+        self.with_payload(args[11], |s, ptr, len, words| {
             call_args.extend([ptr, len, entry, state]);
             let result = s.call_host(HostFn::trace, &call_args)[0];
             let unwinding =
@@ -267,8 +267,12 @@ impl Lowerer<'_, '_> {
             s.b.seal_block(body);
             s.enter(body);
             s.state_override = Some(state);
+            // The runtime hands the program this payload, in place (at most `MAX_PAYLOAD`
+            // registers, as the front end sizes `RtPayload`).
+            s.inlined_payload = Some((ptr, words.min(abi::MAX_PAYLOAD)));
             let lowered = s.inline_call(ch.function, &[], None);
             s.state_override = None;
+            s.inlined_payload = None;
             lowered?;
             s.goto(after, &[]);
             s.b.seal_block(after);
@@ -310,6 +314,9 @@ impl Lowerer<'_, '_> {
         };
         if !self.live {
             return call(self);
+        }
+        if let Some((words, len)) = self.inlined_payload {
+            return self.inlined_payload_access(words, len, i, value);
         }
         let state = self.state_pointer();
         let (fast, slow, merge) = (
@@ -369,6 +376,66 @@ impl Lowerer<'_, '_> {
         self.b.block_params(merge)[0]
     }
 
+    /// [`Lowerer::payload_access`] in an inlined closest hit: register `i` of the trace's
+    /// payload (`len` registers at `words`), read or written in place, with the same
+    /// answers (registers past the length read 0 and ignore writes). No state is read and
+    /// a constant index (the usual `rt_set_payload(0u, …)`) needs no check at all.
+    fn inlined_payload_access(
+        &mut self,
+        words: Value,
+        len: u32,
+        i: Value,
+        value: Option<Value>,
+    ) -> Value {
+        let zero = self.b.ins().iconst(I32, 0);
+        if let Some(k) = self.int_konst(i) {
+            if k >= len {
+                return zero;
+            }
+            let offset = 4 * k as i32;
+            return match value {
+                None => self
+                    .b
+                    .ins()
+                    .load(I32, MemFlagsData::trusted(), words, offset),
+                Some(v) => {
+                    self.b
+                        .ins()
+                        .store(MemFlagsData::trusted(), v, words, offset);
+                    zero
+                }
+            };
+        }
+        let inside = self
+            .b
+            .ins()
+            .icmp_imm_u(IntCC::UnsignedLessThan, i, len as i64);
+        let index = self.b.ins().select(inside, i, zero);
+        let offset = self.b.ins().uextend(I64, index);
+        let offset = self.b.ins().ishl_imm_u(offset, 2);
+        let at = self.b.ins().iadd(words, offset);
+        match value {
+            None => {
+                // Register 0 exists (a payload has at least one word), so the clamped
+                // index loads without a branch.
+                let loaded = self.b.ins().load(I32, MemFlagsData::trusted(), at, 0);
+                self.b.ins().select(inside, loaded, zero)
+            }
+            Some(v) => {
+                let (store, after) = (self.b.create_block(), self.b.create_block());
+                self.live_blocks.extend([store, after]);
+                self.b.ins().brif(inside, store, &[], after, &[]);
+                self.b.seal_block(store);
+                self.b.switch_to_block(store);
+                self.b.ins().store(MemFlagsData::trusted(), v, at, 0);
+                self.b.ins().jump(after, &[]);
+                self.b.seal_block(after);
+                self.b.switch_to_block(after);
+                zero
+            }
+        }
+    }
+
     /// A getter through its `DeviceCalls` method (matrices row-major, as the host has them).
     fn getter_call(&mut self, df: D) -> Vec<Value> {
         let ctx = self.ctx;
@@ -412,13 +479,13 @@ impl Lowerer<'_, '_> {
             .collect()
     }
 
-    /// Runs `call` with the address and length (i32) of the `RtPayload` that `pointer`
-    /// points to. Payloads are arrays, so they live in memory; a payload in registers (not
+    /// Runs `call` with the address and length (i32, and as a number) of the `RtPayload`
+    /// that `pointer` points to. Payloads are arrays, so they live in memory; a payload in registers (not
     /// produced by the front end today) is spilled to scratch and read back.
     fn with_payload(
         &mut self,
         pointer: Handle<Expression>,
-        call: impl FnOnce(&mut Self, Value, Value) -> LResult<()>,
+        call: impl FnOnce(&mut Self, Value, Value, u32) -> LResult<()>,
     ) -> LResult<()> {
         let pointee = self.pointee(pointer)?;
         let TypeInner::Array {
@@ -434,7 +501,7 @@ impl Lowerer<'_, '_> {
         match self.place(pointer)? {
             Place::Memory(m) => {
                 let ptr = self.address(&m);
-                call(self, ptr, len)?;
+                call(self, ptr, len, n.get())?;
             }
             place @ Place::Vars(_) => {
                 let values = self.load(&place, &pointee)?;
@@ -444,7 +511,7 @@ impl Lowerer<'_, '_> {
                         .ins()
                         .store(MemFlagsData::trusted(), v, at, 4 * i as i32);
                 }
-                call(self, at, len)?;
+                call(self, at, len, n.get())?;
                 let back: Vec<Value> = (0..values.len())
                     .map(|i| {
                         self.b

@@ -188,6 +188,11 @@ pub(crate) struct Lowerer<'m, 'b> {
     /// The state the code being lowered reads instead of the call's (`CallContext::state`):
     /// an inlined closest hit's.
     state_override: Option<Value>,
+    /// The payload registers of the trace whose inlined closest hit is being lowered: the
+    /// caller's `RtPayload` (its address and length), the registers the runtime would hand
+    /// that program (a trace passes the caller's payload in place), so its payload accesses
+    /// address them directly, their bounds known here.
+    inlined_payload: Option<(Value, u32)>,
 }
 
 /// A closest-hit program compiled into its callers of `rt_trace`: when the runtime's trace
@@ -286,6 +291,7 @@ pub(crate) fn lower_program<'m>(
         lowered_exprs: 0,
         inlined_closest_hit,
         state_override: None,
+        inlined_payload: None,
     };
     lowerer.init_privates(function)?;
     let body = &env.module.functions[function];
