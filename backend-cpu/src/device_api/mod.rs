@@ -578,13 +578,16 @@ impl<'l> Invocation<'l> {
                 break;
             }
             // Word by word (`traversal::words`): `next` stored the index one word at a time
-            // (an 8-byte read across two of those stores stalls every launch index).
-            self.index = traversal::words(&index);
+            // (an 8-byte read across two of those stores stalls every launch index). Both
+            // copies are written from that one read, not the state's read back from the
+            // invocation's (one store-to-load forwarding less on the way from the index to
+            // the program's first loads).
+            let current = traversal::words(&index);
+            self.index = current;
             self.ending = false;
             if bits & DeviceState::LAUNCH_INDEX != 0 {
-                // SAFETY: `state` is the program's state (set above), written word by word
-                // as `fill_state` does.
-                unsafe { (*self.state).launch_index = traversal::words(&self.index) };
+                // SAFETY: `state` is the program's state (set above).
+                unsafe { (*self.state).launch_index = current };
             }
             call.call(self);
             index = next(index);
