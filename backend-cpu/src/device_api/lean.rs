@@ -29,24 +29,39 @@ struct Closest {
     /// Whether `hit` holds a candidate.
     found: bool,
     /// The nearest candidate as programs see it (`HitState::of`), but for its attributes:
-    /// made once from its data, for the hit that stays (`Closest::hit_state`).
+    /// made once from its data, for the hit that stays (`Closest::hit_state`), and only
+    /// for a program that may read them.
     hit: std::mem::MaybeUninit<HitState>,
 }
 
 impl Closest {
-    /// The hit that stays, as programs see it.
+    /// The hit that stays, as programs see it; with `attributes` false, its attribute
+    /// registers zero instead of made from its data: for an inlined closest hit, which
+    /// cannot read them (`lower::inlinable_closest_hit`: no `rt_get_attribute`) and whose
+    /// state holds everything it reads but them.
     #[inline(always)]
-    fn hit_state(&mut self) -> Option<&HitState> {
-        if !self.found {
-            return None;
-        }
+    fn hit_state(&mut self, attributes: bool) -> &HitState {
+        debug_assert!(self.found);
         let hit = self.hit.as_mut_ptr();
         // SAFETY: every field but the attributes was written with `found` (`candidate`),
         // and the attributes are written here.
         unsafe {
-            (*hit).attributes = HitState::attributes_of((*hit).data);
-            Some(&*hit)
+            (*hit).attributes = if attributes {
+                HitState::attributes_of((*hit).data)
+            } else {
+                [0; 8]
+            };
+            &*hit
         }
+    }
+
+    /// The SBT geometry index of the nearest candidate (there is one).
+    #[inline(always)]
+    fn sbt_gas_index(&self) -> u32 {
+        debug_assert!(self.found);
+        // SAFETY: written with `found` (`candidate`); read through the pointer, as the hit's
+        // attributes may not be written yet.
+        unsafe { (*self.hit.as_ptr()).sbt_gas_index }
     }
 }
 
@@ -143,20 +158,20 @@ impl<'l> Invocation<'l> {
         let shared = self.shared;
         traversal::trace_blocks::<S, _>(shared.scene, g, &world, &shared.config, &mut closest);
         let registers = (payload, payload_len.min(MAX_PAYLOAD));
-        match closest.hit_state() {
-            Some(hit) => {
+        match closest.found {
+            true => {
                 self.root_check_armed = false;
-                let record = self.lean_hit_record(sbt_offset, sbt_stride, hit.sbt_gas_index);
+                let record = self.lean_hit_record(sbt_offset, sbt_stride, closest.sbt_gas_index());
                 self.lean_closest_hit(
                     &world,
                     [sbt_offset, sbt_stride],
                     record,
-                    hit,
+                    &mut closest,
                     registers,
                     inlined,
                 )
             }
-            None => {
+            false => {
                 self.found_nothing();
                 // A miss index past the records runs nothing (no debug exceptions here).
                 if let Some(record) = self.miss_record(miss_index)
@@ -199,7 +214,7 @@ impl<'l> Invocation<'l> {
         world: &TraceRay,
         sbt: [u32; 2],
         record: &'l Record<'l>,
-        hit: &HitState,
+        closest: &mut Closest,
         registers: (*mut u32, usize),
         inlined: Inlined,
     ) -> bool {
@@ -209,6 +224,7 @@ impl<'l> Invocation<'l> {
                 .main
                 .as_ref()
                 .is_some_and(|ch| ch.entry_address() == inlined.closest_hit);
+        let hit = closest.hit_state(!inlined_here);
         if inlined_here {
             self.depth += 1;
             let run_inlined = self.closest_hit_of(world, record, hit, std::ptr::null(), inlined);

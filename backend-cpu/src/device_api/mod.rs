@@ -786,36 +786,13 @@ impl<'l> Invocation<'l> {
             }
         }
         if bits & S::RAY != 0 {
-            let ray = view.ray();
-            let (tmin, time, flags, mask) = (ray.tmin, ray.time, ray.flags.0, ray.mask);
-            unsafe {
-                (*s).ray_tmin = tmin;
-                (*s).ray_tmax = view.tmax;
-                (*s).ray_time = time;
-                (*s).ray_flags = flags;
-                (*s).ray_mask = mask;
-            }
+            Self::write_ray_values(s, &view);
         }
         if bits & S::PRIMITIVE != 0 {
-            let values = (
-                view.primitive_index(),
-                view.sbt_gas_index(),
-                view.instance_id(),
-                view.instance_index(),
-            );
-            unsafe {
-                (*s).primitive_index = values.0;
-                (*s).sbt_gas_index = values.1;
-                (*s).instance_id = values.2;
-                (*s).instance_index = values.3;
-            }
+            Self::write_primitive_values(s, &view);
         }
         if bits & S::HIT != 0 {
-            let (kind, barycentrics) = (view.hit_kind(), view.triangle_barycentrics());
-            unsafe {
-                (*s).hit_kind = kind;
-                (*s).triangle_barycentrics = barycentrics;
-            }
+            Self::write_hit_values(s, &view);
         }
         if bits & S::TRANSFORMS != 0 {
             let (o2w, w2o) = (view.object_to_world(), view.world_to_object());
@@ -826,6 +803,68 @@ impl<'l> Invocation<'l> {
         }
         if bits & S::TRACE_DEPTH != 0 {
             unsafe { (*s).remaining_trace_depth = self.remaining_trace_depth() };
+        }
+    }
+
+    /// `fill_state` for the state of a closest hit the caller inlined (`inlined.state`),
+    /// whose code never reads `present` (`TRACE_RUN_INLINED`): the ray's, the primitive's
+    /// and the hit's values, what closest hits read most, are written whether its `bits`
+    /// ask for them or not (a dozen stores instead of a test each); the rest as
+    /// `fill_state` writes them. Not the payload, which the inlined code addresses in place.
+    #[inline(always)]
+    fn fill_inlined_state(&mut self, s: *mut DeviceState, bits: u32, view: &View<'l>) {
+        type S = DeviceState;
+        let view = *view;
+        Self::write_ray_values(s, &view);
+        Self::write_primitive_values(s, &view);
+        Self::write_hit_values(s, &view);
+        let rest = bits & !(S::RAY | S::PRIMITIVE | S::HIT | S::PAYLOAD);
+        if rest != 0 {
+            self.fill_state(s, rest, &view);
+        }
+    }
+
+    /// The state's `RAY` values (`fill_trace_values`).
+    #[inline(always)]
+    fn write_ray_values(s: *mut DeviceState, view: &View<'l>) {
+        let ray = view.ray();
+        let (tmin, time, flags, mask) = (ray.tmin, ray.time, ray.flags.0, ray.mask);
+        // SAFETY: as in `fill_state`.
+        unsafe {
+            (*s).ray_tmin = tmin;
+            (*s).ray_tmax = view.tmax;
+            (*s).ray_time = time;
+            (*s).ray_flags = flags;
+            (*s).ray_mask = mask;
+        }
+    }
+
+    /// The state's `PRIMITIVE` values (`fill_trace_values`).
+    #[inline(always)]
+    fn write_primitive_values(s: *mut DeviceState, view: &View<'l>) {
+        let values = (
+            view.primitive_index(),
+            view.sbt_gas_index(),
+            view.instance_id(),
+            view.instance_index(),
+        );
+        // SAFETY: as in `fill_state`.
+        unsafe {
+            (*s).primitive_index = values.0;
+            (*s).sbt_gas_index = values.1;
+            (*s).instance_id = values.2;
+            (*s).instance_index = values.3;
+        }
+    }
+
+    /// The state's `HIT` values (`fill_trace_values`).
+    #[inline(always)]
+    fn write_hit_values(s: *mut DeviceState, view: &View<'l>) {
+        let (kind, barycentrics) = (view.hit_kind(), view.triangle_barycentrics());
+        // SAFETY: as in `fill_state`.
+        unsafe {
+            (*s).hit_kind = kind;
+            (*s).triangle_barycentrics = barycentrics;
         }
     }
 
@@ -937,13 +976,8 @@ impl<'l> Invocation<'l> {
             exception_code: 0,
         };
         if !inlined.closest_hit.is_null() && ch.entry_address() == inlined.closest_hit {
-            // What `run_program` would write for the program, in the caller's memory; not
-            // the payload, which the inlined code addresses in place (`TRACE_RUN_INLINED`).
-            self.fill_state(
-                inlined.state,
-                ch.state_bits() & !DeviceState::PAYLOAD,
-                &view,
-            );
+            // What `run_program` would write for the program, in the caller's memory.
+            self.fill_inlined_state(inlined.state, ch.state_bits(), &view);
             return true;
         }
         self.run_program_inline(*ch, view);
