@@ -158,31 +158,28 @@ impl<'l> Invocation<'l> {
         let shared = self.shared;
         traversal::trace_blocks::<S, _>(shared.scene, g, &world, &shared.config, &mut closest);
         let registers = (payload, payload_len.min(MAX_PAYLOAD));
-        match closest.found {
-            true => {
-                self.root_check_armed = false;
-                let record = self.lean_hit_record(sbt_offset, sbt_stride, closest.sbt_gas_index());
-                self.lean_closest_hit(
-                    &world,
-                    [sbt_offset, sbt_stride],
-                    record,
-                    &mut closest,
-                    registers,
-                    inlined,
-                )
+        if closest.found {
+            self.root_check_armed = false;
+            let record = self.lean_hit_record(sbt_offset, sbt_stride, closest.sbt_gas_index());
+            self.lean_closest_hit(
+                &world,
+                [sbt_offset, sbt_stride],
+                record,
+                &mut closest,
+                registers,
+                inlined,
+            )
+        } else {
+            self.found_nothing();
+            // A miss index past the records runs nothing (no debug exceptions here).
+            if let Some(record) = self.miss_record(miss_index)
+                && record.main_runs
+            {
+                self.in_trace_frame(&world, [sbt_offset, sbt_stride], registers, |inv| {
+                    inv.miss(record, &world)
+                });
             }
-            false => {
-                self.found_nothing();
-                // A miss index past the records runs nothing (no debug exceptions here).
-                if let Some(record) = self.miss_record(miss_index)
-                    && record.main_runs
-                {
-                    self.in_trace_frame(&world, [sbt_offset, sbt_stride], registers, |inv| {
-                        inv.miss(record, &world)
-                    });
-                }
-                false
-            }
+            false
         }
     }
 
