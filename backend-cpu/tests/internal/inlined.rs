@@ -149,31 +149,33 @@ fn launch(
     bytemuck::cast_slice(&bytes).to_vec()
 }
 
-#[test]
-fn an_inlined_closest_hit_gives_what_the_called_program_gives() {
-    let _launches = crate::shared();
-    let dev = CpuBackend::with_threads(2).map(CpuDevice::new).unwrap();
-    let handle = two_triangles(&dev);
-    let (inlined, log) = module(&dev, &format!("{RAYGEN}{CLOSEST_HIT}"));
+/// The payloads of `RAYGEN` with the closest-hit program `closest_hit` (its source, its
+/// entry `entry`) compiled into the ray generation program, after checking that they equal
+/// those of the same programs where the runtime calls it (a module with `OTHER` too, whose
+/// two closest hits keep either from being inlined).
+fn inlined_as_called(dev: &CpuDevice, closest_hit: &str, entry: &str) -> Vec<u32> {
+    let handle = two_triangles(dev);
+    let (inlined, log) = module(dev, &format!("{RAYGEN}{closest_hit}"));
     assert!(
         log.contains(&format!("{INLINED} after the traces of 1 ray generation")),
         "{log}"
     );
-    let (called, log) = module(&dev, &format!("{RAYGEN}{CLOSEST_HIT}{OTHER}"));
+    let (called, log) = module(dev, &format!("{RAYGEN}{closest_hit}{OTHER}"));
     assert!(!log.contains(INLINED), "two closest-hit programs: {log}");
-    let got = launch(
-        &dev,
-        handle,
-        ProgramRef::new(inlined, "raygen__main"),
-        ProgramRef::new(inlined, "closesthit__all"),
-    );
-    let want = launch(
-        &dev,
-        handle,
-        ProgramRef::new(called, "raygen__main"),
-        ProgramRef::new(called, "closesthit__all"),
-    );
-    assert_eq!(got, want);
+    let run = |m: Module| {
+        let raygen = ProgramRef::new(m, "raygen__main");
+        launch(dev, handle, raygen, ProgramRef::new(m, entry))
+    };
+    let got = run(inlined);
+    assert_eq!(got, run(called));
+    got
+}
+
+#[test]
+fn an_inlined_closest_hit_gives_what_the_called_program_gives() {
+    let _launches = crate::shared();
+    let dev = CpuBackend::with_threads(2).map(CpuDevice::new).unwrap();
+    let got = inlined_as_called(&dev, CLOSEST_HIT, "closesthit__all");
     for (x, ray) in got.chunks(2 * WORDS).enumerate() {
         let (p, q) = ray.split_at(WORDS);
         assert_eq!(
@@ -204,22 +206,7 @@ fn an_inlined_closest_hit_gives_what_the_called_program_gives() {
 fn an_inlined_closest_hit_reads_and_writes_registers_by_computed_index() {
     let _launches = crate::shared();
     let dev = CpuBackend::with_threads(2).map(CpuDevice::new).unwrap();
-    let handle = two_triangles(&dev);
-    let (inlined, log) = module(&dev, &format!("{RAYGEN}{DYNAMIC}"));
-    assert!(log.contains(INLINED), "{log}");
-    let (called, log) = module(&dev, &format!("{RAYGEN}{DYNAMIC}{OTHER}"));
-    assert!(!log.contains(INLINED), "two closest-hit programs: {log}");
-    let run = |m: Module| {
-        let raygen = ProgramRef::new(m, "raygen__main");
-        launch(
-            &dev,
-            handle,
-            raygen,
-            ProgramRef::new(m, "closesthit__dynamic"),
-        )
-    };
-    let got = run(inlined);
-    assert_eq!(got, run(called));
+    let got = inlined_as_called(&dev, DYNAMIC, "closesthit__dynamic");
     const A: u32 = 0xAAAA_AAAA;
     for (x, ray) in got.chunks(2 * WORDS).enumerate() {
         let mut want = [A; WORDS];

@@ -340,34 +340,7 @@ impl Lowerer<'_, '_> {
             state,
             std::mem::offset_of!(DeviceState, payload) as i32,
         );
-        let inside = self.b.ins().icmp(IntCC::UnsignedLessThan, i, len);
-        match value {
-            None => {
-                // Register 0 exists (the pointer is to at least one word), so a clamped
-                // index loads without a branch.
-                let zero = self.b.ins().iconst(I32, 0);
-                let index = self.b.ins().select(inside, i, zero);
-                let offset = self.b.ins().uextend(I64, index);
-                let offset = self.b.ins().ishl_imm_u(offset, 2);
-                let at = self.b.ins().iadd(words, offset);
-                let loaded = self.b.ins().load(I32, MemFlagsData::trusted(), at, 0);
-                let v = self.b.ins().select(inside, loaded, zero);
-                self.b.ins().jump(merge, &[v.into()]);
-            }
-            Some(v) => {
-                let store = self.b.create_block();
-                let zero = self.b.ins().iconst(I32, 0);
-                self.live_blocks.insert(store);
-                self.b.ins().brif(inside, store, &[], merge, &[zero.into()]);
-                self.b.seal_block(store);
-                self.b.switch_to_block(store);
-                let offset = self.b.ins().uextend(I64, i);
-                let offset = self.b.ins().ishl_imm_u(offset, 2);
-                let at = self.b.ins().iadd(words, offset);
-                self.b.ins().store(MemFlagsData::trusted(), v, at, 0);
-                self.b.ins().jump(merge, &[zero.into()]);
-            }
-        }
+        self.access_registers(words, len, i, value, merge);
         self.b.switch_to_block(slow);
         let called = call(self);
         self.b.ins().jump(merge, &[called.into()]);
@@ -387,8 +360,8 @@ impl Lowerer<'_, '_> {
         i: Value,
         value: Option<Value>,
     ) -> Value {
-        let zero = self.b.ins().iconst(I32, 0);
         if let Some(k) = self.int_konst(i) {
+            let zero = self.b.ins().iconst(I32, 0);
             if k >= len {
                 return zero;
             }
@@ -406,32 +379,51 @@ impl Lowerer<'_, '_> {
                 }
             };
         }
-        let inside = self
-            .b
-            .ins()
-            .icmp_imm_u(IntCC::UnsignedLessThan, i, len as i64);
-        let index = self.b.ins().select(inside, i, zero);
-        let offset = self.b.ins().uextend(I64, index);
-        let offset = self.b.ins().ishl_imm_u(offset, 2);
-        let at = self.b.ins().iadd(words, offset);
+        let (len, after) = (self.b.ins().iconst(I32, len as i64), self.b.create_block());
+        self.b.append_block_param(after, I32);
+        self.live_blocks.insert(after);
+        self.access_registers(words, len, i, value, after);
+        self.b.seal_block(after);
+        self.b.switch_to_block(after);
+        self.b.block_params(after)[0]
+    }
+
+    /// Register `i` of the `len` payload registers at `words`, read (`value` is `None`) or
+    /// written, from the current block, which ends in a jump to `done` with the register (a
+    /// write: 0). Past the length a read gives 0 and a write stores nothing.
+    fn access_registers(
+        &mut self,
+        words: Value,
+        len: Value,
+        i: Value,
+        value: Option<Value>,
+        done: Block,
+    ) {
+        let inside = self.b.ins().icmp(IntCC::UnsignedLessThan, i, len);
+        let zero = self.b.ins().iconst(I32, 0);
         match value {
             None => {
-                // Register 0 exists (a payload has at least one word), so the clamped
+                // Register 0 exists (the pointer is to at least one word), so a clamped
                 // index loads without a branch.
+                let index = self.b.ins().select(inside, i, zero);
+                let offset = self.b.ins().uextend(I64, index);
+                let offset = self.b.ins().ishl_imm_u(offset, 2);
+                let at = self.b.ins().iadd(words, offset);
                 let loaded = self.b.ins().load(I32, MemFlagsData::trusted(), at, 0);
-                self.b.ins().select(inside, loaded, zero)
+                let v = self.b.ins().select(inside, loaded, zero);
+                self.b.ins().jump(done, &[v.into()]);
             }
             Some(v) => {
-                let (store, after) = (self.b.create_block(), self.b.create_block());
-                self.live_blocks.extend([store, after]);
-                self.b.ins().brif(inside, store, &[], after, &[]);
+                let store = self.b.create_block();
+                self.live_blocks.insert(store);
+                self.b.ins().brif(inside, store, &[], done, &[zero.into()]);
                 self.b.seal_block(store);
                 self.b.switch_to_block(store);
+                let offset = self.b.ins().uextend(I64, i);
+                let offset = self.b.ins().ishl_imm_u(offset, 2);
+                let at = self.b.ins().iadd(words, offset);
                 self.b.ins().store(MemFlagsData::trusted(), v, at, 0);
-                self.b.ins().jump(after, &[]);
-                self.b.seal_block(after);
-                self.b.switch_to_block(after);
-                zero
+                self.b.ins().jump(done, &[zero.into()]);
             }
         }
     }
