@@ -226,8 +226,8 @@ impl FeatureSet {
             exceptions: ExceptionFlags::ALL,
             opacity_micromaps: true,
             max_trace_depth,
-            num_payload_values: 32,
-            num_attribute_values: 8,
+            num_payload_values: crate::MAX_PAYLOAD_VALUES,
+            num_attribute_values: crate::MAX_ATTRIBUTE_VALUES,
             driver_triangles: false,
         }
     }

@@ -159,6 +159,14 @@ pub enum TraversableGraph {
     Any,
 }
 
+/// Most payload registers a pipeline may have (OptiX's 32): the largest
+/// [`PipelineCompileOptions::num_payload_values`] and the longest `RtPayload`.
+pub const MAX_PAYLOAD_VALUES: u32 = 32;
+
+/// Most attribute registers an intersection program may report (OptiX's 8): the largest
+/// [`PipelineCompileOptions::num_attribute_values`] and the length of `RtAttributes`.
+pub const MAX_ATTRIBUTE_VALUES: u32 = 8;
+
 /// Options shared by every module of a pipeline and the pipeline itself (OptiX
 /// `OptixPipelineCompileOptions`). Each may be left to `Auto` (DESIGN.md §6).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
@@ -169,9 +177,9 @@ pub struct PipelineCompileOptions {
     pub traversable_graph: Setting<TraversableGraph>,
     /// Which primitive types the pipeline intersects.
     pub primitive_types: Setting<PrimitiveTypeFlags>,
-    /// Payload registers (0..=32): the length of WGSL's `RtPayload`.
+    /// Payload registers (0..=[`MAX_PAYLOAD_VALUES`]): the length of WGSL's `RtPayload`.
     pub num_payload_values: Setting<u32>,
-    /// Attribute registers (0..=8) reported by intersection programs.
+    /// Attribute registers (0..=[`MAX_ATTRIBUTE_VALUES`]) reported by intersection programs.
     pub num_attribute_values: Setting<u32>,
     /// Which exceptions are checked.
     pub exception_flags: Setting<ExceptionFlags>,

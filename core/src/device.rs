@@ -6,15 +6,12 @@ use crate::{features, validate};
 use optik_api::{
     Accel, AccelBufferSizes, AccelBuildOptions, Accuracy, BackendKind, Buffer, BuildFlags,
     BuildInput, BuildOperation, DeviceId, DeviceProperties, Error, FeatureSet, GroupRegion,
-    LaunchOptions, LaunchSize, MicromapArray, Module, ModuleCompileOptions,
+    LaunchOptions, LaunchSize, MAX_PAYLOAD_VALUES, MicromapArray, Module, ModuleCompileOptions,
     OpacityMicromapArrayDesc, Pipeline, PipelineCompileOptions, PipelineLinkOptions, ProgramGroup,
     ProgramGroupDesc, ProgramKind, ProgramSource, Resource, Result, SbtHeader, ShaderBindingTable,
     Texture, TextureDesc, TransformDesc, TraversableHandle,
 };
 use std::sync::{Mutex, MutexGuard, RwLockReadGuard};
-
-/// Most payload registers a module or pipeline may ask for (OptiX's 32).
-const MAX_PAYLOAD_VALUES: u32 = 32;
 
 /// An optik device: the backend `B` behind the checks every backend shares, and the
 /// objects it made.

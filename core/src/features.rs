@@ -5,9 +5,9 @@
 use crate::frontend::{CompiledModule, DeviceFunction};
 use optik_api::features::{FeatureSet, MotionKinds, ProgramFeatures, SceneFeatures, curve_flag};
 use optik_api::{
-    BuiltinIntersector, Error, ExceptionFlags, PipelineCompileOptions, PipelineLinkOptions,
-    PrimitiveTypeFlags, ProgramGroupDesc, ProgramKind, ProgramRef, Result, Setting,
-    TraversableGraph,
+    BuiltinIntersector, Error, ExceptionFlags, MAX_ATTRIBUTE_VALUES, MAX_PAYLOAD_VALUES,
+    PipelineCompileOptions, PipelineLinkOptions, PrimitiveTypeFlags, ProgramGroupDesc, ProgramKind,
+    ProgramRef, Result, Setting, TraversableGraph,
 };
 
 /// Collects the features of program `groups`; `module_of` finds the compiled module of a program.
@@ -97,7 +97,7 @@ pub fn resolve(
     let graph = options
         .traversable_graph
         .or(scene.map(|s| s.graph).unwrap_or(TraversableGraph::Any));
-    let max_payload = 32;
+    let max_payload = MAX_PAYLOAD_VALUES;
     let num_payload_values = options.num_payload_values.or(programs.payload_values_used);
     if num_payload_values > max_payload {
         return Err(Error::limit(format!(
@@ -117,9 +117,9 @@ pub fn resolve(
         .num_attribute_values
         .or(programs.attribute_values_used)
         .max(2);
-    if num_attribute_values > 8 {
+    if num_attribute_values > MAX_ATTRIBUTE_VALUES {
         return Err(Error::limit(format!(
-            "pipeline_options.num_attribute_values is {num_attribute_values}; at most 8 attribute registers exist"
+            "pipeline_options.num_attribute_values is {num_attribute_values}; at most {MAX_ATTRIBUTE_VALUES} attribute registers exist"
         )));
     }
     let auto_exceptions = if programs.exception_program {

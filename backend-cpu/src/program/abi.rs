@@ -202,7 +202,7 @@ pub const TRACE_RUN_INLINED: u32 = 2;
 
 /// Most payload (and callable argument) registers a trace or call hands a program: a
 /// caller's longer `RtPayload` is cut to these.
-pub const MAX_PAYLOAD: u32 = 32;
+pub const MAX_PAYLOAD: u32 = optik_api::MAX_PAYLOAD_VALUES;
 
 /// Device-API values a runtime may hand to programs as memory ([`DeviceCalls::state`]).
 /// Each group of fields has a bit in `present`; a getter whose bit is clear calls its

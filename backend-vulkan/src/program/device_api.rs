@@ -62,7 +62,10 @@ pub fn prelude(c: &LoweringConfig) -> String {
         "alias RtPayload = array<u32, {}>;\n",
         c.payload_len.max(1)
     ));
-    s.push_str("alias RtAttributes = array<u32, 8>;\n");
+    s.push_str(&format!(
+        "alias RtAttributes = array<u32, {}>;\n",
+        optik_api::MAX_ATTRIBUTE_VALUES
+    ));
     for (name, ty, value) in PRELUDE_CONSTANTS {
         s.push_str(&format!("const {name}: {ty} = {value}u;\n"));
     }

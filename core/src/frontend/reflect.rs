@@ -82,8 +82,8 @@ pub(crate) struct Reflection {
 }
 
 /// Largest register counts, used when an index is not a constant.
-const MAX_PAYLOAD: u32 = 32;
-const MAX_ATTRIBUTES: u32 = 8;
+const MAX_PAYLOAD: u32 = optik_api::MAX_PAYLOAD_VALUES;
+const MAX_ATTRIBUTES: u32 = optik_api::MAX_ATTRIBUTE_VALUES;
 
 /// What one function does, collected in one walk.
 #[derive(Default)]
