@@ -11,7 +11,7 @@
 //! depth) is set up only when a program runs inside the trace. What programs see and the
 //! results are those of `Invocation::trace_ray`, bit for bit.
 
-use super::{HitState, Inlined, Invocation, MAX_PAYLOAD, TraceState};
+use super::{HitState, Inlined, Invocation, MAX_PAYLOAD, TraceState, View};
 use crate::accel::Gas;
 use crate::sbt::Record;
 use crate::traversal::{self, Candidate, CustomPrimitive, Handler, Path, Spec, TraceRay};
@@ -215,21 +215,23 @@ impl<'l> Invocation<'l> {
         registers: (*mut u32, usize),
         inlined: Inlined,
     ) -> bool {
-        let inlined_here = !inlined.closest_hit.is_null()
-            && record
-                .programs
-                .main
-                .as_ref()
-                .is_some_and(|ch| ch.entry_address() == inlined.closest_hit);
+        let Some(ch) = super::closest_hit_program(world, record) else {
+            return false;
+        };
+        let inlined_here = inlined.is(ch);
         let hit = closest.hit_state(!inlined_here);
+        let path = std::ptr::null();
         if inlined_here {
+            // What `run_program` would write for the program, in the caller's memory, one
+            // level deeper (the depth the program reads).
             self.depth += 1;
-            let run_inlined = self.closest_hit_of(world, record, hit, std::ptr::null(), inlined);
+            let view = View::closest_hit(world, record, hit, path);
+            self.fill_inlined_state(inlined.state, ch.state_bits(), &view);
             self.depth -= 1;
-            run_inlined
+            true
         } else {
             self.in_trace_frame(world, sbt, registers, |inv| {
-                inv.closest_hit_of(world, record, hit, std::ptr::null(), inlined)
+                inv.run_closest_hit(world, record, ch, hit, path, inlined)
             })
         }
     }

@@ -64,6 +64,23 @@ impl Inlined {
         closest_hit: std::ptr::null(),
         state: std::ptr::null_mut(),
     };
+
+    /// Whether `program` is the caller's inlined closest hit.
+    #[inline(always)]
+    fn is(&self, program: Callable<'_>) -> bool {
+        !self.closest_hit.is_null() && program.entry_address() == self.closest_hit
+    }
+}
+
+/// The closest-hit program that runs for a hit of `world` whose record is `record`: none
+/// under `RayFlags::DISABLE_CLOSESTHIT`, for a record without one, or for one that does
+/// nothing.
+#[inline(always)]
+fn closest_hit_program<'l>(world: &TraceRay, record: &'l Record<'l>) -> Option<Callable<'l>> {
+    if world.flags.contains(RayFlags::DISABLE_CLOSESTHIT) {
+        return None;
+    }
+    record.programs.main.filter(|ch| !ch.does_nothing())
 }
 
 /// The ray of programs that trace no ray (raygen, callables of raygen): every getter reads 0.
@@ -150,6 +167,28 @@ struct View<'l> {
     /// ray is the ray.
     path: *const Path,
     exception_code: i32,
+}
+
+impl<'v> View<'v> {
+    /// The view of a closest-hit program for the hit `hit` below `path` (null: no
+    /// instances) of `world`, whose record is `record`.
+    #[inline(always)]
+    fn closest_hit(
+        world: &TraceRay,
+        record: &'v Record<'v>,
+        hit: &HitState,
+        path: *const Path,
+    ) -> View<'v> {
+        View {
+            kind: ProgramKind::ClosestHit,
+            record: Some(record),
+            ray: world,
+            tmax: hit.t,
+            hit,
+            path,
+            exception_code: 0,
+        }
+    }
 }
 
 impl View<'_> {
@@ -955,32 +994,32 @@ impl<'l> Invocation<'l> {
         path: *const Path,
         inlined: Inlined,
     ) -> bool {
-        if world.flags.contains(RayFlags::DISABLE_CLOSESTHIT) {
-            return false;
-        }
-        let Some(ch) = record
-            .programs
-            .main
-            .as_ref()
-            .filter(|ch| !ch.does_nothing())
-        else {
+        let Some(ch) = closest_hit_program(world, record) else {
             return false;
         };
-        let view = View {
-            kind: ProgramKind::ClosestHit,
-            record: Some(record),
-            ray: world,
-            tmax: hit.t,
-            hit,
-            path,
-            exception_code: 0,
-        };
-        if !inlined.closest_hit.is_null() && ch.entry_address() == inlined.closest_hit {
+        self.run_closest_hit(world, record, ch, hit, path, inlined)
+    }
+
+    /// Runs `ch`, the closest-hit program of `record` for the hit `hit` below `path`
+    /// ([`closest_hit_program`]), or, when it is the caller's inlined copy, writes that
+    /// code's state and returns true.
+    #[inline(always)]
+    fn run_closest_hit(
+        &mut self,
+        world: &TraceRay,
+        record: &'l Record<'l>,
+        ch: Callable<'l>,
+        hit: &HitState,
+        path: *const Path,
+        inlined: Inlined,
+    ) -> bool {
+        let view = View::closest_hit(world, record, hit, path);
+        if inlined.is(ch) {
             // What `run_program` would write for the program, in the caller's memory.
             self.fill_inlined_state(inlined.state, ch.state_bits(), &view);
             return true;
         }
-        self.run_program_inline(*ch, view);
+        self.run_program_inline(ch, view);
         false
     }
 
