@@ -794,6 +794,7 @@ impl<'l> Invocation<'l> {
             }
         }
     }
+
     /// `fill_state`'s values of the trace that runs the program.
     #[inline(always)]
     fn fill_trace_values(&mut self, s: *mut DeviceState, bits: u32, view: &View<'l>) {
@@ -853,6 +854,7 @@ impl<'l> Invocation<'l> {
     #[inline(always)]
     fn fill_inlined_state(&mut self, s: *mut DeviceState, bits: u32, view: &View<'l>) {
         type S = DeviceState;
+        // A copy, for the reason `fill_trace_values` gives.
         let view = *view;
         Self::write_ray_values(s, &view);
         Self::write_primitive_values(s, &view);
