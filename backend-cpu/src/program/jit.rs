@@ -367,6 +367,10 @@ impl<'a> RepeatedCall<'a> {
         // `extern "C-unwind" fn(*mut CallContext)`; the context, the buffer table (as long as
         // the module's slots), the state and the stop flag outlive the call.
         unsafe { (self.entry)(&mut self.ctx) };
+        // Only where compiled code has no unwind tables does a panic wait in the context
+        // (`host::with_calls`); on Linux it has unwound through the program already, and the
+        // check would be four instructions a launch index for nothing.
+        #[cfg(not(target_os = "linux"))]
         if let Some(payload) = self.ctx.panic.take() {
             std::panic::resume_unwind(payload);
         }

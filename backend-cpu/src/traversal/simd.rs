@@ -37,6 +37,10 @@ pub trait Lanes:
     fn gt(self, b: Self) -> Self::Mask;
     /// `self == b`.
     fn eq(self, b: Self) -> Self::Mask;
+    /// Per lane `if self < b { self } else { b }` (as SSE's `minps`).
+    fn min(self, b: Self) -> Self;
+    /// Per lane `if self > b { self } else { b }` (as SSE's `maxps`).
+    fn max(self, b: Self) -> Self;
     /// Lane `i` set is bit `i`.
     fn bits(m: Self::Mask) -> u32;
 }
@@ -72,6 +76,14 @@ impl Lanes for F4 {
     #[inline(always)]
     fn eq(self, b: F4) -> imp::M4 {
         F4::eq(self, b)
+    }
+    #[inline(always)]
+    fn min(self, b: F4) -> F4 {
+        F4::min(self, b)
+    }
+    #[inline(always)]
+    fn max(self, b: F4) -> F4 {
+        F4::max(self, b)
     }
     #[inline(always)]
     fn bits(m: imp::M4) -> u32 {
@@ -306,6 +318,16 @@ mod imp {
         #[inline(always)]
         fn eq(self, b: F8) -> M8 {
             M8(unsafe { _mm256_cmp_ps::<_CMP_EQ_OQ>(self.0, b.0) })
+        }
+        // `vminps`/`vmaxps` return the second operand where either lane is NaN, as
+        // `minps`/`maxps` and the scalar selections do.
+        #[inline(always)]
+        fn min(self, b: F8) -> F8 {
+            F8(unsafe { _mm256_min_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn max(self, b: F8) -> F8 {
+            F8(unsafe { _mm256_max_ps(self.0, b.0) })
         }
         #[inline(always)]
         fn bits(m: M8) -> u32 {
