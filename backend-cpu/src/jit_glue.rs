@@ -52,6 +52,12 @@ pub(crate) fn compile(
             stats.closest_hits_inlined
         );
     }
+    if stats.launch_loops > 0 {
+        log += &format!(
+            "; {} ray generation programs compiled with their launch loop",
+            stats.launch_loops
+        );
+    }
     Ok((
         ModuleObject {
             compiled: Some(compiled),

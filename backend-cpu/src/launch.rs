@@ -51,16 +51,14 @@ pub(crate) fn run(shared: &LaunchShared<'_>, pool: &rayon::ThreadPool) {
                 let f = first as u64;
                 let index = [(f % w) as u32, ((f / w) % h) as u32, (f / (w * h)) as u32];
                 let indices = (first + INDICES_PER_TASK).min(count) - first;
-                Invocation::new(shared).run_raygens(raygen, index, indices, |i| {
-                    next_index(i, w as u32, h as u32)
-                });
+                Invocation::new(shared).run_raygens(raygen, index, indices, [w as u32, h as u32]);
             })
     });
 }
 
 /// The launch index after `index` in x-major order over a launch `w` wide and `h` high.
 #[inline]
-fn next_index([x, y, z]: [u32; 3], w: u32, h: u32) -> [u32; 3] {
+pub(crate) fn next_index([x, y, z]: [u32; 3], w: u32, h: u32) -> [u32; 3] {
     if x + 1 < w {
         [x + 1, y, z]
     } else if y + 1 < h {

@@ -275,6 +275,40 @@ impl<'l> RepeatedCallable<'l> {
             } => program.call(bindings, calls, *state, *trace),
         }
     }
+
+    /// Whether [`RepeatedCallable::run_indices`] can run the program (compiled code with a
+    /// launch loop: `RepeatedCall::has_launch_loop`).
+    #[inline]
+    pub fn has_launch_loop(&self) -> bool {
+        match self {
+            #[cfg(feature = "jit")]
+            RepeatedCallable::Jit(call) => call.has_launch_loop(),
+            RepeatedCallable::Each { .. } => false,
+        }
+    }
+
+    /// `RepeatedCall::run_indices`: the program for up to `count` launch indices of one row.
+    ///
+    /// # Safety
+    /// As `RepeatedCall::run_indices`; only where [`RepeatedCallable::has_launch_loop`].
+    #[inline]
+    pub unsafe fn run_indices(
+        &mut self,
+        calls: &mut (dyn DeviceCalls + 'l),
+        count: usize,
+        stop: &std::sync::atomic::AtomicU32,
+        ended: *const u32,
+    ) -> usize {
+        match self {
+            #[cfg(feature = "jit")]
+            // SAFETY: the caller's contract.
+            RepeatedCallable::Jit(call) => unsafe { call.run_indices(calls, count, stop, ended) },
+            RepeatedCallable::Each { .. } => {
+                let _ = (calls, count, stop, ended);
+                unreachable!("run_indices without a launch loop (has_launch_loop)")
+            }
+        }
+    }
 }
 
 /// A module: its programs by name.

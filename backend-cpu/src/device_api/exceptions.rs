@@ -23,5 +23,10 @@ impl Invocation<'_> {
             self.run(p, view);
         }
         self.ending = true;
+        if !self.index_ended.is_null() {
+            // SAFETY: set while a compiled launch loop runs this index (`run_rows`), whose
+            // word it is; the loop reads it only after the index returns.
+            unsafe { self.index_ended.write(1) };
+        }
     }
 }

@@ -34,7 +34,8 @@ mod lean;
 
 use crate::accel::Gas;
 use crate::launch::LaunchShared;
-use crate::pipeline::Callable;
+use crate::launch::next_index;
+use crate::pipeline::{Callable, RepeatedCallable};
 use crate::program::abi::{self, DeviceCalls, DeviceState};
 use crate::sbt::Record;
 use crate::traversal::{self, Candidate, HitData, Path, Spec, TraceRay};
@@ -331,7 +332,14 @@ struct TraceState<'l> {
 /// traces.
 pub(crate) struct Invocation<'l> {
     shared: &'l LaunchShared<'l>,
+    /// The launch index, but while a compiled launch loop runs indices
+    /// (`RepeatedCall::run_indices`), which steps it in the ray generation program's state:
+    /// then `index_at` points there ([`Invocation::current_index`]).
     index: [u32; 3],
+    index_at: *const [u32; 3],
+    /// While a compiled launch loop runs: the word it reads after each index, set with
+    /// `ending` (null otherwise).
+    index_ended: *mut u32,
     /// Traces in progress.
     depth: u32,
     direct_depth: u32,
@@ -585,7 +593,7 @@ impl<'l> Invocation<'l> {
         raygen: Callable<'l>,
         mut index: [u32; 3],
         count: usize,
-        next: impl Fn([u32; 3]) -> [u32; 3],
+        [width, height]: [u32; 2],
     ) {
         let shared = self.shared;
         if raygen.does_nothing() {
@@ -612,27 +620,85 @@ impl<'l> Invocation<'l> {
         // Everything in the state but the launch index is the same for the whole task.
         self.index = index;
         self.fill_state(self.state, bits, &view);
-        for _ in 0..count {
-            if stop.load(std::sync::atomic::Ordering::Relaxed) != 0 {
-                break;
+        if call.has_launch_loop() {
+            self.run_rows(&mut call, index, count, [width, height]);
+        } else {
+            for _ in 0..count {
+                if stop.load(std::sync::atomic::Ordering::Relaxed) != 0 {
+                    break;
+                }
+                // Word by word (`traversal::words`): `next_index` stored the index one word
+                // at a time (an 8-byte read across two of those stores stalls every launch
+                // index). Both copies are written from that one read, not the state's read
+                // back from the invocation's (one store-to-load forwarding less on the way
+                // from the index to the program's first loads).
+                let current = traversal::words(&index);
+                self.index = current;
+                self.ending = false;
+                if bits & DeviceState::LAUNCH_INDEX != 0 {
+                    // SAFETY: `state` is the program's state (set above).
+                    unsafe { (*self.state).launch_index = current };
+                }
+                call.call(self);
+                index = next_index(index, width, height);
             }
-            // Word by word (`traversal::words`): `next` stored the index one word at a time
-            // (an 8-byte read across two of those stores stalls every launch index). Both
-            // copies are written from that one read, not the state's read back from the
-            // invocation's (one store-to-load forwarding less on the way from the index to
-            // the program's first loads).
-            let current = traversal::words(&index);
-            self.index = current;
-            self.ending = false;
-            if bits & DeviceState::LAUNCH_INDEX != 0 {
-                // SAFETY: `state` is the program's state (set above).
-                unsafe { (*self.state).launch_index = current };
-            }
-            call.call(self);
-            index = next(index);
         }
         self.view = std::ptr::null_mut();
         self.state = std::ptr::null_mut();
+    }
+
+    /// [`Invocation::run_raygens`]'s indices run by the program's compiled launch loop, a
+    /// row (or what is left of it) per call: the loop steps the index along x in the
+    /// program's state, where every reader of the launch index finds it meanwhile
+    /// (`index_at`), and stops after an index that an exception ended, which is cleared
+    /// here before the loop goes on.
+    fn run_rows(
+        &mut self,
+        call: &mut RepeatedCallable<'l>,
+        mut index: [u32; 3],
+        mut count: usize,
+        [width, height]: [u32; 2],
+    ) {
+        let stop = self.shared.stop;
+        // The word the loop reads after each index; only written through this pointer.
+        let mut ended = std::cell::UnsafeCell::new(0u32);
+        let ended = ended.get_mut() as *mut u32;
+        // SAFETY: `state` is the program's state (`run_raygens`), written here before the
+        // program reads it; the launch index is written whatever its bits (the loop steps it).
+        let at = unsafe { std::ptr::addr_of_mut!((*self.state).launch_index) };
+        self.index_at = at;
+        self.index_ended = ended;
+        while count > 0 && stop.load(std::sync::atomic::Ordering::Relaxed) == 0 {
+            let row = count.min((width - index[0]) as usize);
+            self.ending = false;
+            // SAFETY: `at` and `ended` are live for this call (above); nothing else reads
+            // or writes them while the loop runs but the loop and this invocation.
+            let ran = unsafe {
+                at.write(index);
+                ended.write(0);
+                call.run_indices(self, row, stop, ended)
+            };
+            count -= ran;
+            index[0] += ran as u32;
+            if index[0] == width {
+                index = next_index([width - 1, index[1], index[2]], width, height);
+            }
+        }
+        self.index_at = std::ptr::null();
+        self.index_ended = std::ptr::null_mut();
+    }
+
+    /// The launch index of the running programs: `index`, or where a compiled launch loop
+    /// steps it (`index_at`).
+    #[inline]
+    fn current_index(&self) -> [u32; 3] {
+        if self.index_at.is_null() {
+            traversal::words(&self.index)
+        } else {
+            // SAFETY: `index_at` points into the ray generation program's state while its
+            // launch loop runs (`run_rows`), and is null otherwise.
+            unsafe { traversal::words(&*self.index_at) }
+        }
     }
 
     /// An invocation for the launch indices of one task ([`Invocation::run_raygens`]).
@@ -640,6 +706,8 @@ impl<'l> Invocation<'l> {
         Invocation {
             shared,
             index: [0; 3],
+            index_at: std::ptr::null(),
+            index_ended: std::ptr::null_mut(),
             depth: 0,
             direct_depth: 0,
             continuation_depth: 0,
@@ -768,7 +836,7 @@ impl<'l> Invocation<'l> {
             // The launch loop has just written the index as three 4-byte words; copying it
             // as one 12-byte value reads 8 bytes across two of those stores, which the CPU
             // cannot forward (a stall on every launch index).
-            unsafe { (*s).launch_index = traversal::words(&self.index) };
+            unsafe { (*s).launch_index = self.current_index() };
         }
         if bits & S::LAUNCH_DIMENSIONS != 0 {
             unsafe { (*s).launch_dimensions = self.launch_dimensions() };
@@ -1291,7 +1359,7 @@ impl<'l> Invocation<'l> {
 impl DeviceCalls for Invocation<'_> {
     #[inline]
     fn launch_index(&self) -> [u32; 3] {
-        self.index
+        self.current_index()
     }
 
     #[inline]

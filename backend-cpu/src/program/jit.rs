@@ -50,6 +50,9 @@ pub struct CompileStats {
     /// Ray generation programs with the module's closest-hit program compiled in after
     /// their traces (`InlinedClosestHit`; docs/cpu-backend.md §5).
     pub closest_hits_inlined: usize,
+    /// Ray generation programs also compiled with their launch loop (`RepeatedCall::run_indices`;
+    /// docs/cpu-backend.md §5), which the disk cache holds as well.
+    pub launch_loops: usize,
     /// Wall time of the whole compile.
     pub time: Duration,
 }
@@ -58,10 +61,34 @@ pub struct CompileStats {
 /// program (on Linux, see `unwind_tables.rs`).
 type EntryFn = unsafe extern "C-unwind" fn(*mut CallContext<'_>);
 
+/// A ray generation program's launch loop (`lower::LaunchLoop`): context, count, stop flag,
+/// the index's ended flag; returns the indices it ran.
+type LaunchLoopFn =
+    unsafe extern "C-unwind" fn(*mut CallContext<'_>, u64, *const AtomicU32, *const u32) -> u64;
+
+/// The name of a ray generation program's launch loop in the compiled module.
+fn launch_loop_name(program: &str) -> String {
+    format!("{program}__launch_loop")
+}
+
+/// One compiled program.
+#[derive(Clone, Copy)]
+struct CompiledProgram {
+    entry: EntryFn,
+    /// The `DeviceState` bits it reads.
+    state_bits: u32,
+    /// Whether it does nothing ([`ProgramFn::does_nothing`]).
+    empty: bool,
+    /// Whether it (or a helper) has a loop.
+    loops: bool,
+    /// A ray generation program's launch loop, where one was compiled.
+    launch_loop: Option<LaunchLoopFn>,
+}
+
 /// The compiled programs of one module and the memory holding their code.
 pub(crate) struct Inner {
-    /// Entry points, the `DeviceState` bits each reads, and whether it does nothing.
-    programs: HashMap<String, (EntryFn, u32, bool, bool)>,
+    /// The programs by name.
+    programs: HashMap<String, CompiledProgram>,
     /// The binding number of each buffer-table slot (`None`: a buffer without a binding).
     slot_bindings: Vec<Option<u32>>,
     stats: CompileStats,
@@ -119,6 +146,8 @@ pub struct ProgramFn<'m> {
     /// The program (or a helper) has a loop, so its code may read the stop flag
     /// (`DeviceCalls::stop_flag`); only then is the flag asked for.
     loops: bool,
+    /// A ray generation program's launch loop ([`RepeatedCall::run_indices`]).
+    launch_loop: Option<LaunchLoopFn>,
     slot_bindings: &'m [Option<u32>],
 }
 
@@ -303,6 +332,7 @@ impl ProgramFn<'_> {
         let ctx = self.context(table, bindings, calls, state, stop, trace);
         RepeatedCall {
             entry: self.entry,
+            launch_loop: None,
             ctx,
         }
         .call(calls);
@@ -336,6 +366,7 @@ impl<'m> ProgramFn<'m> {
         }
         Some(RepeatedCall {
             entry: self.entry,
+            launch_loop: self.launch_loop,
             ctx: self.context(
                 prepared.table.as_ptr(),
                 prepared.bindings,
@@ -351,6 +382,7 @@ impl<'m> ProgramFn<'m> {
 /// A program's call context built once for many calls ([`ProgramFn::repeated`]).
 pub struct RepeatedCall<'a> {
     entry: EntryFn,
+    launch_loop: Option<LaunchLoopFn>,
     ctx: CallContext<'a>,
 }
 
@@ -374,6 +406,41 @@ impl<'a> RepeatedCall<'a> {
         if let Some(payload) = self.ctx.panic.take() {
             std::panic::resume_unwind(payload);
         }
+    }
+
+    /// Whether [`RepeatedCall::run_indices`] can run the program: a ray generation program
+    /// compiled with its launch loop.
+    #[inline]
+    pub fn has_launch_loop(&self) -> bool {
+        self.launch_loop.is_some()
+    }
+
+    /// Runs the program for up to `count` launch indices of one row, as `count` calls of
+    /// [`RepeatedCall::call`] with the state's `launch_index` x stepped between them would
+    /// (the caller writes the first index into the state, which must be the context's and
+    /// writable). Stops before an index when `*stop` is nonzero, and after an index that set
+    /// `*ended` (the caller's exception flag, which it clears before it calls again);
+    /// returns the indices run (an ended one included). A panic inside `calls` propagates.
+    ///
+    /// # Safety
+    /// `ended` points to a word that only the caller and `calls` write, valid for the call;
+    /// the context's state is writable. Panics if there is no launch loop.
+    #[inline]
+    pub unsafe fn run_indices(
+        &mut self,
+        calls: &mut (dyn DeviceCalls + 'a),
+        count: usize,
+        stop: &AtomicU32,
+        ended: *const u32,
+    ) -> usize {
+        let Some(launch_loop) = self.launch_loop else {
+            unreachable!("run_indices without a launch loop (has_launch_loop)");
+        };
+        self.ctx.calls = calls;
+        // SAFETY: `launch_loop` is finalized code of a live module with `LaunchLoopFn`'s
+        // signature; the context, stop flag and ended word outlive the call (the caller's
+        // contract), and the state it steps is the caller's (writable by the contract).
+        unsafe { launch_loop(&mut self.ctx, count as u64, stop, ended) as usize }
     }
 }
 
@@ -405,7 +472,11 @@ impl JitModule {
     /// The entry addresses of the module's programs.
     #[cfg(test)]
     pub(super) fn entry_addresses(&self) -> Vec<usize> {
-        self.inner.programs.values().map(|p| p.0 as usize).collect()
+        self.inner
+            .programs
+            .values()
+            .map(|p| p.entry as usize)
+            .collect()
     }
 
     /// Compiles without looking in (or adding to) the in-memory cache.
@@ -417,12 +488,13 @@ impl JitModule {
 
     /// The program named `name` (with its prefix, e.g. `closesthit__radiance`).
     pub fn program(&self, name: &str) -> Option<ProgramFn<'_>> {
-        let (entry, state_bits, empty, loops) = *self.inner.programs.get(name)?;
+        let p = *self.inner.programs.get(name)?;
         Some(ProgramFn {
-            entry,
-            state_bits,
-            empty,
-            loops,
+            entry: p.entry,
+            state_bits: p.state_bits,
+            empty: p.empty,
+            loops: p.loops,
+            launch_loop: p.launch_loop,
             slot_bindings: &self.inner.slot_bindings,
         })
     }
@@ -579,9 +651,38 @@ fn compile_module_in(
             .map_err(module_err)?;
         program_ids.insert(program.function, id);
     }
+    // Ray generation programs also get their launch loop (`lower::LaunchLoop`), where a
+    // panic unwinds through compiled code (the loop could not see a parked one).
+    let mut loop_ids = HashMap::new();
+    if cfg!(target_os = "linux") {
+        let mut loop_sig = sig.clone();
+        loop_sig
+            .params
+            .extend([ir::AbiParam::new(ir::types::I64); 3]);
+        loop_sig.returns.push(ir::AbiParam::new(ir::types::I64));
+        for program in module
+            .programs
+            .iter()
+            .filter(|p| p.kind == ProgramKind::Raygen)
+        {
+            let id = jit
+                .declare_function(&launch_loop_name(&program.name), Linkage::Local, &loop_sig)
+                .map_err(module_err)?;
+            loop_ids.insert(program.function, id);
+        }
+    }
     let inlined_closest_hit = lower::inlinable_closest_hit(module);
-    for program in &module.programs {
-        let id = program_ids[&program.function];
+    let variants = module.programs.iter().flat_map(|p| {
+        let looped = loop_ids.get(&p.function).map(|&id| (p, id, true));
+        std::iter::once((p, program_ids[&p.function], false)).chain(looped)
+    });
+    let mut loops_of = HashMap::new();
+    for (program, id, launch_loop) in variants {
+        let name = if launch_loop {
+            launch_loop_name(&program.name)
+        } else {
+            program.name.clone()
+        };
         ctx.func.signature.call_conv = call_conv;
         let inline = inlined_closest_hit
             .filter(|_| program.kind == ProgramKind::Raygen && program.calls(DeviceFunction::Trace))
@@ -591,7 +692,7 @@ fn compile_module_in(
                     jit.declare_func_in_func(program_ids[&ch], &mut ctx.func),
                 )
             });
-        stats.closest_hits_inlined += inline.is_some() as usize;
+        stats.closest_hits_inlined += (inline.is_some() && !launch_loop) as usize;
         {
             let jit = &mut jit;
             let host_ids = &host_ids;
@@ -604,6 +705,7 @@ fn compile_module_in(
                 &mut fctx,
                 &mut import,
                 inline,
+                launch_loop,
             )
             .map_err(|e| lowering_error(module, &program.name, e))?;
         }
@@ -611,20 +713,20 @@ fn compile_module_in(
         if let Some(dir) = &dump {
             // A debugging aid: the CLIF of every program, and its machine code after.
             let _ = std::fs::write(
-                dir.join(format!("{}.clif", program.name)),
+                dir.join(format!("{name}.clif")),
                 ctx.func.display().to_string(),
             );
             ctx.set_disasm(true);
         }
-        let hit = compile_function(&mut ctx, &*isa, store.as_mut(), &program.name)?;
+        let hit = compile_function(&mut ctx, &*isa, store.as_mut(), &name)?;
         if let (Some(dir), Some(vcode)) = (&dump, ctx.compiled_code().and_then(|c| c.vcode.clone()))
         {
-            let _ = std::fs::write(dir.join(format!("{}.s", program.name)), vcode);
+            let _ = std::fs::write(dir.join(format!("{name}.s")), vcode);
         }
         let code = ctx.compiled_code().expect("compiled above");
-        let unwind_info = code.create_unwind_info(&*isa).map_err(|e| {
-            Error::backend(format!("unwind information for `{}`: {e}", program.name))
-        })?;
+        let unwind_info = code
+            .create_unwind_info(&*isa)
+            .map_err(|e| Error::backend(format!("unwind information for `{name}`: {e}")))?;
         let relocs: Vec<ModuleReloc> = code
             .buffer
             .relocs()
@@ -635,6 +737,11 @@ fn compile_module_in(
         jit.define_function_bytes(id, alignment, code.code_buffer(), &relocs)
             .map_err(module_err)?;
         jit.clear_context(&mut ctx);
+        if launch_loop {
+            stats.launch_loops += 1;
+            loops_of.insert(program.name.clone(), (id, unwind_info));
+            continue;
+        }
         stats.functions += 1;
         stats.disk_cache_hits += hit as usize;
         let state_bits = program
@@ -667,8 +774,23 @@ fn compile_module_in(
         let ptr = jit.get_finalized_function(id);
         // SAFETY: the function was compiled with exactly this signature.
         let entry: EntryFn = unsafe { std::mem::transmute::<*const u8, EntryFn>(ptr) };
-        programs.insert(name, (entry, state_bits, empty, loops));
         frames.extend(unwind_info.map(|info| (ptr as usize, info)));
+        let launch_loop = loops_of.remove(&name).map(|(id, unwind_info)| {
+            let ptr = jit.get_finalized_function(id);
+            frames.extend(unwind_info.map(|info| (ptr as usize, info)));
+            // SAFETY: compiled with `lower::LaunchLoop`'s signature, which this is.
+            unsafe { std::mem::transmute::<*const u8, LaunchLoopFn>(ptr) }
+        });
+        programs.insert(
+            name,
+            CompiledProgram {
+                entry,
+                state_bits,
+                empty,
+                loops,
+                launch_loop,
+            },
+        );
     }
     #[cfg(target_os = "linux")]
     let unwind = match super::unwind_tables::UnwindRegistration::new(&*isa, &frames) {

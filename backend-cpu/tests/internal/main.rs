@@ -8,6 +8,7 @@
 //! - `features`: pipelines compile what their scene and programs use;
 //! - `handles`: structures checked at trace time (foreign, destroyed, reused slots);
 //! - `inlined`: a module's closest-hit program compiled into its ray generation programs;
+//! - `launch_loop`: ray generation programs compiled with their launch loop;
 //! - `lean`: compiled programs' traces without the invocation's trace state, against the full
 //!   trace;
 //! - `native`: native (Rust closure) programs, this backend's own program API, and the
@@ -21,6 +22,8 @@ mod handles;
 mod inlined;
 #[cfg(feature = "jit")]
 mod jit;
+#[cfg(feature = "jit")]
+mod launch_loop;
 #[cfg(feature = "jit")]
 mod lean;
 mod native;

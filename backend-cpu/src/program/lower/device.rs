@@ -214,7 +214,7 @@ impl Lowerer<'_, '_> {
 
     /// The `DeviceState` the code being lowered reads: the call's, or an inlined closest
     /// hit's.
-    fn state_pointer(&mut self) -> Value {
+    pub(super) fn state_pointer(&mut self) -> Value {
         if let Some(state) = self.state_override {
             return state;
         }

@@ -215,6 +215,10 @@ pub(crate) struct InlinedClosestHit {
 pub(super) const SCRATCH_BYTES: u32 = 256;
 
 /// Lowers the program `function` of `env` into `func` (whose signature is set here).
+///
+/// With `launch_loop`, a ray generation program's launch loop instead ([`LaunchLoop`]): the
+/// function runs the program for up to `count` launch indices in a row, as the runtime's
+/// loop would call it once per index.
 pub(crate) fn lower_program<'m>(
     env: &'m ModuleEnv<'m>,
     function: Handle<Function>,
@@ -222,8 +226,12 @@ pub(crate) fn lower_program<'m>(
     fctx: &mut FunctionBuilderContext,
     import: &mut dyn FnMut(HostFn, &mut ir::Function) -> FuncRef,
     inline_closest_hit: Option<(Handle<Function>, FuncRef)>,
+    launch_loop: bool,
 ) -> LResult<()> {
     func.signature.params.push(AbiParam::new(I64));
+    if launch_loop {
+        LaunchLoop::signature(&mut func.signature);
+    }
     let mut b = FunctionBuilder::new(func, fctx);
     let entry = b.create_block();
     b.append_block_params_for_function_params(entry);
@@ -293,6 +301,9 @@ pub(crate) fn lower_program<'m>(
         state_override: None,
         inlined_payload: None,
     };
+    // The launch loop's next index, entered before the program's body (whose private and
+    // local variables are initialised afresh for each index).
+    let looped = launch_loop.then(|| LaunchLoop::enter(&mut lowerer, entry));
     lowerer.init_privates(function)?;
     let body = &env.module.functions[function];
     lowerer.push_frame(function, Vec::new(), None)?;
@@ -301,11 +312,115 @@ pub(crate) fn lower_program<'m>(
     lowerer.goto(exit, &[]);
     lowerer.b.seal_block(exit);
     lowerer.enter(exit);
-    lowerer.b.ins().return_(&[]);
+    match looped {
+        Some(l) => l.next_index(&mut lowerer),
+        None => {
+            lowerer.b.ins().return_(&[]);
+        }
+    }
     lowerer.b.seal_all_blocks();
     let frontend = env.frontend;
     lowerer.b.finalize(frontend);
     Ok(())
+}
+
+/// A ray generation program compiled with its launch loop (`lower_program`'s
+/// `launch_loop`): `extern "C-unwind" fn(ctx, count: u64, stop: *const u32, ended: *const
+/// u32) -> u64` runs the program for launch index after launch index of one row, the state's
+/// `launch_index` x stepped after each (the runtime writes the first), and returns how many
+/// it ran: `count`, or fewer when the launch's stop flag (`stop`) was raised before an index
+/// (that index not run), or when an index ended early (`*ended` nonzero after it: an
+/// exception, which the runtime handles before it goes on; that index counted as run).
+///
+/// What it saves against the runtime calling the program per index: the runtime's loop (the
+/// stop flag, the index's copies, the call and its checks, ~40 instructions) and the
+/// program's entry and exit (the context's and the buffers' loads, its frame), which it pays
+/// once for the row (docs/cpu-backend.md, "The launch loop compiled with the program").
+#[derive(Clone, Copy)]
+struct LaunchLoop {
+    /// Block of the next index: parameter `k`, the indices run so far.
+    header: Block,
+    /// Its `k`.
+    k: Value,
+    /// Block that returns its parameter (the indices run).
+    done: Block,
+    /// The `ended` flag's address.
+    ended: Value,
+}
+
+impl LaunchLoop {
+    /// Adds the loop's parameters and result to a program's signature (after `ctx`).
+    fn signature(sig: &mut ir::Signature) {
+        sig.params.push(AbiParam::new(I64)); // count
+        sig.params.push(AbiParam::new(I64)); // stop
+        sig.params.push(AbiParam::new(I64)); // ended
+        sig.returns.push(AbiParam::new(I64));
+    }
+
+    /// From the entry block (its loads made): the loop's header, which returns once
+    /// `count` indices ran or the stop flag is up, else goes on into the body, where the
+    /// lowerer is left.
+    fn enter(l: &mut Lowerer<'_, '_>, entry: Block) -> LaunchLoop {
+        let params = l.b.block_params(entry).to_vec();
+        let (count, stop, ended) = (params[1], params[2], params[3]);
+        let header = l.b.create_block();
+        let k = l.b.append_block_param(header, I64);
+        let done = l.b.create_block();
+        l.b.append_block_param(done, I64);
+        let check_stop = l.b.create_block();
+        let body = l.b.create_block();
+        let zero = l.b.ins().iconst(I64, 0);
+        l.goto(header, &[zero.into()]);
+        l.enter(header);
+        let all_ran =
+            l.b.ins()
+                .icmp(ir::condcodes::IntCC::UnsignedGreaterThanOrEqual, k, count);
+        l.live_blocks.extend([done, check_stop]);
+        l.b.ins().brif(all_ran, done, &[k.into()], check_stop, &[]);
+        l.b.seal_block(check_stop);
+        l.enter(check_stop);
+        // Not read-only: another thread raises it.
+        let flag =
+            l.b.ins()
+                .load(ir::types::I32, MemFlagsData::trusted(), stop, 0);
+        l.live_blocks.extend([done, body]);
+        l.b.ins().brif(flag, done, &[k.into()], body, &[]);
+        l.b.seal_block(body);
+        l.enter(body);
+        LaunchLoop {
+            header,
+            k,
+            done,
+            ended,
+        }
+    }
+
+    /// At the program's exit: returns when the index ended early, else steps the state's
+    /// launch index along x and goes to the next.
+    fn next_index(self, l: &mut Lowerer<'_, '_>) {
+        let ran = l.b.ins().iadd_imm_u(self.k, 1);
+        let step = l.b.create_block();
+        let ended =
+            l.b.ins()
+                .load(ir::types::I32, MemFlagsData::trusted(), self.ended, 0);
+        l.live_blocks.extend([self.done, step]);
+        l.b.ins().brif(ended, self.done, &[ran.into()], step, &[]);
+        l.b.seal_block(step);
+        l.enter(step);
+        let state = l.state_pointer();
+        let at = std::mem::offset_of!(DeviceState, launch_index) as i32;
+        let x =
+            l.b.ins()
+                .load(ir::types::I32, MemFlagsData::trusted(), state, at);
+        let x = l.b.ins().iadd_imm_u(x, 1);
+        l.b.ins().store(MemFlagsData::trusted(), x, state, at);
+        l.goto(self.header, &[ran.into()]);
+        l.b.seal_block(self.header);
+        l.b.seal_block(self.done);
+        l.enter(self.done);
+        let n = l.b.block_params(self.done)[0];
+        l.b.ins().return_(&[n]);
+    }
 }
 
 impl<'m, 'b> Lowerer<'m, 'b> {
