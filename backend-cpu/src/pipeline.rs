@@ -287,10 +287,11 @@ impl<'l> RepeatedCallable<'l> {
         }
     }
 
-    /// `RepeatedCall::run_indices`: the program for up to `count` launch indices of one row.
+    /// `RepeatedCall::run_indices`: the program for up to `count` launch indices of one row;
+    /// `None` without a launch loop ([`RepeatedCallable::has_launch_loop`]).
     ///
     /// # Safety
-    /// As `RepeatedCall::run_indices`; only where [`RepeatedCallable::has_launch_loop`].
+    /// As `RepeatedCall::run_indices`.
     #[inline]
     pub unsafe fn run_indices(
         &mut self,
@@ -298,14 +299,14 @@ impl<'l> RepeatedCallable<'l> {
         count: usize,
         stop: &std::sync::atomic::AtomicU32,
         ended: *const u32,
-    ) -> usize {
+    ) -> Option<usize> {
         match self {
             #[cfg(feature = "jit")]
             // SAFETY: the caller's contract.
             RepeatedCallable::Jit(call) => unsafe { call.run_indices(calls, count, stop, ended) },
             RepeatedCallable::Each { .. } => {
                 let _ = (calls, count, stop, ended);
-                unreachable!("run_indices without a launch loop (has_launch_loop)")
+                None
             }
         }
     }

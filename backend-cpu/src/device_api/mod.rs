@@ -678,6 +678,10 @@ impl<'l> Invocation<'l> {
                 ended.write(0);
                 call.run_indices(self, row, stop, ended)
             };
+            let Some(ran) = ran else {
+                debug_assert!(false, "run_raygens comes here only with a launch loop");
+                break;
+            };
             count -= ran;
             index[0] += ran as u32;
             if index[0] == width {

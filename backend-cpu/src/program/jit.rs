@@ -420,11 +420,12 @@ impl<'a> RepeatedCall<'a> {
     /// (the caller writes the first index into the state, which must be the context's and
     /// writable). Stops before an index when `*stop` is nonzero, and after an index that set
     /// `*ended` (the caller's exception flag, which it clears before it calls again);
-    /// returns the indices run (an ended one included). A panic inside `calls` propagates.
+    /// returns the indices run (an ended one included), or `None` without a launch loop
+    /// ([`RepeatedCall::has_launch_loop`]). A panic inside `calls` propagates.
     ///
     /// # Safety
     /// `ended` points to a word that only the caller and `calls` write, valid for the call;
-    /// the context's state is writable. Panics if there is no launch loop.
+    /// the context's state is writable.
     #[inline]
     pub unsafe fn run_indices(
         &mut self,
@@ -432,15 +433,13 @@ impl<'a> RepeatedCall<'a> {
         count: usize,
         stop: &AtomicU32,
         ended: *const u32,
-    ) -> usize {
-        let Some(launch_loop) = self.launch_loop else {
-            unreachable!("run_indices without a launch loop (has_launch_loop)");
-        };
+    ) -> Option<usize> {
+        let launch_loop = self.launch_loop?;
         self.ctx.calls = calls;
         // SAFETY: `launch_loop` is finalized code of a live module with `LaunchLoopFn`'s
         // signature; the context, stop flag and ended word outlive the call (the caller's
         // contract), and the state it steps is the caller's (writable by the contract).
-        unsafe { launch_loop(&mut self.ctx, count as u64, stop, ended) as usize }
+        Some(unsafe { launch_loop(&mut self.ctx, count as u64, stop, ended) as usize })
     }
 }
 
