@@ -660,9 +660,9 @@ impl<'l> Invocation<'l> {
         [width, height]: [u32; 2],
     ) {
         let stop = self.shared.stop;
-        // The word the loop reads after each index; only written through this pointer.
-        let mut ended = std::cell::UnsafeCell::new(0u32);
-        let ended = ended.get_mut() as *mut u32;
+        // The word the loop reads after each index; only used through this pointer.
+        let mut ended_word = 0u32;
+        let ended = std::ptr::addr_of_mut!(ended_word);
         // SAFETY: `state` is the program's state (`run_raygens`), written here before the
         // program reads it; the launch index is written whatever its bits (the loop steps it).
         let at = unsafe { std::ptr::addr_of_mut!((*self.state).launch_index) };
