@@ -55,13 +55,20 @@ impl Lowerer<'_, '_> {
             | D::ObjectToWorld
             | D::WorldToObject
             | D::RemainingTraceDepth => {
-                let (bit, offset, ty, n) =
-                    state_field(df).expect("every getter listed has a field");
-                let v = self.state_or_call(bit, offset, ty, n, |s| s.getter_call(df));
-                Some(match df {
-                    D::ObjectToWorld | D::WorldToObject => columns_4x3(&v),
-                    _ => v,
-                })
+                if let (D::LaunchIndex, Some(index), None) =
+                    (df, self.loop_index, self.state_override)
+                {
+                    // The program's own read in its launch loop (`LaunchLoop`).
+                    Some(index.to_vec())
+                } else {
+                    let (bit, offset, ty, n) =
+                        state_field(df).expect("every getter listed has a field");
+                    let v = self.state_or_call(bit, offset, ty, n, |s| s.getter_call(df));
+                    Some(match df {
+                        D::ObjectToWorld | D::WorldToObject => columns_4x3(&v),
+                        _ => v,
+                    })
+                }
             }
             D::TriangleVertices => Some(self.host_out(HostFn::triangle_vertices, F32, 9)),
             D::Sphere => Some(self.host_out(HostFn::sphere, F32, 4)),

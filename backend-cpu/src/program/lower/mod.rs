@@ -188,6 +188,9 @@ pub(crate) struct Lowerer<'m, 'b> {
     /// The state the code being lowered reads instead of the call's (`CallContext::state`):
     /// an inlined closest hit's.
     state_override: Option<Value>,
+    /// In a launch loop (`LaunchLoop`): the launch index, which the program's own
+    /// `rt_launch_index` reads from here instead of the state.
+    loop_index: Option<[Value; 3]>,
     /// The payload registers of the trace whose inlined closest hit is being lowered: the
     /// caller's `RtPayload` (its address and length), the registers the runtime would hand
     /// that program (a trace passes the caller's payload in place), so its payload accesses
@@ -299,6 +302,7 @@ pub(crate) fn lower_program<'m>(
         lowered_exprs: 0,
         inlined_closest_hit,
         state_override: None,
+        loop_index: None,
         inlined_payload: None,
     };
     // The launch loop's next index, entered before the program's body (whose private and
@@ -338,10 +342,13 @@ pub(crate) fn lower_program<'m>(
 /// once for the row (docs/cpu-backend.md, "The launch loop compiled with the program").
 #[derive(Clone, Copy)]
 struct LaunchLoop {
-    /// Block of the next index: parameter `k`, the indices run so far.
+    /// Block of the next index: parameters `k`, the indices run so far, and `x`, the launch
+    /// index's.
     header: Block,
     /// Its `k`.
     k: Value,
+    /// Its `x`.
+    x: Value,
     /// Block that returns its parameter (the indices run).
     done: Block,
     /// The `ended` flag's address.
@@ -363,14 +370,24 @@ impl LaunchLoop {
     fn enter(l: &mut Lowerer<'_, '_>, entry: Block) -> LaunchLoop {
         let params = l.b.block_params(entry).to_vec();
         let (count, stop, ended) = (params[1], params[2], params[3]);
+        // The first index, which the runtime wrote; the loop carries x in a register (the
+        // program's first loads wait on it at every index: read back from the state after
+        // the loop's store, it came through a store-to-load forwarding).
+        let state = l.state_pointer();
+        let at = std::mem::offset_of!(DeviceState, launch_index) as i32;
+        let index = [0, 4, 8].map(|o| {
+            l.b.ins()
+                .load(ir::types::I32, MemFlagsData::trusted(), state, at + o)
+        });
         let header = l.b.create_block();
         let k = l.b.append_block_param(header, I64);
+        let x = l.b.append_block_param(header, ir::types::I32);
         let done = l.b.create_block();
         l.b.append_block_param(done, I64);
         let check_stop = l.b.create_block();
         let body = l.b.create_block();
         let zero = l.b.ins().iconst(I64, 0);
-        l.goto(header, &[zero.into()]);
+        l.goto(header, &[zero.into(), index[0].into()]);
         l.enter(header);
         let all_ran =
             l.b.ins()
@@ -387,9 +404,11 @@ impl LaunchLoop {
         l.b.ins().brif(flag, done, &[k.into()], body, &[]);
         l.b.seal_block(body);
         l.enter(body);
+        l.loop_index = Some([x, index[1], index[2]]);
         LaunchLoop {
             header,
             k,
+            x,
             done,
             ended,
         }
@@ -407,14 +426,13 @@ impl LaunchLoop {
         l.b.ins().brif(ended, self.done, &[ran.into()], step, &[]);
         l.b.seal_block(step);
         l.enter(step);
+        // The next x, carried to the next index and stored where the runtime's readers of
+        // the launch index find it (`Invocation::current_index`).
         let state = l.state_pointer();
         let at = std::mem::offset_of!(DeviceState, launch_index) as i32;
-        let x =
-            l.b.ins()
-                .load(ir::types::I32, MemFlagsData::trusted(), state, at);
-        let x = l.b.ins().iadd_imm_u(x, 1);
+        let x = l.b.ins().iadd_imm_u(self.x, 1);
         l.b.ins().store(MemFlagsData::trusted(), x, state, at);
-        l.goto(self.header, &[ran.into()]);
+        l.goto(self.header, &[ran.into(), x.into()]);
         l.b.seal_block(self.header);
         l.b.seal_block(self.done);
         l.enter(self.done);
