@@ -610,13 +610,9 @@ impl<'l> Invocation<'l> {
         self.state = state.as_mut_ptr();
         let bits = raygen.state_bits();
         let stop = shared.stop;
-        let mut call = raygen.repeated(
-            shared.bindings,
-            self,
-            state.as_ptr(),
-            stop,
-            shared.trace.entry,
-        );
+        // The state's mutable pointer: the launch loop (`run_rows`) writes its index.
+        let state_ptr = self.state.cast_const();
+        let mut call = raygen.repeated(shared.bindings, self, state_ptr, stop, shared.trace.entry);
         // Everything in the state but the launch index is the same for the whole task.
         self.index = index;
         self.fill_state(self.state, bits, &view);

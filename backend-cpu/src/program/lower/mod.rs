@@ -339,7 +339,7 @@ pub(crate) fn lower_program<'m>(
 /// What it saves against the runtime calling the program per index: the runtime's loop (the
 /// stop flag, the index's copies, the call and its checks, ~40 instructions) and the
 /// program's entry and exit (the context's and the buffers' loads, its frame), which it pays
-/// once for the row (docs/cpu-backend.md, "The launch loop compiled with the program").
+/// once for the row (docs/cpu-backend.md §5, "the launch loop compiled with the ray generation program").
 #[derive(Clone, Copy)]
 struct LaunchLoop {
     /// Block of the next index: parameters `k`, the indices run so far, and `x`, the launch
