@@ -655,10 +655,7 @@ fn compile_module_in(
     let mut loop_ids = HashMap::new();
     if cfg!(target_os = "linux") {
         let mut loop_sig = sig.clone();
-        loop_sig
-            .params
-            .extend([ir::AbiParam::new(ir::types::I64); 3]);
-        loop_sig.returns.push(ir::AbiParam::new(ir::types::I64));
+        lower::LaunchLoop::signature(&mut loop_sig);
         for program in module
             .programs
             .iter()

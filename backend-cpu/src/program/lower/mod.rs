@@ -341,7 +341,7 @@ pub(crate) fn lower_program<'m>(
 /// program's entry and exit (the context's and the buffers' loads, its frame), which it pays
 /// once for the row (docs/cpu-backend.md §5, "the launch loop compiled with the ray generation program").
 #[derive(Clone, Copy)]
-struct LaunchLoop {
+pub(crate) struct LaunchLoop {
     /// Block of the next index: parameters `k`, the indices run so far, and `x`, the launch
     /// index's.
     header: Block,
@@ -356,8 +356,10 @@ struct LaunchLoop {
 }
 
 impl LaunchLoop {
-    /// Adds the loop's parameters and result to a program's signature (after `ctx`).
-    fn signature(sig: &mut ir::Signature) {
+    /// Adds the loop's parameters and result to a program's signature (after `ctx`): the
+    /// one place that says what `jit::LaunchLoopFn` is in Cranelift's terms, for the
+    /// declaration (`jit.rs`) and the definition (`lower_program`) alike.
+    pub(crate) fn signature(sig: &mut ir::Signature) {
         sig.params.push(AbiParam::new(I64)); // count
         sig.params.push(AbiParam::new(I64)); // stop
         sig.params.push(AbiParam::new(I64)); // ended
