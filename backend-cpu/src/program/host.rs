@@ -37,6 +37,60 @@ impl BufferSlot {
     };
 }
 
+/// Which binding fills each slot of a module's buffer table, and what its code takes as
+/// given about one of them.
+pub(crate) struct SlotLayout {
+    /// The binding number of each slot (`None`: a buffer without a binding).
+    pub bindings: Vec<Option<u32>>,
+    /// The params uniform's slot and the bytes of its type. Compiled code reads the params
+    /// at constant offsets below that without a bounds check, and may hoist those loads out
+    /// of loops (they cannot change during a call), so every table gives the slot at least
+    /// that many bytes: [`SlotLayout::fill`] pads a shorter binding with zeros, which is
+    /// what a bounds-checked read past its end would have returned.
+    pub params: Option<(usize, usize)>,
+}
+
+impl SlotLayout {
+    /// Fills `table` (one entry per slot) from `bindings`; `padded` holds the params'
+    /// zero-padded copy where they are shorter than their type, and must outlive the
+    /// table's use.
+    #[inline]
+    pub fn fill(&self, table: &mut [BufferSlot], bindings: &Bindings<'_>, padded: &mut Vec<u8>) {
+        for (slot, binding) in table.iter_mut().zip(&self.bindings) {
+            *slot = match binding.and_then(|b| bindings.resources.get(b as usize)) {
+                Some(BoundResource::Buffer(b)) => BufferSlot {
+                    ptr: b.ptr,
+                    len: b.len,
+                },
+                _ => BufferSlot::EMPTY,
+            };
+        }
+        if let Some((at, bytes)) = self.params
+            && let Some(slot) = table.get_mut(at)
+            && slot.len < bytes
+        {
+            *slot = pad(*slot, bytes, padded);
+        }
+    }
+}
+
+/// `slot`'s bytes followed by zeros up to `bytes`, in `padded`: params bound shorter than
+/// their type (never in a launch, whose bindings optik-core checks).
+#[cold]
+fn pad(slot: BufferSlot, bytes: usize, padded: &mut Vec<u8>) -> BufferSlot {
+    padded.clear();
+    padded.resize(bytes, 0);
+    if slot.len > 0 {
+        // SAFETY: a bound buffer's pointer is valid for its length for the call (the
+        // contract of `Bindings`), and `padded` is a separate allocation of more bytes.
+        unsafe { std::ptr::copy_nonoverlapping(slot.ptr, padded.as_mut_ptr(), slot.len) };
+    }
+    BufferSlot {
+        ptr: padded.as_mut_ptr(),
+        len: bytes,
+    }
+}
+
 /// Bytes of [`ZERO_PAGE`]: the largest value one load may read from a buffer.
 pub(crate) const ZERO_PAGE_BYTES: u32 = 1 << 16;
 

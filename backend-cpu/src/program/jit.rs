@@ -1,8 +1,8 @@
 //! The JIT driver: a module's programs to machine code, and calling them.
 
-use super::abi::{Bindings, BoundResource, DeviceCalls, DeviceState, TraceEntry};
+use super::abi::{Bindings, DeviceCalls, DeviceState, TraceEntry};
 use super::cache::{self, DiskStore, ModuleKey};
-use super::host::{BufferSlot, CallContext, HostFn, NEVER_STOP, ZERO_PAGE};
+use super::host::{BufferSlot, CallContext, HostFn, NEVER_STOP, SlotLayout, ZERO_PAGE};
 use super::lower::{self, LowerError, ModuleEnv};
 use cranelift_codegen::control::ControlPlane;
 use cranelift_codegen::settings::{self, Configurable};
@@ -53,6 +53,9 @@ pub struct CompileStats {
     /// Ray generation programs also compiled with their launch loop (`RepeatedCall::run_indices`;
     /// docs/cpu-backend.md §5), which the disk cache holds as well.
     pub launch_loops: usize,
+    /// Buffer accesses compiled with a bounds check, over every function compiled. Reads
+    /// of the params at constant offsets need none (`host::SlotLayout`).
+    pub bounds_checks: usize,
     /// Wall time of the whole compile.
     pub time: Duration,
 }
@@ -89,8 +92,8 @@ struct CompiledProgram {
 pub(crate) struct Inner {
     /// The programs by name.
     programs: HashMap<String, CompiledProgram>,
-    /// The binding number of each buffer-table slot (`None`: a buffer without a binding).
-    slot_bindings: Vec<Option<u32>>,
+    /// Where each buffer-table slot comes from.
+    slots: SlotLayout,
     stats: CompileStats,
     /// The unwind tables of the code; dropped (deregistered) before the code is freed.
     #[cfg(target_os = "linux")]
@@ -148,7 +151,7 @@ pub struct ProgramFn<'m> {
     loops: bool,
     /// A ray generation program's launch loop ([`RepeatedCall::run_indices`]).
     launch_loop: Option<LaunchLoopFn>,
-    slot_bindings: &'m [Option<u32>],
+    slots: &'m SlotLayout,
 }
 
 impl std::fmt::Debug for ProgramFn<'_> {
@@ -168,30 +171,16 @@ const INLINE_SLOTS: usize = 16;
 pub struct PreparedBindings<'a> {
     bindings: &'a Bindings<'a>,
     table: Vec<BufferSlot>,
+    /// The params' zero-padded copy the table may point to ([`SlotLayout::fill`]).
+    _padded: Vec<u8>,
     /// The slot layout the table was built for (borrowed from its module), to catch a
     /// mix-up of modules.
-    layout: &'a [Option<u32>],
+    layout: &'a SlotLayout,
 }
 
 // The table holds the same raw buffer pointers as `Bindings`, shared the same way.
 unsafe impl Send for PreparedBindings<'_> {}
 unsafe impl Sync for PreparedBindings<'_> {}
-
-/// The buffer table for `slot_bindings` from `bindings`.
-fn buffer_table(slot_bindings: &[Option<u32>], bindings: &Bindings<'_>) -> Vec<BufferSlot> {
-    slot_bindings
-        .iter()
-        .map(
-            |binding| match binding.and_then(|b| bindings.resources.get(b as usize)) {
-                Some(BoundResource::Buffer(b)) => BufferSlot {
-                    ptr: b.ptr,
-                    len: b.len,
-                },
-                _ => BufferSlot::EMPTY,
-            },
-        )
-        .collect()
-}
 
 impl ProgramFn<'_> {
     /// The [`DeviceState`] bits (`DeviceState::RAY`, ...) of the values this program may
@@ -221,22 +210,15 @@ impl ProgramFn<'_> {
     /// the contract (`abi.rs`) is that every bound pointer is valid for its length for the
     /// duration of the call. A panic inside `calls` propagates to the caller.
     pub fn call(&self, bindings: &Bindings<'_>, calls: &mut dyn DeviceCalls) {
-        let slots = self.slot_bindings.len();
-        let mut inline = [BufferSlot::EMPTY; INLINE_SLOTS];
+        let slots = self.slots.bindings.len();
+        let mut padded = Vec::new();
         if slots <= INLINE_SLOTS {
-            for (slot, binding) in inline.iter_mut().zip(self.slot_bindings) {
-                if let Some(BoundResource::Buffer(b)) =
-                    binding.and_then(|b| bindings.resources.get(b as usize))
-                {
-                    *slot = BufferSlot {
-                        ptr: b.ptr,
-                        len: b.len,
-                    };
-                }
-            }
+            let mut inline = [BufferSlot::EMPTY; INLINE_SLOTS];
+            self.slots.fill(&mut inline[..slots], bindings, &mut padded);
             self.run(inline.as_ptr(), bindings, calls);
         } else {
-            let table = buffer_table(self.slot_bindings, bindings);
+            let mut table = vec![BufferSlot::EMPTY; slots];
+            self.slots.fill(&mut table, bindings, &mut padded);
             self.run(table.as_ptr(), bindings, calls);
         }
     }
@@ -245,7 +227,7 @@ impl ProgramFn<'_> {
     /// program's module; bindings prepared for another module are laid out again here).
     #[inline]
     pub fn call_prepared(&self, prepared: &PreparedBindings<'_>, calls: &mut dyn DeviceCalls) {
-        if std::ptr::eq(prepared.layout, self.slot_bindings) {
+        if std::ptr::eq(prepared.layout, self.slots) {
             self.run(prepared.table.as_ptr(), prepared.bindings, calls);
         } else {
             self.call(prepared.bindings, calls);
@@ -264,7 +246,7 @@ impl ProgramFn<'_> {
         state: *const DeviceState,
         trace: Option<TraceEntry>,
     ) {
-        if std::ptr::eq(prepared.layout, self.slot_bindings) {
+        if std::ptr::eq(prepared.layout, self.slots) {
             self.run_with_state(
                 prepared.table.as_ptr(),
                 prepared.bindings,
@@ -361,7 +343,7 @@ impl<'m> ProgramFn<'m> {
     where
         'm: 'a,
     {
-        if !std::ptr::eq(prepared.layout, self.slot_bindings) {
+        if !std::ptr::eq(prepared.layout, self.slots) {
             return None;
         }
         Some(RepeatedCall {
@@ -494,16 +476,21 @@ impl JitModule {
             empty: p.empty,
             loops: p.loops,
             launch_loop: p.launch_loop,
-            slot_bindings: &self.inner.slot_bindings,
+            slots: &self.inner.slots,
         })
     }
 
     /// `bindings` laid out for this module's programs (see [`PreparedBindings`]).
     pub fn prepare<'a>(&'a self, bindings: &'a Bindings<'a>) -> PreparedBindings<'a> {
+        let layout = &self.inner.slots;
+        let mut table = vec![BufferSlot::EMPTY; layout.bindings.len()];
+        let mut padded = Vec::new();
+        layout.fill(&mut table, bindings, &mut padded);
         PreparedBindings {
             bindings,
-            table: buffer_table(&self.inner.slot_bindings, bindings),
-            layout: &self.inner.slot_bindings,
+            table,
+            _padded: padded,
+            layout,
         }
     }
 
@@ -694,7 +681,7 @@ fn compile_module_in(
             let host_ids = &host_ids;
             let mut import =
                 |f: HostFn, func: &mut ir::Function| jit.declare_func_in_func(host_ids[&f], func);
-            lower::lower_program(
+            stats.bounds_checks += lower::lower_program(
                 &env,
                 program.function,
                 &mut ctx.func,
@@ -805,7 +792,7 @@ fn compile_module_in(
     stats.time = start.elapsed();
     Ok(Inner {
         programs,
-        slot_bindings: env.slot_bindings(),
+        slots: env.slot_layout(),
         stats,
         #[cfg(target_os = "linux")]
         unwind,

@@ -21,7 +21,7 @@ mod stmt;
 pub(crate) mod types;
 
 use super::abi::DeviceState;
-use super::host::{CallContext, HostFn};
+use super::host::{CallContext, HostFn, SlotLayout};
 use cranelift_codegen::ir::types::I64;
 use cranelift_codegen::ir::{
     self, AbiParam, Block, BlockArg, FuncRef, InstBuilder, MemFlagsData, StackSlot, StackSlotData,
@@ -31,7 +31,7 @@ use cranelift_codegen::isa::TargetFrontendConfig;
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 pub(crate) use device::{inlinable_closest_hit, state_bits};
 use naga::{Expression, Function, GlobalVariable, Handle};
-use optik_core::frontend::{CompiledModule, DeviceFunction};
+use optik_core::frontend::{BindingKind, CompiledModule, DeviceFunction};
 pub(crate) use place::Place;
 use std::collections::{HashMap, HashSet};
 use types::Types;
@@ -72,6 +72,9 @@ pub(crate) struct ModuleEnv<'m> {
     pub device_fns: HashMap<Handle<Function>, DeviceFunction>,
     /// The slot in the buffer table of each uniform and storage global.
     pub buffer_slots: HashMap<Handle<GlobalVariable>, u32>,
+    /// The params uniform (binding 0) and the bytes of its type, which every buffer table
+    /// gives it (`host::SlotLayout`): reads of it at constant offsets need no bounds check.
+    pub params: Option<(Handle<GlobalVariable>, u32)>,
     pub frontend: TargetFrontendConfig,
 }
 
@@ -93,6 +96,12 @@ impl<'m> ModuleEnv<'m> {
                 buffer_slots.insert(handle, slot);
             }
         }
+        let params = compiled.bindings.iter().find_map(|b| match b.kind {
+            BindingKind::Params { size } if buffer_slots.contains_key(&b.global) => {
+                Some((b.global, size))
+            }
+            _ => None,
+        });
         Self {
             module,
             info: &compiled.info,
@@ -101,20 +110,33 @@ impl<'m> ModuleEnv<'m> {
             },
             device_fns,
             buffer_slots,
+            params,
             frontend,
         }
     }
 
-    /// The binding number of each buffer slot, in slot order.
-    pub fn slot_bindings(&self) -> Vec<Option<u32>> {
-        let mut slots = vec![None; self.buffer_slots.len()];
+    /// Where each buffer slot comes from: its binding number, in slot order, and the
+    /// params' slot with the bytes the code takes as given.
+    pub fn slot_layout(&self) -> SlotLayout {
+        let mut bindings = vec![None; self.buffer_slots.len()];
         for (&g, &slot) in &self.buffer_slots {
-            slots[slot as usize] = self.module.global_variables[g]
+            bindings[slot as usize] = self.module.global_variables[g]
                 .binding
                 .as_ref()
                 .map(|b| b.binding);
         }
-        slots
+        let params = self
+            .params
+            .map(|(g, bytes)| (self.buffer_slots[&g] as usize, bytes as usize));
+        SlotLayout { bindings, params }
+    }
+
+    /// Bytes at the start of buffer global `g` that every call binds and that stay
+    /// unchanged for the call (`host::SlotLayout`), so that reads there need no bounds
+    /// check and may move: the params' type's size; none for storage buffers.
+    pub fn given_bytes(&self, g: Handle<GlobalVariable>) -> Option<u32> {
+        self.params
+            .and_then(|(params, bytes)| (params == g).then_some(bytes))
     }
 }
 
@@ -196,6 +218,8 @@ pub(crate) struct Lowerer<'m, 'b> {
     /// that program (a trace passes the caller's payload in place), so its payload accesses
     /// address them directly, their bounds known here.
     inlined_payload: Option<(Value, u32)>,
+    /// Buffer accesses lowered with a bounds check so far (`CompileStats::bounds_checks`).
+    bounds_checks: usize,
 }
 
 /// A closest-hit program compiled into its callers of `rt_trace`: when the runtime's trace
@@ -222,6 +246,8 @@ pub(super) const SCRATCH_BYTES: u32 = 256;
 /// With `launch_loop`, a ray generation program's launch loop instead ([`LaunchLoop`]): the
 /// function runs the program for up to `count` launch indices in a row, as the runtime's
 /// loop would call it once per index.
+///
+/// Returns how many buffer accesses it compiled with a bounds check.
 pub(crate) fn lower_program<'m>(
     env: &'m ModuleEnv<'m>,
     function: Handle<Function>,
@@ -230,7 +256,7 @@ pub(crate) fn lower_program<'m>(
     import: &mut dyn FnMut(HostFn, &mut ir::Function) -> FuncRef,
     inline_closest_hit: Option<(Handle<Function>, FuncRef)>,
     launch_loop: bool,
-) -> LResult<()> {
+) -> LResult<usize> {
     func.signature.params.push(AbiParam::new(I64));
     if launch_loop {
         LaunchLoop::signature(&mut func.signature);
@@ -304,6 +330,7 @@ pub(crate) fn lower_program<'m>(
         state_override: None,
         loop_index: None,
         inlined_payload: None,
+        bounds_checks: 0,
     };
     // The launch loop's next index, entered before the program's body (whose private and
     // local variables are initialised afresh for each index).
@@ -323,9 +350,10 @@ pub(crate) fn lower_program<'m>(
         }
     }
     lowerer.b.seal_all_blocks();
+    let bounds_checks = lowerer.bounds_checks;
     let frontend = env.frontend;
     lowerer.b.finalize(frontend);
-    Ok(())
+    Ok(bounds_checks)
 }
 
 /// A ray generation program compiled with its launch loop (`lower_program`'s

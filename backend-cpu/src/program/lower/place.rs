@@ -75,6 +75,10 @@ pub(crate) struct Checked {
     /// Whether `guard` already proves the whole access lies inside the buffer (it checked
     /// an element of a runtime-sized array, and everything deeper lies inside that element).
     pub proven: bool,
+    /// Bytes at the buffer's start that every call binds and nothing changes during it
+    /// (`ModuleEnv::given_bytes`: the params'): an access at a constant offset inside them
+    /// is not checked, and its loads may be merged and hoisted out of loops.
+    pub given: u32,
 }
 
 /// One level of indexing.
@@ -359,6 +363,14 @@ impl Lowerer<'_, '_> {
         }
     }
 
+    /// Whether an access of `size` bytes at `m` lies at a constant offset inside its
+    /// buffer's given bytes ([`Checked::given`]).
+    fn inside_given(m: &MemPlace, size: u32) -> bool {
+        m.checked.is_some_and(|c| {
+            c.guard.is_none() && m.dynamic.is_none() && m.offset + size as i64 <= c.given as i64
+        })
+    }
+
     /// `offset + dynamic + size` (i64).
     fn end_offset(&mut self, m: &MemPlace, size: u32) -> Value {
         let fixed = m.offset + size as i64;
@@ -368,9 +380,14 @@ impl Lowerer<'_, '_> {
         }
     }
 
-    /// Whether an access of `size` bytes at `m` is in bounds (i8), for checked places.
+    /// Whether an access of `size` bytes at `m` is in bounds (i8), for checked places that
+    /// may not be.
     fn in_bounds(&mut self, m: &MemPlace, size: u32) -> Option<Value> {
         let checked = m.checked?;
+        if Self::inside_given(m, size) {
+            return None;
+        }
+        self.bounds_checks += self.live as usize;
         if let (true, Some(guard)) = (checked.proven, checked.guard) {
             return Some(guard);
         }
@@ -426,7 +443,10 @@ impl Lowerer<'_, '_> {
                 let m = &self.small_offset(m);
                 let size = self.env.types.size(pointee);
                 let mut addr = self.base_plus_dynamic(m);
-                let flags = if m.checked.is_some() {
+                let flags = if Self::inside_given(m, size) {
+                    // Bound and unchanged for the call: a pure value.
+                    buffer_flags().with_readonly().with_can_move()
+                } else if m.checked.is_some() {
                     buffer_flags()
                 } else {
                     stack_flags()

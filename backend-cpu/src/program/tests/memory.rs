@@ -113,6 +113,73 @@ fn a_buffer_smaller_than_its_type_reads_zero_past_its_end() {
     );
 }
 
+/// Reads every field of `params` inside a loop (loads the compiler may hoist) and writes
+/// them out.
+const PARAMS_IN_A_LOOP: &str = r#"
+struct Params { a: u32, b: u32, c: u32, d: u32 }
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read_write> out: array<u32, 8>;
+
+fn raygen__params() {
+    for (var i = 0u; i < 2u; i++) {
+        out[i * 4u] += params.a;
+        out[i * 4u + 1u] += params.b;
+        out[i * 4u + 2u] += params.c;
+        out[i * 4u + 3u] += params.d;
+    }
+}
+"#;
+
+#[test]
+fn params_shorter_than_their_type_read_zero_past_their_end() {
+    let module = jit(PARAMS_IN_A_LOOP);
+    // Read unchecked at constant offsets (`host::SlotLayout`): a table built for a call
+    // pads params shorter than their type with zeros, as bounds checks would have read.
+    for bound_words in 0..=4 {
+        let mut buffers = Buffers::new(vec![vec![0; 8]]);
+        buffers.params = vec![10, 20, 30, 40];
+        buffers.params.truncate(bound_words);
+        buffers.run(&module, "raygen__params", &mut Mock::default());
+        // Through bindings prepared once, as launches call programs.
+        buffers.run_repeated(&module, "raygen__params", &mut Mock::default(), 2);
+        let seen: Vec<u32> = (0..4)
+            .map(|k| {
+                if k < bound_words {
+                    30 * (k as u32 + 1)
+                } else {
+                    0
+                }
+            })
+            .collect();
+        let expected: Vec<u32> = seen.iter().chain(&seen).copied().collect();
+        assert_eq!(
+            buffers.words[0], expected,
+            "{bound_words} words of params bound"
+        );
+    }
+}
+
+#[test]
+fn params_read_at_constant_offsets_are_not_bounds_checked() {
+    // The same program with its values in a read-only storage buffer instead: its reads
+    // are checked; the params' are not.
+    let storage = PARAMS_IN_A_LOOP
+        .replace("var<uniform> params", "var<storage, read> params")
+        .replace("@binding(0) var<storage", "@binding(2) var<storage");
+    let checks = |wgsl: &str| {
+        let stats = jit(wgsl).stats();
+        // Per compiled function: the program and, on Linux, its launch loop.
+        let functions = stats.functions + stats.launch_loops;
+        assert_eq!(stats.bounds_checks % functions, 0, "{stats:?}");
+        stats.bounds_checks / functions
+    };
+    // The loop is unrolled: two iterations of four read-modify-writes of `out` (a
+    // fixed-size array at constant indices, whose accesses are checked: only the params'
+    // length is given) and four reads of the values.
+    assert_eq!(checks(&storage), 2 * (4 * 2 + 4));
+    assert_eq!(checks(PARAMS_IN_A_LOOP), 2 * (4 * 2));
+}
+
 const ATOMICS: &str = r#"
 @group(0) @binding(1) var<storage, read_write> counters: array<atomic<u32>>;
 @group(0) @binding(2) var<storage, read_write> signed: array<atomic<i32>, 2>;
