@@ -11,15 +11,19 @@
 //! summary prints JIT/Rust ratios measured in this process (best of several batches), with
 //! the compiled program called four ways: `call` (bindings laid out per call),
 //! `call_prepared` (laid out once), the same with the state offered as memory, and
-//! `RepeatedCall::call` with its context built once, which is how a launch task runs its ray
-//! generation program at every launch index (and how close the program's own code is to
-//! Rust's: the other three add per-call set-up that a launch does once per task).
+//! `RepeatedCall::call` with its context built once (how a launch task runs its ray
+//! generation program at every launch index where the program has no launch loop, and how
+//! close the program's own code is to Rust's: the other three add per-call set-up that a
+//! launch does once per task). Ray generation programs also get a fifth column, "launch
+//! loop": their launch loop (`RepeatedCall::run_indices`) over rows of launch indices, how
+//! a launch runs them on Linux.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use optik_api::ProgramSource;
 use optik_cpu::program::abi::{Bindings, BoundBuffer, BoundResource, DeviceCalls, DeviceState};
 use optik_cpu::program::{DiskCache, JitModule, JitOptions, PreparedBindings, RepeatedCall};
 use std::hint::black_box;
+use std::sync::atomic::AtomicU32;
 use std::time::Instant;
 
 const SHADER: &str = r#"
@@ -448,6 +452,53 @@ impl Scene {
         }
     }
 
+    /// Calls `run` with a runner of the whole batch as a launch on Linux runs a ray
+    /// generation program: one [`RepeatedCall`] on the first hit's offered state, whose
+    /// launch loop ([`RepeatedCall::run_indices`]) runs a row of `WIDTH` launch indices a
+    /// call, the row's first index written into the state before it as the runtime writes
+    /// it. The batch's indices are the hits' own. `None` for a program without a launch loop.
+    fn launch_rows<T>(
+        &mut self,
+        jit: &JitModule,
+        program: &str,
+        run: impl FnOnce(&mut dyn FnMut()) -> T,
+    ) -> Option<T> {
+        assert!(
+            self.hits[0].offer,
+            "the launch loop steps the offered state"
+        );
+        let resources = self.resources();
+        let bindings = Bindings {
+            resources: &resources,
+        };
+        let prepared = jit.prepare(&bindings);
+        let f = jit.program(program).expect("program");
+        let hit: *mut Hit = &mut self.hits[0];
+        let never = AtomicU32::new(0);
+        let ended = 0u32;
+        // SAFETY: `hit` points into `self.hits`, which outlives the calls below and is
+        // reached only through it meanwhile (its state is the one the loop steps).
+        let state = unsafe { &raw mut (*hit).s };
+        let mut call = f
+            .repeated(&prepared, unsafe { &mut *hit }, state, &never, None)
+            .expect("bindings prepared by the same module");
+        if !call.has_launch_loop() {
+            return None;
+        }
+        let rows = (BATCH as u32).div_ceil(WIDTH);
+        let mut batch = || {
+            for y in 0..rows {
+                // SAFETY: as above; `ended` is only read (no program here throws), and the
+                // state is the hit's own, writable.
+                unsafe {
+                    (*state).launch_index = [0, y, 0];
+                    call.run_indices(&mut *hit, WIDTH as usize, &never, &ended);
+                }
+            }
+        };
+        Some(run(&mut batch))
+    }
+
     /// Everything a run writes, as bits.
     fn outputs(&self) -> Vec<u32> {
         let payloads = self.hits.iter().flat_map(|h| h.payload);
@@ -526,6 +577,14 @@ fn check(jit: &JitModule) {
             r.outputs(),
             "{name}: JIT called as a launch calls it and Rust disagree"
         );
+        let mut l = Scene::new().offer_state(true);
+        if l.launch_rows(jit, program, |batch| batch()).is_some() {
+            assert_eq!(
+                l.outputs(),
+                r.outputs(),
+                "{name}: JIT's launch loop and Rust disagree"
+            );
+        }
     }
 }
 
@@ -576,8 +635,8 @@ fn per_call(rounds: usize, mut run: impl FnMut()) -> f64 {
 fn summary(jit: &JitModule) {
     println!("\nns per call (best of 30 batches of {BATCH} x 20) and ratio to Rust:");
     println!(
-        "  {:12} {:>7}  {:>15}  {:>15}  {:>15}  {:>15}",
-        "", "rust", "jit", "jit prepared", "+ state", "as launched"
+        "  {:12} {:>7}  {:>15}  {:>15}  {:>15}  {:>15}  {:>15}",
+        "", "rust", "jit", "jit prepared", "+ state", "as launched", "launch loop"
     );
     for (name, program, rust) in PROGRAMS {
         let f = jit.program(program).expect("program");
@@ -591,8 +650,13 @@ fn summary(jit: &JitModule) {
         let l = launched.repeated(jit, program, |scene, calls| {
             per_call(30, || scene.run_repeated(calls))
         });
+        let mut looped = Scene::new().offer_state(true);
+        let rows = match looped.launch_rows(jit, program, |batch| per_call(30, batch)) {
+            Some(t) => format!("{t:7.2} ({:.3})", t / r),
+            None => "-".into(),
+        };
         println!(
-            "  {name:12} {r:7.2}  {j:7.2} ({:.3})  {p:7.2} ({:.3})  {st:7.2} ({:.3})  {l:7.2} ({:.3})",
+            "  {name:12} {r:7.2}  {j:7.2} ({:.3})  {p:7.2} ({:.3})  {st:7.2} ({:.3})  {l:7.2} ({:.3})  {rows:>15}",
             j / r,
             p / r,
             st / r,
