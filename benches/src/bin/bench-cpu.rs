@@ -30,8 +30,9 @@
 //! on a machine with more cores than that, pin the run (`taskset -c N bench-cpu --threads 1`)
 //! so that both run on one core, or the table compares two cores' conditions.
 //!
-//! `--save-rays DIR` also writes each ray set as `DIR/<scene>-<rays>.npy`, the input of
-//! `optik trace --rays`, e.g. to count instructions with `valgrind --tool=callgrind`.
+//! `--save-rays DIR` also writes each ray set as `DIR/<scene>-<rays>.npy` (making `DIR` if it
+//! is missing), the input of `optik trace --rays`, e.g. to count instructions with
+//! `valgrind --tool=callgrind`.
 //!
 //! Scenes come from `$OPTIK_SCENES` (default `../shared/scenes` next to the repository
 //! root); a missing scene is skipped with a message. Without embreex (or with `--no-embree`)
@@ -161,6 +162,12 @@ struct Peer {
     t: Vec<f32>,
 }
 
+/// Makes `dir` and any missing folders above it; the error names it.
+fn make_folder(dir: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| format!("{}: cannot make the folder: {e}", dir.display()))
+}
+
 fn main() -> ExitCode {
     let options = match parse_options() {
         Ok(o) => o,
@@ -169,6 +176,12 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    if let Some(dir) = &options.save_rays
+        && let Err(e) = make_folder(dir)
+    {
+        eprintln!("bench-cpu: --save-rays {e}");
+        return ExitCode::FAILURE;
+    }
     let work = std::env::temp_dir().join(format!("optik-bench-cpu-{}", std::process::id()));
     if let Err(e) = std::fs::create_dir_all(&work) {
         eprintln!("bench-cpu: cannot make {}: {e}", work.display());
@@ -527,6 +540,20 @@ mod tests {
         assert_eq!(disagreements(&a, &other_distance), 1);
         let shorter = (vec![1, 2], vec![1.0, 2.0]);
         assert_eq!(disagreements(&a, &shorter), 2);
+    }
+
+    #[test]
+    fn the_rays_folder_is_made_where_missing() {
+        let root = std::env::temp_dir().join(format!("bench-cpu-rays-{}", std::process::id()));
+        let nested = root.join("a/b");
+        assert_eq!(make_folder(&nested), Ok(()));
+        assert!(nested.is_dir());
+        assert_eq!(make_folder(&nested), Ok(()), "an existing folder is fine");
+        let file = root.join("file");
+        std::fs::write(&file, b"x").unwrap();
+        let e = make_folder(&file.join("c")).unwrap_err();
+        assert!(e.contains("file/c") && e.contains("cannot make"), "{e}");
+        std::fs::remove_dir_all(&root).unwrap();
     }
 
     #[test]
