@@ -72,6 +72,13 @@ impl SlotLayout {
             *slot = pad(*slot, bytes, padded);
         }
     }
+
+    /// A new table filled from `bindings` ([`SlotLayout::fill`]).
+    pub fn table(&self, bindings: &Bindings<'_>, padded: &mut Vec<u8>) -> Vec<BufferSlot> {
+        let mut table = vec![BufferSlot::EMPTY; self.bindings.len()];
+        self.fill(&mut table, bindings, padded);
+        table
+    }
 }
 
 /// `slot`'s bytes followed by zeros up to `bytes`, in `padded`: params bound shorter than

@@ -217,8 +217,7 @@ impl ProgramFn<'_> {
             self.slots.fill(&mut inline[..slots], bindings, &mut padded);
             self.run(inline.as_ptr(), bindings, calls);
         } else {
-            let mut table = vec![BufferSlot::EMPTY; slots];
-            self.slots.fill(&mut table, bindings, &mut padded);
+            let table = self.slots.table(bindings, &mut padded);
             self.run(table.as_ptr(), bindings, calls);
         }
     }
@@ -484,12 +483,10 @@ impl JitModule {
     /// `bindings` laid out for this module's programs (see [`PreparedBindings`]).
     pub fn prepare<'a>(&'a self, bindings: &'a Bindings<'a>) -> PreparedBindings<'a> {
         let layout = &self.inner.slots;
-        let mut table = vec![BufferSlot::EMPTY; layout.bindings.len()];
         let mut padded = Vec::new();
-        layout.fill(&mut table, bindings, &mut padded);
         PreparedBindings {
             bindings,
-            table,
+            table: layout.table(bindings, &mut padded),
             _padded: padded,
             layout,
         }

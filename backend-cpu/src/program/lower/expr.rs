@@ -362,7 +362,7 @@ impl<'m> Lowerer<'m, '_> {
                         len,
                         guard: None,
                         proven: false,
-                        given: self.env.given_bytes(g).unwrap_or(0),
+                        given: self.env.given_bytes(g),
                     }),
                 })))
             }

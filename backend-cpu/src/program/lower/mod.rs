@@ -133,10 +133,12 @@ impl<'m> ModuleEnv<'m> {
 
     /// Bytes at the start of buffer global `g` that every call binds and that stay
     /// unchanged for the call (`host::SlotLayout`), so that reads there need no bounds
-    /// check and may move: the params' type's size; none for storage buffers.
-    pub fn given_bytes(&self, g: Handle<GlobalVariable>) -> Option<u32> {
-        self.params
-            .and_then(|(params, bytes)| (params == g).then_some(bytes))
+    /// check and may move: the params' type's size; 0 for storage buffers.
+    pub fn given_bytes(&self, g: Handle<GlobalVariable>) -> u32 {
+        match self.params {
+            Some((params, bytes)) if params == g => bytes,
+            _ => 0,
+        }
     }
 }
 
