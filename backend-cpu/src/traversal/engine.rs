@@ -1211,16 +1211,23 @@ fn walk_wide_with<H: Handler, T: slab::NodeTest>(
         prefetch_lowest(wide, node, mask);
         let mut next = match mask.count_ones() {
             0 => pop_or_return!(),
-            1 => child(mask.trailing_zeros()),
-            2 => {
-                // The common case, without a data-dependent branch: the nearer next,
-                // the farther waits (ties keep child order).
+            // One or two, as one case without a data-dependent branch: the nearer next, the
+            // farther waits (ties keep child order). With one, the lowest and highest lanes
+            // are that child, which goes next; its copy written above the stack's top is
+            // not counted. Which of the two cases a node falls in is mispredicted often on
+            // incoherent rays, and the walk then waited for the branch's recovery before
+            // the next node's loads: one case made the bunny's incoherent rays 2–3 %
+            // faster and camera rays 1–2.5 % slower on an AMD Zen 3 (docs/cpu-backend.md,
+            // "one or two children as one case").
+            entered @ (1 | 2) => {
                 let a = child(mask.trailing_zeros());
                 let b = child(31 - mask.leading_zeros());
                 let (near, far) = if b.entry < a.entry { (b, a) } else { (a, b) };
                 prefetch_child(wide, far.first, far.count);
+                // (Room for the write: a node `k` levels deep is reached with at most
+                // `7 * k` entries pending, below the `7 * depth + 1` the stack holds.)
                 stack[len].write(far);
-                len += 1;
+                len += (entered == 2) as usize;
                 near
             }
             _ => {
