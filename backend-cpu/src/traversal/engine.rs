@@ -1140,7 +1140,7 @@ fn tests_want_halves() -> bool {
 /// [`Walker::walk`] with a node test and a stack of enough entries (`7 * depth + 1`: pending
 /// children are siblings of the nodes on the path from the root, at most seven per level).
 #[inline(always)]
-fn walk_wide_on<H: Handler, T: slab::NodeTest>(
+pub(super) fn walk_wide_on<H: Handler, T: slab::NodeTest>(
     wide: &WideBvh,
     test: T,
     h: &mut H,

@@ -468,6 +468,65 @@ fn trees_deeper_than_the_inline_stack_are_walked() {
     }
 }
 
+/// The wide walk visits every leaf the ray enters exactly once, also down a chain of nodes
+/// that each enter one child (the walk's one-or-two case writes a copy of a lone child
+/// above the stack's top, which must not be counted): a chain of 20 nodes, each with a leaf
+/// child and the rest of the chain, and rays that enter one node's leaf (both children
+/// there, one child everywhere else) or none. The handler never shrinks the interval, so a
+/// child counted twice would be walked twice.
+#[test]
+fn the_wide_walk_visits_each_entered_leaf_once() {
+    use crate::accel::wide::{WideBvh, WideNode};
+    struct Everything;
+    impl Handler for Everything {
+        fn t_max(&self) -> f32 {
+            f32::INFINITY
+        }
+        fn done(&self) -> bool {
+            false
+        }
+        fn candidate<S: Spec>(&mut self, _: &Candidate<'_>, _: &Path, _: CandidateFate) {}
+        fn custom<S: Spec>(&mut self, _: &CustomPrimitive<'_>, _: &Path, _: CandidateFate) {}
+        fn traversal_exception(&mut self, _: i32) {}
+    }
+    let n = 20usize;
+    let mut chain = WideBvh {
+        nodes: vec![WideNode::EMPTY; n],
+        blocks: Vec::new(),
+        classes: Vec::new(),
+        depth: n as u32,
+        root_bounds: None,
+    };
+    for (i, node) in chain.nodes.iter_mut().enumerate() {
+        let x = i as f32;
+        let leaf = ([x, 0.0, 1.0], [x + 0.5, 1.0, 1.5]);
+        for a in 0..3 {
+            (node.min[a][0], node.max[a][0]) = (leaf.0[a], leaf.1[a]);
+        }
+        (node.first[0], node.count[0]) = (i as u32, 1);
+        if i + 1 < n {
+            let rest = ([-1.0, -1.0, 0.5], [n as f32 + 1.0, 2.0, 2.0]);
+            for a in 0..3 {
+                (node.min[a][1], node.max[a][1]) = (rest.0[a], rest.1[a]);
+            }
+            node.first[1] = i as u32 + 1;
+        }
+    }
+    // Rays along +z under each leaf, and one between leaves (x = 0.75: no leaf's box).
+    for target in (0..n).map(Some).chain([None]) {
+        let x = target.map_or(0.75, |i| i as f32 + 0.125);
+        let ray = WideRay::new([x, 0.25, 0.0], [0.0, 0.0, 1.0]);
+        let test = slab::Halves::new(&ray, 0.0, true);
+        let mut visits = vec![0u32; n];
+        engine::walk_wide_on(&chain, test, &mut Everything, |_, first, count| {
+            assert_eq!(count, 1);
+            visits[first as usize] += 1;
+        });
+        let expected: Vec<u32> = (0..n).map(|i| u32::from(target == Some(i))).collect();
+        assert_eq!(visits, expected, "ray under leaf {target:?}");
+    }
+}
+
 /// The walk visits the same nodes in the same order with either node test (AVX's and the
 /// two 4-lane halves), and the leaves compiled for AVX test triangles as the SSE ones do:
 /// the same candidates (distances and barycentrics bit for bit), in the same order, on a
