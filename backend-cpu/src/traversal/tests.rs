@@ -399,13 +399,12 @@ fn unsupported_primitive_types_are_skipped_with_a_debug_exception() {
     );
 }
 
-/// A tree deeper than the walk's inline stack (a chain of 80 wide nodes, each with one
-/// triangle and the rest of the chain) is walked with a heap stack and still gives every
-/// triangle.
-#[test]
-fn trees_deeper_than_the_inline_stack_are_walked() {
+/// A triangle structure whose wide tree is a chain of `n` nodes: node `i` holds triangle
+/// `i` (x in `[i, i + 0.5]`, y in `[0, 1]`, z = 1) as a leaf in lane 0 and the rest of the
+/// chain, in the structure's box, in lane 1. A ray along +z under triangle `i` enters both
+/// children of node `i` and only the rest of the chain elsewhere.
+fn triangle_chain(n: u32) -> Gas {
     use crate::accel::wide::{TriangleBlock, WideBvh, WideNode};
-    let n = 80u32;
     let mut v = Vec::new();
     let mut idx = Vec::new();
     for i in 0..n {
@@ -460,7 +459,16 @@ fn trees_deeper_than_the_inline_stack_are_walked() {
         }
     }
     gas.encoding = chain;
-    let (scene, root) = scene_of(gas);
+    gas
+}
+
+/// A tree deeper than the walk's inline stack (a chain of 80 wide nodes, each with one
+/// triangle and the rest of the chain) is walked with a heap stack and still gives every
+/// triangle.
+#[test]
+fn trees_deeper_than_the_inline_stack_are_walked() {
+    let n = 80u32;
+    let (scene, root) = scene_of(triangle_chain(n));
     for i in 0..n {
         let origin = [i as f32 + 0.125, 0.25, 0.0];
         let h = closest::<Robust>(&scene, root, &ray(origin, [0.0, 0.0, 1.0]));
@@ -470,55 +478,22 @@ fn trees_deeper_than_the_inline_stack_are_walked() {
 
 /// The wide walk visits every leaf the ray enters exactly once, also down a chain of nodes
 /// that each enter one child (the walk's one-or-two case writes a copy of a lone child
-/// above the stack's top, which must not be counted): a chain of 20 nodes, each with a leaf
-/// child and the rest of the chain, and rays that enter one node's leaf (both children
-/// there, one child everywhere else) or none. The handler never shrinks the interval, so a
-/// child counted twice would be walked twice.
+/// above the stack's top, which must not be counted): [`triangle_chain`]'s 20 nodes, and
+/// rays that enter one node's leaf (both children there, one child everywhere else) or
+/// none. The leaves run no test, so the interval never shrinks and a child counted twice
+/// would be walked twice.
 #[test]
 fn the_wide_walk_visits_each_entered_leaf_once() {
-    use crate::accel::wide::{WideBvh, WideNode};
-    struct Everything;
-    impl Handler for Everything {
-        fn t_max(&self) -> f32 {
-            f32::INFINITY
-        }
-        fn done(&self) -> bool {
-            false
-        }
-        fn candidate<S: Spec>(&mut self, _: &Candidate<'_>, _: &Path, _: CandidateFate) {}
-        fn custom<S: Spec>(&mut self, _: &CustomPrimitive<'_>, _: &Path, _: CandidateFate) {}
-        fn traversal_exception(&mut self, _: i32) {}
-    }
-    let n = 20usize;
-    let mut chain = WideBvh {
-        nodes: vec![WideNode::EMPTY; n],
-        blocks: Vec::new(),
-        classes: Vec::new(),
-        depth: n as u32,
-        root_bounds: None,
-    };
-    for (i, node) in chain.nodes.iter_mut().enumerate() {
-        let x = i as f32;
-        let leaf = ([x, 0.0, 1.0], [x + 0.5, 1.0, 1.5]);
-        for a in 0..3 {
-            (node.min[a][0], node.max[a][0]) = (leaf.0[a], leaf.1[a]);
-        }
-        (node.first[0], node.count[0]) = (i as u32, 1);
-        if i + 1 < n {
-            let rest = ([-1.0, -1.0, 0.5], [n as f32 + 1.0, 2.0, 2.0]);
-            for a in 0..3 {
-                (node.min[a][1], node.max[a][1]) = (rest.0[a], rest.1[a]);
-            }
-            node.first[1] = i as u32 + 1;
-        }
-    }
+    let n = 20u32;
+    let gas = triangle_chain(n);
     // Rays along +z under each leaf, and one between leaves (x = 0.75: no leaf's box).
     for target in (0..n).map(Some).chain([None]) {
         let x = target.map_or(0.75, |i| i as f32 + 0.125);
         let ray = WideRay::new([x, 0.25, 0.0], [0.0, 0.0, 1.0]);
         let test = slab::Halves::new(&ray, 0.0, true);
-        let mut visits = vec![0u32; n];
-        engine::walk_wide_on(&chain, test, &mut Everything, |_, first, count| {
+        let mut visits = vec![0u32; n as usize];
+        let mut h = Closest::new(f32::INFINITY);
+        engine::walk_wide_on(&gas.encoding, test, &mut h, |_, first, count| {
             assert_eq!(count, 1);
             visits[first as usize] += 1;
         });
