@@ -4,21 +4,89 @@
 //! the oracle evaluates it and its expectation does not depend on traversal order);
 //! `<case>::<backend>` runs it on the backend and judges the records against the oracle and
 //! the blessed reference. A backend that cannot open here is reported as ignored with the
-//! reason, never as passed.
+//! reason, never as passed. The backends run their cases side by side (the CPU backend on one
+//! thread, each GPU backend on [`GPU_THREADS`], each with a device of its own); lines are
+//! printed in catalog order, then each thread's count of cases and seconds.
 //!
 //! Arguments: a substring filter (as libtest), `--list`, `--exact`; other flags are accepted
 //! and ignored. `OPTIK_BACKENDS=cpu,vulkan` limits the backends opened (the others are
 //! reported as ignored, with that reason).
 
 use optik::BackendKind;
+use optik_conformance::case::Case;
 use optik_conformance::catalog;
 use optik_conformance::runner::{self, Devices, Status};
 use std::io::Write;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Cases a backend is known to fail, each with what is wrong: reported as ignored with the
 /// reason (never as passed), and as a failure the day they pass, so the list cannot go stale.
 /// Every entry is an open bug of that backend (issue 6 for Vulkan).
 const KNOWN_FAILURES: &[(&str, &str, &str)] = &[];
+
+/// Threads (each with a device of its own) that run a GPU backend's cases. On a two-core
+/// machine with lavapipe (CI), a cold run of all 380 tests took 614 s one case at a time,
+/// 432 s with one thread a backend (the wgpu cases alone then took all of it) and 345 s with
+/// two for each GPU backend, both cores busy to the end (docs/cpu-backend.md, "the
+/// conformance cases side by side").
+const GPU_THREADS: usize = 2;
+
+/// What a backend's thread answers for a case: its result, or why there is none.
+type CaseOutcome = Result<optik_conformance::runner::CaseResult, String>;
+
+/// One thread's share of a backend's cases: it takes the next case not taken until none is
+/// left, and sets each one's outcome.
+struct CaseWork<'a, M: Fn(&str) -> bool> {
+    kind: BackendKind,
+    device: &'a dyn optik::Device,
+    plan: &'a [&'a Case],
+    oracles: &'a [OnceLock<Oracle>],
+    results: &'a [OnceLock<CaseOutcome>],
+    next: &'a AtomicUsize,
+    references: &'a runner::References,
+    matches: &'a M,
+}
+
+impl<M: Fn(&str) -> bool> CaseWork<'_, M> {
+    /// Runs cases until none is left; answers how many it ran and in how many seconds.
+    fn run(self) -> (usize, f64) {
+        let started = std::time::Instant::now();
+        let mut ran = 0;
+        loop {
+            let i = self.next.fetch_add(1, Ordering::Relaxed);
+            let Some(case) = self.plan.get(i) else { break };
+            if !(self.matches)(&format!("{}::{}", case.name, self.kind.name())) {
+                continue;
+            }
+            let expected = &self.oracles[i].wait().expected;
+            // (`run_on` catches the backend's panics; this catches the runner's own, so the
+            // main thread, which waits for every case's outcome, always gets one.)
+            let outcome = catch_unwind(AssertUnwindSafe(|| {
+                runner::run_on(
+                    case,
+                    expected,
+                    self.kind,
+                    self.device,
+                    Some(self.references),
+                )
+            }))
+            .map_err(|_| format!("running {} on {} panicked", case.name, self.kind));
+            let _ = self.results[i].set(outcome);
+            ran += 1;
+        }
+        (ran, started.elapsed().as_secs_f64())
+    }
+}
+
+/// A case's oracle.
+struct Oracle {
+    /// What every backend's run is judged against.
+    expected: Result<Vec<optik_conformance::oracle::Expectation>, String>,
+    /// The oracle's own verdict on the case (structure and order independence).
+    checked: Result<catalog::CaseStats, String>,
+}
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -65,93 +133,197 @@ fn main() {
     let (mut passed, mut failed, mut ignored) = (0usize, 0usize, 0usize);
     let mut failures: Vec<(String, String)> = Vec::new();
     let start = std::time::Instant::now();
-    for case in &cases {
-        let oracle_name = format!("{}::oracle", case.name);
-        let wants_oracle = matches(&oracle_name);
-        let wants_backend = backends
+    // The cases to visit; each one's oracle (its verdict and the expectation every backend's
+    // run is judged against) is computed on this thread while the backends' threads run the
+    // cases before it.
+    let plan: Vec<&Case> = cases
+        .iter()
+        .filter(|case| {
+            matches(&format!("{}::oracle", case.name))
+                || backends
+                    .iter()
+                    .any(|b| matches(&format!("{}::{}", case.name, b.name())))
+        })
+        .collect();
+    let oracles: Vec<OnceLock<Oracle>> = plan.iter().map(|_| OnceLock::new()).collect();
+    // More devices for the GPU backends that opened, one per extra thread (below).
+    let more_gpus: Vec<BackendKind> = devices
+        .iter()
+        .filter(|(kind, device)| *kind != BackendKind::Cpu && device.is_ok())
+        .map(|(kind, _)| kind)
+        .filter(|kind| {
+            plan.iter()
+                .any(|case| matches(&format!("{}::{}", case.name, kind.name())))
+        })
+        .collect();
+    let extra: Vec<Devices> = (1..GPU_THREADS)
+        .map(|_| Devices::open(&more_gpus))
+        .collect();
+    // Each backend's results in catalog order, set by its threads as they finish a case.
+    let results: Vec<Vec<OnceLock<CaseOutcome>>> = devices
+        .iter()
+        .map(|_| plan.iter().map(|_| OnceLock::new()).collect())
+        .collect();
+    // Each backend's next case not taken.
+    let next_case: Vec<AtomicUsize> = devices.iter().map(|_| AtomicUsize::new(0)).collect();
+    std::thread::scope(|scope| {
+        // Each opened backend runs its cases on threads of its own while the others run
+        // theirs (the CPU backend on one thread, its launches use every core; a GPU backend on
+        // `GPU_THREADS`, each with a device of its own): on lavapipe most of a cold run is LLVM
+        // compiling pipelines, one core per pipeline. A thread takes the next case not taken;
+        // results are printed in the catalog's order whatever the order they finish in.
+        let threads: Vec<Vec<_>> = devices
             .iter()
-            .any(|b| matches(&format!("{}::{}", case.name, b.name())));
-        if !wants_oracle && !wants_backend {
-            continue;
-        }
-        // The structural and order-independence checks; their expectation serves the backends.
-        let expected = runner::expectations(case);
-        let checked = catalog::check_structure(case)
-            .and_then(|_| catalog::check_expectation(case, &expected));
-        if wants_oracle {
-            print!("test {oracle_name} ... ");
-            match &checked {
-                Ok(stats) => {
-                    println!(
-                        "ok ({} records, {} ambiguous)",
-                        stats.records, stats.ambiguous
-                    );
-                    passed += 1;
+            .zip(results.iter().zip(&next_case))
+            .map(|((kind, device), (results, next))| {
+                let Ok(device) = device else {
+                    return Vec::new();
+                };
+                let more = extra
+                    .iter()
+                    .filter_map(|d| d.iter().find(|(k, _)| *k == kind).and_then(|(_, d)| d.ok()));
+                let mut started = Vec::new();
+                for device in std::iter::once(device).chain(more) {
+                    let work = CaseWork {
+                        kind,
+                        device,
+                        plan: &plan,
+                        oracles: &oracles,
+                        results,
+                        next,
+                        references: &references,
+                        matches: &matches,
+                    };
+                    let spawned = std::thread::Builder::new()
+                        .name(format!("cases-{}", kind.name()))
+                        // The main thread's stack size, where the cases ran one after another.
+                        .stack_size(8 << 20)
+                        .spawn_scoped(scope, move || work.run());
+                    started.extend(spawned.ok());
                 }
-                Err(e) => {
-                    println!("FAILED");
-                    failures.push((oracle_name.clone(), e.clone()));
-                    failed += 1;
-                }
-            }
-            std::io::stdout().flush().ok();
+                started
+            })
+            .collect();
+        for (case, oracle) in plan.iter().zip(&oracles) {
+            // Panics are caught (`expectations` catches the oracle's): every cell is set, so no
+            // backend's thread waits forever.
+            let expected = runner::expectations(case);
+            let checked = catch_unwind(AssertUnwindSafe(|| {
+                catalog::check_structure(case)
+                    .and_then(|_| catalog::check_expectation(case, &expected))
+            }))
+            .unwrap_or_else(|_| Err(format!("{}: checking the case panicked", case.name)));
+            let _ = oracle.set(Oracle { expected, checked });
         }
-        for (kind, device) in devices.iter() {
-            let name = format!("{}::{}", case.name, kind.name());
-            if !matches(&name) {
-                continue;
+        for (i, (case, oracle)) in plan.iter().zip(&oracles).enumerate() {
+            let oracle = oracle.wait();
+            let oracle_name = format!("{}::oracle", case.name);
+            if matches(&oracle_name) {
+                match &oracle.checked {
+                    Ok(stats) => {
+                        println!(
+                            "test {oracle_name} ... ok ({} records, {} ambiguous)",
+                            stats.records, stats.ambiguous
+                        );
+                        passed += 1;
+                    }
+                    Err(e) => {
+                        println!("test {oracle_name} ... FAILED");
+                        failures.push((oracle_name.clone(), e.clone()));
+                        failed += 1;
+                    }
+                }
+                std::io::stdout().flush().ok();
             }
-            print!("test {name} ... ");
-            std::io::stdout().flush().ok();
-            let device = match device {
-                Ok(d) => d,
-                Err(reason) => {
+            for (((kind, device), results), threads) in devices.iter().zip(&results).zip(&threads) {
+                let name = format!("{}::{}", case.name, kind.name());
+                if !matches(&name) {
+                    continue;
+                }
+                print!("test {name} ... ");
+                std::io::stdout().flush().ok();
+                if let Err(reason) = device {
                     println!("ignored, {kind} cannot run here: {reason}");
                     ignored += 1;
                     continue;
                 }
-            };
-            let r = runner::run_on(case, &expected, kind, device, Some(&references));
-            let known = KNOWN_FAILURES
-                .iter()
-                .find(|(c, b, _)| *c == case.name && *b == kind.name());
-            match (r.status, known) {
-                (Status::Fail, Some((_, _, why))) => {
-                    println!("ignored, known failure: {why}\n{}", r.detail);
+                let outcome = if threads.is_empty() {
+                    Err(format!(
+                        "no thread could be started to run the {kind} backend's cases"
+                    ))
+                } else {
+                    results[i].wait().as_ref().map_err(Clone::clone)
+                };
+                // (A result is checked to be this case's on this backend: a mix-up between the
+                // threads' results would fail here, not pass as another case's verdict.)
+                let r = match outcome.and_then(|r| {
+                    if r.name == case.name && r.backend == kind {
+                        Ok(r)
+                    } else {
+                        Err(format!(
+                            "the result delivered was {}'s on {}",
+                            r.name, r.backend
+                        ))
+                    }
+                }) {
+                    Ok(r) => r,
+                    Err(why) => {
+                        println!("FAILED");
+                        failures.push((name, why));
+                        failed += 1;
+                        continue;
+                    }
+                };
+                let known = KNOWN_FAILURES
+                    .iter()
+                    .find(|(c, b, _)| *c == case.name && *b == kind.name());
+                match (r.status, known) {
+                    (Status::Fail, Some((_, _, why))) => {
+                        println!("ignored, known failure: {why}\n{}", r.detail);
+                        ignored += 1;
+                    }
+                    (Status::Pass, Some(_)) => {
+                        println!("FAILED");
+                        failures.push((
+                            name,
+                            "listed in KNOWN_FAILURES but passes now: take it off the list".into(),
+                        ));
+                        failed += 1;
+                    }
+                    (Status::Pass, None) => {
+                        println!("ok");
+                        passed += 1;
+                    }
+                    (Status::Skip, _) => {
+                        println!("ignored, {}", r.detail);
+                        ignored += 1;
+                    }
+                    (Status::Fail, None) => {
+                        println!("FAILED");
+                        failures.push((name, r.detail.clone()));
+                        failed += 1;
+                    }
+                }
+            }
+            // Backends not opened at all.
+            for b in backends {
+                let name = format!("{}::{}", case.name, b.name());
+                if matches(&name) && !devices.iter().any(|(k, _)| k == b) {
+                    println!("test {name} ... ignored, not selected by OPTIK_BACKENDS");
                     ignored += 1;
-                }
-                (Status::Pass, Some(_)) => {
-                    println!("FAILED");
-                    failures.push((
-                        name,
-                        "listed in KNOWN_FAILURES but passes now: take it off the list".into(),
-                    ));
-                    failed += 1;
-                }
-                (Status::Pass, None) => {
-                    println!("ok");
-                    passed += 1;
-                }
-                (Status::Skip, _) => {
-                    println!("ignored, {}", r.detail);
-                    ignored += 1;
-                }
-                (Status::Fail, None) => {
-                    println!("FAILED");
-                    failures.push((name, r.detail));
-                    failed += 1;
                 }
             }
         }
-        // Backends not opened at all.
-        for b in backends {
-            let name = format!("{}::{}", case.name, b.name());
-            if matches(&name) && !devices.iter().any(|(k, _)| k == b) {
-                println!("test {name} ... ignored, not selected by OPTIK_BACKENDS");
-                ignored += 1;
+        // Where the time went (a cold CI run's budget is mostly these threads'), after the
+        // tests' lines so that no line of theirs is split.
+        for (kind, threads) in devices.iter().map(|(k, _)| k).zip(threads) {
+            for thread in threads {
+                if let Ok((ran @ 1.., seconds)) = thread.join() {
+                    println!("cases: a {kind} device ran {ran} cases in {seconds:.1} s");
+                }
             }
         }
-    }
+    });
     if !failures.is_empty() {
         println!("\nfailures:\n");
         for (name, detail) in &failures {
