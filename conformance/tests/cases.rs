@@ -4,9 +4,9 @@
 //! the oracle evaluates it and its expectation does not depend on traversal order);
 //! `<case>::<backend>` runs it on the backend and judges the records against the oracle and
 //! the blessed reference. A backend that cannot open here is reported as ignored with the
-//! reason, never as passed. The backends run their cases side by side (the CPU backend on one
-//! thread, each GPU backend on [`GPU_THREADS`], each with a device of its own); lines are
-//! printed in catalog order, then each thread's count of cases and seconds.
+//! reason, never as passed. The backends run their cases side by side, each on as many threads
+//! as [`threads_for`] gives it (each thread with a device of its own); lines are printed in
+//! catalog order, then each thread's count of cases and seconds.
 //!
 //! Arguments: a substring filter (as libtest), `--list`, `--exact`; other flags are accepted
 //! and ignored. `OPTIK_BACKENDS=cpu,vulkan` limits the backends opened (the others are
@@ -26,12 +26,22 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 /// Every entry is an open bug of that backend (issue 6 for Vulkan).
 const KNOWN_FAILURES: &[(&str, &str, &str)] = &[];
 
-/// Threads (each with a device of its own) that run a GPU backend's cases. On a two-core
-/// machine with lavapipe (CI), a cold run of all 380 tests took 614 s one case at a time,
-/// 432 s with one thread a backend (the wgpu cases alone then took all of it) and 345 s with
-/// two for each GPU backend, both cores busy to the end (docs/cpu-backend.md, "the
-/// conformance cases side by side").
-const GPU_THREADS: usize = 2;
+/// Threads, each with a device of its own, that run a backend's cases. On a two-core machine
+/// with lavapipe (CI), a cold run of all 380 tests took 614 s one case at a time, 432 s with
+/// one thread a backend (the wgpu cases alone then taking all of it) and 338 s with these
+/// (docs/cpu-backend.md, "the conformance cases side by side").
+fn threads_for(kind: BackendKind) -> usize {
+    match kind {
+        // Its launches use every core.
+        BackendKind::Cpu => 1,
+        // Every device of the process shares one validated instance, whose debug messengers
+        // each receive every device's messages: with two devices, one case's validation
+        // message would also fail the case the other device was running.
+        BackendKind::Vulkan => 1,
+        // The slowest to compile (its megakernels); it reports no driver diagnostics.
+        BackendKind::Wgpu => 2,
+    }
+}
 
 /// What a backend's thread answers for a case: its result, or why there is none.
 type CaseOutcome = Result<optik_conformance::runner::CaseResult, String>;
@@ -146,18 +156,28 @@ fn main() {
         })
         .collect();
     let oracles: Vec<OnceLock<Oracle>> = plan.iter().map(|_| OnceLock::new()).collect();
-    // More devices for the GPU backends that opened, one per extra thread (below).
-    let more_gpus: Vec<BackendKind> = devices
+    // More devices for the backends that opened and run on more than one thread (below): the
+    // `n`th set holds a device for each backend with more than `n` threads.
+    let more_threads: Vec<(BackendKind, usize)> = devices
         .iter()
-        .filter(|(kind, device)| *kind != BackendKind::Cpu && device.is_ok())
-        .map(|(kind, _)| kind)
-        .filter(|kind| {
-            plan.iter()
-                .any(|case| matches(&format!("{}::{}", case.name, kind.name())))
+        .filter(|(kind, device)| {
+            device.is_ok()
+                && plan
+                    .iter()
+                    .any(|case| matches(&format!("{}::{}", case.name, kind.name())))
         })
+        .map(|(kind, _)| (kind, threads_for(kind)))
         .collect();
-    let extra: Vec<Devices> = (1..GPU_THREADS)
-        .map(|_| Devices::open(&more_gpus))
+    let most = more_threads.iter().map(|(_, n)| *n).max().unwrap_or(1);
+    let extra: Vec<Devices> = (1..most)
+        .map(|n| {
+            let kinds: Vec<BackendKind> = more_threads
+                .iter()
+                .filter(|(_, threads)| *threads > n)
+                .map(|(kind, _)| *kind)
+                .collect();
+            Devices::open(&kinds)
+        })
         .collect();
     // Each backend's results in catalog order, set by its threads as they finish a case.
     let results: Vec<Vec<OnceLock<CaseOutcome>>> = devices
@@ -167,11 +187,10 @@ fn main() {
     // Each backend's next case not taken.
     let next_case: Vec<AtomicUsize> = devices.iter().map(|_| AtomicUsize::new(0)).collect();
     std::thread::scope(|scope| {
-        // Each opened backend runs its cases on threads of its own while the others run
-        // theirs (the CPU backend on one thread, its launches use every core; a GPU backend on
-        // `GPU_THREADS`, each with a device of its own): on lavapipe most of a cold run is LLVM
-        // compiling pipelines, one core per pipeline. A thread takes the next case not taken;
-        // results are printed in the catalog's order whatever the order they finish in.
+        // Each opened backend runs its cases on threads of its own (`threads_for`, each with a
+        // device of its own) while the others run theirs: on lavapipe most of a cold run is
+        // LLVM compiling pipelines, one core per pipeline. A thread takes the next case not
+        // taken; results are printed in the catalog's order whatever the order they finish in.
         let threads: Vec<Vec<_>> = devices
             .iter()
             .zip(results.iter().zip(&next_case))
@@ -319,7 +338,8 @@ fn main() {
         for (kind, threads) in devices.iter().map(|(k, _)| k).zip(threads) {
             for thread in threads {
                 if let Ok((ran @ 1.., seconds)) = thread.join() {
-                    println!("cases: a {kind} device ran {ran} cases in {seconds:.1} s");
+                    let plural = if ran == 1 { "" } else { "s" };
+                    println!("cases: a {kind} device ran {ran} case{plural} in {seconds:.1} s");
                 }
             }
         }
