@@ -46,41 +46,35 @@ fn threads_for(kind: BackendKind) -> usize {
 /// What a backend's thread answers for a case: its result, or why there is none.
 type CaseOutcome = Result<optik_conformance::runner::CaseResult, String>;
 
-/// One thread's share of a backend's cases: it takes the next case not taken until none is
-/// left, and sets each one's outcome.
-struct CaseWork<'a, M: Fn(&str) -> bool> {
+/// A backend's share of the cases, which each of its threads runs on a device of its own:
+/// every thread takes the next case not taken until none is left, and sets its outcome.
+struct CaseWork<'a, R: Fn(&Case, BackendKind) -> bool> {
     kind: BackendKind,
-    device: &'a dyn optik::Device,
     plan: &'a [&'a Case],
     oracles: &'a [OnceLock<Oracle>],
     results: &'a [OnceLock<CaseOutcome>],
     next: &'a AtomicUsize,
     references: &'a runner::References,
-    matches: &'a M,
+    runs_on: &'a R,
 }
 
-impl<M: Fn(&str) -> bool> CaseWork<'_, M> {
-    /// Runs cases until none is left; answers how many it ran and in how many seconds.
-    fn run(self) -> (usize, f64) {
+impl<R: Fn(&Case, BackendKind) -> bool> CaseWork<'_, R> {
+    /// Runs cases on `device` until none is left; answers how many it ran and in how many
+    /// seconds.
+    fn run(&self, device: &dyn optik::Device) -> (usize, f64) {
         let started = std::time::Instant::now();
         let mut ran = 0;
         loop {
             let i = self.next.fetch_add(1, Ordering::Relaxed);
             let Some(case) = self.plan.get(i) else { break };
-            if !(self.matches)(&format!("{}::{}", case.name, self.kind.name())) {
+            if !(self.runs_on)(case, self.kind) {
                 continue;
             }
             let expected = &self.oracles[i].wait().expected;
             // (`run_on` catches the backend's panics; this catches the runner's own, so the
             // main thread, which waits for every case's outcome, always gets one.)
             let outcome = catch_unwind(AssertUnwindSafe(|| {
-                runner::run_on(
-                    case,
-                    expected,
-                    self.kind,
-                    self.device,
-                    Some(self.references),
-                )
+                runner::run_on(case, expected, self.kind, device, Some(self.references))
             }))
             .map_err(|_| format!("running {} on {} panicked", case.name, self.kind));
             let _ = self.results[i].set(outcome);
@@ -88,6 +82,23 @@ impl<M: Fn(&str) -> bool> CaseWork<'_, M> {
         }
         (ran, started.elapsed().as_secs_f64())
     }
+}
+
+/// Starts a thread of `kind`'s cases in `scope` (`None` when the system cannot start one).
+fn spawn<'scope, F>(
+    scope: &'scope std::thread::Scope<'scope, '_>,
+    kind: BackendKind,
+    run: F,
+) -> Option<std::thread::ScopedJoinHandle<'scope, (usize, f64)>>
+where
+    F: FnOnce() -> (usize, f64) + Send + 'scope,
+{
+    std::thread::Builder::new()
+        .name(format!("cases-{}", kind.name()))
+        // The main thread's stack size, where the cases ran one after another.
+        .stack_size(8 << 20)
+        .spawn_scoped(scope, run)
+        .ok()
 }
 
 /// A case's oracle.
@@ -146,39 +157,15 @@ fn main() {
     // The cases to visit; each one's oracle (its verdict and the expectation every backend's
     // run is judged against) is computed on this thread while the backends' threads run the
     // cases before it.
+    let runs_on =
+        |case: &Case, kind: BackendKind| matches(&format!("{}::{}", case.name, kind.name()));
     let plan: Vec<&Case> = cases
         .iter()
         .filter(|case| {
-            matches(&format!("{}::oracle", case.name))
-                || backends
-                    .iter()
-                    .any(|b| matches(&format!("{}::{}", case.name, b.name())))
+            matches(&format!("{}::oracle", case.name)) || backends.iter().any(|b| runs_on(case, *b))
         })
         .collect();
     let oracles: Vec<OnceLock<Oracle>> = plan.iter().map(|_| OnceLock::new()).collect();
-    // More devices for the backends that opened and run on more than one thread (below): the
-    // `n`th set holds a device for each backend with more than `n` threads.
-    let more_threads: Vec<(BackendKind, usize)> = devices
-        .iter()
-        .filter(|(kind, device)| {
-            device.is_ok()
-                && plan
-                    .iter()
-                    .any(|case| matches(&format!("{}::{}", case.name, kind.name())))
-        })
-        .map(|(kind, _)| (kind, threads_for(kind)))
-        .collect();
-    let most = more_threads.iter().map(|(_, n)| *n).max().unwrap_or(1);
-    let extra: Vec<Devices> = (1..most)
-        .map(|n| {
-            let kinds: Vec<BackendKind> = more_threads
-                .iter()
-                .filter(|(_, threads)| *threads > n)
-                .map(|(kind, _)| *kind)
-                .collect();
-            Devices::open(&kinds)
-        })
-        .collect();
     // Each backend's results in catalog order, set by its threads as they finish a case.
     let results: Vec<Vec<OnceLock<CaseOutcome>>> = devices
         .iter()
@@ -186,6 +173,19 @@ fn main() {
         .collect();
     // Each backend's next case not taken.
     let next_case: Vec<AtomicUsize> = devices.iter().map(|_| AtomicUsize::new(0)).collect();
+    let works: Vec<CaseWork<_>> = devices
+        .iter()
+        .zip(results.iter().zip(&next_case))
+        .map(|((kind, _), (results, next))| CaseWork {
+            kind,
+            plan: &plan,
+            oracles: &oracles,
+            results,
+            next,
+            references: &references,
+            runs_on: &runs_on,
+        })
+        .collect();
     std::thread::scope(|scope| {
         // Each opened backend runs its cases on threads of its own (`threads_for`, each with a
         // device of its own) while the others run theirs: on lavapipe most of a cold run is
@@ -193,32 +193,25 @@ fn main() {
         // taken; results are printed in the catalog's order whatever the order they finish in.
         let threads: Vec<Vec<_>> = devices
             .iter()
-            .zip(results.iter().zip(&next_case))
-            .map(|((kind, device), (results, next))| {
+            .zip(&works)
+            .map(|((kind, device), work)| {
                 let Ok(device) = device else {
                     return Vec::new();
                 };
-                let more = extra
-                    .iter()
-                    .filter_map(|d| d.iter().find(|(k, _)| *k == kind).and_then(|(_, d)| d.ok()));
-                let mut started = Vec::new();
-                for device in std::iter::once(device).chain(more) {
-                    let work = CaseWork {
-                        kind,
-                        device,
-                        plan: &plan,
-                        oracles: &oracles,
-                        results,
-                        next,
-                        references: &references,
-                        matches: &matches,
-                    };
-                    let spawned = std::thread::Builder::new()
-                        .name(format!("cases-{}", kind.name()))
-                        // The main thread's stack size, where the cases ran one after another.
-                        .stack_size(8 << 20)
-                        .spawn_scoped(scope, move || work.run());
-                    started.extend(spawned.ok());
+                let mut started: Vec<_> = spawn(scope, kind, move || work.run(device))
+                    .into_iter()
+                    .collect();
+                // The other threads open their devices themselves (none where this backend
+                // runs no case); one that cannot leaves the cases to the others.
+                if plan.iter().any(|case| runs_on(case, kind)) {
+                    for _ in 1..threads_for(kind) {
+                        started.extend(spawn(scope, kind, move || {
+                            match Devices::open(&[kind]).iter().next() {
+                                Some((_, Ok(own))) => work.run(own),
+                                _ => (0, 0.0),
+                            }
+                        }));
+                    }
                 }
                 started
             })
